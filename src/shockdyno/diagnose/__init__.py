@@ -1,0 +1,1 @@
+"""Residual localisation, candidate physics, augmentation, verdicts."""

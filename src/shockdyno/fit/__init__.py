@@ -1,0 +1,1 @@
+"""Error measures, objective, optimisers, calibration of globals, trends."""

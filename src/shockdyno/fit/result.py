@@ -1,0 +1,144 @@
+"""The fit result and its JSON form (documented in docs/fit-json.md).
+
+`globals` holds the calibrated damper parameters as overrides of the base spec: keys are
+DamperSpec field names (`friction_n`, `gas_pressure_pa`, ...) or dotted valve fields
+(`compression_valve.preload_m`, `rebound_valve.face_area_m2`, ...). `spec_path` names the
+base spec. Together they rebuild the fitted damper with `FitResult.spec()`.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from shockdyno.errors import ConfigError, FitError
+from shockdyno.model.spec import DamperSpec, load_spec
+
+
+@dataclass(frozen=True)
+class ClickFit:
+    clicks: int
+    gas_clicks: int
+    a_bc_m2: float
+    a_bt_m2: float
+    a_b_talbott_m2: float
+    a_bc_sd_m2: float = float("nan")
+    a_bt_sd_m2: float = float("nan")
+    a_b_talbott_sd_m2: float = float("nan")
+    identifiable_bc: bool = True
+    identifiable_bt: bool = True
+
+
+def apply_overrides(spec: DamperSpec, overrides: dict[str, float]) -> DamperSpec:
+    """A copy of spec with `field` or `valve.field` values replaced."""
+    changes: dict[str, Any] = {}
+    for key, value in overrides.items():
+        head, _, tail = key.partition(".")
+        if not hasattr(spec, head):
+            raise ConfigError(f"unknown damper parameter {key!r}")
+        if tail:
+            part = changes.get(head, getattr(spec, head))
+            if not hasattr(part, tail):
+                raise ConfigError(f"unknown damper parameter {key!r}")
+            changes[head] = replace(part, **{tail: float(value)})
+        else:
+            changes[head] = float(value)
+    return replace(spec, **changes)
+
+
+@dataclass
+class FitResult:
+    spec_path: str
+    globals: dict[str, float]
+    clicks: list[ClickFit]
+    trend: dict[str, Any] = field(default_factory=dict)
+    tests: list[dict[str, Any]] = field(default_factory=list)
+    info: dict[str, Any] = field(default_factory=dict)
+
+    def spec(self) -> DamperSpec:
+        return apply_overrides(load_spec(self.spec_path), self.globals)
+
+    def areas(self, clicks: int, model: str = "proposed") -> tuple[float, float]:
+        """(A_bc, A_bt) at a click setting: the fitted value, else the trend."""
+        for c in self.clicks:
+            if c.clicks == clicks:
+                if model == "talbott":
+                    return c.a_b_talbott_m2, c.a_b_talbott_m2
+                return c.a_bc_m2, c.a_bt_m2
+        if model == "proposed" and "A_bc" in self.trend and "A_bt" in self.trend:
+            bc = float(np.polyval(self.trend["A_bc"]["coefficients"], clicks))
+            bt = float(np.polyval(self.trend["A_bt"]["coefficients"], clicks))
+            return max(bc, 0.0), max(bt, 0.0)
+        raise FitError(f"the fit has no result for {clicks} clicks")
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "spec_path": self.spec_path,
+            "globals": self.globals,
+            "clicks": [
+                {
+                    "clicks": c.clicks,
+                    "gas_clicks": c.gas_clicks,
+                    "A_bc_m2": c.a_bc_m2,
+                    "A_bt_m2": c.a_bt_m2,
+                    "A_b_talbott_m2": c.a_b_talbott_m2,
+                    "A_bc_sd_m2": _nan_to_none(c.a_bc_sd_m2),
+                    "A_bt_sd_m2": _nan_to_none(c.a_bt_sd_m2),
+                    "A_b_talbott_sd_m2": _nan_to_none(c.a_b_talbott_sd_m2),
+                    "identifiable_bc": c.identifiable_bc,
+                    "identifiable_bt": c.identifiable_bt,
+                }
+                for c in self.clicks
+            ],
+            "trend": self.trend,
+            "tests": self.tests,
+            "info": self.info,
+        }
+
+    def save(self, path: str | Path) -> None:
+        Path(path).write_text(json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n")
+
+    @staticmethod
+    def load(path: str | Path) -> FitResult:
+        p = Path(path)
+        try:
+            doc = json.loads(p.read_text())
+            clicks = [
+                ClickFit(
+                    clicks=int(c["clicks"]),
+                    gas_clicks=int(c.get("gas_clicks", 0)),
+                    a_bc_m2=float(c["A_bc_m2"]),
+                    a_bt_m2=float(c["A_bt_m2"]),
+                    a_b_talbott_m2=float(c["A_b_talbott_m2"]),
+                    a_bc_sd_m2=_none_to_nan(c.get("A_bc_sd_m2")),
+                    a_bt_sd_m2=_none_to_nan(c.get("A_bt_sd_m2")),
+                    a_b_talbott_sd_m2=_none_to_nan(c.get("A_b_talbott_sd_m2")),
+                    identifiable_bc=bool(c.get("identifiable_bc", True)),
+                    identifiable_bt=bool(c.get("identifiable_bt", True)),
+                )
+                for c in doc["clicks"]
+            ]
+            return FitResult(
+                spec_path=str(doc["spec_path"]),
+                globals={k: float(v) for k, v in doc["globals"].items()},
+                clicks=clicks,
+                trend=dict(doc.get("trend", {})),
+                tests=list(doc.get("tests", [])),
+                info=dict(doc.get("info", {})),
+            )
+        except FileNotFoundError:
+            raise ConfigError(f"fit file not found: {p}") from None
+        except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
+            raise ConfigError(f"{p}: not a shockdyno fit result ({exc!r})") from None
+
+
+def _nan_to_none(v: float) -> float | None:
+    return None if not np.isfinite(v) else float(v)
+
+
+def _none_to_nan(v: Any) -> float:
+    return float("nan") if v is None else float(v)

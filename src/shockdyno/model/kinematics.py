@@ -1,0 +1,60 @@
+"""Velocity and acceleration from a measured displacement.
+
+The paper differentiates displacement. A finite difference multiplies sensor noise by
+1/dt (an LVDT with 5 µm of noise gives ~7 mm/s of velocity noise at 1 kHz, and ~10 m/s²
+of acceleration noise), so we use a Savitzky–Golay filter instead: a cubic fitted by
+least squares over a sliding window, differentiated analytically. The window is a fixed
+span of time (25 ms by default), so 1 kHz and 300 Hz data get the same smoothing; that
+span is short against the fastest dyno cycle (1.5 Hz: 667 ms), so the filter's
+amplitude error on a sine is below 0.1 %.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.signal import savgol_filter
+
+from shockdyno.errors import ConfigError
+
+FloatArray = NDArray[np.float64]
+
+DEFAULT_WINDOW_S = 0.025
+POLYORDER = 3
+
+
+def sample_interval(t: FloatArray, rtol: float = 0.01) -> float:
+    """The uniform sampling interval of t; refuses a time base that is not uniform."""
+    t = np.asarray(t, dtype=float)
+    if t.ndim != 1 or t.size < 2:
+        raise ConfigError("a time series needs at least two samples")
+    steps = np.diff(t)
+    dt = float(np.median(steps))
+    if not dt > 0:
+        raise ConfigError("time must increase")
+    if np.max(np.abs(steps - dt)) > rtol * dt + 1e-12:
+        raise ConfigError("time base is not uniform (resample the data first)")
+    return dt
+
+
+def _window(n: int, dt: float, window_s: float) -> int:
+    w = round(window_s / dt)
+    w = max(w, POLYORDER + 2)
+    w += 1 - w % 2  # odd
+    return min(w, n if n % 2 else n - 1)
+
+
+def differentiate(
+    t: FloatArray, x: FloatArray, window_s: float = DEFAULT_WINDOW_S
+) -> tuple[FloatArray, FloatArray]:
+    """(velocity, acceleration) of displacement x sampled at uniform times t."""
+    x = np.asarray(x, dtype=float)
+    dt = sample_interval(t)
+    w = _window(x.size, dt, window_s)
+    if w <= POLYORDER:
+        # Too few samples for the filter: plain central differences.
+        v = np.gradient(x, dt)
+        return v, np.gradient(v, dt)
+    v = savgol_filter(x, w, POLYORDER, deriv=1, delta=dt, mode="interp")
+    a = savgol_filter(x, w, POLYORDER, deriv=2, delta=dt, mode="interp")
+    return np.asarray(v, dtype=float), np.asarray(a, dtype=float)

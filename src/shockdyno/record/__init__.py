@@ -1,0 +1,1 @@
+"""MCAP recordings: writer, reader, schemas, CSV import and export."""

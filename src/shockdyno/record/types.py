@@ -1,0 +1,48 @@
+"""What a recording holds, independent of the file format."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+
+@dataclass(frozen=True)
+class TestMeta:
+    """One dyno test: one click setting at one frequency."""
+
+    index: int
+    clicks: int
+    gas_clicks: int
+    frequency_hz: float
+    amplitude_m: float
+    sample_rate_hz: float
+    warmup_cycles: int = 0
+    measured_cycles: int = 0
+    motion: str = "sine"  # "sine", or "imported" for arbitrary motion from another dyno
+    # Start and end time (s, on the recording's time base) of the measured cycles:
+    measured_start_s: float | None = None
+    measured_end_s: float | None = None
+    status: str = "complete"  # "complete" | "aborted" (stopped early: safety, Ctrl-C, fault)
+    extra: dict[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class TestData:
+    meta: TestMeta
+    t: NDArray[np.float64]
+    x: NDArray[np.float64]
+    force: NDArray[np.float64]
+    temperature: NDArray[np.float64] | None = None
+
+    def measured(self) -> TestData:
+        """Only the measured cycles (the whole record when no window is recorded)."""
+        lo, hi = self.meta.measured_start_s, self.meta.measured_end_s
+        if lo is None or hi is None:
+            return self
+        keep = (self.t >= lo) & (self.t <= hi)
+        temp = None if self.temperature is None else self.temperature[keep]
+        return replace(
+            self, t=self.t[keep], x=self.x[keep], force=self.force[keep], temperature=temp
+        )

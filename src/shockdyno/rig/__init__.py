@@ -1,0 +1,1 @@
+"""Hardware contracts and drivers: Modbus actuator, serial DAQ, frame codec, rig config."""

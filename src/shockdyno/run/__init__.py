@@ -1,0 +1,1 @@
+"""Sequencing: motion profiles, sweep plan, safety monitor, operator prompts, resume."""

@@ -36,7 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
         try:
             module = importlib.import_module(name)
         except ModuleNotFoundError as exc:
-            if exc.name != name:  # a real missing dependency, not an area still being built
+            if exc.name is None or not name.startswith(exc.name):  # a real missing dependency
                 raise
             continue
         module.register(sub)

@@ -28,6 +28,7 @@ FloatArray = NDArray[np.float64]
 
 REL_TOL = 1e-10
 MAX_ITER = 200
+S_MAX = 1e6  # √Pa: 1e12 Pa, far beyond any real damper (hydraulic lock)
 
 
 def valve_area(dp_pa: FloatArray, valve: ShimStack) -> FloatArray:
@@ -82,21 +83,16 @@ def solve_pressure_drop(
         return h, dh
 
     # Upper bracket: each path alone needs at least the true Δp, so the bleed-alone and
-    # leak-alone drops bound it; where both are shut, grow it until it passes q.
-    with np.errstate(divide="ignore", invalid="ignore"):
+    # leak-alone drops bound it; so does the drop that passes q with the stack at full lift
+    # (or the full-lift pressure, if higher). With every path shut the damper is
+    # hydraulically locked: Δp is capped at S_MAX² rather than infinity.
+    a_full = a_b + valve.perimeter_m * valve.max_lift_m
+    p_full = (valve.stiffness_n_per_m * valve.max_lift_m + valve.preload_n) / valve.face_area_m2
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         s_bleed = np.where(a_b > 0, q / (c * a_b), np.inf)
         s_leak = np.where(kl > 0, np.sqrt(q / kl), np.inf)
-    hi = np.minimum(s_bleed, s_leak)
-    fallback = ~np.isfinite(hi)
-    if np.any(fallback):
-        guess = np.full(q.shape, math.sqrt(valve.crack_pressure_pa) + 1.0)
-        for _ in range(200):
-            h, _ = h_and_slope(guess)
-            short = fallback & (h < 0)
-            if not np.any(short):
-                break
-            guess = np.where(short, guess * 2, guess)
-        hi = np.where(fallback, guess, hi)
+        s_valve = np.where(a_full > 0, np.maximum(q / (c * a_full), math.sqrt(p_full)), np.inf)
+    hi = np.minimum(np.minimum(s_bleed, s_leak), np.minimum(s_valve, S_MAX))
     lo = np.zeros_like(q)
     s = 0.5 * hi
     tol = REL_TOL * q + 1e-18

@@ -1,0 +1,319 @@
+"""`shockdyno demo`, `sweep` and `replay`."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rich.console import Console
+
+from shockdyno import __version__
+from shockdyno.errors import ConfigError, RecordingError
+from shockdyno.model.spec import default_spec_path, load_spec
+from shockdyno.run.plan import SweepPlan, parse_clicks, parse_frequencies
+
+REPO = Path(__file__).resolve().parents[3]
+
+
+def repo_file(relative: str) -> Path:
+    """A file shipped in the repository (rigs/, sim/), else relative to the current directory."""
+    p = REPO / relative
+    return p if p.exists() else Path(relative)
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
+
+
+def _band(text: str) -> tuple[float, float]:
+    try:
+        lo, hi = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError("use LOW,HIGH in °C, e.g. 35,45") from None
+    return lo, hi
+
+
+def register(sub: Any) -> None:
+    d = sub.add_parser(
+        "demo",
+        help="sweep the simulated rig, fit the model, write the recording and the report",
+        description="Start the simulated rig, sweep clicks 0,3,...,21 at 0.5/1/1.5 Hz and 30 mm "
+        "faster than real time, record to MCAP, fit and validate the model, write the report.",
+    )
+    d.add_argument("--out-dir", type=Path, default=Path("recordings"), help="default: recordings/")
+    d.add_argument("--clicks", default="0-21:3", help="default: 0-21:3 (0,3,...,21)")
+    d.add_argument("--speed", type=_positive_float, default=50.0, help="x real time (default 50)")
+    d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--cycles", type=int, default=5, help="measured cycles per test (default 5)")
+    d.add_argument("--no-fit", action="store_true", help="record and report only")
+    d.add_argument("--table", action="store_true", help="only print the model's click table")
+    d.set_defaults(func=cmd_demo)
+
+    s = sub.add_parser(
+        "sweep",
+        help="run a click sweep on a rig and record it to MCAP",
+        description="For each click setting: set the adjuster; for each frequency: ramp in, "
+        "warm-up cycles, measured cycles, ramp out. Ctrl-C stops safely and keeps what was "
+        "recorded; --resume continues from the first untested point.",
+    )
+    s.add_argument("--rig", type=Path, required=True, help="rig file, e.g. rigs/sim.toml")
+    s.add_argument("--clicks", default="0-21", help="e.g. 0-21, 0,3,6 or 0-21:3 (default 0-21)")
+    s.add_argument("--freq", default="0.5,1,1.5", help="Hz, comma-separated (default 0.5,1,1.5)")
+    s.add_argument("--amplitude-mm", type=_positive_float, default=30.0, help="default 30")
+    s.add_argument("--gas-clicks", type=int, default=0)
+    s.add_argument("--warmup-cycles", type=int, default=2)
+    s.add_argument("--cycles", type=int, default=5, help="measured cycles per test")
+    s.add_argument("--temp-band-c", type=_band, help="wait until LOW <= T <= HIGH before each test")
+    s.add_argument(
+        "-o", "--output", type=Path, required=True, help="recording, e.g. recordings/X.mcap"
+    )
+    s.add_argument("--resume", action="store_true", help="continue an interrupted sweep")
+    s.add_argument("--force", action="store_true", help="overwrite an existing recording")
+    s.add_argument("--damper-id", default="", help="stored in the recording's metadata")
+    s.add_argument("--operator", default="")
+    s.add_argument("--notes", default="")
+    s.add_argument(
+        "--start-sim",
+        action="store_true",
+        help="start the simulated rig in-process with this rig file (no separate sim-rig)",
+    )
+    s.add_argument("--speed", type=_positive_float, default=1.0, help="with --start-sim")
+    s.add_argument("--scenario", type=Path, help="with --start-sim: extra physics, sim/scenarios/")
+    s.add_argument("--seed", type=int, default=0, help="with --start-sim")
+    s.set_defaults(func=cmd_sweep)
+
+    r = sub.add_parser("replay", help="play a recording through the live view")
+    r.add_argument("recording", type=Path)
+    r.add_argument(
+        "--speed", type=float, default=1.0, help="x real time; 0 plays as fast as it can"
+    )
+    r.set_defaults(func=cmd_replay)
+
+
+def _plan(args: argparse.Namespace, max_clicks: int) -> SweepPlan:
+    return SweepPlan(
+        clicks=tuple(parse_clicks(args.clicks, max_clicks)),
+        frequencies_hz=tuple(parse_frequencies(getattr(args, "freq", "0.5,1,1.5"))),
+        amplitude_m=getattr(args, "amplitude_mm", 30.0) / 1e3,
+        gas_clicks=getattr(args, "gas_clicks", 0),
+        warmup_cycles=getattr(args, "warmup_cycles", 2),
+        measured_cycles=args.cycles,
+        temperature_band_c=getattr(args, "temp_band_c", None),
+    )
+
+
+def record_sweep(
+    rig: Any,
+    plan: SweepPlan,
+    output: Path,
+    *,
+    metadata: dict[str, str],
+    overwrite: bool = False,
+    resume: bool = False,
+    console: Console | None = None,
+) -> Any:
+    """Run the plan on the rig into the recording; returns the SweepResult."""
+    from shockdyno.record import RecordingWriter, open_recording
+    from shockdyno.run.liveview import LiveView
+    from shockdyno.run.session import RigSession
+    from shockdyno.run.sweep import run_sweep
+
+    console = console or Console()
+    done: set[tuple[int, int, float]] = set()
+    first_index = 0
+    if resume:
+        if not output.exists():
+            raise RecordingError(f"nothing to resume: {output} does not exist")
+        previous = open_recording(output)
+        done = previous.completed_keys()
+        first_index = len(previous.tests)
+        console.print(
+            f"resuming {output}: {len(done)} tests done, {len(plan.remaining(done))} to go"
+        )
+    elif output.exists() and not overwrite:
+        raise RecordingError(f"{output} exists: use --force to overwrite or --resume to continue")
+    todo = plan.remaining(done)
+    if not todo:
+        console.print("nothing left to run")
+        return None
+    output.parent.mkdir(parents=True, exist_ok=True)
+
+    def prompt(message: str) -> None:
+        console.input(f"[bold yellow]{message}[/] - press Enter when done ")
+
+    with (
+        RecordingWriter(
+            output, metadata=metadata, rig_toml=rig.raw_toml, overwrite=overwrite, resume=resume
+        ) as writer,
+        LiveView(len(todo), console=console) as view,
+        RigSession(rig, prompt=prompt) as session,
+    ):
+        try:
+            return run_sweep(
+                session,
+                plan,
+                writer,
+                view,
+                first_index=first_index,
+                done=done,
+                sample_rate_hz=rig.sample_rate_hz,
+                log=console.print,
+            )
+        finally:
+            for event in session.events:
+                writer.write_event(event.t_s, event.kind, event.message)
+
+
+def _metadata(args: argparse.Namespace, rig: Any, spec: str) -> dict[str, str]:
+    return {
+        "damper_id": getattr(args, "damper_id", "") or "",
+        "operator": getattr(args, "operator", "") or "",
+        "notes": getattr(args, "notes", "") or "",
+        "rig": str(getattr(rig, "name", "")),
+        "damper_spec": spec,
+        "software": f"shockdyno {__version__}",
+        "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    }
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from shockdyno.rig.config import load_rig
+
+    console = Console()
+    rig = load_rig(args.rig)
+    plan = _plan(args, load_spec().compression_bleed.max_clicks)
+    if args.start_sim:
+        from shockdyno.simrig import start_sim_rig
+
+        with start_sim_rig(rig, scenario=args.scenario, speed=args.speed, seed=args.seed) as sim:
+            for endpoint in sim.endpoints:
+                console.print(endpoint)
+            rig = sim.rig_config()
+            meta = _metadata(args, rig, str(default_spec_path()))
+            record_sweep(rig, plan, args.output, metadata=meta, overwrite=args.force,
+                         resume=args.resume, console=console)  # fmt: skip
+    else:
+        meta = _metadata(args, rig, "")
+        record_sweep(rig, plan, args.output, metadata=meta, overwrite=args.force,
+                     resume=args.resume, console=console)  # fmt: skip
+    console.print(f"recording: {args.output}")
+    return 0
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    from shockdyno.record import open_recording
+    from shockdyno.rig.types import SampleBlock
+    from shockdyno.run.liveview import LiveView
+
+    if args.speed < 0:
+        raise ConfigError("--speed must be >= 0")
+    rec = open_recording(args.recording)
+    console = Console()
+    if rec.truncated:
+        console.print("[yellow]recording was cut off; replaying every complete test[/]")
+    chunk = 100
+    with LiveView(len(rec.tests), console=console) as view:
+        for i, meta in enumerate(rec.tests):
+            test = rec.load(i)
+            view.start_test(meta)
+            for lo in range(0, test.t.size, chunk):
+                sl = slice(lo, lo + chunk)
+                n = test.t[sl].size
+                temp = test.temperature[sl] if test.temperature is not None else test.t[sl] * 0
+                block = SampleBlock(
+                    seq=np.arange(lo, lo + n, dtype=np.int64),
+                    t_s=test.t[sl],
+                    displacement_m=test.x[sl],
+                    force_n=test.force[sl],
+                    temperature_c=temp,
+                    status=np.zeros(n, dtype=np.uint16),
+                )
+                view.update(block)
+                if args.speed > 0 and n > 1:
+                    time.sleep(float(test.t[sl][-1] - test.t[sl][0]) / args.speed)
+            view.end_test(meta)
+    return 0
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    console = Console()
+    spec_path = default_spec_path()
+    spec = load_spec(spec_path)
+    if args.table:
+        from shockdyno.run.table import click_table
+
+        Console(width=max(console.width, 120)).print(click_table(spec))
+        return 0
+    from shockdyno.record import open_recording
+    from shockdyno.report import build_report
+    from shockdyno.rig.config import load_rig
+    from shockdyno.simrig import start_sim_rig
+
+    out: Path = args.out_dir
+    rec_path = out / "demo.mcap"
+    report_dir = out / "demo-report"
+    plan = _plan(args, spec.compression_bleed.max_clicks)
+    rig = load_rig(repo_file("rigs/sim.toml"))
+    console.rule("shockdyno demo: click sweep on the simulated rig")
+    t0 = time.perf_counter()
+    with start_sim_rig(rig, speed=args.speed, seed=args.seed) as sim:
+        for endpoint in sim.endpoints:
+            console.print(endpoint)
+        live_rig = sim.rig_config()
+        meta = _metadata(args, live_rig, str(spec_path))
+        meta.update(damper_id="simulated ohlins-s46", operator="demo")
+        record_sweep(live_rig, plan, rec_path, metadata=meta, overwrite=True, console=console)
+    console.print(f"sweep recorded in {time.perf_counter() - t0:.1f} s: {rec_path}")
+    tests = open_recording(rec_path).load_all()
+    sections: list[tuple[str, list[tuple[str, Path]]]] = []
+    tables: list[tuple[str, list[str], list[list[str]]]] = []
+    if not args.no_fit:
+        sections, tables = _demo_fit(tests, spec_path, report_dir, out, args.seed, console)
+    index = build_report(
+        tests,
+        report_dir,
+        title="shockdyno demo: simulated Öhlins S46 click sweep",
+        metadata=meta,
+        extra_sections=sections,
+        tables=tables,
+    )
+    console.rule("done")
+    console.print(f"recording: {rec_path}")
+    console.print(f"report:    {index}")
+    return 0
+
+
+def _demo_fit(
+    tests: list[Any], spec_path: Path, report_dir: Path, out: Path, seed: int, console: Console
+) -> tuple[list[tuple[str, list[tuple[str, Path]]]], list[tuple[str, list[str], list[list[str]]]]]:
+    from rich.table import Table
+
+    from shockdyno.fit import fit_sweep
+    from shockdyno.fit.plots import fit_figures
+    from shockdyno.fit.validate import table4_rows
+
+    console.rule("fit: globals, bleed areas per click, trend, validation")
+    t0 = time.perf_counter()
+    result = fit_sweep(tests, spec_path, optimizer="fast", seed=seed)
+    fit_path = out / "demo-fit.json"
+    result.save(fit_path)
+    console.print(f"fit done in {time.perf_counter() - t0:.1f} s: {fit_path}")
+    header, rows = table4_rows(result)
+    table = Table(title="Table 4 analogue: error measures, proposed vs Talbott")
+    for h in header:
+        table.add_column(h, justify="right")
+    for row in rows:
+        table.add_row(*row)
+    console.print(table)
+    report_dir.mkdir(parents=True, exist_ok=True)
+    figures = fit_figures(result, tests, report_dir)
+    return [("Fit and validation", figures)], [(str(table.title), header, rows)]

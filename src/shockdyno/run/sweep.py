@@ -1,0 +1,192 @@
+"""Run a click sweep on a rig session and record every sample.
+
+The runner knows only the RigSession contract (set clicks, read temperature, run a sine
+with ramps and safety) and the recording writer; it cannot tell a simulated rig from a
+real one. A safety abort or Ctrl-C ends the sweep after the current test is recorded as
+aborted; everything recorded before stays on disk, and `--resume` runs what is left.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import Protocol
+
+from shockdyno.errors import RigFault
+from shockdyno.record.types import TestMeta
+from shockdyno.rig.types import SampleBlock
+from shockdyno.run.plan import SweepPlan, SweepPoint
+
+
+class _Outcome(Protocol):
+    status: str
+    reason: str
+    measured_start_s: float | None
+    measured_end_s: float | None
+    dropped_frames: int
+    corrupt_frames: int
+
+
+class Session(Protocol):
+    def set_clicks(self, rod_clicks: int, gas_clicks: int) -> None: ...
+
+    def read_temperature_c(self) -> float: ...
+
+    def run_sine(
+        self,
+        amplitude_m: float,
+        frequency_hz: float,
+        warmup_cycles: int,
+        measured_cycles: int,
+        on_block: Callable[[SampleBlock], None],
+        on_actuator: Callable[[float, dict[str, float | int | bool]], None] | None = None,
+    ) -> _Outcome: ...
+
+
+class Writer(Protocol):
+    def begin_test(self, meta: TestMeta) -> None: ...
+
+    def write_samples(self, block: SampleBlock) -> None: ...
+
+    def write_actuator(self, t_s: float, fields: dict[str, float | int | bool | str]) -> None: ...
+
+    def write_event(self, t_s: float, kind: str, message: str) -> None: ...
+
+    def end_test(self, meta: TestMeta) -> None: ...
+
+
+class View(Protocol):
+    def start_test(self, meta: TestMeta) -> None: ...
+
+    def update(self, block: SampleBlock, dropped_frames: int = 0) -> None: ...
+
+    def end_test(self, meta: TestMeta) -> object: ...
+
+
+@dataclass
+class SweepResult:
+    completed: list[TestMeta] = field(default_factory=list)
+    aborted: list[TestMeta] = field(default_factory=list)
+    stopped_reason: str = ""
+
+
+def wait_for_temperature(
+    session: Session,
+    band_c: tuple[float, float],
+    timeout_s: float,
+    log: Callable[[str], None],
+    sleep: Callable[[float], None] = time.sleep,
+) -> float:
+    """Block until the damper is inside the band; the operator cools or warms it meanwhile."""
+    lo, hi = band_c
+    waited = 0.0
+    temp = session.read_temperature_c()
+    announced = False
+    while not lo <= temp <= hi:
+        if waited >= timeout_s:
+            raise RigFault(
+                f"damper at {temp:.1f} °C did not reach {lo:g}-{hi:g} °C within {timeout_s:g} s"
+            )
+        if not announced:
+            log(f"waiting for damper temperature {lo:g}-{hi:g} °C (now {temp:.1f} °C)")
+            announced = True
+        sleep(1.0)
+        waited += 1.0
+        temp = session.read_temperature_c()
+    return temp
+
+
+def run_sweep(
+    session: Session,
+    plan: SweepPlan,
+    writer: Writer,
+    view: View,
+    *,
+    first_index: int = 0,
+    done: set[tuple[int, int, float]] | None = None,
+    sample_rate_hz: float,
+    log: Callable[[str], None] = print,
+    temperature_timeout_s: float = 1800.0,
+) -> SweepResult:
+    result = SweepResult()
+    index = first_index
+    current_clicks: tuple[int, int] | None = None
+    last_t = [0.0]  # DAQ time of the newest sample: events are stamped on the rig's clock
+    for point in plan.remaining(done or set()):
+        if current_clicks != (point.clicks, point.gas_clicks):
+            session.set_clicks(point.clicks, point.gas_clicks)
+            current_clicks = (point.clicks, point.gas_clicks)
+        if plan.temperature_band_c is not None:
+            wait_for_temperature(session, plan.temperature_band_c, temperature_timeout_s, log)
+        meta = _meta(index, point, plan, sample_rate_hz, session.read_temperature_c())
+        index += 1
+        writer.begin_test(meta)
+        view.start_test(meta)
+
+        def on_block(block: SampleBlock) -> None:
+            writer.write_samples(block)
+            view.update(block)
+            if len(block):
+                last_t[0] = float(block.t_s[-1])
+
+        try:
+            outcome = session.run_sine(
+                plan.amplitude_m,
+                point.frequency_hz,
+                plan.warmup_cycles,
+                plan.measured_cycles,
+                on_block,
+                writer.write_actuator,  # type: ignore[arg-type]
+            )
+        except BaseException as exc:  # Ctrl-C or a rig fault mid-test: keep what was recorded
+            final = replace(meta, status="aborted", extra={**meta.extra, "reason": _why(exc)})
+            writer.write_event(last_t[0], "abort", f"test {meta.index} stopped: {_why(exc)}")
+            writer.end_test(final)
+            view.end_test(final)
+            result.aborted.append(final)
+            raise
+        final = replace(
+            meta,
+            status=outcome.status,
+            measured_start_s=outcome.measured_start_s,
+            measured_end_s=outcome.measured_end_s,
+            extra={
+                **meta.extra,
+                "reason": outcome.reason,
+                "dropped_frames": str(outcome.dropped_frames),
+                "corrupt_frames": str(outcome.corrupt_frames),
+            },
+        )
+        writer.end_test(final)
+        view.end_test(final)
+        if outcome.status != "complete":
+            result.aborted.append(final)
+            result.stopped_reason = outcome.reason
+            raise RigFault(f"test {meta.index} aborted: {outcome.reason}; sweep stopped")
+        result.completed.append(final)
+    return result
+
+
+def _meta(
+    index: int, point: SweepPoint, plan: SweepPlan, sample_rate_hz: float, temp_c: float
+) -> TestMeta:
+    return TestMeta(
+        index=index,
+        clicks=point.clicks,
+        gas_clicks=point.gas_clicks,
+        frequency_hz=point.frequency_hz,
+        amplitude_m=plan.amplitude_m,
+        sample_rate_hz=sample_rate_hz,
+        warmup_cycles=plan.warmup_cycles,
+        measured_cycles=plan.measured_cycles,
+        motion="sine",
+        status="running",
+        extra={"start_temperature_c": f"{temp_c:.2f}"},
+    )
+
+
+def _why(exc: BaseException) -> str:
+    if isinstance(exc, KeyboardInterrupt):
+        return "interrupted by the operator (Ctrl-C)"
+    return str(exc) or type(exc).__name__

@@ -1,0 +1,75 @@
+"""Shim-stack plate theory and the damper spec file."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from shockdyno.errors import ConfigError
+from shockdyno.model import load_spec
+from shockdyno.model.shims import annular_plate_edge_stiffness
+
+
+def test_narrow_annulus_stiffness_tends_to_cantilever_strip():
+    """For a clamp close to the rim the plate is a cantilever of length a-b and width 2πa."""
+    t, a, e, nu = 0.25e-3, 0.02, 206e9, 0.3
+    b = a * 0.995
+    beam = 3 * e * (2 * math.pi * a * t**3 / 12 / (1 - nu**2)) / (a - b) ** 3
+    assert annular_plate_edge_stiffness(t, a, b, e, nu) == pytest.approx(beam, rel=0.01)
+
+
+def test_stiffness_scales_with_thickness_cubed_and_falls_with_diameter():
+    k1 = annular_plate_edge_stiffness(0.25e-3, 0.02, 0.01, 206e9, 0.3)
+    k2 = annular_plate_edge_stiffness(0.5e-3, 0.02, 0.01, 206e9, 0.3)
+    assert k2 / k1 == pytest.approx(8.0, rel=1e-9)
+    assert annular_plate_edge_stiffness(0.25e-3, 0.018, 0.01, 206e9, 0.3) > k1
+
+
+def test_default_spec_has_paper_values():
+    spec = load_spec()
+    assert spec.piston_diameter_m == 0.040
+    assert spec.compression_valve.n_shims == 7 and spec.rebound_valve.n_shims == 7
+    assert spec.compression_valve.outer_diameter_m == 0.040
+    assert spec.rebound_valve.outer_diameter_m == 0.036
+    assert spec.oil_viscosity_cst == 11.0
+    assert spec.bleed_bore_diameter_m == 0.009
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("not toml [[[", "not valid TOML"),
+        ("[damper]\nname='x'\n", "missing section [valves]"),
+    ],
+)
+def test_bad_spec_files_give_one_line_errors(tmp_path, text, message):
+    p = tmp_path / "bad.toml"
+    p.write_text(text)
+    with pytest.raises(ConfigError, match=message.replace("[", r"\[").replace("]", r"\]")) as exc:
+        load_spec(p)
+    assert "\n" not in str(exc.value)
+
+
+def test_unknown_and_missing_keys_are_named(tmp_path):
+    good = load_spec().name  # noqa: F841 - the default file must load
+    src = (
+        __import__("shockdyno.model.spec", fromlist=["default_spec_path"]).default_spec_path().read_text()
+    )
+    p = tmp_path / "typo.toml"
+    p.write_text(src.replace("friction_n =", "frcition_n ="))
+    with pytest.raises(ConfigError, match="unknown key 'frcition_n'"):
+        load_spec(p)
+    p.write_text(src.replace("rod_diameter_m = 0.014", "rod_diameter_m = 0.05"))
+    with pytest.raises(ConfigError, match="rod must be thinner"):
+        load_spec(p)
+    with pytest.raises(ConfigError, match="not found"):
+        load_spec(tmp_path / "nope.toml")
+
+
+def test_clicks_out_of_range_are_refused():
+    spec = load_spec()
+    with pytest.raises(ConfigError, match="rod clicks must be 0-21"):
+        spec.bleed_areas(22)
+    with pytest.raises(ConfigError, match="gas-bottle clicks"):
+        spec.bleed_areas(3, -1)

@@ -28,7 +28,9 @@ def test_solved_pressure_drop_passes_the_requested_flow(q, a_b, k, valve):
     q_arr = np.array(q)
     dp = solve_pressure_drop(q_arr, a_b, valve, CD, RHO, k)
     assert np.all(dp >= 0)
-    np.testing.assert_allclose(passed_flow(dp, a_b, valve, CD, RHO, k), q_arr, rtol=1e-8, atol=1e-15)
+    np.testing.assert_allclose(
+        passed_flow(dp, a_b, valve, CD, RHO, k), q_arr, rtol=1e-8, atol=1e-15
+    )
 
 
 @settings(max_examples=100, deadline=None)
@@ -37,7 +39,10 @@ def test_solve_handles_valves_from_shut_to_wide_open(q, preload, lift):
     valve = replace(SPEC.compression_valve, preload_m=preload, max_lift_m=lift)
     dp = solve_pressure_drop(np.array([q]), 0.0, valve, CD, RHO, SPEC.leak_conductance_m3_s_pa)
     np.testing.assert_allclose(
-        passed_flow(dp, 0.0, valve, CD, RHO, SPEC.leak_conductance_m3_s_pa), q, rtol=1e-8, atol=1e-15
+        passed_flow(dp, 0.0, valve, CD, RHO, SPEC.leak_conductance_m3_s_pa),
+        q,
+        rtol=1e-8,
+        atol=1e-15,
     )
 
 

@@ -1,0 +1,59 @@
+"""Sweep plan parsing and ordering."""
+
+from __future__ import annotations
+
+import pytest
+
+from shockdyno.errors import ConfigError
+from shockdyno.run.plan import SweepPlan, parse_clicks, parse_frequencies
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("0-21", list(range(22))),
+        ("0-21:3", [0, 3, 6, 9, 12, 15, 18, 21]),
+        ("5,10,15", [5, 10, 15]),
+        ("0-2,10,20-21", [0, 1, 2, 10, 20, 21]),
+        ("3,3,1", [1, 3]),
+    ],
+)
+def test_parse_clicks(text, expected):
+    assert parse_clicks(text) == expected
+
+
+@pytest.mark.parametrize("text", ["", "a-b", "5-2", "0-22", "0-21:0", "-1"])
+def test_bad_clicks_are_refused_in_one_line(text):
+    with pytest.raises(ConfigError) as exc:
+        parse_clicks(text)
+    assert "\n" not in str(exc.value)
+
+
+def test_parse_frequencies():
+    assert parse_frequencies("0.5,1,1.5") == [0.5, 1.0, 1.5]
+    for bad in ("", "x", "0", "-1", "nan", "1e9"):
+        with pytest.raises(ConfigError):
+            parse_frequencies(bad)
+
+
+def test_plan_orders_clicks_outer_and_skips_done_points():
+    plan = SweepPlan(clicks=(0, 5), frequencies_hz=(0.5, 1.5))
+    keys = [p.key for p in plan.points()]
+    assert keys == [(0, 0, 0.5), (0, 0, 1.5), (5, 0, 0.5), (5, 0, 1.5)]
+    left = plan.remaining({(0, 0, 0.5), (0, 0, 1.5)})
+    assert [p.key for p in left] == [(5, 0, 0.5), (5, 0, 1.5)]
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"amplitude_m": 0.0},
+        {"amplitude_m": float("nan")},
+        {"measured_cycles": 0},
+        {"warmup_cycles": -1},
+        {"temperature_band_c": (50.0, 40.0)},
+    ],
+)
+def test_absurd_plans_are_refused(kwargs):
+    with pytest.raises(ConfigError):
+        SweepPlan(clicks=(0,), **kwargs)

@@ -103,8 +103,8 @@ def solve_pressure_drop(
             break
         lo = np.where(h < 0, s, lo)
         hi = np.where(h > 0, s, hi)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            step = s - h / dh
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            step = s - h / dh  # a non-finite step is caught below and bisected
         bad = ~np.isfinite(step) | (step <= lo) | (step >= hi)
         s = np.where(done, s, np.where(bad, 0.5 * (lo + hi), step))
     return np.asarray(s * s, dtype=float)

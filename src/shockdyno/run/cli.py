@@ -147,14 +147,17 @@ def record_sweep(
         return None
     output.parent.mkdir(parents=True, exist_ok=True)
 
+    view = LiveView(len(todo), console=console)
+
     def prompt(message: str) -> None:
-        console.input(f"[bold yellow]{message}[/] - press Enter when done ")
+        with view.paused():  # hold the live display while the operator reads and answers
+            console.input(f"[bold yellow]{message}[/] - press Enter when done ")
 
     with (
         RecordingWriter(
             output, metadata=metadata, rig_toml=rig.raw_toml, overwrite=overwrite, resume=resume
         ) as writer,
-        LiveView(len(todo), console=console) as view,
+        view,
         RigSession(rig, prompt=prompt) as session,
     ):
         try:
@@ -228,7 +231,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
             for lo in range(0, test.t.size, chunk):
                 sl = slice(lo, lo + chunk)
                 n = test.t[sl].size
-                temp = test.temperature[sl] if test.temperature is not None else test.t[sl] * 0
+                temp = test.temperature[sl] if test.temperature is not None else np.full(n, np.nan)
                 block = SampleBlock(
                     seq=np.arange(lo, lo + n, dtype=np.int64),
                     t_s=test.t[sl],

@@ -151,12 +151,9 @@ def run_sweep(
             status=outcome.status,
             measured_start_s=outcome.measured_start_s,
             measured_end_s=outcome.measured_end_s,
-            extra={
-                **meta.extra,
-                "reason": outcome.reason,
-                "dropped_frames": str(outcome.dropped_frames),
-                "corrupt_frames": str(outcome.corrupt_frames),
-            },
+            dropped_frames=outcome.dropped_frames,
+            corrupt_frames=outcome.corrupt_frames,
+            extra={**meta.extra, "reason": outcome.reason} if outcome.reason else meta.extra,
         )
         writer.end_test(final)
         view.end_test(final)

@@ -1,0 +1,170 @@
+"""The report's figures, drawn with matplotlib's object API on the Agg canvas.
+
+``matplotlib.figure.Figure`` is used without pyplot: no global figure registry to leak,
+no GUI backend to pick, nothing that needs a display.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from matplotlib import colormaps
+from matplotlib.axes import Axes
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import Normalize
+from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
+from numpy.typing import NDArray
+
+from shockdyno.record.types import TestData
+from shockdyno.report.summary import TestSummary, velocity
+
+FloatArray = NDArray[np.float64]
+
+DPI = 100
+# A line drawn a few hundred pixels wide gains nothing from more points than this, and
+# Agg's time grows with the vertex count.
+MAX_POINTS = 1500
+CMAP = "viridis"
+
+
+@dataclass(frozen=True)
+class Curves:
+    """One test's measured cycles, thinned for drawing (x in mm, v in m/s, F in N)."""
+
+    test: TestData
+    summary: TestSummary
+    x_mm: FloatArray
+    v: FloatArray
+    force: FloatArray
+
+    @property
+    def aborted(self) -> bool:
+        return self.test.meta.status != "complete"
+
+
+def prepare(test: TestData, summary: TestSummary) -> Curves:
+    m = test.measured()
+    v = velocity(m.t, m.x)
+    step = max(1, math.ceil(m.t.size / MAX_POINTS))
+    return Curves(test, summary, m.x[::step] * 1e3, v[::step], m.force[::step])
+
+
+def _save(fig: Figure, path: Path) -> Path:
+    fig.savefig(path, dpi=DPI, format="png")
+    return path
+
+
+def _label_loops(ax_x: Axes, ax_v: Axes) -> None:
+    ax_x.set_xlabel("displacement x (mm, + compression)")
+    ax_x.set_ylabel("force F (N)")
+    ax_v.set_xlabel("velocity v (m/s)")
+    ax_v.set_ylabel("force F (N)")
+    for ax in (ax_x, ax_v):
+        ax.grid(True, alpha=0.3)
+        ax.axhline(0.0, color="0.6", lw=0.6)
+        ax.axvline(0.0, color="0.6", lw=0.6)
+
+
+def _status_suffix(c: Curves) -> str:
+    return f" ({c.test.meta.status.upper()})" if c.aborted else ""
+
+
+def click_loops(curves: Sequence[Curves], path: Path) -> Path:
+    """Force-displacement and force-velocity loops of one click setting, a row per test."""
+    rows = sorted(curves, key=lambda c: (c.test.meta.frequency_hz, c.test.meta.index))
+    fig = Figure(figsize=(9.0, 2.6 * len(rows) + 0.6), layout="constrained")
+    axes = fig.subplots(len(rows), 2, squeeze=False)
+    first = rows[0].test.meta
+    fig.suptitle(f"clicks {first.clicks}, gas clicks {first.gas_clicks}")
+    for (ax_x, ax_v), c in zip(axes, rows, strict=True):
+        meta = c.test.meta
+        style = "--" if c.aborted else "-"
+        colour = "tab:red" if c.aborted else "tab:blue"
+        ax_x.plot(c.x_mm, c.force, style, color=colour, lw=0.9)
+        ax_v.plot(c.v, c.force, style, color=colour, lw=0.9)
+        ax_x.set_title(
+            f"test {meta.index}: {meta.frequency_hz:g} Hz, {meta.amplitude_m * 1e3:g} mm"
+            f"{_status_suffix(c)}",
+            fontsize=10,
+        )
+        ax_v.set_title(f"force-velocity{_status_suffix(c)}", fontsize=10)
+        _label_loops(ax_x, ax_v)
+    return _save(fig, path)
+
+
+def _click_norm(clicks: Sequence[int]) -> Normalize:
+    lo, hi = min(clicks), max(clicks)
+    if lo == hi:  # a colorbar over an empty range would be degenerate
+        return Normalize(lo - 0.5, hi + 0.5)
+    return Normalize(lo, hi)
+
+
+def _click_colorbar(fig: Figure, norm: Normalize, axes: list[Axes]) -> None:
+    bar = fig.colorbar(ScalarMappable(norm=norm, cmap=colormaps[CMAP]), ax=axes, label="clicks")
+    bar.locator = MaxNLocator(integer=True)
+    bar.update_ticks()
+
+
+def frequency_overlay(curves: Sequence[Curves], frequency_hz: float, path: Path) -> Path:
+    """Loops of every click at one frequency, coloured by clicks."""
+    norm = _click_norm([c.test.meta.clicks for c in curves])
+    cmap = colormaps[CMAP]
+    fig = Figure(figsize=(11.0, 4.4), layout="constrained")
+    ax_x, ax_v = fig.subplots(1, 2)
+    for c in sorted(curves, key=lambda c: c.test.meta.clicks):
+        colour = cmap(norm(c.test.meta.clicks))
+        ax_x.plot(c.x_mm, c.force, color=colour, lw=0.8)
+        ax_v.plot(c.v, c.force, color=colour, lw=0.8)
+    _label_loops(ax_x, ax_v)
+    gas = sorted({c.test.meta.gas_clicks for c in curves})
+    fig.suptitle(f"{frequency_hz:g} Hz, every click (gas clicks {', '.join(map(str, gas))})")
+    _click_colorbar(fig, norm, [ax_x, ax_v])
+    return _save(fig, path)
+
+
+def peak_curves(summaries: Sequence[TestSummary], path: Path) -> Path:
+    """Peak force vs peak velocity, one curve per click through its frequencies.
+
+    Compression peaks sit in the upper right, rebound peaks (signed) in the lower left.
+    """
+    norm = _click_norm([s.clicks for s in summaries])
+    cmap = colormaps[CMAP]
+    fig = Figure(figsize=(8.0, 5.6), layout="constrained")
+    ax = fig.subplots()
+    by_click: dict[tuple[int, int], list[TestSummary]] = {}
+    for s in summaries:
+        by_click.setdefault((s.clicks, s.gas_clicks), []).append(s)
+    markers = "osD^v<>"
+    gas_values = sorted({g for _, g in by_click})
+    for (clicks, gas), group in sorted(by_click.items()):
+        group = sorted(group, key=lambda s: s.frequency_hz)
+        colour = cmap(norm(clicks))
+        marker = markers[gas_values.index(gas) % len(markers)]
+        for vel, force in (
+            (
+                [s.peak_compression_velocity_m_s for s in group],
+                [s.peak_compression_force_n for s in group],
+            ),
+            ([s.peak_rebound_velocity_m_s for s in group], [s.peak_rebound_force_n for s in group]),
+        ):
+            ax.plot(vel, force, "-", marker=marker, ms=4, color=colour, lw=1.0)
+    ax.axhline(0.0, color="0.6", lw=0.6)
+    ax.axvline(0.0, color="0.6", lw=0.6)
+    ax.grid(True, alpha=0.3)
+    ax.set_xlabel("peak velocity (m/s; + compression, - rebound)")
+    ax.set_ylabel("peak force (N)")
+    title = "peak force vs peak velocity per click"
+    if len(gas_values) > 1:
+        title += (
+            " (marker: gas clicks "
+            + ", ".join(f"{g}={markers[i % len(markers)]}" for i, g in enumerate(gas_values))
+            + ")"
+        )
+    ax.set_title(title, fontsize=10)
+    _click_colorbar(fig, norm, [ax])
+    return _save(fig, path)

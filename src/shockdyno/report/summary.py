@@ -1,0 +1,149 @@
+"""One test's headline numbers: the report table and the live view's end-of-test line.
+
+Both callers go through :func:`summarise`, so the line printed when a test ends and the
+row in the report agree to the digit.
+
+Definitions (all over the measured cycles, ``test.measured()``):
+
+- peak compression / rebound force: max(F) and min(F), signed (rebound is usually < 0);
+- peak compression / rebound velocity: max(v) and min(v), with v from
+  :func:`shockdyno.model.differentiate` (Savitzky–Golay, 25 ms window);
+- temperature: mean over the measured cycles (None when the test has no temperature);
+- dropped frames: over the whole test, not only the measured cycles (see :func:`summarise`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from shockdyno.errors import ConfigError
+from shockdyno.model import differentiate
+from shockdyno.record.types import TestData
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class TestSummary:
+    """Headline numbers of one test. Forces in N, velocities in m/s, signed."""
+
+    __test__ = False  # not a pytest test class, despite the name
+
+    index: int
+    clicks: int
+    gas_clicks: int
+    frequency_hz: float
+    amplitude_m: float
+    status: str
+    n_samples: int
+    peak_compression_force_n: float
+    peak_rebound_force_n: float
+    peak_compression_velocity_m_s: float
+    peak_rebound_velocity_m_s: float
+    temperature_c: float | None
+    dropped_frames: int | None
+
+    def line(self, done: int | None = None, total: int | None = None) -> str:
+        """One plain ASCII line (no control codes) for logs, pipes and CI."""
+        head = f"test {done}/{total}" if done is not None and total is not None else "test"
+        temp = "-" if self.temperature_c is None else f"{self.temperature_c:.1f}C"
+        dropped = "?" if self.dropped_frames is None else str(self.dropped_frames)
+        return (
+            f"{head} clicks={self.clicks} gas={self.gas_clicks} f={self.frequency_hz:.2f}Hz"
+            f" A={self.amplitude_m * 1e3:.1f}mm"
+            f" Fc={_fmt(self.peak_compression_force_n, '+.0f')}N"
+            f" Fr={_fmt(self.peak_rebound_force_n, '+.0f')}N"
+            f" vc={_fmt(self.peak_compression_velocity_m_s, '+.3f')}m/s"
+            f" vr={_fmt(self.peak_rebound_velocity_m_s, '+.3f')}m/s"
+            f" T={temp} dropped={dropped} {self.status}"
+        )
+
+
+def _fmt(value: float, spec: str) -> str:
+    return "nan" if math.isnan(value) else format(value, spec)
+
+
+def velocity(t: FloatArray, x: FloatArray) -> FloatArray:
+    """v = dx/dt with the model's differentiator, also across gaps left by dropped frames.
+
+    NaN everywhere when t does not increase from sample to sample.
+
+    ``differentiate`` needs a uniform time base. A few dropped frames break that, so the
+    record is interpolated onto the uniform grid, differentiated there, and the velocity is
+    read back at the original times (the gap is bridged linearly, which only matters in it).
+    """
+    t = np.asarray(t, dtype=float)
+    x = np.asarray(x, dtype=float)
+    if t.size < 3:
+        return np.full(t.size, np.nan)
+    try:
+        return differentiate(t, x)[0]
+    except ConfigError:
+        steps = np.diff(t)
+        if not np.all(steps > 0):
+            # Repeated or reversed time stamps: no velocity rather than a wrong one.
+            return np.full(t.size, np.nan)
+        dt = float(np.median(steps))
+        n = round(float(t[-1] - t[0]) / dt) + 1
+        grid = t[0] + dt * np.arange(n)
+        v_grid = differentiate(grid, np.interp(grid, t, x))[0]
+        return np.interp(t, grid, v_grid)
+
+
+def dropped_from_time(t: FloatArray, sample_rate_hz: float) -> int:
+    """Missing samples implied by gaps in a time base that comes from a sample counter."""
+    if t.size < 2 or not sample_rate_hz > 0:
+        return 0
+    steps = np.rint(np.diff(np.asarray(t, dtype=float)) * sample_rate_hz)
+    return int(np.sum(np.clip(steps - 1, 0, None)))
+
+
+def summarise(test: TestData, dropped_frames: int | None = None) -> TestSummary:
+    """Headline numbers of ``test`` (see the module docstring for the definitions).
+
+    Dropped frames: the largest of the counts known: ``dropped_frames`` (what the live
+    view counted), ``meta.dropped_frames`` and ``meta.extra["dropped_frames"]`` (stored
+    with the recording) and the gaps in the time base (t comes from the DAQ's sequence
+    counter, so a gap is a lost frame). Each source can miss a lost frame (gaps do not show
+    frames lost after the last one received) but none invents one.
+    """
+    meta = test.meta
+    # getattr: TestMeta.dropped_frames is an optional field of the recording layer.
+    counts = [dropped_from_time(test.t, meta.sample_rate_hz)]
+    counts += [
+        int(k) for k in (dropped_frames, getattr(meta, "dropped_frames", None)) if k is not None
+    ]
+    stored = meta.extra.get("dropped_frames", "").strip()
+    if stored.isdigit():
+        counts.append(int(stored))
+    dropped = max(counts)
+    m = test.measured()
+    nan = float("nan")
+    f_max = f_min = v_max = v_min = nan
+    if m.force.size:
+        f_max, f_min = float(np.max(m.force)), float(np.min(m.force))
+    v = velocity(m.t, m.x)
+    if v.size and not np.all(np.isnan(v)):
+        v_max, v_min = float(np.nanmax(v)), float(np.nanmin(v))
+    temp: float | None = None
+    if m.temperature is not None and np.any(np.isfinite(m.temperature)):
+        temp = float(np.nanmean(m.temperature))
+    return TestSummary(
+        index=meta.index,
+        clicks=meta.clicks,
+        gas_clicks=meta.gas_clicks,
+        frequency_hz=meta.frequency_hz,
+        amplitude_m=meta.amplitude_m,
+        status=meta.status,
+        n_samples=int(m.t.size),
+        peak_compression_force_n=f_max,
+        peak_rebound_force_n=f_min,
+        peak_compression_velocity_m_s=v_max,
+        peak_rebound_velocity_m_s=v_min,
+        temperature_c=temp,
+        dropped_frames=dropped,
+    )

@@ -12,6 +12,8 @@ from numpy.typing import NDArray
 class TestMeta:
     """One dyno test: one click setting at one frequency."""
 
+    __test__ = False  # not a pytest test class, despite the name
+
     index: int
     clicks: int
     gas_clicks: int
@@ -26,10 +28,16 @@ class TestMeta:
     measured_end_s: float | None = None
     status: str = "complete"  # "complete" | "aborted" (stopped early: safety, Ctrl-C, fault)
     extra: dict[str, str] = field(default_factory=dict)
+    # Optional, added with the MCAP recording (older code need not set them):
+    cycle_start_s: tuple[float, ...] = ()  # start of each cycle (warm-up and measured), s
+    dropped_frames: int | None = None  # frames lost between DAQ and host (seq gaps if not given)
+    corrupt_frames: int | None = None  # frames that failed their check (known only to the DAQ)
 
 
 @dataclass(frozen=True)
 class TestData:
+    __test__ = False  # not a pytest test class, despite the name
+
     meta: TestMeta
     t: NDArray[np.float64]
     x: NDArray[np.float64]

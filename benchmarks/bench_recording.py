@@ -1,0 +1,242 @@
+"""Recording: write rate, bytes per sample and bulk read into NumPy of a full sweep.
+
+A synthetic full sweep (22 clicks x 0.5 / 1 / 1.5 Hz, 30 mm, 1 kHz; per test 1 ramp-in,
+2 warm-up, 5 measured and 1 ramp-out cycles) with forces from the damper model plus DAQ-like
+noise is written in blocks of 50 samples (a 20 Hz DAQ poll) with each candidate encoding, then
+read back into NumPy arrays (t, x, force, temperature per test). The baseline is one JSON
+message per sample on a jsonschema channel, measured in the same run. All candidates use the
+same MCAP writer settings (zstd chunks of 1 MiB) and the same front-to-back chunk reader.
+Times are the best of 3 runs (1 run for the slow JSON candidates); the machine is shared.
+Aim (issue 4): reading the full sweep into NumPy in < 1 s.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import time
+from collections.abc import Callable
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+from mcap.records import Chunk, Message
+from mcap.stream_reader import StreamReader, breakup_chunk
+from mcap.writer import Writer
+
+from shockdyno.model import force_from_displacement, load_spec
+from shockdyno.record import RecordingWriter, TestMeta, open_recording
+from shockdyno.rig.types import SampleBlock
+
+RATE = 1000.0
+BLOCK = 50
+FREQS = (0.5, 1.0, 1.5)
+
+
+def make_sweep() -> list[tuple[TestMeta, SampleBlock]]:
+    spec = load_spec()
+    rng = np.random.default_rng(4)
+    tests = []
+    seq0 = 0
+    for clicks in range(22):
+        a_bc, a_bt = spec.bleed_areas(clicks, 0)
+        for k, f in enumerate(FREQS):
+            n = round(9 / f * RATE)
+            seq = np.arange(seq0, seq0 + n, dtype=np.int64)
+            t = seq / RATE
+            x = 0.03 * np.sin(2 * np.pi * f * (t - t[0]))
+            force = force_from_displacement(spec, t, x, a_bc, a_bt)
+            # A 16-bit DAQ's quantised readings, as the frame codec scales them to SI
+            x_q = np.round((x + rng.normal(0, 5e-6, n)) / 2e-6) * 2e-6
+            f_q = np.round((force + rng.normal(0, 2.0, n)) / 0.1) * 0.1
+            temp = np.round((40 + 0.01 * (t - t[0]) + rng.normal(0, 0.05, n)) / 0.01) * 0.01
+            block = SampleBlock(seq, t, x_q, f_q, temp, np.zeros(n, np.uint16))
+            meta = TestMeta(len(tests), clicks, 0, f, 0.03, RATE, 2, 5, status="complete")
+            tests.append((meta, block))
+            seq0 += n + 500
+            del k
+    return tests
+
+
+def blocks(b: SampleBlock) -> list[SampleBlock]:
+    out = []
+    for lo in range(0, len(b), BLOCK):
+        hi = lo + BLOCK
+        out.append(
+            SampleBlock(
+                b.seq[lo:hi],
+                b.t_s[lo:hi],
+                b.displacement_m[lo:hi],
+                b.force_n[lo:hi],
+                b.temperature_c[lo:hi],
+                b.status[lo:hi],
+            )
+        )
+    return out
+
+
+# -- baseline: one JSON message per sample --------------------------------------------------
+
+JSON_SAMPLE_SCHEMA = json.dumps(
+    {
+        "type": "object",
+        "properties": {
+            k: {"type": "number"}
+            for k in ("test", "seq", "t_s", "displacement_m", "force_n", "temperature_c", "status")
+        },
+    }
+).encode()
+
+
+def write_json(
+    path: Path, sweep: list[tuple[TestMeta, list[SampleBlock]]], per_block: bool
+) -> None:
+    with open(path, "wb") as f:
+        w = Writer(f)
+        w.start()
+        sid = w.register_schema("shockdyno.Sample", "jsonschema", JSON_SAMPLE_SCHEMA)
+        ch = w.register_channel("/dyno/samples", "json", sid)
+        i = 0
+        for test, (_, bl) in enumerate(sweep):
+            for b in bl:
+                cols = (b.seq, b.t_s, b.displacement_m, b.force_n, b.temperature_c, b.status)
+                if per_block:
+                    names = ("seq", "t_s", "displacement_m", "force_n", "temperature_c", "status")
+                    obj = {
+                        "test": test,
+                        **{k: c.tolist() for k, c in zip(names, cols, strict=True)},
+                    }
+                    ns = round(float(b.t_s[0]) * 1e9)
+                    w.add_message(ch, ns, json.dumps(obj).encode(), ns, i)
+                    i += 1
+                    continue
+                for s, t, x, fo, te, st in zip(*(c.tolist() for c in cols), strict=True):
+                    obj = {
+                        "test": test,
+                        "seq": s,
+                        "t_s": t,
+                        "displacement_m": x,
+                        "force_n": fo,
+                        "temperature_c": te,
+                        "status": st,
+                    }
+                    ns = round(t * 1e9)
+                    w.add_message(ch, ns, json.dumps(obj).encode(), ns, i)
+                    i += 1
+            w.flush()
+            os.fsync(f.fileno())
+        w.finish()
+
+
+def read_json(path: Path, per_block: bool) -> list[dict[str, np.ndarray]]:
+    by_test: dict[int, dict[str, list[float]]] = {}
+    keys = ("t_s", "displacement_m", "force_n", "temperature_c")
+    with open(path, "rb") as f:
+        for rec in StreamReader(f, emit_chunks=True).records:
+            if not isinstance(rec, Chunk):
+                continue
+            for r in breakup_chunk(rec, validate_crc=True):
+                if not isinstance(r, Message):
+                    continue
+                obj = json.loads(r.data)
+                cols = by_test.setdefault(obj["test"], {k: [] for k in keys})
+                for k in keys:
+                    if per_block:
+                        cols[k].extend(obj[k])
+                    else:
+                        cols[k].append(obj[k])
+    return [{k: np.array(v) for k, v in cols.items()} for _, cols in sorted(by_test.items())]
+
+
+# -- candidates: CDR blocks through RecordingWriter / open_recording ------------------------
+
+
+def write_cdr(
+    path: Path, sweep: list[tuple[TestMeta, list[SampleBlock]]], max_block: int, comp: str
+) -> None:
+    with RecordingWriter(
+        path, metadata={"bench": "1"}, max_block_samples=max_block, compression=comp
+    ) as w:
+        for meta, bl in sweep:
+            w.begin_test(meta)
+            for b in bl:
+                w.write_samples(b)
+            w.end_test(meta)
+
+
+def read_cdr(path: Path) -> list[dict[str, np.ndarray]]:
+    rec = open_recording(path)
+    return [
+        {"t_s": d.t, "displacement_m": d.x, "force_n": d.force, "temperature_c": d.temperature}
+        for d in rec.load_all()
+    ]
+
+
+def fresh_write(write: Callable[[Path], None], path: Path) -> None:
+    path.unlink(missing_ok=True)
+    write(path)
+
+
+def best_of(n: int, fn: Callable[[], object]) -> tuple[float, object]:
+    best, out = float("inf"), None
+    for _ in range(n):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def main() -> None:
+    t0 = time.perf_counter()
+    raw = make_sweep()
+    sweep = [(m, blocks(b)) for m, b in raw]
+    n_samples = sum(len(b) for _, b in raw)
+    print(
+        f"sweep: {len(raw)} tests, {n_samples} samples ({n_samples / RATE:.0f} s at 1 kHz), "
+        f"{sum(len(b) for _, b in sweep)} blocks of {BLOCK}; "
+        f"built in {time.perf_counter() - t0:.1f} s"
+    )
+    truth_f = np.concatenate([b.force_n for _, b in raw])
+    candidates: list[tuple[str, Callable[[Path], None], Callable[[Path], object], int]] = [
+        (
+            "json/sample (baseline)",
+            lambda p: write_json(p, sweep, False),
+            lambda p: read_json(p, False),
+            1,
+        ),
+        ("json/block of 50", lambda p: write_json(p, sweep, True), lambda p: read_json(p, True), 1),
+        ("cdr/block of 50, zstd", lambda p: write_cdr(p, sweep, BLOCK, "zstd"), read_cdr, 3),
+        ("cdr/1000 (chosen), zstd", lambda p: write_cdr(p, sweep, 1000, "zstd"), read_cdr, 3),
+        ("cdr/1000, lz4", lambda p: write_cdr(p, sweep, 1000, "lz4"), read_cdr, 3),
+        ("cdr/1000, uncompressed", lambda p: write_cdr(p, sweep, 1000, "none"), read_cdr, 3),
+    ]
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for k, (name, write, read, reps) in enumerate(candidates):
+            path = Path(tmp) / f"c{k}.mcap"
+            t_write, _ = best_of(reps, partial(fresh_write, write, path))
+            size = path.stat().st_size
+            t_read, tests = best_of(reps, partial(read, path))
+            assert isinstance(tests, list) and len(tests) == len(raw)
+            got_f = np.concatenate([d["force_n"] for d in tests])
+            assert np.array_equal(got_f, truth_f), name  # every candidate is lossless
+            path.unlink()
+            rows.append((name, n_samples / t_write, size / n_samples, t_read))
+    base = rows[0]
+    print(
+        f"{'encoding':26} {'write samples/s':>16} {'x base':>7} {'bytes/sample':>13} "
+        f"{'x base':>7} {'read sweep s':>13} {'x faster':>9}"
+    )
+    for name, wr, bps, rd in rows:
+        print(
+            f"{name:26} {wr:16,.0f} {wr / base[1]:7.1f} {bps:13.2f} {bps / base[2]:7.2f} "
+            f"{rd:13.3f} {base[3] / rd:9.1f}"
+        )
+    chosen = rows[3]
+    verdict = "meets" if chosen[3] < 1.0 else "MISSES"
+    print(f"chosen encoding reads the full sweep in {chosen[3]:.3f} s: {verdict} the < 1 s aim")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,154 @@
+"""Commands `info`, `import` and `export`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from shockdyno.errors import RecordingError
+from shockdyno.record.csv_export import export_csv
+from shockdyno.record.csv_import import (
+    FORCE_UNITS,
+    LENGTH_UNITS,
+    MOTIONS,
+    TEMPERATURE_UNITS,
+    TIME_UNITS,
+    ImportOptions,
+    import_csv,
+)
+from shockdyno.record.info import format_text, summarise
+from shockdyno.record.reader import open_recording
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "info",
+        help="summarise a recording (tests, durations, dropped frames, faults)",
+        description="Summarise a recording set; also works on a file cut off mid-test.",
+    )
+    p.add_argument("recording", type=Path, metavar="REC.mcap")
+    p.add_argument(
+        "--json",
+        type=Path,
+        metavar="PATH",
+        help="also write the summary as JSON (- for stdout only)",
+    )
+    p.set_defaults(func=_info)
+
+    p = subparsers.add_parser(
+        "import",
+        help="import CSV dyno data (exchange format or another dyno's export)",
+        description="Import a manifest CSV and its data CSVs into one recording (docs/csv.md).",
+    )
+    p.add_argument("manifest", type=Path, metavar="MANIFEST.csv")
+    p.add_argument("-o", "--output", type=Path, required=True, metavar="REC.mcap")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output")
+    d = ImportOptions()
+    g = p.add_argument_group("data columns and units (defaults: the exchange format)")
+    g.add_argument("--time-column", default=d.time_column, metavar="NAME")
+    g.add_argument(
+        "--time-unit",
+        choices=TIME_UNITS,
+        default=d.time_unit,
+        help="s, ms, iso (ISO 8601 date-times, e.g. a Timestamp column) or auto (default)",
+    )
+    g.add_argument("--displacement-column", default=d.displacement_column, metavar="NAME")
+    g.add_argument("--displacement-unit", choices=tuple(LENGTH_UNITS), default="m")
+    g.add_argument("--force-column", default=d.force_column, metavar="NAME")
+    g.add_argument("--force-unit", choices=tuple(FORCE_UNITS), default="N")
+    g.add_argument(
+        "--temperature-column", metavar="NAME", help="default: temperature_C when present"
+    )
+    g.add_argument("--temperature-unit", choices=TEMPERATURE_UNITS, default="C")
+    g.add_argument(
+        "--delimiter", default=",", metavar="CHAR", help="field separator (default ','; tab: '\\t')"
+    )
+    g = p.add_argument_group("test settings the manifest may leave out")
+    g.add_argument(
+        "--sample-rate-hz",
+        type=float,
+        metavar="HZ",
+        help="default: manifest column, else 1/median time step",
+    )
+    g.add_argument(
+        "--motion",
+        choices=MOTIONS,
+        help="imported: non-sinusoidal motion (default: manifest column, else sine)",
+    )
+    g.add_argument(
+        "--gas-clicks", type=int, default=0, metavar="N", help="when no gas_clicks column (0)"
+    )
+    g.add_argument(
+        "--meta",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="recording metadata, e.g. damper_id=S46-0123 operator=ana (repeatable)",
+    )
+    p.set_defaults(func=_import)
+
+    p = subparsers.add_parser(
+        "export",
+        help="export a recording to the CSV exchange format",
+        description="Write DIR/manifest.csv and one data CSV per test (docs/csv.md).",
+    )
+    p.add_argument("recording", type=Path, metavar="REC.mcap")
+    p.add_argument("--csv", type=Path, required=True, metavar="DIR")
+    p.add_argument("--force", action="store_true", help="write into a non-empty DIR")
+    p.set_defaults(func=_export)
+
+
+def _info(args: argparse.Namespace) -> int:
+    doc = summarise(open_recording(args.recording))
+    if args.json is None or str(args.json) != "-":
+        print(format_text(doc))
+    if args.json is not None:
+        text = json.dumps(doc, indent=2)
+        if str(args.json) == "-":
+            sys.stdout.write(text + "\n")
+        else:
+            try:
+                args.json.write_text(text + "\n")
+            except OSError as exc:
+                raise RecordingError(f"cannot write {args.json}: {exc.strerror}") from exc
+    return 0
+
+
+def _meta_pairs(pairs: list[str]) -> dict[str, str]:
+    out = {}
+    for pair in pairs:
+        key, sep, value = pair.partition("=")
+        if not sep or not key.strip():
+            raise RecordingError(f"--meta {pair!r}: expected KEY=VALUE")
+        out[key.strip()] = value
+    return out
+
+
+def _import(args: argparse.Namespace) -> int:
+    opts = ImportOptions(
+        time_column=args.time_column,
+        time_unit=args.time_unit,
+        displacement_column=args.displacement_column,
+        displacement_unit=args.displacement_unit,
+        force_column=args.force_column,
+        force_unit=args.force_unit,
+        temperature_column=args.temperature_column,
+        temperature_unit=args.temperature_unit,
+        sample_rate_hz=args.sample_rate_hz,
+        motion=args.motion,
+        gas_clicks=args.gas_clicks,
+        delimiter="\t" if args.delimiter in ("\\t", "tab") else args.delimiter,
+        metadata=_meta_pairs(args.meta),
+    )
+    tests = import_csv(args.manifest, args.output, opts, force=args.force)
+    print(f"imported {len(tests)} tests from {args.manifest} into {args.output}")
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    files = export_csv(args.recording, args.csv, force=args.force)
+    print(f"exported {len(files) - 1} tests to {args.csv} ({files[0].name} lists them)")
+    return 0

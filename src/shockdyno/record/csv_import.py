@@ -1,0 +1,364 @@
+"""Import dyno data from CSV: the exchange format (docs/csv.md) and other dynos' exports.
+
+Everything is parsed and checked before the output is written, and the output is written to a
+temporary file that replaces the target only on success: a bad file leaves nothing behind.
+Errors name the file, the line and the column.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from collections.abc import Iterator
+from dataclasses import asdict, dataclass, field
+from datetime import datetime
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from shockdyno.errors import RecordingError
+from shockdyno.record.atomic import atomic_file
+from shockdyno.record.layout import part_paths
+from shockdyno.record.types import TestMeta
+from shockdyno.record.writer import RecordingWriter
+from shockdyno.rig.types import SampleBlock
+
+LBF_N = 4.4482216152605  # exact by definition of the pound-force
+LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "in": 0.0254}
+FORCE_UNITS = {"N": 1.0, "kN": 1e3, "lbf": LBF_N}
+TIME_UNITS = ("auto", "s", "ms", "iso")
+TEMPERATURE_UNITS = ("C", "F")
+MOTIONS = ("sine", "imported")
+MANIFEST_REQUIRED = ("file", "clicks", "frequency_hz", "amplitude_m")
+# Manifest columns that map onto TestMeta fields; any other column is kept in TestMeta.extra.
+MANIFEST_KNOWN = (
+    *MANIFEST_REQUIRED,
+    "gas_clicks",
+    "sample_rate_hz",
+    "motion",
+    "warmup_cycles",
+    "measured_cycles",
+    "measured_start_s",
+    "measured_end_s",
+    "status",
+)
+SOURCE_KEY = "csv_file"  # TestMeta.extra key: the data file a test was imported from
+DECIMALS_KEY = "csv_decimals"  # TestMeta.extra key: "time_s=3,force_N=2": fixed decimal places
+
+
+@dataclass(frozen=True)
+class ImportOptions:
+    time_column: str = "time_s"
+    time_unit: str = "auto"  # numbers in seconds, or ISO 8601 date-times; see TIME_UNITS
+    displacement_column: str = "displacement_m"
+    displacement_unit: str = "m"
+    force_column: str = "force_N"
+    force_unit: str = "N"
+    temperature_column: str | None = None  # None: "temperature_C" when the file has it
+    temperature_unit: str = "C"
+    sample_rate_hz: float | None = None  # None: manifest column, else 1 / median time step
+    motion: str | None = None  # None: manifest column, else "sine"
+    gas_clicks: int = 0  # when the manifest has no gas_clicks column
+    delimiter: str = ","
+    metadata: dict[str, str] = field(default_factory=dict)
+
+    def check(self) -> None:
+        for name, value, allowed in (
+            ("time unit", self.time_unit, TIME_UNITS),
+            ("displacement unit", self.displacement_unit, tuple(LENGTH_UNITS)),
+            ("force unit", self.force_unit, tuple(FORCE_UNITS)),
+            ("temperature unit", self.temperature_unit, TEMPERATURE_UNITS),
+        ):
+            if value not in allowed:
+                raise RecordingError(f"{name} {value!r} is not one of {', '.join(allowed)}")
+        if self.motion is not None and self.motion not in MOTIONS:
+            raise RecordingError(f"motion {self.motion!r} is not one of {', '.join(MOTIONS)}")
+        if self.sample_rate_hz is not None and not (
+            math.isfinite(self.sample_rate_hz) and self.sample_rate_hz > 0
+        ):
+            raise RecordingError(f"sample rate {self.sample_rate_hz} Hz must be positive")
+        if self.gas_clicks < 0:
+            raise RecordingError(f"gas clicks {self.gas_clicks} must not be negative")
+        if len(self.delimiter) != 1:
+            raise RecordingError(f"delimiter {self.delimiter!r} must be one character")
+
+
+@dataclass
+class ImportedTest:
+    meta: TestMeta
+    block: SampleBlock
+
+
+class _Table:
+    """A CSV file's header and rows, with the line number of each row (for error messages)."""
+
+    def __init__(self, path: Path, delimiter: str) -> None:
+        self.path = path
+        try:
+            text = path.read_text(encoding="utf-8-sig")
+        except FileNotFoundError:
+            raise RecordingError(f"{path}: no such file") from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise RecordingError(f"{path}: cannot read: {exc}") from exc
+        reader = csv.reader(io.StringIO(text), delimiter=delimiter)
+        header = next(reader, None)
+        if header is None or not any(h.strip() for h in header):
+            raise RecordingError(f"{path}:1: empty file, expected a header line")
+        self.header = [h.strip() for h in header]
+        self.rows: list[list[str]] = []
+        self.lines: list[int] = []
+        # Decimal places of a numeric column when every cell has the same (export keeps them)
+        self.decimals: dict[int, int | None] = {}
+        try:
+            for row in reader:
+                if not any(c.strip() for c in row):
+                    continue
+                if len(row) != len(self.header):
+                    raise RecordingError(
+                        f"{path}:{reader.line_num}: {len(row)} fields, "
+                        f"the header has {len(self.header)}"
+                    )
+                self.rows.append(row)
+                self.lines.append(reader.line_num)
+        except csv.Error as exc:
+            raise RecordingError(f"{path}:{reader.line_num}: {exc}") from exc
+
+    def column(self, name: str) -> int:
+        try:
+            return self.header.index(name)
+        except ValueError:
+            have = ", ".join(self.header)
+            raise RecordingError(f"{self.path}:1: no column {name!r} (columns: {have})") from None
+
+    def where(self, row: int, col: int) -> str:
+        return f"{self.path}:{self.lines[row]}: column {self.header[col]!r}"
+
+    def cells(self, col: int) -> Iterator[tuple[int, str]]:
+        for i, row in enumerate(self.rows):
+            yield i, row[col].strip()
+
+    def numbers(self, col: int, *, allow_empty: bool = False) -> NDArray[np.float64]:
+        out = np.empty(len(self.rows))
+        places: set[int] = set()
+        for i, v in self.cells(col):
+            if allow_empty and v == "":
+                out[i] = math.nan
+                continue
+            try:
+                x = float(v)
+            except ValueError:
+                raise RecordingError(f"{self.where(i, col)}: {v!r} is not a number") from None
+            if not math.isfinite(x):
+                raise RecordingError(f"{self.where(i, col)}: {v!r} is not a finite number")
+            out[i] = x
+            if "e" in v or "E" in v:
+                places.add(-1)
+            else:
+                dot = v.find(".")
+                places.add(0 if dot < 0 else len(v) - dot - 1)
+        self.decimals[col] = places.pop() if len(places) == 1 and -1 not in places else None
+        return out
+
+
+def _times(table: _Table, col: int, unit: str) -> tuple[NDArray[np.float64], str]:
+    if unit == "auto":
+        first = table.rows[0][col].strip() if table.rows else ""
+        try:
+            float(first)
+            unit = "s"
+        except ValueError:
+            unit = "iso"
+    if unit in ("s", "ms"):
+        return table.numbers(col) * (1e-3 if unit == "ms" else 1.0), unit
+    stamps: list[datetime] = []
+    for i, v in table.cells(col):
+        try:
+            stamps.append(datetime.fromisoformat(v))
+        except ValueError:
+            raise RecordingError(f"{table.where(i, col)}: {v!r} is not an ISO date-time") from None
+    t = np.empty(len(stamps))
+    for i, ts in enumerate(stamps):
+        try:
+            t[i] = (ts - stamps[0]).total_seconds()
+        except TypeError:
+            raise RecordingError(
+                f"{table.where(i, col)}: mixes date-times with and without a time zone"
+            ) from None
+    return t, unit
+
+
+def read_data_csv(path: Path, opts: ImportOptions) -> tuple[SampleBlock, str]:
+    """One test's samples in SI units, and the decimal places of its columns (DECIMALS_KEY).
+
+    seq is the sample index: imported data has no DAQ counter.
+    """
+    table = _Table(path, opts.delimiter)
+    if not table.rows:
+        raise RecordingError(f"{path}:2: no data rows")
+    t_col = table.column(opts.time_column)
+    x_col = table.column(opts.displacement_column)
+    f_col = table.column(opts.force_column)
+    temp_name = opts.temperature_column
+    if temp_name is None and "temperature_C" in table.header:
+        temp_name = "temperature_C"
+    t, t_unit = _times(table, t_col, opts.time_unit)
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise RecordingError(f"{table.where(i, t_col)}: time does not increase")
+    x = table.numbers(x_col) * LENGTH_UNITS[opts.displacement_unit]
+    force = table.numbers(f_col) * FORCE_UNITS[opts.force_unit]
+    # Only power-of-ten unit changes keep a fixed number of decimal places meaningful
+    shifts = [
+        ("time_s", t_col, {"s": 0, "ms": 3}.get(t_unit)),
+        ("displacement_m", x_col, {"m": 0, "mm": 3}.get(opts.displacement_unit)),
+        ("force_N", f_col, {"N": 0, "kN": -3}.get(opts.force_unit)),
+    ]
+    if temp_name is None:
+        temp = np.full(t.size, math.nan)
+    else:
+        temp_col = table.column(temp_name)
+        temp = table.numbers(temp_col, allow_empty=True)
+        if opts.temperature_unit == "F":
+            temp = (temp - 32.0) * (5.0 / 9.0)
+        shifts.append(("temperature_C", temp_col, 0 if opts.temperature_unit == "C" else None))
+    places = []
+    for name, col, shift in shifts:
+        d = table.decimals.get(col)
+        if d is not None and shift is not None:
+            places.append(f"{name}={max(0, d + shift)}")
+    n = t.size
+    block = SampleBlock(np.arange(n, dtype=np.int64), t, x, force, temp, np.zeros(n, np.uint16))
+    return block, ",".join(places)
+
+
+def _int_cell(table: _Table, i: int, col: int) -> int:
+    v = table.rows[i][col].strip()
+    try:
+        return int(v)
+    except ValueError:
+        raise RecordingError(f"{table.where(i, col)}: {v!r} is not a whole number") from None
+
+
+def _float_cell(table: _Table, i: int, col: int, *, positive: bool = False) -> float:
+    v = table.rows[i][col].strip()
+    try:
+        x = float(v)
+    except ValueError:
+        raise RecordingError(f"{table.where(i, col)}: {v!r} is not a number") from None
+    if not math.isfinite(x) or x < 0 or (positive and x == 0):
+        need = "positive" if positive else "zero or positive"
+        raise RecordingError(f"{table.where(i, col)}: {v!r} must be {need}")
+    return x
+
+
+def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
+    opts.check()
+    table = _Table(manifest, opts.delimiter)
+    cols = {name: table.column(name) for name in MANIFEST_REQUIRED}
+    for name in MANIFEST_KNOWN:
+        if name in table.header:
+            cols[name] = table.header.index(name)
+    if not table.rows:
+        raise RecordingError(f"{manifest}:2: the manifest lists no tests")
+    tests = []
+    for i, row in enumerate(table.rows):
+
+        def cell(name: str, row: list[str] = row) -> str:
+            return row[cols[name]].strip() if name in cols else ""
+
+        file_name = cell("file")
+        if not file_name:
+            raise RecordingError(f"{table.where(i, cols['file'])}: no file name")
+        clicks = _int_cell(table, i, cols["clicks"])
+        gas = _int_cell(table, i, cols["gas_clicks"]) if cell("gas_clicks") else opts.gas_clicks
+        for name, value in (("clicks", clicks), ("gas_clicks", gas)):
+            if value < 0:
+                raise RecordingError(f"{table.where(i, cols[name])}: {value} must not be negative")
+        freq = _float_cell(table, i, cols["frequency_hz"], positive=True)
+        amp = _float_cell(table, i, cols["amplitude_m"])
+        motion = cell("motion") or opts.motion or "sine"
+        if motion not in MOTIONS:
+            raise RecordingError(
+                f"{table.where(i, cols['motion'])}: {motion!r} is not one of {', '.join(MOTIONS)}"
+            )
+        status = cell("status") or "complete"
+        if status not in ("complete", "aborted"):
+            raise RecordingError(
+                f"{table.where(i, cols['status'])}: {status!r} is not complete or aborted"
+            )
+        path = manifest.parent / file_name
+        block, places = read_data_csv(path, opts)
+        if cell("sample_rate_hz"):
+            rate = _float_cell(table, i, cols["sample_rate_hz"], positive=True)
+        elif opts.sample_rate_hz is not None:
+            rate = opts.sample_rate_hz
+        elif len(block) >= 2:
+            rate = float(f"{1.0 / float(np.median(np.diff(block.t_s))):.6g}")
+        else:
+            raise RecordingError(f"{path}: one sample; give the sample rate (--sample-rate-hz)")
+        window = [
+            _float_cell(table, i, cols[name]) if cell(name) else None
+            for name in ("measured_start_s", "measured_end_s")
+        ]
+        extra = {
+            h: row[j].strip()
+            for j, h in enumerate(table.header)
+            if h not in MANIFEST_KNOWN and h not in (SOURCE_KEY, DECIMALS_KEY)
+        }
+        extra[SOURCE_KEY] = file_name
+        if places:
+            extra[DECIMALS_KEY] = places
+        meta = TestMeta(
+            index=i,
+            clicks=clicks,
+            gas_clicks=gas,
+            frequency_hz=freq,
+            amplitude_m=amp,
+            sample_rate_hz=rate,
+            warmup_cycles=_int_cell(table, i, cols["warmup_cycles"])
+            if cell("warmup_cycles")
+            else 0,
+            measured_cycles=(
+                _int_cell(table, i, cols["measured_cycles"]) if cell("measured_cycles") else 0
+            ),
+            motion=motion,
+            measured_start_s=window[0],
+            measured_end_s=window[1],
+            status=status,
+            extra=extra,
+            dropped_frames=0,
+        )
+        tests.append(ImportedTest(meta, block))
+    return tests
+
+
+def import_csv(
+    manifest: Path, output: Path, opts: ImportOptions, *, force: bool = False
+) -> list[TestMeta]:
+    """Read MANIFEST and its data files and write one recording at `output`."""
+    stale = part_paths(output)
+    if stale and not force:
+        raise RecordingError(f"{stale[0]} exists (use --force to replace the recording set)")
+    if output.exists() and not force:
+        raise RecordingError(f"{output} exists (use --force to overwrite it)")
+    tests = read_manifest(manifest, opts)
+    options = {k: v for k, v in asdict(opts).items() if k != "metadata"}
+    metadata = {
+        "source": "csv import",
+        "manifest": manifest.name,
+        "import_options": json.dumps(options, sort_keys=True),
+        **opts.metadata,
+    }
+    with atomic_file(output, force) as tmp:
+        with RecordingWriter(tmp, metadata=metadata, overwrite=True) as writer:
+            for test in tests:
+                writer.begin_test(test.meta)
+                writer.write_samples(test.block)
+                writer.end_test(test.meta)
+        for p in stale:
+            p.unlink()
+    return [t.meta for t in tests]

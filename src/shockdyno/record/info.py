@@ -1,0 +1,115 @@
+"""`shockdyno info`: what a recording holds, also when it was cut off."""
+
+from __future__ import annotations
+
+from collections import Counter
+from typing import Any
+
+from shockdyno.record.reader import Recording
+from shockdyno.record.types import TestMeta
+
+SCHEMA_VERSION = 1
+
+
+def _test_row(rec: Recording, meta: TestMeta) -> dict[str, Any]:
+    block = rec.samples(meta)
+    n = len(block)
+    t0 = float(block.t_s[0]) if n else None
+    t1 = float(block.t_s[-1]) if n else None
+    return {
+        "index": meta.index,
+        "clicks": meta.clicks,
+        "gas_clicks": meta.gas_clicks,
+        "frequency_hz": meta.frequency_hz,
+        "amplitude_m": meta.amplitude_m,
+        "motion": meta.motion,
+        "status": meta.status,
+        "samples": n,
+        "sample_rate_hz": meta.sample_rate_hz,
+        "t_start_s": t0,
+        "t_end_s": t1,
+        "duration_s": None if t0 is None or t1 is None else t1 - t0,
+        "dropped_frames": meta.dropped_frames,
+        "corrupt_frames": meta.corrupt_frames,
+    }
+
+
+def summarise(rec: Recording) -> dict[str, Any]:
+    """The `info --json` document (documented in recordings/FORMAT.md)."""
+    tests = [_test_row(rec, m) for m in rec.tests]
+    interrupted = [_test_row(rec, m) for m in rec.interrupted]
+    kinds = Counter(kind for _, kind, _ in rec.events)
+    return {
+        "schema_version": SCHEMA_VERSION,
+        "path": str(rec.path),
+        "truncated": rec.truncated,
+        "files": [
+            {
+                "path": str(p.path),
+                "size_bytes": p.size_bytes,
+                "truncated": p.truncated,
+                "problem": p.problem,
+                "bad_chunks": p.bad_chunks,
+                "bad_messages": p.bad_messages,
+            }
+            for p in rec.parts
+        ],
+        "metadata": rec.metadata,
+        "rig_file_attached": rec.rig_toml is not None,
+        "totals": {
+            "tests": len(tests),
+            "complete": sum(t["status"] == "complete" for t in tests),
+            "aborted": sum(t["status"] == "aborted" for t in tests),
+            "interrupted": len(interrupted),
+            "samples": sum(t["samples"] for t in tests),
+            "duration_s": sum(t["duration_s"] or 0.0 for t in tests),
+            "dropped_frames": sum(t["dropped_frames"] or 0 for t in tests),
+            "corrupt_frames": sum(t["corrupt_frames"] or 0 for t in tests),
+        },
+        "tests": tests,
+        "interrupted": interrupted,
+        "event_counts": dict(sorted(kinds.items())),
+        "events": [{"t_s": t, "kind": k, "message": m} for t, k, m in rec.events],
+    }
+
+
+def _opt(v: int | None) -> str:
+    return "-" if v is None else str(v)
+
+
+def format_text(doc: dict[str, Any], max_events: int = 20) -> str:
+    lines = [f"recording {doc['path']}"]
+    for f in doc["files"]:
+        state = "TRUNCATED: " + (f["problem"] or "") if f["truncated"] else "complete file"
+        if not f["truncated"] and f["problem"]:
+            state += f" ({f['problem']})"
+        lines.append(f"  file {f['path']}: {f['size_bytes']} bytes, {state}")
+    for k, v in doc["metadata"].items():
+        lines.append(f"  {k}: {v}")
+    lines.append(f"  rig file attached: {'yes' if doc['rig_file_attached'] else 'no'}")
+    tot = doc["totals"]
+    lines.append(
+        f"tests: {tot['tests']} ({tot['complete']} complete, {tot['aborted']} aborted), "
+        f"{tot['interrupted']} interrupted; {tot['samples']} samples, {tot['duration_s']:.1f} s; "
+        f"dropped frames {tot['dropped_frames']}, corrupt frames {tot['corrupt_frames']}"
+    )
+    head = f"{'#':>4} {'clicks':>6} {'gas':>4} {'f Hz':>6} {'ampl mm':>8} {'motion':>8} "
+    head += f"{'status':>11} {'samples':>8} {'dur s':>7} {'dropped':>7} {'corrupt':>7}"
+    if doc["tests"] or doc["interrupted"]:
+        lines.append(head)
+    for t in doc["tests"] + doc["interrupted"]:
+        dur = "-" if t["duration_s"] is None else f"{t['duration_s']:.2f}"
+        lines.append(
+            f"{t['index']:>4} {t['clicks']:>6} {t['gas_clicks']:>4} {t['frequency_hz']:>6g} "
+            f"{t['amplitude_m'] * 1e3:>8.2f} {t['motion']:>8} {t['status']:>11} "
+            f"{t['samples']:>8} {dur:>7} {_opt(t['dropped_frames']):>7} "
+            f"{_opt(t['corrupt_frames']):>7}"
+        )
+    if doc["event_counts"]:
+        counts = ", ".join(f"{k} {n}" for k, n in doc["event_counts"].items())
+        lines.append(f"events: {counts}")
+        for e in doc["events"][:max_events]:
+            lines.append(f"  {e['t_s']:10.3f} s  {e['kind']}: {e['message']}")
+        if len(doc["events"]) > max_events:
+            lines.append(f"  ... {len(doc['events']) - max_events} more (see --json)")
+    return "\n".join(lines)

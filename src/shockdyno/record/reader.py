@@ -1,0 +1,221 @@
+"""Read a recording set (NAME.mcap and its part files) into NumPy, also when cut off mid-write.
+
+The file is read front to back, chunk by chunk, without its summary section: a file cut off by
+kill -9 or power loss has no summary, and every complete chunk before the cut is still good.
+A chunk whose CRC fails is skipped and counted; reading goes on with the next one.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from mcap.exceptions import EndOfFile, InvalidMagic
+from mcap.records import Attachment, Channel, Chunk, Footer, Message, Metadata
+from mcap.stream_reader import StreamReader, breakup_chunk
+
+from shockdyno.errors import RecordingError
+from shockdyno.record import schemas as s
+from shockdyno.record.layout import set_paths
+from shockdyno.record.types import TestData, TestMeta
+from shockdyno.rig.types import SampleBlock
+
+
+@dataclass
+class PartInfo:
+    """What one file of the set held, and how it ended."""
+
+    path: Path
+    metadata: dict[str, str]
+    truncated: bool = False
+    problem: str | None = None  # why reading stopped early, or damage found
+    bad_chunks: int = 0
+    bad_messages: int = 0
+    size_bytes: int = 0
+
+
+@dataclass
+class _PartData:
+    info: PartInfo
+    rig_toml: str | None = None
+    begun: dict[int, TestMeta] = field(default_factory=dict)
+    ended: list[tuple[int, TestMeta]] = field(default_factory=list)
+    samples: dict[int, list[bytes]] = field(default_factory=dict)
+    events: list[tuple[float, str, str]] = field(default_factory=list)
+    actuator: list[tuple[float, dict[str, Any]]] = field(default_factory=list)
+
+
+class Recording:
+    """A recording set, read. `tests` holds every ended test (complete and aborted) in the order
+    they were recorded; `load(i)` loads `tests[i]` (or pass the TestMeta itself). Tests begun but
+    never ended (the process died) are in `interrupted`, with status "interrupted".
+    """
+
+    def __init__(self, path: Path, parts: list[_PartData]) -> None:
+        self.path = path
+        self.parts = [p.info for p in parts]
+        first = dict(parts[0].info.metadata) if parts else {}
+        first.pop("part", None)
+        self.metadata: dict[str, str] = first
+        self.rig_toml: str | None = next((p.rig_toml for p in parts if p.rig_toml), None)
+        self.truncated = any(p.info.truncated for p in parts)
+        self.tests: list[TestMeta] = []
+        self.interrupted: list[TestMeta] = []
+        self._keys: list[tuple[int, int]] = []
+        self._interrupted_keys: list[tuple[int, int]] = []
+        self._samples: dict[tuple[int, int], list[bytes]] = {}
+        self.events: list[tuple[float, str, str]] = []
+        self.actuator: list[tuple[float, dict[str, Any]]] = []
+        for i, part in enumerate(parts):
+            for serial, meta in part.ended:
+                self.tests.append(meta)
+                self._keys.append((i, serial))
+            ended = {serial for serial, _ in part.ended}
+            for serial, meta in part.begun.items():
+                if serial not in ended:
+                    self.interrupted.append(replace(meta, status="interrupted"))
+                    self._interrupted_keys.append((i, serial))
+            for serial, payloads in part.samples.items():
+                self._samples[(i, serial)] = payloads
+            self.events.extend(part.events)
+            self.actuator.extend(part.actuator)
+
+    def _key(self, index: int | TestMeta) -> tuple[int, int]:
+        if isinstance(index, TestMeta):
+            for metas, keys in (
+                (self.tests, self._keys),
+                (self.interrupted, self._interrupted_keys),
+            ):
+                for m, k in zip(metas, keys, strict=True):
+                    if m is index or m == index:
+                        return k
+            raise RecordingError(f"{self.path}: test {index.index} is not in this recording")
+        if not 0 <= index < len(self.tests):
+            raise RecordingError(f"{self.path}: no test {index} (it has {len(self.tests)})")
+        return self._keys[index]
+
+    def _meta(self, key: tuple[int, int]) -> TestMeta:
+        if key in self._keys:
+            return self.tests[self._keys.index(key)]
+        return self.interrupted[self._interrupted_keys.index(key)]
+
+    def samples(self, index: int | TestMeta) -> SampleBlock:
+        """Every sample of a test, as the DAQ delivered it (with seq and status)."""
+        try:
+            return s.decode_samples(self._samples.get(self._key(index), []))
+        except RecordingError as exc:
+            raise RecordingError(f"{self.path}: {exc}") from exc
+
+    def load(self, index: int | TestMeta) -> TestData:
+        key = self._key(index)
+        block = self.samples(index)
+        temp = block.temperature_c
+        return TestData(
+            meta=self._meta(key),
+            t=block.t_s,
+            x=block.displacement_m,
+            force=block.force_n,
+            temperature=None if temp.size == 0 or np.isnan(temp).all() else temp,
+        )
+
+    def load_all(self) -> list[TestData]:
+        return [self.load(i) for i in range(len(self.tests))]
+
+    def sample_count(self, index: int | TestMeta) -> int:
+        payloads = self._samples.get(self._key(index), [])
+        return sum(s.samples_header(p)[1] for p in payloads)
+
+    def completed_keys(self) -> set[tuple[int, int, float]]:
+        """(clicks, gas_clicks, frequency_hz) of every complete test, for a resumed sweep."""
+        return {
+            (m.clicks, m.gas_clicks, m.frequency_hz) for m in self.tests if m.status == "complete"
+        }
+
+
+def open_recording(path: str | os.PathLike[str]) -> Recording:
+    """Read NAME.mcap and its part files NAME.part2.mcap, ... (see recordings/FORMAT.md)."""
+    base = Path(path)
+    paths = set_paths(base)
+    if not paths:
+        raise RecordingError(f"{base}: no such recording")
+    return Recording(base, [_read_part(p) for p in paths])
+
+
+def _read_part(path: Path) -> _PartData:
+    try:
+        size = path.stat().st_size
+        f = open(path, "rb")  # noqa: SIM115
+    except OSError as exc:
+        raise RecordingError(f"{path}: {exc.strerror}") from exc
+    part = _PartData(PartInfo(path=path, metadata={}, size_bytes=size))
+    topics: dict[int, str] = dict(s.CHANNEL_IDS)  # replaced by the file's own Channel records
+    saw_footer = False
+    with f:
+        try:
+            for record in StreamReader(f, emit_chunks=True, record_size_limit=size).records:
+                if isinstance(record, Chunk):
+                    try:
+                        inner = breakup_chunk(record, validate_crc=True)
+                    except Exception as exc:  # any damage inside a chunk costs only that chunk
+                        part.info.bad_chunks += 1
+                        part.info.problem = f"damaged chunk skipped ({type(exc).__name__})"
+                        continue
+                    for r in inner:
+                        _take(part, topics, r)
+                elif isinstance(record, Footer):
+                    saw_footer = True
+                else:
+                    _take(part, topics, record)
+        except InvalidMagic as exc:
+            raise RecordingError(f"{path}: not an MCAP file") from exc
+        except EndOfFile:
+            part.info.problem = "file ends before its footer"
+        except Exception as exc:  # a cut-off file fails in many ways; all mean "stop here"
+            part.info.problem = f"reading stopped at a damaged record ({type(exc).__name__})"
+    if not saw_footer:
+        part.info.truncated = True
+        if part.info.problem is None:
+            part.info.problem = "file ends before its footer"
+    return part
+
+
+def _take(part: _PartData, topics: dict[int, str], record: object) -> None:
+    if isinstance(record, Message):
+        topic = topics.get(record.channel_id)
+        try:
+            _message(part, topic, record.data)
+        except (RecordingError, ValueError, KeyError, TypeError):
+            part.info.bad_messages += 1
+    elif isinstance(record, Channel):
+        topics[record.id] = record.topic
+    elif isinstance(record, Metadata) and record.name == s.METADATA_NAME:
+        part.info.metadata = dict(record.metadata)
+    elif isinstance(record, Attachment) and record.name == s.RIG_ATTACHMENT:
+        part.rig_toml = record.data.decode("utf-8", errors="replace")
+
+
+def _message(part: _PartData, topic: str | None, data: bytes) -> None:
+    if topic == s.TOPIC_SAMPLES:
+        test, _ = s.samples_header(data)
+        part.samples.setdefault(test, []).append(data)
+        return
+    if topic not in (s.TOPIC_TEST, s.TOPIC_EVENTS, s.TOPIC_ACTUATOR):
+        return
+    obj = json.loads(data)
+    if topic == s.TOPIC_TEST:
+        serial = int(obj["test"])
+        meta = s.meta_from_json(obj)
+        if obj["phase"] == "begin":
+            part.begun[serial] = meta
+        else:
+            part.ended.append((serial, meta))
+    elif topic == s.TOPIC_EVENTS:
+        part.events.append((float(obj["t_s"]), str(obj["kind"]), str(obj["message"])))
+    else:
+        t = float(obj.pop("t_s"))
+        obj.pop("test", None)
+        part.actuator.append((t, obj))

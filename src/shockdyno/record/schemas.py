@@ -1,0 +1,203 @@
+"""Channel schemas and message codecs of a shockdyno MCAP recording (see recordings/FORMAT.md).
+
+Samples are ROS 2 CDR (schema encoding `ros2msg`) so Foxglove and the `mcap` CLI decode them
+without our code, while our reader slices the same bytes straight into NumPy arrays: every
+array in the message is a plain CDR sequence of a fixed-size primitive, so its position follows
+from the sample count alone. Low-rate channels (test metadata, actuator, events) are JSON with
+a JSON Schema: readable by eye and by every MCAP tool.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+from dataclasses import asdict, fields
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from shockdyno.errors import RecordingError
+from shockdyno.record.types import TestMeta
+from shockdyno.rig.types import SampleBlock
+
+FORMAT_VERSION = "1"
+METADATA_NAME = "shockdyno.recording"
+RIG_ATTACHMENT = "rig.toml"
+
+TOPIC_SAMPLES = "/dyno/samples"
+TOPIC_TEST = "/dyno/test"
+TOPIC_ACTUATOR = "/dyno/actuator"
+TOPIC_EVENTS = "/dyno/events"
+
+# Channel ids our writer always assigns; the reader falls back on them when the chunk that
+# defined the channels is damaged.
+CHANNEL_IDS = {1: TOPIC_SAMPLES, 2: TOPIC_TEST, 3: TOPIC_ACTUATOR, 4: TOPIC_EVENTS}
+
+NO_TEST = 0xFFFFFFFF  # `test` field of samples written outside any test
+
+SAMPLES_SCHEMA_NAME = "shockdyno/msg/SampleBlock"
+SAMPLES_SCHEMA = """\
+# A block of consecutive DAQ samples in SI units (x > 0 compression, force > 0 resists it).
+# Message log_time is the time of the first sample on the DAQ counter's time base.
+uint32 test              # writer's test serial within this file (see /dyno/test); 4294967295: none
+int64[] seq              # DAQ sequence numbers, unwrapped; gaps are dropped frames
+float64[] t_s            # sample time, s (seq / sample rate; from the time column when imported)
+float64[] displacement_m
+float64[] force_n
+float64[] temperature_c  # NaN when not measured
+uint16[] status          # DAQ status bits per sample
+"""
+
+_CDR_LE = b"\x00\x01\x00\x00"  # encapsulation header: plain CDR, little endian
+_HEAD = struct.Struct("<II")
+_LEN_PAD = struct.Struct("<I4x")  # sequence length, then padding to the 8-byte-aligned elements
+_LEN = struct.Struct("<I")
+
+
+def encode_samples(test: int, block: SampleBlock) -> bytes:
+    """CDR bytes of one SampleBlock message (layout: recordings/FORMAT.md)."""
+    n = len(block)
+    return b"".join(
+        (
+            _CDR_LE,
+            _HEAD.pack(test, n),
+            np.ascontiguousarray(block.seq, "<i8").tobytes(),
+            _LEN_PAD.pack(n),
+            np.ascontiguousarray(block.t_s, "<f8").tobytes(),
+            _LEN_PAD.pack(n),
+            np.ascontiguousarray(block.displacement_m, "<f8").tobytes(),
+            _LEN_PAD.pack(n),
+            np.ascontiguousarray(block.force_n, "<f8").tobytes(),
+            _LEN_PAD.pack(n),
+            np.ascontiguousarray(block.temperature_c, "<f8").tobytes(),
+            _LEN.pack(n),
+            np.ascontiguousarray(block.status, "<u2").tobytes(),
+        )
+    )
+
+
+def samples_size(n: int) -> int:
+    return 48 + 42 * n
+
+
+def samples_header(data: bytes) -> tuple[int, int]:
+    """(test serial, sample count) of an encoded SampleBlock, checking its size."""
+    if len(data) < 48 or data[:2] != _CDR_LE[:2]:
+        raise RecordingError("sample message is not little-endian CDR")
+    test, n = _HEAD.unpack_from(data, 4)
+    if len(data) != samples_size(n):
+        raise RecordingError(f"sample message of {len(data)} bytes cannot hold {n} samples")
+    return test, n
+
+
+# Byte offset of each array in a message holding n samples: (name, dtype, a + b * n).
+_ARRAYS: tuple[tuple[str, str, int, int], ...] = (
+    ("seq", "<i8", 12, 0),
+    ("t_s", "<f8", 20, 8),
+    ("displacement_m", "<f8", 28, 16),
+    ("force_n", "<f8", 36, 24),
+    ("temperature_c", "<f8", 44, 32),
+    ("status", "<u2", 48, 40),
+)
+
+
+def decode_samples(payloads: list[bytes]) -> SampleBlock:
+    """Concatenate encoded SampleBlocks into one SampleBlock (copies once, no per-sample loop)."""
+    counts = [samples_header(p)[1] for p in payloads]
+    total = sum(counts)
+    out: dict[str, NDArray[Any]] = {name: np.empty(total, dtype) for name, dtype, _, _ in _ARRAYS}
+    pos = 0
+    for data, n in zip(payloads, counts, strict=True):
+        for name, dtype, a, b in _ARRAYS:
+            out[name][pos : pos + n] = np.frombuffer(data, dtype, n, a + b * n)
+        pos += n
+    return SampleBlock(
+        seq=out["seq"].astype(np.int64, copy=False),
+        t_s=out["t_s"].astype(np.float64, copy=False),
+        displacement_m=out["displacement_m"].astype(np.float64, copy=False),
+        force_n=out["force_n"].astype(np.float64, copy=False),
+        temperature_c=out["temperature_c"].astype(np.float64, copy=False),
+        status=out["status"].astype(np.uint16, copy=False),
+    )
+
+
+def _json_schema(title: str, properties: dict[str, Any], **more: Any) -> bytes:
+    schema: dict[str, Any] = {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "title": title,
+    }
+    schema.update(type="object", properties=properties, **more)
+    return json.dumps(schema, indent=1).encode()
+
+
+_NUM = {"type": "number"}
+_INT = {"type": "integer"}
+_STR = {"type": "string"}
+_OPT_NUM = {"type": ["number", "null"]}
+_OPT_INT = {"type": ["integer", "null"]}
+
+TEST_SCHEMA_NAME = "shockdyno.TestMeta"
+TEST_SCHEMA = _json_schema(
+    TEST_SCHEMA_NAME,
+    {
+        "phase": {"enum": ["begin", "end"]},
+        "test": {**_INT, "description": "writer's test serial; matches SampleBlock.test"},
+        "t_s": {**_NUM, "description": "time of this record on the DAQ time base, s"},
+        "sample_count": _INT,
+        "index": _INT,
+        "clicks": _INT,
+        "gas_clicks": _INT,
+        "frequency_hz": _NUM,
+        "amplitude_m": _NUM,
+        "sample_rate_hz": _NUM,
+        "warmup_cycles": _INT,
+        "measured_cycles": _INT,
+        "motion": _STR,
+        "measured_start_s": _OPT_NUM,
+        "measured_end_s": _OPT_NUM,
+        "status": _STR,
+        "extra": {"type": "object", "additionalProperties": _STR},
+        "cycle_start_s": {"type": "array", "items": _NUM},
+        "dropped_frames": _OPT_INT,
+        "corrupt_frames": _OPT_INT,
+    },
+    required=["phase", "test", "index", "clicks", "gas_clicks", "frequency_hz", "amplitude_m"],
+)
+
+ACTUATOR_SCHEMA_NAME = "shockdyno.Actuator"
+ACTUATOR_SCHEMA = _json_schema(
+    ACTUATOR_SCHEMA_NAME,
+    {"t_s": _NUM, "test": _OPT_INT},
+    required=["t_s"],
+    additionalProperties={"type": ["number", "integer", "boolean", "string"]},
+    description="Actuator command or status: t_s, test, then the fields the runner sends.",
+)
+
+EVENT_SCHEMA_NAME = "shockdyno.Event"
+EVENT_SCHEMA = _json_schema(
+    EVENT_SCHEMA_NAME,
+    {"t_s": _NUM, "test": _OPT_INT, "kind": _STR, "message": _STR},
+    required=["t_s", "kind", "message"],
+    description="Safety event, fault or operator prompt.",
+)
+
+
+def meta_to_json(meta: TestMeta) -> dict[str, Any]:
+    d = asdict(meta)
+    d["cycle_start_s"] = [float(v) for v in meta.cycle_start_s]
+    return d
+
+
+_META_FIELDS = {f.name for f in fields(TestMeta)}
+
+
+def meta_from_json(d: dict[str, Any]) -> TestMeta:
+    """TestMeta from a /dyno/test record; unknown keys (newer writers) are ignored."""
+    kw = {k: v for k, v in d.items() if k in _META_FIELDS}
+    try:
+        kw["cycle_start_s"] = tuple(float(v) for v in kw.get("cycle_start_s", ()))
+        kw["extra"] = {str(k): str(v) for k, v in dict(kw.get("extra", {})).items()}
+        return TestMeta(**kw)
+    except (TypeError, ValueError) as exc:
+        raise RecordingError(f"bad test record: {exc}") from exc

@@ -1,0 +1,319 @@
+"""Crash-safe MCAP recording writer.
+
+Every `end_test` closes the current MCAP chunk, flushes it and fsyncs the file, so a completed
+test survives kill -9 or power loss; only the test in progress is at risk. Small sample blocks
+are coalesced into messages of up to `max_block_samples` samples: fewer, larger messages write
+and decode faster (figures in recordings/FORMAT.md).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+import os
+import signal
+import threading
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+from types import TracebackType
+from typing import IO, Any, ParamSpec, TypeVar
+
+import numpy as np
+from mcap.well_known import MessageEncoding, SchemaEncoding
+from mcap.writer import CompressionType, Writer
+
+from shockdyno import __version__
+from shockdyno.errors import RecordingError
+from shockdyno.record import schemas as s
+from shockdyno.record.layout import next_part_path, part_paths
+from shockdyno.record.types import TestMeta
+from shockdyno.rig.types import SampleBlock
+
+_COMPRESSION = {
+    "zstd": CompressionType.ZSTD,
+    "lz4": CompressionType.LZ4,
+    "none": CompressionType.NONE,
+}
+
+
+P = ParamSpec("P")
+R = TypeVar("R")
+
+
+def _whole_records(method: Callable[P, R]) -> Callable[P, R]:
+    """Hold Ctrl-C until the call returns: a KeyboardInterrupt that lands half-way through an
+    MCAP record would tear it and cost its whole chunk. The interrupt is re-raised after."""
+
+    @functools.wraps(method)
+    def guarded(*args: P.args, **kwargs: P.kwargs) -> R:
+        if (
+            threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+        ):
+            return method(*args, **kwargs)
+        caught: list[int] = []
+        previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+        try:
+            result = method(*args, **kwargs)
+        finally:
+            signal.signal(signal.SIGINT, previous)
+        if caught:
+            raise KeyboardInterrupt
+        return result
+
+    return guarded
+
+
+def _ns(t_s: float) -> int:
+    """MCAP log_time (ns, unsigned) of a time on the recording's time base."""
+    if not math.isfinite(t_s):
+        raise RecordingError(f"time {t_s!r} is not finite")
+    return max(0, round(t_s * 1e9))
+
+
+class RecordingWriter:
+    """Write one recording (or, with resume=True, the next part file of a recording set).
+
+    `path` is NAME.mcap. An existing file is never overwritten unless overwrite=True (which also
+    removes the set's part files). With resume=True and NAME.mcap present, writing goes to the
+    next free NAME.partN.mcap; `open_recording(NAME.mcap)` reads the whole set.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        metadata: dict[str, str],
+        rig_toml: str | None = None,
+        overwrite: bool = False,
+        resume: bool = False,
+        max_block_samples: int = 1000,
+        compression: str = "zstd",
+        chunk_size: int = 1 << 20,
+    ) -> None:
+        base = Path(path)
+        if compression not in _COMPRESSION:
+            raise RecordingError(f"unknown compression {compression!r}")
+        if overwrite and resume:
+            raise RecordingError("overwrite and resume exclude each other")
+        part = 1
+        target = base
+        if resume:
+            target, part = next_part_path(base)
+        elif base.exists() and not overwrite:
+            raise RecordingError(f"{base} exists (overwrite it explicitly, or resume into it)")
+        try:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            if overwrite:
+                for stale in part_paths(base):
+                    stale.unlink()
+            self._file: IO[bytes] = open(target, "wb" if overwrite else "xb")  # noqa: SIM115
+        except FileExistsError as exc:
+            raise RecordingError(f"{target} exists") from exc
+        except OSError as exc:
+            raise RecordingError(f"cannot create {target}: {exc.strerror}") from exc
+        self.path = target
+        self.part = part
+        self._max_block = max(1, int(max_block_samples))
+        self._mcap = Writer(
+            self._file, chunk_size=chunk_size, compression=_COMPRESSION[compression]
+        )
+        self._mcap.start(profile="", library=f"shockdyno {__version__}")
+        meta = {str(k): str(v) for k, v in metadata.items()}
+        meta.setdefault("software", f"shockdyno {__version__}")
+        meta["format_version"] = s.FORMAT_VERSION
+        meta["part"] = str(part)
+        self._mcap.add_metadata(s.METADATA_NAME, meta)
+        if rig_toml is not None:
+            self._mcap.add_attachment(0, 0, s.RIG_ATTACHMENT, "application/toml", rig_toml.encode())
+        # Registered in this order, so channel ids are always those of schemas.CHANNEL_IDS
+        self._ch_samples = self._channel(
+            s.TOPIC_SAMPLES,
+            s.SAMPLES_SCHEMA_NAME,
+            SchemaEncoding.ROS2,
+            s.SAMPLES_SCHEMA.encode(),
+            MessageEncoding.CDR,
+        )
+        self._ch_test = self._json_channel(s.TOPIC_TEST, s.TEST_SCHEMA_NAME, s.TEST_SCHEMA)
+        self._ch_act = self._json_channel(
+            s.TOPIC_ACTUATOR, s.ACTUATOR_SCHEMA_NAME, s.ACTUATOR_SCHEMA
+        )
+        self._ch_event = self._json_channel(s.TOPIC_EVENTS, s.EVENT_SCHEMA_NAME, s.EVENT_SCHEMA)
+        self._seq = 0
+        self._test_serial = -1
+        self._open: TestMeta | None = None
+        self._pending: list[SampleBlock] = []
+        self._pending_n = 0
+        self._last_t = 0.0
+        self._last_seq: int | None = None
+        self._gaps = 0
+        self._count = 0
+        self._closed = False
+        self._sync()
+
+    # -- channels and low-level writes --------------------------------------------------------
+
+    def _channel(self, topic: str, name: str, enc: str, data: bytes, msg_enc: str) -> int:
+        schema_id = self._mcap.register_schema(name=name, encoding=enc, data=data)
+        return self._mcap.register_channel(
+            topic=topic, message_encoding=msg_enc, schema_id=schema_id
+        )
+
+    def _json_channel(self, topic: str, name: str, schema: bytes) -> int:
+        return self._channel(topic, name, SchemaEncoding.JSONSchema, schema, MessageEncoding.JSON)
+
+    def _emit(self, channel: int, t_s: float, data: bytes) -> None:
+        log_time = _ns(t_s)
+        self._mcap.add_message(channel, log_time, data, log_time, self._seq)
+        self._seq += 1
+
+    def _emit_json(self, channel: int, t_s: float, obj: dict[str, Any]) -> None:
+        try:
+            data = json.dumps(obj, allow_nan=False).encode()
+        except ValueError as exc:  # NaN or infinity in a metadata field
+            raise RecordingError(f"cannot record {obj}: {exc}") from exc
+        self._emit(channel, t_s, data)
+
+    def _sync(self) -> None:
+        """Close the open chunk and push everything to the disk."""
+        try:
+            self._mcap.flush()  # type: ignore[no-untyped-call]
+            os.fsync(self._file.fileno())
+        except OSError as exc:
+            raise RecordingError(f"cannot write {self.path}: {exc.strerror}") from exc
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise RecordingError(f"{self.path} is closed")
+
+    @property
+    def _test_field(self) -> int | None:
+        return self._test_serial if self._open is not None else None
+
+    # -- the recording API ------------------------------------------------------------------
+
+    @_whole_records
+    def begin_test(self, meta: TestMeta) -> None:
+        self._check_open()
+        if self._open is not None:
+            raise RecordingError(f"test {self._open.index} is still open (call end_test first)")
+        self._flush_samples()
+        self._test_serial += 1
+        self._open = meta
+        self._last_seq = None
+        self._gaps = 0
+        self._count = 0
+        record = {"phase": "begin", "test": self._test_serial, "t_s": self._last_t}
+        self._emit_json(self._ch_test, self._last_t, {**record, **s.meta_to_json(meta)})
+
+    @_whole_records
+    def write_samples(self, block: SampleBlock) -> None:
+        self._check_open()
+        n = len(block)
+        if n == 0:
+            return
+        arrays = (block.t_s, block.displacement_m, block.force_n, block.temperature_c)
+        if any(a.shape != (n,) for a in (*arrays, block.status)):
+            raise RecordingError("SampleBlock arrays differ in length")
+        if self._open is not None:
+            seq = block.seq
+            prev = self._last_seq
+            steps = np.diff(seq) if prev is None else np.diff(seq, prepend=prev)
+            self._gaps += int(np.clip(steps - 1, 0, None).sum())
+            self._last_seq = int(seq[-1])
+            self._count += n
+        self._pending.append(block)
+        self._pending_n += n
+        self._last_t = float(block.t_s[-1])
+        if self._pending_n >= self._max_block:
+            self._flush_samples()
+
+    def _flush_samples(self) -> None:
+        if not self._pending:
+            return
+        merged = self._pending[0] if len(self._pending) == 1 else SampleBlock.concat(self._pending)
+        self._pending = []
+        self._pending_n = 0
+        test = self._test_serial if self._open is not None else s.NO_TEST
+        step = self._max_block
+        for lo in range(0, len(merged), step):
+            part = _slice(merged, lo, lo + step) if len(merged) > step else merged
+            self._emit(self._ch_samples, float(part.t_s[0]), s.encode_samples(test, part))
+
+    @_whole_records
+    def write_actuator(self, t_s: float, fields: dict[str, float | int | bool | str]) -> None:
+        self._check_open()
+        obj: dict[str, Any] = {"t_s": float(t_s), "test": self._test_field}
+        for k, v in fields.items():
+            if k in obj:
+                raise RecordingError(f"actuator field {k!r} is reserved")
+            if isinstance(v, float) and not math.isfinite(v):
+                v = str(v)  # JSON has no NaN; keep the value readable
+            obj[k] = v
+        self._emit_json(self._ch_act, t_s, obj)
+
+    @_whole_records
+    def write_event(self, t_s: float, kind: str, message: str) -> None:
+        self._check_open()
+        obj = {"t_s": float(t_s), "test": self._test_field, "kind": kind, "message": message}
+        self._emit_json(self._ch_event, t_s, obj)
+
+    @_whole_records
+    def end_test(self, meta: TestMeta) -> None:
+        """Record the final meta; when this returns the test is on disk."""
+        self._check_open()
+        if self._open is None:
+            raise RecordingError("end_test without begin_test")
+        self._flush_samples()
+        if meta.dropped_frames is None:
+            meta = replace(meta, dropped_frames=self._gaps)
+        record = {
+            "phase": "end",
+            "test": self._test_serial,
+            "t_s": self._last_t,
+            "sample_count": self._count,
+        }
+        self._emit_json(self._ch_test, self._last_t, {**record, **s.meta_to_json(meta)})
+        self._open = None
+        self._sync()
+
+    @_whole_records
+    def close(self) -> None:
+        """Finish the file. A test still open is ended as aborted, keeping its samples."""
+        if self._closed:
+            return
+        try:
+            if self._open is not None:
+                begun = self._open
+                extra = {**begun.extra, "abort_reason": "recording closed during the test"}
+                self.end_test(replace(begun, status="aborted", extra=extra))
+            self._flush_samples()
+            self._mcap.finish()  # type: ignore[no-untyped-call]
+            self._sync()
+        finally:
+            self._closed = True
+            self._file.close()
+
+    def __enter__(self) -> RecordingWriter:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+
+def _slice(b: SampleBlock, lo: int, hi: int) -> SampleBlock:
+    return SampleBlock(
+        b.seq[lo:hi],
+        b.t_s[lo:hi],
+        b.displacement_m[lo:hi],
+        b.force_n[lo:hi],
+        b.temperature_c[lo:hi],
+        b.status[lo:hi],
+    )

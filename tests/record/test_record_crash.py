@@ -1,0 +1,149 @@
+"""A recording cut off mid-test (SIGKILL, power loss, damage) still yields every completed test."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import struct
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rec_helpers import SAMPLES_PER_TEST, TESTS, block, meta, seq_range, write_small
+
+from shockdyno.cli import main
+from shockdyno.record import RecordingWriter, open_recording
+
+HERE = Path(__file__).parent
+
+CHILD = textwrap.dedent(
+    """
+    import sys, time
+    sys.path.insert(0, sys.argv[2])
+    from rec_helpers import block, meta
+    from shockdyno.record import RecordingWriter
+    w = RecordingWriter(sys.argv[1], metadata={"damper_id": "K"}, rig_toml="x = 1\\n")
+    for k in range(3):
+        w.begin_test(meta(k, k))
+        w.write_samples(block(k * 10000, 5000))
+        w.end_test(meta(k, k))
+    w.begin_test(meta(3, 3))
+    s = 30000
+    for _ in range(400):  # ~2.4 MB of samples: some chunks of the open test reach the disk
+        w.write_samples(block(s, 150))
+        s += 150
+    print("mid-test", flush=True)
+    time.sleep(60)
+    """
+)
+
+
+def test_sigkill_mid_test_keeps_the_completed_tests(tmp_path: Path) -> None:
+    path = tmp_path / "killed.mcap"
+    with subprocess.Popen(
+        [sys.executable, "-c", CHILD, str(path), str(HERE)], stdout=subprocess.PIPE, text=True
+    ) as child:
+        try:
+            assert child.stdout is not None
+            assert child.stdout.readline().strip() == "mid-test"
+            os.kill(child.pid, signal.SIGKILL)
+            child.wait(timeout=30)
+        finally:
+            if child.poll() is None:
+                child.kill()
+                child.wait()
+    assert child.returncode == -signal.SIGKILL
+    rec = open_recording(path)
+    assert rec.truncated
+    assert [m.clicks for m in rec.tests] == [0, 1, 2]
+    assert rec.completed_keys() == {(k, 2, 1.0) for k in range(3)}
+    assert rec.metadata["damper_id"] == "K" and rec.rig_toml == "x = 1\n"
+    for k, data in enumerate(rec.load_all()):
+        assert np.array_equal(data.force, block(k * 10000, 5000).force_n)
+    # the open test's flushed chunks are there, marked as interrupted, never as complete
+    assert [m.status for m in rec.interrupted] == ["interrupted"]
+    partial = rec.samples(rec.interrupted[0])
+    assert 0 < len(partial) < 400 * 150
+    assert np.array_equal(partial.seq, np.arange(30000, 30000 + len(partial)))
+    # resuming writes the rest into a part file; the set then has every test complete
+    with RecordingWriter(path, metadata={"damper_id": "K"}, resume=True) as w:
+        w.begin_test(meta(3, 3))
+        w.write_samples(block(0, 700))
+        w.end_test(meta(3, 3))
+    rec = open_recording(path)
+    assert [m.clicks for m in rec.tests] == [0, 1, 2, 3]
+    assert rec.completed_keys() == {(k, 2, 1.0) for k in range(4)}
+    assert rec.truncated and [p.truncated for p in rec.parts] == [True, False]
+
+
+def test_info_reports_a_truncated_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "cut.mcap"
+    write_small(path)
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) * 2 // 3])
+    assert main(["info", str(path), "--json", str(tmp_path / "info.json")]) == 0
+    out = capsys.readouterr().out
+    assert "TRUNCATED" in out
+    doc = json.loads((tmp_path / "info.json").read_text())
+    assert doc["truncated"] is True
+    assert doc["totals"]["complete"] == len(rec_tests := open_recording(path).tests) >= 1
+    assert [t["samples"] for t in doc["tests"]] == [SAMPLES_PER_TEST] * len(rec_tests)
+
+
+def test_every_cut_point_reads_without_error_and_loses_at_most_the_open_test(
+    tmp_path: Path,
+) -> None:
+    full = tmp_path / "full.mcap"
+    write_small(full)
+    data = full.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    seen = []
+    for end in np.linspace(0, len(data), 41).astype(int):
+        cut.write_bytes(data[:end])
+        rec = open_recording(cut)
+        assert rec.truncated == (end < len(data))
+        n = len(rec.tests)
+        seen.append(n)
+        for k, test in enumerate(rec.load_all()):
+            lo, _ = seq_range(k)
+            assert np.array_equal(test.x, block(lo, SAMPLES_PER_TEST).displacement_m)
+    assert seen == sorted(seen)  # a longer file never yields fewer tests
+    assert seen[-1] == len(TESTS) and seen[0] == 0
+
+
+@pytest.mark.parametrize("damaged", [0, 1])  # chunk 0 also holds the channel definitions
+def test_a_damaged_chunk_costs_only_that_chunk(tmp_path: Path, damaged: int) -> None:
+    path = tmp_path / "d.mcap"
+    write_small(path)
+    good = open_recording(path)
+    data = bytearray(path.read_bytes())
+    # end_test closes the chunk, so each (small) test is one chunk: damage the second test's
+    chunks = _chunk_offsets(bytes(data))
+    assert len(chunks) == len(TESTS)
+    off, length = chunks[damaged]
+    data[off + length // 2] ^= 0xFF
+    path.write_bytes(bytes(data))
+    rec = open_recording(path)
+    assert rec.parts[0].bad_chunks == 1
+    assert not rec.parts[0].truncated  # the footer is intact
+    assert [m.index for m in rec.tests] == [m.index for m in good.tests if m.index != damaged]
+    for k, test in enumerate(rec.load_all()):
+        lo, _ = seq_range(test.meta.index)
+        assert np.array_equal(test.force, block(lo, SAMPLES_PER_TEST).force_n), k
+
+
+def _chunk_offsets(data: bytes) -> list[tuple[int, int]]:
+    """(offset, length) of every top-level Chunk record, walking the MCAP record framing."""
+    pos, out = 8, []
+    while pos + 9 <= len(data):
+        op, length = data[pos], struct.unpack_from("<Q", data, pos + 1)[0]
+        if op == 0x06:
+            out.append((pos, 9 + length))
+        if op == 0x02:  # footer
+            break
+        pos += 9 + length
+    return out

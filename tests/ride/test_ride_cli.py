@@ -1,0 +1,92 @@
+"""`shockdyno ride` end to end: JSON fields, report files, one-line errors."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from shockdyno.cli import main
+from shockdyno.fit.result import FitResult
+
+FAST = ["--duration-s", "3", "--warmup-s", "1", "--dt-ms", "1"]
+
+
+@pytest.fixture()
+def fit_file(tmp_path: Path, true_fit: FitResult) -> Path:
+    path = tmp_path / "fit.json"
+    true_fit.save(path)
+    return path
+
+
+def test_ride_writes_the_documented_json_and_report(fit_file: Path, tmp_path: Path) -> None:
+    out, report = tmp_path / "ride.json", tmp_path / "report"
+    code = main(
+        ["ride", "--fit", str(fit_file), "--clicks", "5,15", "--roads", "a,C",
+         "--speeds-kmh", "20,120", "--json", str(out), "--report", str(report), *FAST]
+    )  # fmt: skip
+    assert code == 0
+    doc = json.loads(out.read_text())
+    lo, hi = doc["road_band_rad_per_m"]
+    assert 0 < lo < hi
+    assert doc["dt_s"] == 1e-3 and doc["duration_s"] == 3.0
+    assert doc["step_check"]["max_relative_change"] < 1e-3
+    keys = {(e["clicks"], e["road"], e["speed_kmh"]) for e in doc["rms"]}
+    assert keys == {(c, r, v) for c in (5, 15) for r in "AC" for v in (20.0, 120.0)}
+    for e in doc["rms"]:
+        assert 0 < e["rms_wk_ms2"] < e["rms_ms2"] * 1.1
+    # The paper's Table 7 value rides along where the paper has one.
+    a20 = next(e for e in doc["rms"] if (e["clicks"], e["road"], e["speed_kmh"]) == (5, "A", 20))
+    assert a20["paper_rms_ms2"] == 0.028
+    lengths = {r["speed_kmh"]: r["length_m"] for r in doc["roads"]}
+    assert lengths[120.0] == pytest.approx(120 / 3.6 * 3.0)
+    names = {p.name for p in report.iterdir()}
+    assert {"fig19_psd.png", "fig20_rms_vs_speed.png", "table7.md", "psd.csv"} <= names
+    assert (report / "fig17_traces_low_speed.png").stat().st_size > 10_000
+    assert "5 clicks" in (report / "table7.md").read_text()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--fit", "missing.json"], "fit file not found"),
+        (["--roads", "A,Q"], "road class 'Q'"),
+        (["--clicks", "5,x"], "--clicks"),
+        (["--clicks", "30"], "no result for 30 clicks"),
+        (["--speeds-kmh", "0"], "speed"),
+        (["--band-rad-per-m", "1"], "two numbers"),
+        (["--dt-ms", "nan"], "finite"),
+        ([], "--fit FIT.json is required"),
+    ],
+)
+def test_user_mistakes_give_one_line_and_exit_2(
+    args: list[str],
+    message: str,
+    fit_file: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    base = ["ride", "--json", str(tmp_path / "r.json"), *FAST]
+    if "--fit" not in args and args:
+        base += ["--fit", str(fit_file)]
+    code = main([*base, *args])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert message in err and "\n" not in err and "Traceback" not in err
+
+
+def test_installed_command_runs_the_linear_check(tmp_path: Path) -> None:
+    out = tmp_path / "lin.json"
+    exe = Path(sys.executable).with_name("shockdyno")
+    proc = subprocess.run(
+        [str(exe), "ride", "--linear-damper-ns-m", "2000", "--roads", "B",
+         "--speeds-kmh", "60", "--json", str(out), "--no-step-check", *FAST],
+        capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    doc = json.loads(out.read_text())
+    assert doc["damper"] == {"kind": "linear", "c_ns_m": 2000.0}
+    assert doc["rms"][0]["clicks"] is None and doc["step_check"] is None

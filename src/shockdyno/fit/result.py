@@ -1,4 +1,4 @@
-"""The fit result and its JSON form (documented in docs/fit-json.md).
+"""The fit result and its JSON form (documented field by field in docs/fit.md).
 
 `globals` holds the calibrated damper parameters as overrides of the base spec: keys are
 DamperSpec field names (`friction_n`, `gas_pressure_pa`, ...) or dotted valve fields
@@ -31,6 +31,12 @@ class ClickFit:
     a_b_talbott_sd_m2: float = float("nan")
     identifiable_bc: bool = True
     identifiable_bt: bool = True
+    # Added by the fit (optional in the JSON): eq. 8 at the optimum over the click's
+    # objective samples (N), and the flow-weighted share of the flow through the bleed.
+    objective_n: float = float("nan")
+    objective_talbott_n: float = float("nan")
+    bleed_share_bc: float = float("nan")
+    bleed_share_bt: float = float("nan")
 
 
 def apply_overrides(spec: DamperSpec, overrides: dict[str, float]) -> DamperSpec:
@@ -91,6 +97,10 @@ class FitResult:
                     "A_b_talbott_sd_m2": _nan_to_none(c.a_b_talbott_sd_m2),
                     "identifiable_bc": c.identifiable_bc,
                     "identifiable_bt": c.identifiable_bt,
+                    "objective_n": _nan_to_none(c.objective_n),
+                    "objective_talbott_n": _nan_to_none(c.objective_talbott_n),
+                    "bleed_share_bc": _nan_to_none(c.bleed_share_bc),
+                    "bleed_share_bt": _nan_to_none(c.bleed_share_bt),
                 }
                 for c in self.clicks
             ],
@@ -119,6 +129,10 @@ class FitResult:
                     a_b_talbott_sd_m2=_none_to_nan(c.get("A_b_talbott_sd_m2")),
                     identifiable_bc=bool(c.get("identifiable_bc", True)),
                     identifiable_bt=bool(c.get("identifiable_bt", True)),
+                    objective_n=_none_to_nan(c.get("objective_n")),
+                    objective_talbott_n=_none_to_nan(c.get("objective_talbott_n")),
+                    bleed_share_bc=_none_to_nan(c.get("bleed_share_bc")),
+                    bleed_share_bt=_none_to_nan(c.get("bleed_share_bt")),
                 )
                 for c in doc["clicks"]
             ]

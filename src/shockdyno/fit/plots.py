@@ -1,0 +1,132 @@
+"""Figures of a fit: areas against clicks with their trend (the paper's Fig. 12) and
+force-displacement / force-velocity overlays of measured, proposed and Talbott (Figs. 13-15).
+
+Figures are drawn on `matplotlib.figure.Figure` objects (Agg canvas), not pyplot, so no
+global backend or figure state is touched.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from shockdyno.fit.result import FitResult
+from shockdyno.fit.validate import ModelForces, forces_for_tests
+from shockdyno.record.types import TestData
+
+
+def _areas_figure(result: FitResult, path: Path) -> None:
+    fig = Figure(figsize=(11, 4.2))
+    axes = fig.subplots(1, 2)
+    panels = (
+        ("A_bc", "a_bc_m2", "a_bc_sd_m2", "identifiable_bc", "compression $A_{bc}$"),
+        ("A_bt", "a_bt_m2", "a_bt_sd_m2", "identifiable_bt", "rebound $A_{bt}$"),
+    )
+    for ax, (name, attr, sd_attr, ok_attr, label) in zip(axes, panels, strict=True):
+        clicks = np.array([c.clicks for c in result.clicks], dtype=float)
+        vals = np.array([getattr(c, attr) for c in result.clicks]) * 1e6
+        sds = np.nan_to_num(np.array([getattr(c, sd_attr) for c in result.clicks]) * 1e6)
+        ok = np.array([getattr(c, ok_attr) for c in result.clicks], dtype=bool)
+        if ok.any():
+            ax.errorbar(
+                clicks[ok],
+                vals[ok],
+                yerr=2 * sds[ok],
+                fmt="o",
+                color="C0",
+                capsize=3,
+                label=f"{label} (±2σ)",
+            )
+        if (~ok).any():
+            ax.errorbar(
+                clicks[~ok],
+                vals[~ok],
+                yerr=2 * sds[~ok],
+                fmt="o",
+                mfc="none",
+                color="C3",
+                capsize=3,
+                label="not identifiable",
+            )
+        talb = np.array([c.a_b_talbott_m2 for c in result.clicks]) * 1e6
+        ax.plot(clicks, talb, "x", color="C2", label="Talbott $A_b$")
+        trend = result.trend.get(name)
+        if trend is not None:
+            used = trend["clicks_used"]
+            n = np.linspace(min(used), max(used), 200)
+            ax.plot(
+                n,
+                np.polyval(trend["coefficients"], n) * 1e6,
+                "-",
+                color="C1",
+                label=f"trend, degree {trend['degree']} (R² {trend['r2']:.4f})",
+            )
+        ax.set_xlabel("rod clicks")
+        ax.set_ylabel("bleed area (mm²)")
+        ax.set_title(label)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle("Fitted bleed areas against clicks (paper's Fig. 12)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def _overlay_figure(mf: ModelForces, path: Path) -> str:
+    m = mf.test.meta
+    title = f"{m.clicks} clicks, {m.frequency_hz:g} Hz: measured vs proposed vs Talbott"
+    fig = Figure(figsize=(11, 4.2))
+    ax1, ax2 = fig.subplots(1, 2)
+    for ax, xs, xlabel in (
+        (ax1, mf.test.x * 1e3, "displacement (mm)"),
+        (ax2, mf.v, "velocity (m/s)"),
+    ):
+        # Measured wide and pale underneath, so a model lying on it stays visible.
+        ax.plot(xs, mf.test.force, color="C3", lw=3.0, alpha=0.45, label="measured")
+        ax.plot(xs, mf.proposed, color="C0", lw=1.0, ls="--", label="proposed")
+        ax.plot(xs, mf.talbott, color="C2", lw=1.0, label="Talbott")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("force (N)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    return title
+
+
+def representative(forces: Sequence[ModelForces]) -> list[ModelForces]:
+    """Like the paper: lowest frequency near 5 clicks, middle near 10, highest near 15."""
+    freqs = sorted({round(f.test.meta.frequency_hz, 3) for f in forces})
+    if not freqs:
+        return []
+    picks: list[ModelForces] = []
+    targets = [5, 10, 15]
+    chosen_freqs = [freqs[0], freqs[len(freqs) // 2], freqs[-1]]
+    for target, freq in zip(targets, chosen_freqs, strict=True):
+        pool = [f for f in forces if round(f.test.meta.frequency_hz, 3) == freq]
+        best = min(pool, key=lambda f: abs(f.test.meta.clicks - target))
+        if all(best is not p for p in picks):
+            picks.append(best)
+    return picks
+
+
+def fit_figures(
+    result: FitResult, tests: Sequence[TestData], out_dir: str | Path
+) -> list[tuple[str, Path]]:
+    """Write the figures as PNG into out_dir; returns (title, path) of each."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    figures: list[tuple[str, Path]] = []
+    path = out / "fit-areas-vs-clicks.png"
+    _areas_figure(result, path)
+    figures.append(("Bleed areas against clicks with trend (Fig. 12 analogue)", path))
+    keys = {(c.clicks, c.gas_clicks) for c in result.clicks}
+    usable = [t for t in tests if (t.meta.clicks, t.meta.gas_clicks) in keys]
+    for mf in representative(forces_for_tests(result, usable)):
+        m = mf.test.meta
+        path = out / f"fit-overlay-{m.clicks}clicks-{m.frequency_hz:g}hz.png"
+        figures.append((_overlay_figure(mf, path), path))
+    return figures

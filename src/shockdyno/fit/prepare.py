@@ -1,0 +1,95 @@
+"""Tests as the fit uses them: measured cycles on a uniform time base, with v and a.
+
+Imported data may be sampled unevenly, hold NaNs (a dropped frame) or repeat a time
+stamp; those samples are dropped and the rest linearly resampled onto a uniform grid at
+the median step, because `differentiate` needs a uniform time base. Velocity and
+acceleration come from `differentiate` (Savitzky-Golay), at the full rate.
+
+The fit's objective (eq. 8) runs on a decimated subset of samples, every k-th, with k
+chosen so that about `rate_hz` samples per second remain (200 Hz by default: 400
+samples per cycle at 0.5 Hz, 133 at 1.5 Hz, far more than the force's shape needs).
+A common rate keeps eq. 8's weighting per unit time, like the full-rate sum.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from shockdyno.model.kinematics import differentiate
+from shockdyno.record.types import TestData
+
+FloatArray = NDArray[np.float64]
+
+OBJECTIVE_RATE_HZ = 200.0
+MIN_SAMPLES = 20
+
+
+@dataclass(frozen=True)
+class PreparedTest:
+    data: TestData  # measured cycles, uniform time base
+    v: FloatArray
+    a: FloatArray
+    obj: NDArray[np.intp]  # indices of the samples the objective uses
+
+    @property
+    def key(self) -> tuple[int, int]:
+        return (self.data.meta.clicks, self.data.meta.gas_clicks)
+
+
+def _uniform(test: TestData) -> TestData | None:
+    d = test.measured()
+    t = np.asarray(d.t, dtype=float)
+    x = np.asarray(d.x, dtype=float)
+    f = np.asarray(d.force, dtype=float)
+    temp = None if d.temperature is None else np.asarray(d.temperature, dtype=float)
+    ok = np.isfinite(t) & np.isfinite(x) & np.isfinite(f)
+    t, x, f = t[ok], x[ok], f[ok]
+    if temp is not None:
+        temp = temp[ok]
+    order = np.argsort(t, kind="stable")
+    t, x, f = t[order], x[order], f[order]
+    temp = None if temp is None else temp[order]
+    keep = np.concatenate([[True], np.diff(t) > 0])
+    t, x, f = t[keep], x[keep], f[keep]
+    temp = None if temp is None else temp[keep]
+    if t.size < MIN_SAMPLES:
+        return None
+    steps = np.diff(t)
+    dt = float(np.median(steps))
+    if np.max(np.abs(steps - dt)) > 0.005 * dt:
+        grid = t[0] + dt * np.arange(int(np.floor((t[-1] - t[0]) / dt + 1e-6)) + 1)
+        x, f = np.interp(grid, t, x), np.interp(grid, t, f)
+        if temp is not None:
+            good = np.isfinite(temp)
+            temp = np.interp(grid, t[good], temp[good]) if np.any(good) else None
+        t = grid
+    return replace(d, t=t, x=x, force=f, temperature=temp)
+
+
+def prepare_tests(
+    tests: Sequence[TestData], rate_hz: float = OBJECTIVE_RATE_HZ
+) -> tuple[list[PreparedTest], list[str]]:
+    """The usable tests, and a note for each test left out."""
+    out: list[PreparedTest] = []
+    notes: list[str] = []
+    for test in tests:
+        d = _uniform(test)
+        m = test.meta
+        if d is None:
+            notes.append(
+                f"test {m.index} ({m.clicks} clicks, {m.frequency_hz:g} Hz): too few samples"
+            )
+            continue
+        if float(np.ptp(d.x)) <= 0 or float(np.ptp(d.force)) <= 0:
+            notes.append(f"test {m.index} ({m.clicks} clicks): no motion or no force")
+            continue
+        v, a = differentiate(d.t, d.x)
+        dt = float(d.t[1] - d.t[0])
+        step = max(1, round(1.0 / (rate_hz * dt)))
+        obj = np.arange(0, d.t.size, step, dtype=np.intp)
+        out.append(PreparedTest(data=d, v=v, a=a, obj=obj))
+    return out, notes

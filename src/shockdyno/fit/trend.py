@@ -1,0 +1,58 @@
+"""Bleed area against clicks: a polynomial like the paper's eq. 9-10, degree chosen by AICc.
+
+Only identifiable per-click values enter the trend (an area the data cannot pin would
+drag it anywhere). The fit is unweighted: per-click scatter on a real damper is larger
+than each value's own uncertainty (the paper's Fig. 12), so 1/σ² weights would let the
+few sharpest clicks dictate the curve. Degrees 0 up to 4 (or fewer with few points) are
+compared by the corrected Akaike criterion
+    AICc = n ln(RSS/n) + 2k + 2k(k+1)/(n-k-1),  k = degree + 1,
+which stops adding terms once they no longer pay for themselves.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+MAX_DEGREE = 4
+
+
+def polynomial_trend(clicks: ArrayLike, areas: ArrayLike) -> dict[str, Any] | None:
+    """{degree, coefficients (highest power first, for numpy.polyval), ...} or None."""
+    n_arr = np.asarray(clicks, dtype=float)
+    y = np.asarray(areas, dtype=float)
+    n = n_arr.size
+    if n == 0:
+        return None
+    if n < 4:  # too few points to compare degrees: a line (or a constant)
+        degree = min(1, n - 1)
+        coef = np.polyfit(n_arr, y, degree) if n > 1 else np.array([y[0]])
+        return _describe(coef, n_arr, y, "fewer than 4 clicks: straight line")
+    scale = max(float(np.max(np.abs(y))), 1e-30)
+    best: tuple[float, np.ndarray] | None = None
+    for degree in range(0, min(MAX_DEGREE, n - 3) + 1):
+        coef = np.polyfit(n_arr, y, degree)
+        rss = float(np.sum((np.polyval(coef, n_arr) - y) ** 2)) + n * (1e-9 * scale) ** 2
+        k = degree + 1
+        aicc = n * math.log(rss / n) + 2 * k + 2 * k * (k + 1) / (n - k - 1)
+        if best is None or aicc < best[0] - 1e-9:
+            best = (aicc, coef)
+    assert best is not None
+    return _describe(best[1], n_arr, y, "AICc")
+
+
+def _describe(coef: np.ndarray, n: np.ndarray, y: np.ndarray, selection: str) -> dict[str, Any]:
+    fit = np.polyval(coef, n)
+    ss_tot = float(np.sum((y - y.mean()) ** 2))
+    ss_res = float(np.sum((fit - y) ** 2))
+    return {
+        "degree": int(coef.size - 1),
+        "coefficients": [float(c) for c in coef],
+        "clicks_used": [round(float(c)) for c in n],
+        "rms_m2": math.sqrt(ss_res / n.size),
+        "r2": 1.0 - ss_res / ss_tot if ss_tot > 0 else 1.0,
+        "selection": selection,
+    }

@@ -1,0 +1,176 @@
+"""Validation: E_t, E_x, E_ẋ of every test for the proposed model and Talbott's, and the
+per-frequency table (the paper's Table 4).
+
+Errors are computed on every measured sample (the full rate, not the fit's decimated
+objective samples), with the velocity and acceleration the model was fed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from shockdyno.errors import FitError
+from shockdyno.fit.metrics import error_metrics
+from shockdyno.fit.prepare import PreparedTest, prepare_tests
+from shockdyno.fit.problem import delayed_motion
+from shockdyno.fit.result import FitResult
+from shockdyno.model import damper_force, talbott_force
+from shockdyno.model.spec import DamperSpec
+from shockdyno.record.types import TestData
+
+FloatArray = NDArray[np.float64]
+METRICS = ("E_t", "E_x", "E_xd")
+
+
+@dataclass(frozen=True)
+class ModelForces:
+    """One test's measured channels and both models' forces on its measured cycles."""
+
+    test: TestData
+    v: FloatArray
+    a: FloatArray
+    proposed: FloatArray
+    talbott: FloatArray
+
+
+def click_areas(result: FitResult, clicks: int, gas_clicks: int) -> tuple[float, float, float]:
+    """(A_bc, A_bt, A_b Talbott) fitted for this click setting."""
+    for c in result.clicks:
+        if c.clicks == clicks and c.gas_clicks == gas_clicks:
+            return c.a_bc_m2, c.a_bt_m2, c.a_b_talbott_m2
+    raise FitError(f"the fit has no result for {clicks} clicks (gas {gas_clicks})")
+
+
+def force_delay_s(result: FitResult) -> float:
+    """The calibrated channel delay (0 for results written before it was calibrated)."""
+    value = result.info.get("calibration", {}).get("force_delay_s")
+    return float(value) if value is not None else 0.0
+
+
+def model_forces(
+    spec: DamperSpec, result: FitResult, prepared: Sequence[PreparedTest]
+) -> list[ModelForces]:
+    """Both models on every measured sample, fed the motion shifted by the channel delay."""
+    delay = force_delay_s(result)
+    out = []
+    for p in prepared:
+        m = p.data.meta
+        a_bc, a_bt, a_b = click_areas(result, m.clicks, m.gas_clicks)
+        d = p.data
+        x, v = delayed_motion(d.x, p.v, p.a, delay)
+        out.append(
+            ModelForces(
+                test=d,
+                v=p.v,
+                a=p.a,
+                proposed=damper_force(spec, x, v, p.a, a_bc, a_bt),
+                talbott=talbott_force(spec, x, v, p.a, a_b),
+            )
+        )
+    return out
+
+
+def forces_for_tests(result: FitResult, tests: Sequence[TestData]) -> list[ModelForces]:
+    """Both models' forces for recorded tests (prepared as the fit prepared them)."""
+    prepared, _ = prepare_tests(tests)
+    return model_forces(result.spec(), result, prepared)
+
+
+def validate_tests(
+    spec: DamperSpec, result: FitResult, prepared: Sequence[PreparedTest]
+) -> list[dict[str, Any]]:
+    """The `tests[]` entries of the fit JSON."""
+    rows = []
+    for mf in model_forces(spec, result, prepared):
+        d, m = mf.test, mf.test.meta
+        entry: dict[str, Any] = {
+            "index": m.index,
+            "clicks": m.clicks,
+            "gas_clicks": m.gas_clicks,
+            "frequency_hz": m.frequency_hz,
+            "motion": m.motion,
+            "n_samples": int(d.t.size),
+            "duration_s": float(d.t[-1] - d.t[0]),
+            "temperature_mean_C": (
+                float(np.nanmean(d.temperature))
+                if d.temperature is not None and np.any(np.isfinite(d.temperature))
+                else None
+            ),
+        }
+        for name, f_model in (("proposed", mf.proposed), ("talbott", mf.talbott)):
+            e = error_metrics(d.t, d.x, d.force, f_model, v=mf.v, a=mf.a)
+            e["mean_abs_error_n"] = float(np.mean(np.abs(f_model - d.force)))
+            entry[name] = e
+        rows.append(entry)
+    return rows
+
+
+@dataclass(frozen=True)
+class Table4Row:
+    """Averages over the tests at one frequency; enhancement = (Talbott - proposed) / Talbott."""
+
+    frequency_hz: float
+    n_tests: int
+    proposed: dict[str, float]
+    talbott: dict[str, float]
+    enhancement_pct: dict[str, float]
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "frequency_hz": self.frequency_hz,
+            "n_tests": self.n_tests,
+            "proposed": self.proposed,
+            "talbott": self.talbott,
+            "enhancement_pct": self.enhancement_pct,
+        }
+
+
+def table4(result: FitResult) -> list[Table4Row]:
+    """Per frequency (rounded to 1 mHz), mean errors of both models and the enhancement %."""
+    groups: dict[float, list[dict[str, Any]]] = {}
+    for t in result.tests:
+        groups.setdefault(round(float(t["frequency_hz"]), 3), []).append(t)
+    rows = []
+    for f in sorted(groups):
+        ts = groups[f]
+        prop = {k: float(np.mean([t["proposed"][k] for t in ts])) for k in METRICS}
+        tal = {k: float(np.mean([t["talbott"][k] for t in ts])) for k in METRICS}
+        enh = {
+            k: (100.0 * (tal[k] - prop[k]) / tal[k] if tal[k] > 0 else math.nan) for k in METRICS
+        }
+        rows.append(Table4Row(f, len(ts), prop, tal, enh))
+    return rows
+
+
+TABLE4_HEADER = ["Frequency (Hz)", "Model", "E_t", "E_x", "E_ẋ"]
+
+
+def table4_rows(result: FitResult) -> tuple[list[str], list[list[str]]]:
+    """(header, rows) of text laid out like the paper's Table 4: per frequency three rows,
+    Proposed, Talbott and Enhancement (%). For printing and for the report."""
+    rows: list[list[str]] = []
+    for r in table4(result):
+        freq = f"{r.frequency_hz:g} ({r.n_tests} tests)"
+        rows.append([freq, "Proposed", *(f"{r.proposed[k]:.4g}" for k in METRICS)])
+        rows.append(["", "Talbott", *(f"{r.talbott[k]:.4g}" for k in METRICS)])
+        rows.append(["", "Enhancement (%)", *(f"{r.enhancement_pct[k]:.4g}" for k in METRICS)])
+    return list(TABLE4_HEADER), rows
+
+
+def table4_table(result: FitResult) -> Any:
+    """A rich Table of `table4_rows`, one section per frequency."""
+    from rich.table import Table
+
+    table = Table(title="Errors by frequency (paper's Table 4): proposed vs Talbott")
+    header, rows = table4_rows(result)
+    for i, name in enumerate(header):
+        table.add_column(name, justify="left" if i == 1 else "right")
+    for i, row in enumerate(rows):
+        table.add_row(*row, end_section=i % 3 == 2)
+    return table

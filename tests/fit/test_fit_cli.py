@@ -1,0 +1,103 @@
+"""`shockdyno fit` on a real MCAP recording written by the project's writer."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fit_helpers import true_spec
+
+from shockdyno.cli import main
+from shockdyno.fit.synthetic import synthetic_sweep
+from shockdyno.record import RecordingWriter
+from shockdyno.rig.types import SampleBlock
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two clicks x three frequencies, on one continuous DAQ time base, temperature included."""
+    path = tmp_path_factory.mktemp("rec") / "sweep.mcap"
+    tests = synthetic_sweep(true_spec(), [3, 11], cycles=1, seed=21, temperature_c=40.0)
+    seq0 = 0
+    with RecordingWriter(path, metadata={"source": "fit test"}) as writer:
+        for test in tests:
+            n = test.t.size
+            seq = np.arange(seq0, seq0 + n, dtype=np.int64)
+            t = seq / test.meta.sample_rate_hz
+            meta = replace(test.meta, measured_start_s=float(t[0]), measured_end_s=float(t[-1]))
+            assert test.temperature is not None
+            block = SampleBlock(
+                seq, t, test.x, test.force, test.temperature, np.zeros(n, np.uint16)
+            )
+            writer.begin_test(meta)
+            writer.write_samples(block)
+            writer.end_test(meta)
+            seq0 += n + 500  # a pause between tests
+    return path
+
+
+def test_fit_command_writes_json_report_and_table(
+    recording: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "fit.json"
+    report = tmp_path / "report"
+    code = main(["fit", str(recording), "--json", str(out), "--report", str(report)])
+    printed = capsys.readouterr().out
+    assert code == 0
+    doc = json.loads(out.read_text())
+    assert [c["clicks"] for c in doc["clicks"]] == [3, 11]
+    assert len(doc["tests"]) == 6
+    for t in doc["tests"]:
+        assert t["proposed"]["E_t"] <= 0.05
+        assert t["proposed"]["E_t"] < t["talbott"]["E_t"]
+        assert t["temperature_mean_C"] == pytest.approx(40.0, abs=0.1)
+    truth = true_spec()
+    for c in doc["clicks"]:
+        assert c["A_bc_m2"] == pytest.approx(float(truth.bleed_areas(c["clicks"])[0]), rel=0.1)
+        assert c["A_bt_m2"] == pytest.approx(float(truth.bleed_areas(c["clicks"])[1]), rel=0.1)
+    assert set(doc["globals"]) >= {"gas_pressure_pa", "friction_n"}
+    assert "Enhancement (%)" in printed and "Talbott" in printed
+    pngs = sorted(report.glob("*.png"))
+    assert len(pngs) >= 3  # areas vs clicks, and overlays
+    for p in pngs:
+        assert p.read_bytes()[:8] == PNG_MAGIC and p.stat().st_size > 10_000
+
+
+def test_ga_option_is_seeded(recording: Path, tmp_path: Path) -> None:
+    docs = []
+    for name in ("a", "b"):
+        out = tmp_path / f"{name}.json"
+        assert (
+            main(["fit", str(recording), "--json", str(out), "--optimizer", "ga", "--seed", "3"])
+            == 0
+        )
+        docs.append(json.loads(out.read_text()))
+    assert docs[0]["clicks"] == docs[1]["clicks"]
+    assert docs[0]["info"]["optimizer"] == "ga"
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["fit", "/nonexistent/rec.mcap", "--json", "{tmp}/x.json"],
+        ["fit", "{rec}", "--json", "/nonexistent-dir/x.json"],
+        ["fit", "{rec}", "--json", "{tmp}/x.json", "--spec", "{tmp}/missing.toml"],
+        ["fit", "{garbage}", "--json", "{tmp}/x.json"],
+    ],
+)
+def test_user_mistakes_are_one_line_errors(
+    args: list[str], recording: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    garbage = tmp_path / "garbage.mcap"
+    garbage.write_bytes(b"not an mcap file at all" * 10)
+    argv = [a.format(tmp=tmp_path, rec=recording, garbage=garbage) for a in args]
+    code = main(argv)
+    err = capsys.readouterr().err
+    assert code != 0
+    assert err.startswith("shockdyno fit: error:") and err.count("\n") == 1
+    assert not (tmp_path / "x.json").exists()

@@ -208,7 +208,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         meta = _metadata(args, rig, "")
         record_sweep(rig, plan, args.output, metadata=meta, overwrite=args.force,
                      resume=args.resume, console=console)  # fmt: skip
-    console.print(f"recording: {args.output}")
+    console.print(f"recording: {args.output}", soft_wrap=True)
     return 0
 
 
@@ -275,7 +275,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         meta = _metadata(args, live_rig, str(spec_path))
         meta.update(damper_id="simulated ohlins-s46", operator="demo")
         record_sweep(live_rig, plan, rec_path, metadata=meta, overwrite=True, console=console)
-    console.print(f"sweep recorded in {time.perf_counter() - t0:.1f} s: {rec_path}")
+    console.print(f"sweep recorded in {time.perf_counter() - t0:.1f} s: {rec_path}", soft_wrap=True)
     tests = open_recording(rec_path).load_all()
     sections: list[tuple[str, list[tuple[str, Path]]]] = []
     tables: list[tuple[str, list[str], list[list[str]]]] = []
@@ -290,8 +290,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
         tables=tables,
     )
     console.rule("done")
-    console.print(f"recording: {rec_path}")
-    console.print(f"report:    {index}")
+    console.print(f"recording: {rec_path}", soft_wrap=True)  # paths stay whole for copy-paste
+    console.print(f"report:    {index}", soft_wrap=True)
     return 0
 
 
@@ -309,14 +309,14 @@ def _demo_fit(
     result = fit_sweep(tests, spec_path, optimizer="fast", seed=seed)
     fit_path = out / "demo-fit.json"
     result.save(fit_path)
-    console.print(f"fit done in {time.perf_counter() - t0:.1f} s: {fit_path}")
+    console.print(f"fit done in {time.perf_counter() - t0:.1f} s: {fit_path}", soft_wrap=True)
     header, rows = table4_rows(result)
     table = Table(title="Table 4 analogue: error measures, proposed vs Talbott")
     for h in header:
         table.add_column(h, justify="right")
     for row in rows:
         table.add_row(*row)
-    console.print(table)
+    Console(width=max(console.width, 100)).print(table)
     report_dir.mkdir(parents=True, exist_ok=True)
     figures = fit_figures(result, tests, report_dir)
     return [("Fit and validation", figures)], [(str(table.title), header, rows)]

@@ -1,1 +1,6 @@
 """Hardware contracts and drivers: Modbus actuator, serial DAQ, frame codec, rig config."""
+
+from shockdyno.rig.config import RigConfig, load_rig
+from shockdyno.rig.types import Adjuster, Daq, SampleBlock
+
+__all__ = ["Adjuster", "Daq", "RigConfig", "SampleBlock", "load_rig"]

@@ -1,0 +1,180 @@
+"""Modbus actuator driver (pymodbus 3.16, TCP or RTU), driven by the rig file's register map.
+
+Control paths use short timeouts and no retries: a request that fails raises `RigFault`
+at once and the caller (RigSession) decides what to do. Calls are serialised by a lock
+so the heartbeat thread and the session can share one connection.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from pymodbus.client import ModbusSerialClient, ModbusTcpClient
+from pymodbus.exceptions import ModbusException
+
+from shockdyno.errors import RigFault
+from shockdyno.rig.config import RigConfig
+from shockdyno.rig.registers import decode_span, encode
+
+# pymodbus logs every timeout with packet dumps on stderr; the driver reports each failure
+# itself as one RigFault line, so its log is kept quiet.
+logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+
+STATUS_NAMES = ("status_word", "fault_code", "position_actual", "force_actual", "cycle_count")
+
+
+@dataclass(frozen=True)
+class ActuatorStatus:
+    word: int
+    bits: dict[str, bool]
+    fault_code: int
+    fault_text: str
+    position_m: float
+    force_n: float | None
+    cycle_count: int | None
+
+    @property
+    def enabled(self) -> bool:
+        return self.bits.get("enabled", False)
+
+    @property
+    def running(self) -> bool:
+        return self.bits.get("running", False)
+
+    @property
+    def fault(self) -> bool:
+        return self.bits.get("fault", False)
+
+    @property
+    def target_reached(self) -> bool:
+        return self.bits.get("target_reached", False)
+
+    def fields(self) -> dict[str, float | int | bool]:
+        out: dict[str, float | int | bool] = {
+            "status_word": self.word,
+            "fault_code": self.fault_code,
+            "position_m": self.position_m,
+        }
+        out.update(self.bits)
+        if self.force_n is not None:
+            out["force_n"] = self.force_n
+        if self.cycle_count is not None:
+            out["cycle_count"] = self.cycle_count
+        return out
+
+
+class ModbusActuator:
+    """One drive on Modbus. `connect()` opens the transport; `close()` always releases it."""
+
+    def __init__(self, rig: RigConfig) -> None:
+        self.rig = rig
+        self.map = rig.registers
+        self._lock = threading.Lock()
+        t = rig.actuator
+        self._client: ModbusTcpClient | ModbusSerialClient
+        if t.kind == "tcp":
+            self._client = ModbusTcpClient(
+                t.host, port=t.port, timeout=t.timeout_s, retries=0, reconnect_delay=0.0
+            )
+        else:
+            self._client = ModbusSerialClient(
+                t.serial_port,
+                baudrate=t.baudrate,
+                parity=t.parity,
+                stopbits=t.stopbits,
+                timeout=t.timeout_s,
+                retries=0,
+                reconnect_delay=0.0,
+            )
+        self._device = t.device_id
+        self._heartbeat = 0
+        self._enabled_bit = False
+        self._status_names = [n for n in STATUS_NAMES if n in self.map]
+        lo = min(self.map[n].address for n in self._status_names)
+        hi = max(self.map[n].address + self.map[n].width for n in self._status_names)
+        self._status_span = (lo, hi - lo)
+
+    # -- transport ---------------------------------------------------------------------
+    def connect(self) -> None:
+        try:
+            ok = self._client.connect()
+        except (ModbusException, OSError) as exc:
+            raise RigFault(f"{self.rig.actuator.describe()}: cannot connect ({exc})") from None
+        if not ok:
+            raise RigFault(f"{self.rig.actuator.describe()}: cannot connect")
+
+    def close(self) -> None:
+        with self._lock:
+            self._client.close()  # type: ignore[no-untyped-call]
+
+    def _call(self, what: str, fn: Any, *args: Any, **kw: Any) -> Any:
+        with self._lock:
+            try:
+                rr = fn(*args, device_id=self._device, **kw)
+            except (ModbusException, OSError) as exc:
+                msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+                raise RigFault(f"{self.rig.actuator.describe()}: {what} failed ({msg})") from None
+        if rr.isError():
+            raise RigFault(f"{self.rig.actuator.describe()}: {what} refused ({rr})")
+        return rr
+
+    # -- registers ---------------------------------------------------------------------
+    def read_words(self, address: int, count: int) -> list[int]:
+        rr = self._call(
+            f"read {count} at {address}", self._client.read_holding_registers, address, count=count
+        )
+        return list(rr.registers)
+
+    def read(self, names: Iterable[str]) -> dict[str, float]:
+        names = list(names)
+        lo = min(self.map[n].address for n in names)
+        hi = max(self.map[n].address + self.map[n].width for n in names)
+        return decode_span(self.map, lo, self.read_words(lo, hi - lo), names)
+
+    def write(self, values: Mapping[str, float]) -> None:
+        for name, value in values.items():
+            reg = self.map[name]
+            words = encode(reg, value, self.map.word_order)
+            self._call(f"write {name}", self._client.write_registers, reg.address, words)
+
+    # -- drive functions ---------------------------------------------------------------
+    def control(self, *commands: str, enable: bool | None = None) -> None:
+        """Write the control word: the enable level plus one-shot command bits."""
+        if enable is not None:
+            self._enabled_bit = enable
+        bits = self.map.control_bits
+        word = (1 << bits["enable"]) if self._enabled_bit else 0
+        for c in commands:
+            word |= 1 << bits[c]
+        self.write({"control_word": word})
+
+    def status(self) -> ActuatorStatus:
+        values = decode_span(
+            self.map,
+            self._status_span[0],
+            self.read_words(*self._status_span),
+            self._status_names,
+        )
+        word = int(values["status_word"])
+        bits = {k: bool(word >> b & 1) for k, b in self.map.status_bits.items()}
+        code = int(values["fault_code"])
+        return ActuatorStatus(
+            word=word,
+            bits=bits,
+            fault_code=code,
+            fault_text=self.map.fault_text(code) if code else "",
+            position_m=float(values["position_actual"]),
+            force_n=float(values["force_actual"]) if "force_actual" in values else None,
+            cycle_count=int(values["cycle_count"]) if "cycle_count" in values else None,
+        )
+
+    def beat(self) -> None:
+        self._heartbeat = (self._heartbeat + 1) & 0xFFFF
+        self.write({"heartbeat": self._heartbeat})
+
+    def set_mode(self, mode: str) -> None:
+        self.write({"mode": self.map.modes[mode]})

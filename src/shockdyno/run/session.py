@@ -1,0 +1,541 @@
+"""RigSession: the one place safety lives. The sweep runner talks to a rig only through it.
+
+    with RigSession(load_rig("rigs/sim.toml")) as rig:
+        rig.set_clicks(10, 0)
+        outcome = rig.run_sine(0.03, 1.5, warmup_cycles=2, measured_cycles=5, on_block=rec)
+
+Entering connects the drive (Modbus) and the DAQ (pyserial URL), resets faults, enables,
+starts the heartbeat and ramps to the stroke centre. Leaving, whatever the reason
+(normal end, exception, Ctrl-C, fault), makes a controlled stop, ramps to the centre,
+disables, stops the heartbeat and closes both transports; the reason goes to `events`.
+
+Time: every wait is measured on the DAQ's clock (its sample counter), so a simulated rig
+running N times faster finishes N times sooner. Only the watchdogs for a frozen DAQ or a
+dead link use the host's clock, since a stalled clock cannot time itself.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from types import TracebackType
+
+import numpy as np
+
+from shockdyno.errors import ConfigError, RigFault
+from shockdyno.rig.actuator import ActuatorStatus, ModbusActuator
+from shockdyno.rig.config import RigConfig
+from shockdyno.rig.daq import READ_SIZE, SerialDaq
+from shockdyno.rig.frames import FRAME_LEN, STATUS_MOTION
+from shockdyno.rig.types import SampleBlock
+from shockdyno.run.safety import LimitMonitor, SafetyEvent, SafetyTrip
+
+CENTRE_TOLERANCE_M = 0.001
+# A command's round trip takes wall time, which a fast simulated rig turns into seconds of
+# DAQ time: no DAQ-time deadline is called before this much host time has passed too.
+MIN_WALL_S = 0.5
+SETTLE_S = 0.05  # DAQ time allowed after a profile's end for the drive to report it
+
+
+@dataclass
+class SineOutcome:
+    status: str  # "complete" | "aborted"
+    reason: str
+    measured_start_s: float | None  # DAQ time of the first measured cycle (None: never reached)
+    measured_end_s: float | None
+    dropped_frames: int
+    corrupt_frames: int
+    events: list[SafetyEvent] = field(default_factory=list)
+    start_s: float | None = None  # DAQ time the profile started (motion output rose)
+    end_s: float = math.nan  # DAQ time of the last sample of the run
+
+
+BlockSink = Callable[[SampleBlock], None]
+ActuatorSink = Callable[[float, dict[str, float | int | bool]], None]
+
+
+def _console_prompt(message: str) -> None:
+    input(f"{message} [Enter when done] ")
+
+
+class RigSession:
+    def __init__(
+        self,
+        rig: RigConfig,
+        *,
+        prompt: Callable[[str], None] | None = None,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.rig = rig
+        self.prompt = prompt or _console_prompt
+        self.clock = clock
+        self.events: list[SafetyEvent] = []
+        self.actuator: ModbusActuator | None = None
+        self.daq: SerialDaq | None = None
+        self._monitor = LimitMonitor(rig.limits)
+        self._hb_thread: threading.Thread | None = None
+        self._hb_stop = threading.Event()
+        self._link_error: str | None = None
+        self._armed = False
+        self._closed = False
+        self._disarm_reason = ""
+        self._t = 0.0  # DAQ time of the latest sample
+        self._x = math.nan
+        self._temp = math.nan
+        self._motion = False  # the motion output at the latest sample
+        self._seq: int | None = None  # sequence number of the latest sample
+        self._last_sample_wall = clock()
+        self._last_poll_wall = -math.inf
+        self._status: ActuatorStatus | None = None
+        self._on_block: BlockSink | None = None
+        self._on_actuator: ActuatorSink | None = None
+
+    # -- events ------------------------------------------------------------------------
+    def _event(self, kind: str, message: str) -> SafetyEvent:
+        ev = SafetyEvent(self._t, kind, message)
+        self.events.append(ev)
+        return ev
+
+    @property
+    def enabled(self) -> bool:
+        return self._armed
+
+    # -- enter / exit ------------------------------------------------------------------
+    def __enter__(self) -> RigSession:
+        try:
+            self.actuator = ModbusActuator(self.rig)
+            self.actuator.connect()
+            self.daq = SerialDaq(self.rig.daq, self.rig.stroke_centre_m)
+            self._event("connect", f"{self.rig.actuator.describe()}, DAQ {self.rig.daq.url}")
+            self._first_samples()
+            self.enable()
+        except BaseException as exc:
+            self._teardown(f"failed to start: {exc}" if str(exc) else type(exc).__name__)
+            raise
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if exc_type is None:
+            reason = "session ended"
+        elif issubclass(exc_type, KeyboardInterrupt):
+            reason = "operator interrupt (Ctrl-C)"
+        else:
+            reason = f"{exc_type.__name__}: {exc}"
+        self._teardown(reason)
+
+    def enable(self) -> None:
+        """Reset faults, enable, start the heartbeat, ramp to centre (re-arms after an abort)."""
+        act = self._act()
+        hb = self.rig.heartbeat
+        act.write({"heartbeat_timeout_ms": round(hb.timeout_s * 1000)})
+        act.set_mode("hold")
+        act.control("fault_reset", enable=False)
+        st = act.status()
+        if st.fault:
+            raise RigFault(f"actuator fault will not reset: {st.fault_text}")
+        self._start_heartbeat()
+        act.write({"position_command": st.position_m})  # enabling must not move the ram
+        act.control(enable=True)
+        self._wait(lambda s: s.enabled, daq_budget_s=2.0, what="enable")
+        self._armed = True
+        self._event("enable", "actuator enabled, heartbeat running")
+        self._move_to_centre(check=True)
+
+    # -- public operations ---------------------------------------------------------------
+    def set_clicks(self, rod_clicks: int, gas_clicks: int) -> None:
+        for name, value in (("rod_clicks", rod_clicks), ("gas_clicks", gas_clicks)):
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+                raise ConfigError(f"{name} must be a whole number >= 0, got {value!r}")
+        if self.rig.adjuster == "motorised":
+            act = self._act()
+            act.write({"rod_clicks": int(rod_clicks), "gas_clicks": int(gas_clicks)})
+            got = act.read(["rod_clicks", "gas_clicks"])
+            if (int(got["rod_clicks"]), int(got["gas_clicks"])) != (rod_clicks, gas_clicks):
+                raise RigFault(f"adjuster did not reach {rod_clicks}/{gas_clicks} clicks: {got}")
+            self._event("adjust", f"adjuster set to rod {rod_clicks}, gas {gas_clicks} clicks")
+        else:
+            self.prompt(
+                f"Set the rod adjuster to {rod_clicks} clicks "
+                f"and the gas bottle to {gas_clicks} clicks"
+            )
+            self._event("adjust", f"operator set rod {rod_clicks}, gas {gas_clicks} clicks")
+
+    def read_temperature_c(self) -> float:
+        self._catch_up(check=True)
+        if math.isnan(self._temp):
+            raise RigFault("DAQ has sent no temperature yet")
+        return self._temp
+
+    def run_sine(
+        self,
+        amplitude_m: float,
+        frequency_hz: float,
+        warmup_cycles: int,
+        measured_cycles: int,
+        on_block: BlockSink,
+        on_actuator: ActuatorSink | None = None,
+    ) -> SineOutcome:
+        self._check_sine(amplitude_m, frequency_hz, warmup_cycles, measured_cycles)
+        if not self._armed:
+            raise RigFault(f"actuator is not enabled (disarmed by: {self._disarm_reason})")
+        daq = self._daq()
+        act = self._act()
+        n_events = len(self.events)
+        dropped0, corrupt0 = daq.dropped_frames, daq.corrupt_frames
+        ramp = self.rig.ramp.sine_ramp_cycles
+        cycles = warmup_cycles + measured_cycles
+        total_s = (2 * ramp + cycles) / frequency_hz
+        t0: float | None = None
+        m_start: float | None = None
+        m_end: float | None = None
+        try:
+            try:
+                self._catch_up(check=True)  # the backlog since the last call is not this run's
+                dropped0, corrupt0 = daq.dropped_frames, daq.corrupt_frames
+                self._on_block, self._on_actuator = on_block, on_actuator
+                act.set_mode("sine")
+                act.write(
+                    {
+                        "sine_amplitude": amplitude_m,
+                        "sine_frequency": frequency_hz,
+                        "sine_centre": self.rig.stroke_centre_m,
+                        "sine_cycles": cycles,
+                        "sine_ramp_cycles": ramp,
+                    }
+                )
+                self._emit_actuator(
+                    {
+                        "cmd_amplitude_m": amplitude_m,
+                        "cmd_frequency_hz": frequency_hz,
+                        "cmd_cycles": cycles,
+                        "cmd_ramp_cycles": ramp,
+                    }
+                )
+                self._motion = False
+                act.control("start")
+                self._event("start", f"sine {amplitude_m * 1e3:g} mm at {frequency_hz:g} Hz")
+                t0 = self._wait_motion_start(budget_s=1.0)
+                m_start = t0 + (ramp + warmup_cycles) / frequency_hz
+                m_end = m_start + measured_cycles / frequency_hz
+                end = t0 + total_s
+                self._wait(
+                    lambda s: self._t >= end + SETTLE_S and not self._motion and not s.running,
+                    daq_budget_s=total_s + 2.0,
+                    what="sine",
+                )
+                act.set_mode("hold")
+                reason = f"{cycles + 2 * ramp} cycles done"
+                status = "complete"
+                self._event("complete", reason)
+            except RigFault as exc:
+                ev = exc.event if isinstance(exc, SafetyTrip) else self._event("fault", str(exc))
+                if isinstance(exc, SafetyTrip):
+                    self.events.append(ev)
+                status, reason = "aborted", ev.message
+                self._safe_stop(ev.message)
+        finally:
+            self._on_block = self._on_actuator = None
+        return SineOutcome(
+            status=status,
+            reason=reason,
+            measured_start_s=m_start,
+            measured_end_s=m_end,
+            dropped_frames=daq.dropped_frames - dropped0,
+            corrupt_frames=daq.corrupt_frames - corrupt0,
+            events=self.events[n_events:],
+            start_s=t0,
+            end_s=self._t,
+        )
+
+    def _check_sine(self, a: float, f: float, warmup: int, measured: int) -> None:
+        lim = self.rig.limits
+        if not (isinstance(a, int | float) and math.isfinite(a) and a > 0):
+            raise ConfigError(f"amplitude must be > 0 m, got {a!r}")
+        if not (isinstance(f, int | float) and math.isfinite(f) and f > 0):
+            raise ConfigError(f"frequency must be > 0 Hz, got {f!r}")
+        for name, n, lo in (("warmup_cycles", warmup, 0), ("measured_cycles", measured, 1)):
+            if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < lo:
+                raise ConfigError(f"{name} must be a whole number >= {lo}, got {n!r}")
+        if a > lim.travel_m:
+            raise ConfigError(
+                f"amplitude {a * 1e3:g} mm exceeds the rig's travel of ±{lim.travel_m * 1e3:g} mm "
+                f"({self.rig.source} limits.travel_m); refused before moving"
+            )
+        v = 2 * math.pi * f * a
+        if v > lim.velocity_m_s:
+            raise ConfigError(
+                f"peak velocity 2πfA = {v:.3g} m/s exceeds the limit of {lim.velocity_m_s:g} m/s "
+                f"({self.rig.source} limits.velocity_m_s); refused before moving"
+            )
+        if f > self.rig.daq.sample_rate_hz / 20:
+            raise ConfigError(
+                f"frequency {f:g} Hz leaves fewer than 20 DAQ samples per cycle; refused"
+            )
+
+    # -- plumbing ------------------------------------------------------------------------
+    def _act(self) -> ModbusActuator:
+        if self.actuator is None or self._closed:
+            raise RigFault("rig session is not open")
+        return self.actuator
+
+    def _daq(self) -> SerialDaq:
+        if self.daq is None or self._closed:
+            raise RigFault("rig session is not open")
+        return self.daq
+
+    def _first_samples(self) -> None:
+        """Wait (host clock: the DAQ clock is not yet known) for the first valid frames."""
+        start = self.clock()
+        while self.clock() - start < max(2.0, 4 * self.rig.daq.frozen_timeout_s):
+            if len(self._pump(check=False)):
+                return
+        raise RigFault(f"DAQ {self.rig.daq.url}: no valid frames")
+
+    def _pump(self, check: bool) -> SampleBlock:
+        """Read the DAQ once: update the clock, check limits, stream the block."""
+        try:
+            block = self._daq().read()
+        except RigFault as exc:
+            if check:
+                raise SafetyTrip(SafetyEvent(self._t, "link_lost", str(exc))) from None
+            time.sleep(0.005)  # stopping: the drive's own status is enough
+            block = SampleBlock.empty()
+        now = self.clock()
+        if len(block):
+            self._last_sample_wall = now
+            gap = self._largest_gap(block)
+            self._t = float(block.t_s[-1])
+            self._x = float(block.displacement_m[-1])
+            self._temp = float(block.temperature_c[-1])
+            self._motion = bool(block.status[-1] & STATUS_MOTION)
+            if self._on_block is not None:
+                self._on_block(block)
+            if check:
+                ev = self._monitor.check(block)
+                if ev is not None:
+                    raise SafetyTrip(ev)
+                if gap is not None:
+                    raise SafetyTrip(gap)
+        elif check and now - self._last_sample_wall > self.rig.daq.frozen_timeout_s:
+            raise SafetyTrip(
+                SafetyEvent(
+                    self._t,
+                    "daq_frozen",
+                    f"DAQ frozen: no valid frame for {now - self._last_sample_wall:.2f} s",
+                )
+            )
+        if check and self._link_error is not None:
+            raise SafetyTrip(SafetyEvent(self._t, "link_lost", self._link_error))
+        return block
+
+    def _largest_gap(self, block: SampleBlock) -> SafetyEvent | None:
+        """A run of lost frames longer than daq.max_gap_s: limits went unwatched."""
+        prev = self._seq
+        self._seq = int(block.seq[-1])
+        steps = np.diff(block.seq, prepend=block.seq[0] if prev is None else prev)
+        i = int(np.argmax(steps))
+        lost = int(steps[i]) - 1
+        if lost <= self.rig.daq.max_gap_s * self.rig.daq.sample_rate_hz:
+            return None
+        return SafetyEvent(
+            float(block.t_s[i]),
+            "daq_gap",
+            f"DAQ gap: {lost} frames lost in a row "
+            f"(limit {self.rig.daq.max_gap_s * 1e3:g} ms of samples)",
+        )
+
+    def _catch_up(self, check: bool) -> None:
+        """Read until the DAQ backlog is gone (e.g. after an operator prompt)."""
+        full = READ_SIZE // FRAME_LEN - 2  # a read this full means more is waiting
+        for _ in range(10000):
+            if len(self._pump(check)) < full:
+                return
+
+    def _poll(self, check: bool, force: bool = False) -> ActuatorStatus | None:
+        now = self.clock()
+        if not force and now - self._last_poll_wall < self.rig.poll_period_s:
+            return None
+        self._last_poll_wall = now
+        try:
+            st = self._act().status()
+        except RigFault as exc:
+            if check:
+                raise SafetyTrip(SafetyEvent(self._t, "link_lost", str(exc))) from None
+            raise
+        self._status = st
+        self._emit_actuator(st.fields())
+        if check and st.fault:
+            raise SafetyTrip(
+                SafetyEvent(self._t, "actuator_fault", f"actuator fault: {st.fault_text}")
+            )
+        return st
+
+    def _emit_actuator(self, fields: dict[str, float | int | bool]) -> None:
+        if self._on_actuator is not None:
+            self._on_actuator(self._t, fields)
+
+    def _wait(
+        self,
+        done: Callable[[ActuatorStatus], bool],
+        *,
+        daq_budget_s: float,
+        what: str,
+        check: bool = True,
+    ) -> ActuatorStatus:
+        """Pump and poll until done(status); budget on the DAQ clock, guard on the host's."""
+        t_start = self._t
+        wall_start = self.clock()
+        wall_guard = daq_budget_s * 2 + 5.0
+        while True:
+            self._pump(check)
+            st = self._poll(check)
+            if st is not None and done(st):
+                return st
+            if self._t - t_start > daq_budget_s and self.clock() - wall_start > MIN_WALL_S:
+                # Judge by a status read taken after the deadline, not one from before it
+                # (at high sim speeds one poll period spans seconds of DAQ time).
+                st = self._poll(check, force=True)
+                if st is not None and done(st):
+                    return st
+                raise RigFault(f"{what}: not done within {daq_budget_s:.3g} s of DAQ time")
+            if self.clock() - wall_start > wall_guard:
+                raise RigFault(f"{what}: not done within {wall_guard:.3g} s")
+
+    def _wait_motion_start(self, budget_s: float) -> float:
+        """DAQ time of the first sample with the drive's motion output set."""
+        t_start = self._t
+        wall_start = self.clock()
+        prev = False
+        while True:
+            block = self._pump(check=True)
+            if len(block):
+                bits = (block.status & STATUS_MOTION) != 0
+                before = np.concatenate(([prev], bits[:-1]))
+                rising = np.flatnonzero(bits & ~before)
+                if rising.size:
+                    return float(block.t_s[rising[0]])
+                prev = bool(bits[-1])
+            self._poll(check=True)
+            waited = self.clock() - wall_start
+            if (self._t - t_start > budget_s and waited > MIN_WALL_S) or waited > 2 * budget_s + 5:
+                raise RigFault("the drive did not start the sine")
+
+    def _move_to_centre(self, check: bool) -> None:
+        act = self._act()
+        st = act.status()
+        distance = abs(st.position_m - self.rig.stroke_centre_m)
+        v = self.rig.ramp.move_velocity_m_s
+        act.set_mode("hold")
+        act.write({"move_velocity": v, "position_command": self.rig.stroke_centre_m})
+        self._wait(
+            lambda s: (
+                s.target_reached
+                and abs(s.position_m - self.rig.stroke_centre_m) < CENTRE_TOLERANCE_M
+            ),
+            daq_budget_s=distance / v + 2.0,
+            what="ramp to centre",
+            check=check,
+        )
+        self._event("centre", f"at stroke centre ({distance * 1e3:.1f} mm ramp)")
+
+    def _safe_stop(self, reason: str) -> None:
+        """Controlled stop, ramp to centre, disable. Every step is tried; none may raise."""
+        self._event("stop", f"controlled stop: {reason}")
+        steps: list[tuple[str, Callable[[], None]]] = [
+            ("stop", self._stop_motion),
+            ("reset", self._reset_fault),
+            ("centre", lambda: self._move_to_centre(check=False)),
+        ]
+        for name, step in steps:
+            try:
+                step()
+            except RigFault as exc:
+                self._event("stop_step_failed", f"{name}: {exc}")
+                if name == "stop":
+                    break  # a drive that will not stop must not be asked to move
+        self._disable(reason)
+
+    def _stop_motion(self) -> None:
+        act = self._act()
+        act.control("stop")
+        self._wait(
+            lambda s: not s.running,
+            daq_budget_s=self.rig.ramp.stop_time_s + 2.0,
+            what="controlled stop",
+            check=False,
+        )
+
+    def _reset_fault(self) -> None:
+        act = self._act()
+        st = act.status()
+        if st.fault:
+            self._event("reset", f"fault reset: {st.fault_text}")
+            act.control("fault_reset")
+            st = act.status()
+            if st.fault:
+                raise RigFault(f"fault will not reset: {st.fault_text}")
+
+    def _disable(self, reason: str) -> None:
+        self._armed = False
+        self._disarm_reason = reason
+        try:
+            self._act().control(enable=False)
+            self._event("disable", "actuator disabled")
+        except RigFault as exc:
+            self._event("stop_step_failed", f"disable: {exc}")
+        self._stop_heartbeat()
+
+    # -- heartbeat -----------------------------------------------------------------------
+    def _start_heartbeat(self) -> None:
+        if self._hb_thread is not None and self._hb_thread.is_alive():
+            return
+        self._hb_stop.clear()
+        self._link_error = None
+        act = self._act()
+        period = self.rig.heartbeat.period_s
+
+        def beat() -> None:
+            while not self._hb_stop.is_set():
+                try:
+                    act.beat()
+                except RigFault as exc:
+                    self._link_error = f"lost link to actuator (heartbeat): {exc}"
+                    return
+                self._hb_stop.wait(period)
+
+        self._hb_thread = threading.Thread(target=beat, name="rig-heartbeat", daemon=True)
+        self._hb_thread.start()
+
+    def _stop_heartbeat(self) -> None:
+        self._hb_stop.set()
+        if self._hb_thread is not None:
+            self._hb_thread.join(5)
+            self._hb_thread = None
+
+    # -- teardown ------------------------------------------------------------------------
+    def _teardown(self, reason: str) -> None:
+        if self._closed:
+            return
+        self._event("exit", reason)
+        self._on_block = self._on_actuator = None
+        if self.actuator is not None and self.daq is not None and self._armed:
+            self._safe_stop(reason)
+        elif self.actuator is not None:
+            self._disable(reason)
+        self._stop_heartbeat()
+        self._closed = True
+        for closer in (self.actuator, self.daq):
+            if closer is not None:
+                try:
+                    closer.close()
+                except Exception as exc:  # closing must not hide the original problem
+                    self.events.append(SafetyEvent(self._t, "close_failed", str(exc)))
+        self._event("closed", "transports closed")

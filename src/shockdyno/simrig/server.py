@@ -1,0 +1,396 @@
+"""SimRig: the simulated rig on real transports, in a background thread with its own loop.
+
+A pymodbus TCP server (the drive) and a serial byte stream (the DAQ) on 127.0.0.1, over
+`socket://` and/or a pty, both fed by one SimEngine. The engine is paced by an injected
+clock: `speed` sim-seconds per clock-second; the frames do not depend on the speed.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import os
+import threading
+import time
+import tty
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from pymodbus.constants import ExcCodes
+from pymodbus.framer import FramerType
+from pymodbus.server import ModbusTcpServer
+from pymodbus.simulator import DataType, SimData, SimDevice
+
+from shockdyno.errors import ConfigError, RigFault
+from shockdyno.model.spec import load_spec
+from shockdyno.rig.config import RigConfig, default_rig_path, load_rig
+from shockdyno.simrig.drive import HEARTBEAT_LOST
+from shockdyno.simrig.engine import CHUNK, SimEngine
+from shockdyno.simrig.faults import Fault
+from shockdyno.simrig.registers import DriveRegisters
+from shockdyno.simrig.scenario import Scenario, load_scenario
+
+SINK_LIMIT = 1 << 20  # bytes queued for a slow reader before new frames are discarded
+SERVER_FAULTS = ("modbus_timeout", "daq_disconnect")  # faults of the wires, not the engine
+MAX_BATCH = 5000  # samples per engine step: keeps Modbus answers prompt when behind
+
+
+@dataclass
+class _PtySink:
+    master: int
+    slave: int
+    path: str
+    pending: bytearray = field(default_factory=bytearray)
+
+    def write(self, data: bytes) -> None:
+        if len(self.pending) < SINK_LIMIT:
+            self.pending += data
+        try:
+            n = os.write(self.master, self.pending)
+        except BlockingIOError:
+            return
+        except OSError:
+            self.pending.clear()
+            return
+        del self.pending[:n]
+
+    def close(self) -> None:
+        for fd in (self.master, self.slave):
+            with contextlib.suppress(OSError):
+                os.close(fd)
+
+
+class SimRig:
+    """Context manager; see `start_sim_rig`."""
+
+    def __init__(
+        self,
+        rig: RigConfig,
+        *,
+        spec_path: str | Path | None = None,
+        scenario: Scenario | None = None,
+        speed: float = 1.0,
+        seed: int = 0,
+        serial: str = "socket",
+        faults: Sequence[Fault] = (),
+        modbus_port: int = 0,
+        serial_port: int = 0,
+        modbus: str = "tcp",
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        if modbus not in ("tcp", "rtu"):
+            raise ConfigError(f"modbus must be tcp or rtu, got {modbus!r}")
+        if speed <= 0:
+            raise ConfigError(f"speed must be > 0, got {speed}")
+        if serial not in ("socket", "pty", "both"):
+            raise ConfigError(f"serial must be socket, pty or both, got {serial!r}")
+        self.rig = rig
+        self.spec = load_spec(spec_path)
+        self.scenario = scenario
+        self.speed = speed
+        self.clock = clock
+        sched = [f for f in faults if f.kind not in SERVER_FAULTS]
+        self._wire_faults = sorted(
+            (f for f in faults if f.kind in SERVER_FAULTS), key=lambda f: f.at_s
+        )
+        self.engine = SimEngine(
+            rig,
+            self.spec,
+            terms=scenario.terms if scenario else None,
+            lvdt_lag_s=scenario.lvdt_lag_s if scenario else 0.0,
+            seed=seed,
+            faults=sched,
+        )
+        self.registers = DriveRegisters(self.engine, rig.registers, clock)
+        self._serial_mode = serial
+        self._modbus = modbus
+        self._ports = (modbus_port, serial_port)
+        self._mute_until = -1.0  # clock time until which Modbus goes unanswered (inf: for good)
+        self._writers: list[asyncio.StreamWriter] = []
+        self._pty: _PtySink | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._thread: threading.Thread | None = None
+        self._stop: asyncio.Event | None = None
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+        self.endpoints: list[str] = []
+        self.modbus_port = 0
+        self.serial_port = 0
+        self.pty_path = ""
+        self.behind_s = 0.0  # worst lag of the engine behind its schedule, sim seconds
+        self._closed = False
+
+    # -- lifecycle ---------------------------------------------------------------------
+    def start(self) -> SimRig:
+        self._thread = threading.Thread(target=self._run, name="sim-rig", daemon=True)
+        self._thread.start()
+        self._ready.wait(10)
+        if self._error is not None:
+            self.close()
+            raise RigFault(f"sim-rig failed to start: {self._error}")
+        if not self._ready.is_set():
+            self.close()
+            raise RigFault("sim-rig failed to start in 10 s")
+        return self
+
+    def __enter__(self) -> SimRig:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        loop, stop = self._loop, self._stop
+        if loop is not None and stop is not None and not loop.is_closed():
+            with contextlib.suppress(RuntimeError):
+                loop.call_soon_threadsafe(stop.set)
+        if self._thread is not None:
+            self._thread.join(10)
+
+    def _run(self) -> None:
+        loop = asyncio.new_event_loop()
+        self._loop = loop
+        try:
+            loop.run_until_complete(self._main())
+        except BaseException as exc:  # surfaced by start()
+            self._error = exc
+            self._ready.set()
+        finally:
+            with contextlib.suppress(Exception):
+                loop.run_until_complete(loop.shutdown_asyncgens())
+            loop.close()
+
+    async def _main(self) -> None:
+        self._stop = asyncio.Event()
+        device = SimDevice(
+            id=self.rig.actuator.device_id,
+            simdata=[
+                SimData(
+                    self.registers.start,
+                    count=self.registers.count,
+                    values=0,
+                    datatype=DataType.REGISTERS,
+                )
+            ],
+            action=self._action,
+        )
+        # RTU framing is served over a TCP socket (an RTU line behind a serial server):
+        # the RTU driver reaches it as the pyserial URL socket://127.0.0.1:PORT.
+        framer = FramerType.RTU if self._modbus == "rtu" else FramerType.SOCKET
+        server = ModbusTcpServer(device, address=("127.0.0.1", self._ports[0]), framer=framer)
+        await server.serve_forever(background=True)
+        sockets = server.transport.sockets  # type: ignore[attr-defined]
+        self.modbus_port = int(sockets[0].getsockname()[1])
+        if self._modbus == "rtu":
+            self.endpoints = [f"modbus rtu socket://127.0.0.1:{self.modbus_port}"]
+        else:
+            self.endpoints = [f"modbus tcp://127.0.0.1:{self.modbus_port}"]
+        serial_server: asyncio.Server | None = None
+        if self._serial_mode in ("socket", "both"):
+            serial_server = await asyncio.start_server(
+                self._serial_client, "127.0.0.1", self._ports[1]
+            )
+            self.serial_port = int(serial_server.sockets[0].getsockname()[1])
+            self.endpoints.append(f"serial socket://127.0.0.1:{self.serial_port}")
+        if self._serial_mode in ("pty", "both"):
+            master, slave = os.openpty()
+            tty.setraw(slave)
+            os.set_blocking(master, False)
+            self._pty = _PtySink(master, slave, os.ttyname(slave))
+            self.pty_path = self._pty.path
+            self.endpoints.append(f"serial {self.pty_path}")
+        ticker = asyncio.create_task(self._tick())
+        self._ready.set()
+        try:
+            await self._stop.wait()
+        finally:
+            ticker.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await ticker
+            await server.shutdown()  # type: ignore[no-untyped-call]
+            if serial_server is not None:
+                serial_server.close()
+            for w in list(self._writers):
+                w.close()
+                with contextlib.suppress(Exception):
+                    await w.wait_closed()
+            if serial_server is not None:
+                await serial_server.wait_closed()
+            if self._pty is not None:
+                self._pty.close()
+            for task in asyncio.all_tasks():
+                if task is not asyncio.current_task():
+                    task.cancel()
+
+    # -- the DAQ stream ----------------------------------------------------------------
+    async def _serial_client(
+        self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
+    ) -> None:
+        self._writers.append(writer)
+        try:
+            while await reader.read(4096):
+                pass  # the DAQ ignores what the host sends
+        except (ConnectionError, asyncio.CancelledError):
+            pass
+        finally:
+            if writer in self._writers:
+                self._writers.remove(writer)
+            writer.close()
+
+    def _send(self, data: bytes) -> None:
+        for w in list(self._writers):
+            if w.is_closing():
+                self._writers.remove(w)
+            elif w.transport.get_write_buffer_size() < SINK_LIMIT:
+                w.write(data)
+        if self._pty is not None:
+            self._pty.write(data)
+
+    async def _tick(self) -> None:
+        fs = self.engine.fs
+        wall0 = self.clock()
+        sim0 = self.engine.produced
+        sleep = max(0.002, CHUNK / (fs * self.speed))
+        while True:
+            now = self.clock()
+            due = int((now - wall0) * self.speed * fs) + sim0 - self.engine.produced
+            due = due // CHUNK * CHUNK
+            if due > 0:
+                self.behind_s = max(self.behind_s, (due - MAX_BATCH) / fs)
+                self._watchdogs(now)
+                self._send(self.engine.advance(min(due, MAX_BATCH)))
+            if self._pty is not None and self._pty.pending:
+                self._pty.write(b"")
+            await asyncio.sleep(sleep if due <= MAX_BATCH else 0)
+
+    def _watchdogs(self, now: float) -> None:
+        d = self.engine.drive
+        t = self.engine.now_s
+        while self._wire_faults and self._wire_faults[0].at_s <= t:
+            self._server_fault(self._wire_faults.pop(0), now)
+        for f in self.engine.state.extra.pop("server_faults", []):
+            self._server_fault(f, now)
+        timeout = d.heartbeat_timeout_ms / 1000.0
+        if d.enabled and timeout > 0 and now - self.registers.last_beat_wall > timeout:
+            if not d.fault_code:
+                d.trip(HEARTBEAT_LOST, t, disable=True)
+            elif d.disable_at is None:
+                d.disable_at = max(d.sine_end, t) + 0.05
+
+    def _server_fault(self, f: Fault, now: float) -> None:
+        if f.kind == "modbus_timeout":
+            self._mute_until = now + f.duration_s if f.duration_s > 0 else float("inf")
+        elif f.kind == "daq_disconnect":
+            for w in list(self._writers):
+                w.close()
+            self._writers.clear()
+            if self._pty is not None:
+                self._pty.close()
+                self._pty = None
+
+    async def _action(
+        self,
+        function_code: int,
+        start_address: int,
+        address: int,
+        count: int,
+        registers: list[int],
+        set_values: list[int] | list[bool] | None,
+    ) -> ExcCodes | None:
+        while self.clock() < self._mute_until:
+            await asyncio.sleep(0.05)  # no answer: the host's request times out
+        if set_values:
+            return self.registers.write(
+                registers, start_address, address, [int(v) for v in set_values]
+            )
+        self.registers.refresh(registers, start_address)
+        return None
+
+    # -- public helpers ----------------------------------------------------------------
+    def rig_config(self) -> RigConfig:
+        """The rig config pointing at this instance's actual endpoints."""
+        url = f"socket://127.0.0.1:{self.serial_port}" if self.serial_port else self.pty_path
+        return self._with_daq(url)
+
+    def pty_config(self) -> RigConfig:
+        if not self.pty_path:
+            raise ConfigError("this sim-rig has no pty (start it with serial='pty' or 'both')")
+        return self._with_daq(self.pty_path)
+
+    def _with_daq(self, url: str) -> RigConfig:
+        rig = self.rig.with_endpoints(host="127.0.0.1", port=self.modbus_port, daq_url=url)
+        if self._modbus == "rtu":
+            act = replace(
+                self.rig.actuator,
+                kind="rtu",
+                serial_port=f"socket://127.0.0.1:{self.modbus_port}",
+                baudrate=115200,
+            )
+            rig = replace(rig, actuator=act)
+        return rig
+
+    def true_bleed_areas(self, clicks: Any, gas_clicks: Any = 0) -> tuple[float, float]:
+        a_bc, a_bt = self.spec.bleed_areas(clicks, gas_clicks)
+        return float(a_bc), float(a_bt)
+
+    def inject(self, fault: Fault) -> None:
+        """Trigger a fault now (from any thread)."""
+        loop = self._loop
+        if loop is None:
+            raise RigFault("sim-rig is not running")
+
+        def apply() -> None:
+            if fault.kind in SERVER_FAULTS:
+                self._server_fault(fault, self.clock())
+            else:
+                self.engine.inject(fault)
+
+        loop.call_soon_threadsafe(apply)
+
+    def call(self, fn: Callable[[], Any]) -> Any:
+        """Run fn on the sim-rig's loop and return its result (to inspect state safely)."""
+        loop = self._loop
+        if loop is None or loop.is_closed():
+            raise RigFault("sim-rig is not running")
+
+        async def wrapped() -> Any:
+            return fn()
+
+        return asyncio.run_coroutine_threadsafe(wrapped(), loop).result(5)
+
+
+def start_sim_rig(
+    rig: RigConfig | str | Path | None = None,
+    *,
+    spec_path: str | Path | None = None,
+    scenario: str | Path | None = None,
+    speed: float = 1.0,
+    seed: int = 0,
+    serial: str = "socket",
+    faults: Sequence[Fault] = (),
+    modbus_port: int = 0,
+    serial_port: int = 0,
+    modbus: str = "tcp",
+    clock: Callable[[], float] = time.monotonic,
+) -> SimRig:
+    """Start a simulated rig on 127.0.0.1 (ephemeral ports unless given) and return it."""
+    cfg = rig if isinstance(rig, RigConfig) else load_rig(rig or default_rig_path())
+    sc = load_scenario(scenario) if scenario is not None else None
+    return SimRig(
+        cfg,
+        spec_path=spec_path,
+        scenario=sc,
+        speed=speed,
+        seed=seed,
+        serial=serial,
+        faults=faults,
+        modbus_port=modbus_port,
+        serial_port=serial_port,
+        modbus=modbus,
+        clock=clock,
+    ).start()

@@ -1,0 +1,90 @@
+"""Shared fixtures: the simulated rig over real transports, and the opt-in real rig.
+
+Hardware tests run only with `pytest --rig rigs/<file>.toml`; without it they are skipped.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+SIM_RIG = REPO / "rigs" / "sim.toml"
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption(
+        "--rig",
+        action="store",
+        default=None,
+        metavar="RIG_TOML",
+        help="run hardware tests against the real rig described by this rig file",
+    )
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    if config.getoption("--rig"):
+        return
+    skip = pytest.mark.skip(reason="needs a real rig: pytest --rig rigs/<file>.toml")
+    for item in items:
+        if "hardware" in item.keywords:
+            item.add_marker(skip)
+
+
+@pytest.fixture
+def hardware_rig(request: pytest.FixtureRequest) -> Any:
+    """The RigConfig of the real rig named by --rig (hardware tests only)."""
+    from shockdyno.rig.config import load_rig
+
+    path = request.config.getoption("--rig")
+    if not path:
+        pytest.skip("needs a real rig: pytest --rig rigs/<file>.toml")
+    return load_rig(path)
+
+
+@pytest.fixture
+def sim_rig_factory() -> Iterator[Callable[..., Any]]:
+    """Start simulated rigs (ephemeral ports); every one is closed at the end of the test."""
+    from shockdyno.simrig import start_sim_rig
+
+    started: list[Any] = []
+
+    def start(**kwargs: Any) -> Any:
+        kwargs.setdefault("speed", 20.0)
+        sim = start_sim_rig(kwargs.pop("rig", SIM_RIG), **kwargs)
+        started.append(sim)
+        return sim
+
+    yield start
+    for sim in started:
+        sim.close()
+
+
+def open_fds() -> set[str]:
+    """This process's open file descriptors that are sockets, pipes or ptys."""
+    out: set[str] = set()
+    for fd in os.listdir("/proc/self/fd"):
+        try:
+            target = os.readlink(f"/proc/self/fd/{fd}")
+        except OSError:
+            continue
+        if target.startswith(("socket:", "/dev/pts", "/dev/ptmx", "anon_inode:[eventpoll]")):
+            out.add(f"{fd}->{target}")
+    return out
+
+
+@pytest.fixture
+def leak_check() -> Iterator[None]:
+    """Fail if the test leaves a thread, socket, pty or event loop behind."""
+    threads = set(threading.enumerate())
+    fds = open_fds()
+    yield
+    extra_threads = [t for t in threading.enumerate() if t not in threads and t.is_alive()]
+    assert not extra_threads, f"threads left behind: {extra_threads}"
+    extra_fds = open_fds() - fds
+    assert not extra_fds, f"descriptors left behind: {sorted(extra_fds)}"

@@ -1,0 +1,71 @@
+"""Helpers shared by the contract suites."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from shockdyno.rig.actuator import ActuatorStatus, ModbusActuator
+from shockdyno.rig.config import RigConfig
+from shockdyno.rig.frames import STATUS_MOTION
+from shockdyno.rig.types import SampleBlock
+
+
+@dataclass
+class Backend:
+    name: str
+    rig: RigConfig
+    sim: Any | None  # the SimRig, when simulated
+
+
+class Collector:
+    def __init__(self) -> None:
+        self.blocks: list[SampleBlock] = []
+        self.actuator: list[tuple[float, dict[str, Any]]] = []
+
+    def block(self, b: SampleBlock) -> None:
+        self.blocks.append(b)
+
+    def act(self, t: float, fields: dict[str, Any]) -> None:
+        self.actuator.append((t, fields))
+
+    @property
+    def all(self) -> SampleBlock:
+        return SampleBlock.concat(self.blocks)
+
+
+def drive_status(rig: RigConfig) -> ActuatorStatus:
+    """The drive's state as a fresh client sees it (after the session has gone)."""
+    act = ModbusActuator(rig)
+    act.connect()
+    try:
+        return act.status()
+    finally:
+        act.close()
+
+
+def settled_status(rig: RigConfig, timeout_s: float = 5.0) -> ActuatorStatus:
+    """Status once the drive has finished whatever stop it was making."""
+    end = time.monotonic() + timeout_s
+    st = drive_status(rig)
+    while (st.running or st.enabled) and time.monotonic() < end:
+        time.sleep(0.05)
+        st = drive_status(rig)
+    return st
+
+
+def sine_fit(b: SampleBlock, f: float, t0: float, t1: float) -> tuple[float, float]:
+    """Amplitude and offset of the f-Hz sine in [t0, t1)."""
+    m = (b.t_s >= t0) & (b.t_s < t1)
+    t, x = b.t_s[m], b.displacement_m[m]
+    w = 2 * np.pi * f
+    basis = np.column_stack([np.sin(w * t), np.cos(w * t), np.ones_like(t)])
+    (s, c, off), *_ = np.linalg.lstsq(basis, x, rcond=None)
+    return float(np.hypot(s, c)), float(off)
+
+
+def motion_start(b: SampleBlock) -> float:
+    return float(b.t_s[np.argmax((b.status & STATUS_MOTION) != 0)])

@@ -215,3 +215,20 @@ def test_demo_writes_recording_fit_and_report(tmp_path):
     assert "Enhancement" in res.stdout and str(index) in res.stdout
     rec = open_recording(tmp_path / "demo.mcap")
     assert len(rec.tests) == 6 and all(m.status == "complete" for m in rec.tests)
+
+
+def test_unreachable_rig_is_one_line_and_leaves_no_file(tmp_path):
+    import socket
+
+    with socket.socket() as s:  # a port that was free a moment ago: nothing listens there
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    rig = tmp_path / "away.toml"
+    rig.write_text(SIM_RIG.read_text().replace("port = 5020", f"port = {port}"))
+    out = tmp_path / "never.mcap"
+    cmd = [*CLI, "sweep", "--rig", str(rig), "--clicks", "1", "-o", str(out)]
+    res = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert res.returncode == 3  # a rig fault, not a usage error
+    assert "Traceback" not in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    assert "cannot connect" in res.stderr
+    assert not out.exists()

@@ -153,12 +153,13 @@ def record_sweep(
         with view.paused():  # hold the live display while the operator reads and answers
             console.input(f"[bold yellow]{message}[/] - press Enter when done ")
 
+    # Connect before creating the file: a rig that does not answer leaves no empty recording.
     with (
+        view,
+        RigSession(rig, prompt=prompt) as session,
         RecordingWriter(
             output, metadata=metadata, rig_toml=rig.raw_toml, overwrite=overwrite, resume=resume
         ) as writer,
-        view,
-        RigSession(rig, prompt=prompt) as session,
     ):
         try:
             return run_sweep(

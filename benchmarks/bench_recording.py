@@ -60,20 +60,7 @@ def make_sweep() -> list[tuple[TestMeta, SampleBlock]]:
 
 
 def blocks(b: SampleBlock) -> list[SampleBlock]:
-    out = []
-    for lo in range(0, len(b), BLOCK):
-        hi = lo + BLOCK
-        out.append(
-            SampleBlock(
-                b.seq[lo:hi],
-                b.t_s[lo:hi],
-                b.displacement_m[lo:hi],
-                b.force_n[lo:hi],
-                b.temperature_c[lo:hi],
-                b.status[lo:hi],
-            )
-        )
-    return out
+    return [b.slice(lo, lo + BLOCK) for lo in range(0, len(b), BLOCK)]
 
 
 # -- baseline: one JSON message per sample --------------------------------------------------

@@ -20,7 +20,6 @@ from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, ParamSpec, TypeVar
 
-import numpy as np
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import CompressionType, Writer
 
@@ -218,11 +217,8 @@ class RecordingWriter:
         if any(a.shape != (n,) for a in (*arrays, block.status)):
             raise RecordingError("SampleBlock arrays differ in length")
         if self._open is not None:
-            seq = block.seq
-            prev = self._last_seq
-            steps = np.diff(seq) if prev is None else np.diff(seq, prepend=prev)
-            self._gaps += int(np.clip(steps - 1, 0, None).sum())
-            self._last_seq = int(seq[-1])
+            self._gaps += block.frames_missing(self._last_seq)
+            self._last_seq = int(block.seq[-1])
             self._count += n
         self._pending.append(block)
         self._pending_n += n
@@ -239,7 +235,7 @@ class RecordingWriter:
         test = self._test_serial if self._open is not None else s.NO_TEST
         step = self._max_block
         for lo in range(0, len(merged), step):
-            part = _slice(merged, lo, lo + step) if len(merged) > step else merged
+            part = merged.slice(lo, lo + step) if len(merged) > step else merged
             self._emit(self._ch_samples, float(part.t_s[0]), s.encode_samples(test, part))
 
     @_whole_records
@@ -306,14 +302,3 @@ class RecordingWriter:
         tb: TracebackType | None,
     ) -> None:
         self.close()
-
-
-def _slice(b: SampleBlock, lo: int, hi: int) -> SampleBlock:
-    return SampleBlock(
-        b.seq[lo:hi],
-        b.t_s[lo:hi],
-        b.displacement_m[lo:hi],
-        b.force_n[lo:hi],
-        b.temperature_c[lo:hi],
-        b.status[lo:hi],
-    )

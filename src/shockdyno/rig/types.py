@@ -28,6 +28,23 @@ class SampleBlock:
         f = np.zeros(0)
         return SampleBlock(np.zeros(0, np.int64), f, f, f, f, np.zeros(0, np.uint16))
 
+    def frames_missing(self, prev_seq: int | None = None) -> int:
+        """Sequence numbers skipped within the block and, given the last one seen before
+        it, between that and the block's first."""
+        steps = np.diff(self.seq) if prev_seq is None else np.diff(self.seq, prepend=prev_seq)
+        return int(np.clip(steps - 1, 0, None).sum())
+
+    def slice(self, lo: int, hi: int) -> SampleBlock:
+        """Samples lo to hi (Python slice bounds), as views of these arrays."""
+        return SampleBlock(
+            self.seq[lo:hi],
+            self.t_s[lo:hi],
+            self.displacement_m[lo:hi],
+            self.force_n[lo:hi],
+            self.temperature_c[lo:hi],
+            self.status[lo:hi],
+        )
+
     @staticmethod
     def concat(blocks: list[SampleBlock]) -> SampleBlock:
         if not blocks:

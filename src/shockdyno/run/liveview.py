@@ -237,12 +237,8 @@ class LiveView:
     def _take(self, block: SampleBlock) -> None:
         self._blocks.append(block)
         s = self.stats
-        seq = block.seq
-        gaps = np.diff(seq)
-        self._seq_gaps += int(np.sum(np.clip(gaps - 1, 0, None)))
-        if self._last_seq is not None:
-            self._seq_gaps += max(0, int(seq[0]) - self._last_seq - 1)
-        self._last_seq = int(seq[-1])
+        self._seq_gaps += block.frames_missing(self._last_seq)
+        self._last_seq = int(block.seq[-1])
         if not s.n_samples:
             s.t_first_s = float(block.t_s[0])
         s.n_samples += len(block)

@@ -4,12 +4,10 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
-from shockdyno.errors import ConfigError, RecordingError
+from shockdyno.errors import ConfigError
 
 
 def register(sub: Any) -> None:
@@ -37,18 +35,6 @@ def register(sub: Any) -> None:
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the GA (default 0)")
     p.set_defaults(func=run_fit)
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    """Replace path only once the new content is complete."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def _mm2(value: float, sd: float) -> str:
@@ -81,8 +67,6 @@ def _clicks_table(result: Any) -> Any:
 
 
 def run_fit(args: argparse.Namespace) -> int:
-    import json
-
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -95,12 +79,9 @@ def run_fit(args: argparse.Namespace) -> int:
     if out.is_dir():
         raise ConfigError(f"--json: {out} is a directory")
     from shockdyno.model import load_spec
+    from shockdyno.record import open_recording
 
     load_spec(args.spec)  # a bad spec fails now, not after reading the recording
-    try:
-        from shockdyno.record import open_recording  # type: ignore[attr-defined,unused-ignore]
-    except ImportError as exc:
-        raise RecordingError(f"cannot read recordings in this build ({exc})") from None
     tests = open_recording(args.recording).load_all()
     console = Console(stderr=True)
     with Progress(
@@ -119,7 +100,7 @@ def run_fit(args: argparse.Namespace) -> int:
         result = fit_sweep(
             tests, spec_path=args.spec, optimizer=args.optimizer, seed=args.seed, progress=progress
         )
-    _write_atomic(out, json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n")
+    result.save(out)
     Console().print(_clicks_table(result))
     Console().print(table4_table(result))
     info = result.info

@@ -17,6 +17,7 @@ import numpy as np
 
 from shockdyno.errors import ConfigError, FitError
 from shockdyno.model.spec import DamperSpec, load_spec
+from shockdyno.record.atomic import write_text_atomic
 
 
 @dataclass(frozen=True)
@@ -110,7 +111,8 @@ class FitResult:
         }
 
     def save(self, path: str | Path) -> None:
-        Path(path).write_text(json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n")
+        """Write the JSON; `path` is replaced only once the new content is complete."""
+        write_text_atomic(Path(path), json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n")
 
     @staticmethod
     def load(path: str | Path) -> FitResult:

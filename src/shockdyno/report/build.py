@@ -13,13 +13,12 @@ and touches nothing else):
 from __future__ import annotations
 
 import math
-import os
 import shutil
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
 from shockdyno.errors import ConfigError
+from shockdyno.record.atomic import write_text_atomic
 from shockdyno.record.types import TestData
 from shockdyno.report import plots
 from shockdyno.report.html import SUMMARY_HEADER, Page, summary_row
@@ -60,21 +59,6 @@ def _link_extra(out_dir: Path, png: Path, n: int) -> str:
         target.parent.mkdir(exist_ok=True)
         shutil.copyfile(resolved, target)
         return target.relative_to(out_dir).as_posix()
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".index.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        # mkstemp makes the file private; a report is meant to be read like any other file.
-        umask = os.umask(0)
-        os.umask(umask)
-        Path(tmp).chmod(0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def build_report(
@@ -158,5 +142,5 @@ def build_report(
             page.figure(png.name, f"clicks {clicks}, gas clicks {gas}")
 
     index = out_dir / "index.html"
-    _write_atomic(index, page.render())
+    write_text_atomic(index, page.render())
     return index

@@ -17,7 +17,6 @@ Run: .venv/bin/python benchmarks/bench_fit.py   (about a minute on 2 cores)
 
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
@@ -46,7 +45,7 @@ GA_CLICKS = (2, 7, 14, 21)
 def main() -> None:
     nominal = load_spec()
     truth = apply_overrides(nominal, TRUE_GLOBALS)
-    a_max = math.pi / 4 * nominal.bleed_bore_diameter_m**2
+    a_max = nominal.bleed_bore_area_m2
     tests = synthetic_sweep(truth, list(range(22)), cycles=3, seed=1)
     n_samples = sum(t.t.size for t in tests)
     print(f"sweep: {len(tests)} tests, {n_samples} samples at 1 kHz")

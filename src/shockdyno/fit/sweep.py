@@ -80,10 +80,6 @@ class Calibration:
     cost_rms_n: float
 
 
-def _bore_area(spec: DamperSpec) -> float:
-    return math.pi / 4 * spec.bleed_bore_diameter_m**2
-
-
 def _overrides(params: Sequence[GlobalParam], theta: FloatArray) -> dict[str, float]:
     return {p.key: float(th * p.scale) for p, th in zip(params, theta, strict=True)}
 
@@ -409,7 +405,7 @@ def fit_sweep(
         raise FitError("no usable test to fit (each needs motion, force and 20 samples)")
     prob = StackedProblem(base, prepared)
     n = prob.n_groups
-    a_max = _bore_area(base)
+    a_max = base.bleed_bore_area_m2
     params = global_params(base, global_keys)
 
     report("start areas", 0.05)

@@ -58,6 +58,11 @@ class DamperSpec:
         return math.pi / 4 * self.gas_piston_diameter_m**2
 
     @property
+    def bleed_bore_area_m2(self) -> float:
+        """The bleed bore's cross-section: no bleed area can exceed it."""
+        return math.pi / 4 * self.bleed_bore_diameter_m**2
+
+    @property
     def viscosity_pa_s(self) -> float:
         return self.oil_viscosity_cst * 1e-6 * self.oil_density_kg_m3
 
@@ -108,7 +113,7 @@ class DamperSpec:
                 raise ConfigError(f"damper spec {self.name!r}: {name} must be >= 0, got {value}")
         if self.rod_diameter_m >= self.piston_diameter_m:
             raise ConfigError(f"damper spec {self.name!r}: rod must be thinner than the piston")
-        bore = math.pi / 4 * self.bleed_bore_diameter_m**2
+        bore = self.bleed_bore_area_m2
         for label, law in (
             ("compression", self.compression_bleed),
             ("rebound", self.rebound_bleed),

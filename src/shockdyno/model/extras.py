@@ -30,7 +30,9 @@ def _dt(state: ModelState, sample_rate_hz: float) -> float:
     return 1.0 / sample_rate_hz
 
 
-def _lag(u: FloatArray, k: float, zi: FloatArray | None) -> tuple[FloatArray, FloatArray]:
+def first_order_lag(
+    u: FloatArray, k: float, zi: FloatArray | None
+) -> tuple[FloatArray, FloatArray]:
     """y[n] = y[n-1] + k (u[n] - y[n-1]), starting from u[0] when there is no state."""
     if zi is None:
         zi = np.array([(1 - k) * u[0]]) if u.size else np.zeros(1)
@@ -119,7 +121,7 @@ class Compressibility:
         assert state.dp is not None and state.p_c is not None
         tau = self.time_constant_s(state.spec.gas_pressure_pa)
         k = 1.0 - math.exp(-_dt(state, self.sample_rate_hz) / tau)
-        dp, self._zi = _lag(state.dp, k, self._zi)
+        dp, self._zi = first_order_lag(state.dp, k, self._zi)
         state.dp = dp
         state.p_r = state.p_c - dp
         state.f_hydraulic = dp * state.spec.annulus_area_m2
@@ -188,7 +190,7 @@ class LoadCellLag:
         state.extra.pop(self.name, None)
         total = state.force
         k = 1.0 - math.exp(-_dt(state, self.sample_rate_hz) / self.time_constant_s)
-        lagged, self._zi = _lag(total, k, self._zi)
+        lagged, self._zi = first_order_lag(total, k, self._zi)
         state.extra[self.name] = lagged - total
 
 

@@ -24,6 +24,7 @@ from scipy.signal import bilinear, lfilter, lfiltic
 
 from shockdyno.errors import ConfigError
 from shockdyno.model.damper import damper_force
+from shockdyno.model.extras import first_order_lag
 from shockdyno.model.spec import DamperSpec
 from shockdyno.rig.config import RigConfig
 from shockdyno.rig.frames import FRAME_LEN, STATUS_MOTION, encode_frames
@@ -224,7 +225,7 @@ class SimEngine:
         x = np.asarray(x, float)
         st.servo_zi = np.asarray(zf, float)
         v, a = _backward_derivatives(x, st.x_hist, self.fs)
-        st.x_hist = (float(x[-3]), float(x[-2]), float(x[-1])) if n >= 3 else _tail(st.x_hist, x)
+        st.x_hist = _tail(st.x_hist, x)
         rel = x - self.centre
         a_bc, a_bt = st.areas
         force = damper_force(self.spec, rel, v, a, a_bc, a_bt, st.terms, t)
@@ -253,9 +254,7 @@ class SimEngine:
         # sensors
         pos = x
         if self._lvdt_k < 1.0:
-            zi = st.lvdt_zi if st.lvdt_zi is not None else np.array([(1 - self._lvdt_k) * x[0]])
-            pos, zf2 = lfilter([self._lvdt_k], [1.0, -(1 - self._lvdt_k)], x, zi=zi)
-            st.lvdt_zi = np.asarray(zf2, float)
+            pos, st.lvdt_zi = first_order_lag(x, self._lvdt_k, st.lvdt_zi)
         pos = pos + p.position_noise_m * st.rng_pos.standard_normal(n)
         f_meas = force + p.force_noise_n * st.rng_force.standard_normal(n)
         t_meas = temp + p.temperature_noise_c * st.rng_temp.standard_normal(n)
@@ -345,5 +344,5 @@ def _backward_derivatives(
 
 
 def _tail(hist: tuple[float, float, float], x: FloatArray) -> tuple[float, float, float]:
-    last = [*hist, *(float(v) for v in x)][-3:]
+    last = [*hist, *(float(v) for v in x[-3:])][-3:]
     return (last[0], last[1], last[2])

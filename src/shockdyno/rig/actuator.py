@@ -18,7 +18,7 @@ from pymodbus.exceptions import ModbusException
 
 from shockdyno.errors import RigFault
 from shockdyno.rig.config import RigConfig
-from shockdyno.rig.registers import decode_span, encode
+from shockdyno.rig.registers import decode_span, encode, span_of
 
 # pymodbus logs every timeout with packet dumps on stderr; the driver reports each failure
 # itself as one RigFault line, so its log is kept quiet.
@@ -94,9 +94,7 @@ class ModbusActuator:
         self._heartbeat = 0
         self._enabled_bit = False
         self._status_names = [n for n in STATUS_NAMES if n in self.map]
-        lo = min(self.map[n].address for n in self._status_names)
-        hi = max(self.map[n].address + self.map[n].width for n in self._status_names)
-        self._status_span = (lo, hi - lo)
+        self._status_span = span_of(self.map, self._status_names)
 
     # -- transport ---------------------------------------------------------------------
     def connect(self) -> None:
@@ -131,9 +129,8 @@ class ModbusActuator:
 
     def read(self, names: Iterable[str]) -> dict[str, float]:
         names = list(names)
-        lo = min(self.map[n].address for n in names)
-        hi = max(self.map[n].address + self.map[n].width for n in names)
-        return decode_span(self.map, lo, self.read_words(lo, hi - lo), names)
+        lo, count = span_of(self.map, names)
+        return decode_span(self.map, lo, self.read_words(lo, count), names)
 
     def write(self, values: Mapping[str, float]) -> None:
         for name, value in values.items():

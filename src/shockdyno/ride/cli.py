@@ -13,7 +13,7 @@ from shockdyno.errors import ConfigError
 from shockdyno.fit.result import FitResult
 from shockdyno.model.quarter_car import QuarterCar
 from shockdyno.model.road import DEFAULT_BAND_RAD_M
-from shockdyno.ride.study import RideConfig, RideResult, Run, run_study
+from shockdyno.ride.study import RideConfig, RideResult, run_study
 
 T = TypeVar("T")
 
@@ -119,7 +119,8 @@ def summary(result: RideResult) -> str:
     for v in cfg.speeds_kmh:
         for c in dict.fromkeys(r.clicks for r in result.runs):
             cells = "".join(
-                f"{result.rms_of(c, r, v):>8.3f} ({_wk(result, c, r, v):.3f})" for r in cfg.roads
+                f"{result.rms_of(c, r, v):>8.3f} ({result.rms_wk_of(c, r, v):.3f})"
+                for r in cfg.roads
             )
             label = "linear" if c is None else f"{c} clicks"
             lines.append(f"{v:>5g}  {label:<10}  {cells}")
@@ -129,10 +130,6 @@ def summary(result: RideResult) -> str:
             f"{result.step_check['max_relative_change']:.2e} at dt/2"
         )
     return "\n".join(lines)
-
-
-def _wk(result: RideResult, c: int | None, road: str, v: float) -> float:
-    return float(result.rms_wk_m_s2[result.runs.index(Run(c, road, float(v)))])
 
 
 def handle(args: argparse.Namespace) -> int:

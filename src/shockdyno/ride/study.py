@@ -165,8 +165,15 @@ class RideResult:
     wall_time_s: float
     fit_path: str | None = None
 
+    def run_index(self, clicks: int | None, road: str, speed_kmh: float) -> int:
+        return self.runs.index(Run(clicks, road, float(speed_kmh)))
+
     def rms_of(self, clicks: int | None, road: str, speed_kmh: float) -> float:
-        return float(self.rms_m_s2[self.runs.index(Run(clicks, road, float(speed_kmh)))])
+        return float(self.rms_m_s2[self.run_index(clicks, road, speed_kmh)])
+
+    def rms_wk_of(self, clicks: int | None, road: str, speed_kmh: float) -> float:
+        """The ISO 2631-1 Wk-weighted RMS of that run."""
+        return float(self.rms_wk_m_s2[self.run_index(clicks, road, speed_kmh)])
 
     def to_json(self) -> dict[str, Any]:
         cfg = self.config

@@ -112,11 +112,8 @@ def summarise(test: TestData, dropped_frames: int | None = None) -> TestSummary:
     frames lost after the last one received) but none invents one.
     """
     meta = test.meta
-    # getattr: TestMeta.dropped_frames is an optional field of the recording layer.
     counts = [dropped_from_time(test.t, meta.sample_rate_hz)]
-    counts += [
-        int(k) for k in (dropped_frames, getattr(meta, "dropped_frames", None)) if k is not None
-    ]
+    counts += [int(k) for k in (dropped_frames, meta.dropped_frames) if k is not None]
     stored = meta.extra.get("dropped_frames", "").strip()
     if stored.isdigit():
         counts.append(int(stored))

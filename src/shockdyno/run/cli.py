@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from rich.console import Console
@@ -14,6 +14,9 @@ from shockdyno import __version__
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.model.spec import default_spec_path, load_spec
 from shockdyno.run.plan import SweepPlan, parse_clicks, parse_frequencies
+
+if TYPE_CHECKING:
+    from shockdyno.rig.config import RigConfig
 
 REPO = Path(__file__).resolve().parents[3]
 
@@ -112,7 +115,7 @@ def _plan(args: argparse.Namespace, max_clicks: int) -> SweepPlan:
 
 
 def record_sweep(
-    rig: Any,
+    rig: RigConfig,
     plan: SweepPlan,
     output: Path,
     *,
@@ -177,12 +180,12 @@ def record_sweep(
                 writer.write_event(event.t_s, event.kind, event.message)
 
 
-def _metadata(args: argparse.Namespace, rig: Any, spec: str) -> dict[str, str]:
+def _metadata(args: argparse.Namespace, rig: RigConfig, spec: str) -> dict[str, str]:
     return {
         "damper_id": getattr(args, "damper_id", "") or "",
         "operator": getattr(args, "operator", "") or "",
         "notes": getattr(args, "notes", "") or "",
-        "rig": str(getattr(rig, "name", "")),
+        "rig": rig.name,
         "damper_spec": spec,
         "software": f"shockdyno {__version__}",
         "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),

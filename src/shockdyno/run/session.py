@@ -83,13 +83,11 @@ class RigSession:
         self._closed = False
         self._disarm_reason = ""
         self._t = 0.0  # DAQ time of the latest sample
-        self._x = math.nan
         self._temp = math.nan
         self._motion = False  # the motion output at the latest sample
         self._seq: int | None = None  # sequence number of the latest sample
         self._last_sample_wall = clock()
         self._last_poll_wall = -math.inf
-        self._status: ActuatorStatus | None = None
         self._on_block: BlockSink | None = None
         self._on_actuator: ActuatorSink | None = None
 
@@ -313,7 +311,6 @@ class RigSession:
             self._last_sample_wall = now
             gap = self._largest_gap(block)
             self._t = float(block.t_s[-1])
-            self._x = float(block.displacement_m[-1])
             self._temp = float(block.temperature_c[-1])
             self._motion = bool(block.status[-1] & STATUS_MOTION)
             if self._on_block is not None:
@@ -370,7 +367,6 @@ class RigSession:
             if check:
                 raise SafetyTrip(SafetyEvent(self._t, "link_lost", str(exc))) from None
             raise
-        self._status = st
         self._emit_actuator(st.fields())
         if check and st.fault:
             raise SafetyTrip(

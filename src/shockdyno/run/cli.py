@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -127,7 +128,7 @@ def record_sweep(
     """Run the plan on the rig into the recording; returns the SweepResult."""
     from shockdyno.record import RecordingWriter, open_recording
     from shockdyno.run.liveview import LiveView
-    from shockdyno.run.session import RigSession
+    from shockdyno.run.session import RigSession, exit_reason
     from shockdyno.run.sweep import run_sweep
 
     console = console or Console()
@@ -176,6 +177,8 @@ def record_sweep(
                 log=console.print,
             )
         finally:
+            # Tear down before the recording closes, so the stop and its reason are in it.
+            session.close(exit_reason(sys.exc_info()[1]))
             for event in session.events:
                 writer.write_event(event.t_s, event.kind, event.message)
 

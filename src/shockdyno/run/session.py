@@ -61,6 +61,15 @@ def _console_prompt(message: str) -> None:
     input(f"{message} [Enter when done] ")
 
 
+def exit_reason(exc: BaseException | None) -> str:
+    """Why a session ends, for its teardown event."""
+    if exc is None:
+        return "session ended"
+    if isinstance(exc, KeyboardInterrupt):
+        return "operator interrupt (Ctrl-C)"
+    return f"{type(exc).__name__}: {exc}"
+
+
 class RigSession:
     def __init__(
         self,
@@ -121,12 +130,14 @@ class RigSession:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
-        if exc_type is None:
-            reason = "session ended"
-        elif issubclass(exc_type, KeyboardInterrupt):
-            reason = "operator interrupt (Ctrl-C)"
-        else:
-            reason = f"{exc_type.__name__}: {exc}"
+        self._teardown(exit_reason(exc))
+
+    def close(self, reason: str = "session ended") -> None:
+        """Stop, centre, disable and close now (idempotent; the context exit then does nothing).
+
+        A caller that records the session's events calls this before closing its recording,
+        so that the teardown and its reason are recorded too.
+        """
         self._teardown(reason)
 
     def enable(self) -> None:

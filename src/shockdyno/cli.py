@@ -51,6 +51,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ShockdynoError as exc:
         print(f"shockdyno {args.command}: error: {exc}", file=sys.stderr)
         return exc.exit_code
+    except OSError as exc:  # a path the user named cannot be read or written
+        where = f": {exc.filename}" if exc.filename else ""
+        print(f"shockdyno {args.command}: error: {exc.strerror or exc}{where}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(f"shockdyno {args.command}: interrupted", file=sys.stderr)
         return 130

@@ -192,14 +192,58 @@ def test_ctrl_c_stops_safely_and_keeps_what_was_recorded(tmp_path):
             assert any("Ctrl-C" in e[2] for e in rec.events)
 
 
-def test_absurd_amplitude_is_refused_in_one_line_before_anything_moves(tmp_path):
+@pytest.mark.parametrize(
+    ("flags", "words"),
+    [
+        (("--amplitude-mm", "500"), "travel"),  # beyond the rig's ±45 mm
+        (("--amplitude-mm", "40", "--freq", "5"), "velocity"),  # 2πfA = 1.26 m/s > 0.6 m/s
+        (("--gas-clicks", "99"), "gas-bottle clicks"),
+    ],
+)
+def test_bad_plans_are_refused_in_one_line_before_anything_moves(tmp_path, flags, words):
     out = tmp_path / "absurd.mcap"
-    cmd = _sweep_cmd(out, "--speed", "40", "--amplitude-mm", "500")
-    res = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=60)
-    assert res.returncode != 0
+    res = subprocess.run(_sweep_cmd(out, "--speed", "40", *flags), cwd=REPO, capture_output=True,
+                         text=True, timeout=60)  # fmt: skip
+    assert res.returncode == 2
     assert "Traceback" not in res.stderr
     errors = [line for line in res.stderr.splitlines() if "error" in line]
-    assert len(errors) == 1 and "amplitude" in errors[0].lower()
+    assert len(errors) == 1 and words in errors[0]
+    assert not out.exists()  # refused before connecting: no recording, nothing moved
+
+
+def test_operator_adjuster_without_a_terminal_is_refused_before_anything_moves(tmp_path):
+    rig = tmp_path / "operator.toml"
+    rig.write_text(SIM_RIG.read_text().replace('adjuster = "motorised"', 'adjuster = "operator"'))
+    out = tmp_path / "op.mcap"
+    cmd = [*CLI, "sweep", "--rig", str(rig), "--start-sim", "--clicks", "0", "--freq", "1",
+           "-o", str(out)]  # fmt: skip
+    res = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=60,
+                         stdin=subprocess.DEVNULL)  # fmt: skip
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert "terminal" in res.stderr and not out.exists()
+
+
+def test_resume_with_a_different_plan_is_refused(swept):
+    path, *_ = swept
+    before = path.read_bytes()
+    cmd = [*CLI, "sweep", "--rig", str(SIM_RIG), "--start-sim", "--speed", "40", "--clicks",
+           "3,12,15", "--freq", "1,1.5", "--warmup-cycles", "1", "--cycles", "3",
+           "--amplitude-mm", "20", "--resume", "-o", str(path)]  # fmt: skip
+    res = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert "--resume must use the same" in res.stderr
+    assert path.read_bytes() == before
+    assert not list(path.parent.glob("*.part*.mcap"))
+
+
+def test_a_path_that_is_a_file_is_a_one_line_error(tmp_path):
+    blocker = tmp_path / "not-a-dir"
+    blocker.write_text("")
+    res = subprocess.run([*CLI, "demo", "--no-fit", "--out-dir", str(blocker)], cwd=REPO,
+                         capture_output=True, text=True, timeout=60)  # fmt: skip
+    assert res.returncode == 2
+    assert "Traceback" not in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    assert str(blocker) in res.stderr
 
 
 def test_existing_recording_is_not_overwritten(tmp_path):

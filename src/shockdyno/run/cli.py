@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -103,7 +104,10 @@ def register(sub: Any) -> None:
     r.set_defaults(func=cmd_replay)
 
 
-def _plan(args: argparse.Namespace, max_clicks: int) -> SweepPlan:
+def _plan(args: argparse.Namespace, max_clicks: int, max_gas_clicks: int) -> SweepPlan:
+    gas = getattr(args, "gas_clicks", 0)
+    if not 0 <= gas <= max_gas_clicks:
+        raise ConfigError(f"gas-bottle clicks must be 0-{max_gas_clicks}, got {gas}")
     return SweepPlan(
         clicks=tuple(parse_clicks(args.clicks, max_clicks)),
         frequencies_hz=tuple(parse_frequencies(getattr(args, "freq", "0.5,1,1.5"))),
@@ -113,6 +117,10 @@ def _plan(args: argparse.Namespace, max_clicks: int) -> SweepPlan:
         measured_cycles=args.cycles,
         temperature_band_c=getattr(args, "temp_band_c", None),
     )
+
+
+def _click_ranges(spec: Any) -> tuple[int, int]:
+    return int(spec.compression_bleed.max_clicks), int(spec.max_gas_clicks)
 
 
 def record_sweep(
@@ -128,7 +136,7 @@ def record_sweep(
     """Run the plan on the rig into the recording; returns the SweepResult."""
     from shockdyno.record import RecordingWriter, open_recording
     from shockdyno.run.liveview import LiveView
-    from shockdyno.run.session import RigSession, exit_reason
+    from shockdyno.run.session import RigSession, check_sine, exit_reason
     from shockdyno.run.sweep import run_sweep
 
     console = console or Console()
@@ -138,6 +146,7 @@ def record_sweep(
         if not output.exists():
             raise RecordingError(f"nothing to resume: {output} does not exist")
         previous = open_recording(output)
+        _check_resume_matches(previous.tests, plan, output)
         done = previous.completed_keys()
         first_index = len(previous.tests)
         console.print(
@@ -149,6 +158,14 @@ def record_sweep(
     if not todo:
         console.print("nothing left to run")
         return None
+    # Everything that can be refused is refused here, before the rig is touched.
+    for frequency in plan.frequencies_hz:
+        check_sine(rig, plan.amplitude_m, frequency, plan.warmup_cycles, plan.measured_cycles)
+    if rig.adjuster == "operator" and not sys.stdin.isatty():
+        raise ConfigError(
+            f"{rig.source}: the adjuster is set by an operator, who confirms each setting at a "
+            "terminal; run the sweep from a terminal (stdin is not one)"
+        )
     output.parent.mkdir(parents=True, exist_ok=True)
 
     view = LiveView(len(todo), console=console)
@@ -183,6 +200,22 @@ def record_sweep(
                 writer.write_event(event.t_s, event.kind, event.message)
 
 
+def _check_resume_matches(tests: list[Any], plan: SweepPlan, output: Path) -> None:
+    """A resumed sweep must measure like the one it continues, or the set mixes two tests."""
+    for meta in tests:
+        same = (
+            math.isclose(meta.amplitude_m, plan.amplitude_m, rel_tol=1e-6)
+            and meta.warmup_cycles == plan.warmup_cycles
+            and meta.measured_cycles == plan.measured_cycles
+        )
+        if not same:
+            raise ConfigError(
+                f"{output} was recorded at {meta.amplitude_m * 1e3:g} mm, "
+                f"{meta.warmup_cycles} warm-up and {meta.measured_cycles} measured cycles; "
+                "--resume must use the same --amplitude-mm, --warmup-cycles and --cycles"
+            )
+
+
 def _metadata(args: argparse.Namespace, rig: RigConfig, spec: str) -> dict[str, str]:
     return {
         "damper_id": getattr(args, "damper_id", "") or "",
@@ -200,7 +233,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     console = Console()
     rig = load_rig(args.rig)
-    plan = _plan(args, load_spec().compression_bleed.max_clicks)
+    plan = _plan(args, *_click_ranges(load_spec()))
     if args.start_sim:
         from shockdyno.simrig import start_sim_rig
 
@@ -271,7 +304,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     out: Path = args.out_dir
     rec_path = out / "demo.mcap"
     report_dir = out / "demo-report"
-    plan = _plan(args, spec.compression_bleed.max_clicks)
+    plan = _plan(args, *_click_ranges(spec))
     rig = load_rig(repo_file("rigs/sim.toml"))
     console.rule("shockdyno demo: click sweep on the simulated rig")
     t0 = time.perf_counter()

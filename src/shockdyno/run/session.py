@@ -61,6 +61,31 @@ def _console_prompt(message: str) -> None:
     input(f"{message} [Enter when done] ")
 
 
+def check_sine(rig: RigConfig, a: float, f: float, warmup: int, measured: int) -> None:
+    """Refuse a sine the rig must not run (ConfigError), before anything moves."""
+    lim = rig.limits
+    if not (isinstance(a, int | float) and math.isfinite(a) and a > 0):
+        raise ConfigError(f"amplitude must be > 0 m, got {a!r}")
+    if not (isinstance(f, int | float) and math.isfinite(f) and f > 0):
+        raise ConfigError(f"frequency must be > 0 Hz, got {f!r}")
+    for name, n, lo in (("warmup_cycles", warmup, 0), ("measured_cycles", measured, 1)):
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < lo:
+            raise ConfigError(f"{name} must be a whole number >= {lo}, got {n!r}")
+    if a > lim.travel_m:
+        raise ConfigError(
+            f"amplitude {a * 1e3:g} mm exceeds the rig's travel of ±{lim.travel_m * 1e3:g} mm "
+            f"({rig.source} limits.travel_m); refused before moving"
+        )
+    v = 2 * math.pi * f * a
+    if v > lim.velocity_m_s:
+        raise ConfigError(
+            f"peak velocity 2πfA = {v:.3g} m/s exceeds the limit of {lim.velocity_m_s:g} m/s "
+            f"({rig.source} limits.velocity_m_s); refused before moving"
+        )
+    if f > rig.daq.sample_rate_hz / 20:
+        raise ConfigError(f"frequency {f:g} Hz leaves fewer than 20 DAQ samples per cycle; refused")
+
+
 def exit_reason(exc: BaseException | None) -> str:
     """Why a session ends, for its teardown event."""
     if exc is None:
@@ -265,29 +290,7 @@ class RigSession:
         )
 
     def _check_sine(self, a: float, f: float, warmup: int, measured: int) -> None:
-        lim = self.rig.limits
-        if not (isinstance(a, int | float) and math.isfinite(a) and a > 0):
-            raise ConfigError(f"amplitude must be > 0 m, got {a!r}")
-        if not (isinstance(f, int | float) and math.isfinite(f) and f > 0):
-            raise ConfigError(f"frequency must be > 0 Hz, got {f!r}")
-        for name, n, lo in (("warmup_cycles", warmup, 0), ("measured_cycles", measured, 1)):
-            if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < lo:
-                raise ConfigError(f"{name} must be a whole number >= {lo}, got {n!r}")
-        if a > lim.travel_m:
-            raise ConfigError(
-                f"amplitude {a * 1e3:g} mm exceeds the rig's travel of ±{lim.travel_m * 1e3:g} mm "
-                f"({self.rig.source} limits.travel_m); refused before moving"
-            )
-        v = 2 * math.pi * f * a
-        if v > lim.velocity_m_s:
-            raise ConfigError(
-                f"peak velocity 2πfA = {v:.3g} m/s exceeds the limit of {lim.velocity_m_s:g} m/s "
-                f"({self.rig.source} limits.velocity_m_s); refused before moving"
-            )
-        if f > self.rig.daq.sample_rate_hz / 20:
-            raise ConfigError(
-                f"frequency {f:g} Hz leaves fewer than 20 DAQ samples per cycle; refused"
-            )
+        check_sine(self.rig, a, f, warmup, measured)
 
     # -- plumbing ------------------------------------------------------------------------
     def _act(self) -> ModbusActuator:

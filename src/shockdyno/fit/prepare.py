@@ -47,6 +47,8 @@ def _uniform(test: TestData) -> TestData | None:
     f = np.asarray(d.force, dtype=float)
     temp = None if d.temperature is None else np.asarray(d.temperature, dtype=float)
     ok = np.isfinite(t) & np.isfinite(x) & np.isfinite(f)
+    if np.count_nonzero(ok) < MIN_SAMPLES:
+        return None
     t, x, f = t[ok], x[ok], f[ok]
     if temp is not None:
         temp = temp[ok]
@@ -77,8 +79,11 @@ def prepare_tests(
     out: list[PreparedTest] = []
     notes: list[str] = []
     for test in tests:
-        d = _uniform(test)
         m = test.meta
+        if m.status != "complete":  # stopped early: its cycles are not the ones planned
+            notes.append(f"test {m.index} ({m.clicks} clicks, {m.frequency_hz:g} Hz): {m.status}")
+            continue
+        d = _uniform(test)
         if d is None:
             notes.append(
                 f"test {m.index} ({m.clicks} clicks, {m.frequency_hz:g} Hz): too few samples"

@@ -35,7 +35,9 @@ def test_enter_enables_and_centres_exit_disables(backend: Backend) -> None:
         st = drive_status(rig)
         assert st.enabled and not st.fault
         assert st.position_m == pytest.approx(rig.stroke_centre_m, abs=1e-3)
-        assert session.read_temperature_c() == pytest.approx(40.0, abs=5.0)
+        # The simulated oil sits at 40 °C; a real damper may be at room temperature. Either
+        # way a calibrated channel reads a physical value inside the rig's limit.
+        assert -20.0 <= session.read_temperature_c() <= rig.limits.temperature_c
     st = drive_status(rig)
     assert not st.enabled and not st.running
     assert st.position_m == pytest.approx(rig.stroke_centre_m, abs=1e-3)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 from dataclasses import replace
 from pathlib import Path
@@ -66,6 +67,13 @@ def test_fit_command_writes_json_report_and_table(
     assert len(pngs) >= 3  # areas vs clicks, and overlays
     for p in pngs:
         assert p.read_bytes()[:8] == PNG_MAGIC and p.stat().st_size > 10_000
+    rows = list(csv.reader((report / "table4.csv").read_text().splitlines()))
+    assert rows[0][:2] == ["Frequency (Hz)", "Model"]
+    assert [r[1] for r in rows[1:]] == ["Proposed", "Talbott", "Enhancement (%)"] * 3
+    # The table's E_t is the mean over that frequency's tests in the JSON.
+    for i, f in enumerate(sorted({t["frequency_hz"] for t in doc["tests"]})):
+        mean = np.mean([t["proposed"]["E_t"] for t in doc["tests"] if t["frequency_hz"] == f])
+        assert float(rows[1 + 3 * i][2]) == pytest.approx(mean, rel=1e-3)
 
 
 def test_ga_option_is_seeded(recording: Path, tmp_path: Path) -> None:

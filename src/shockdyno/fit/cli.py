@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import csv
+import io
 import math
 from pathlib import Path
 from typing import Any
@@ -23,7 +25,11 @@ def register(sub: Any) -> None:
     )
     p.add_argument("recording", metavar="REC.mcap", help="recording to fit")
     p.add_argument("--json", required=True, metavar="FIT.json", help="where to write the result")
-    p.add_argument("--report", metavar="DIR", help="also write figures (PNG) and the table here")
+    p.add_argument(
+        "--report",
+        metavar="DIR",
+        help="also write the figures (PNG) and the Table 4 analogue (table4.csv) here",
+    )
     p.add_argument(
         "--optimizer",
         choices=("fast", "ga"),
@@ -114,10 +120,18 @@ def run_fit(args: argparse.Namespace) -> int:
         print(f"skipped {note}")
     if args.report:
         from shockdyno.fit.plots import fit_figures
+        from shockdyno.fit.validate import table4_rows
+        from shockdyno.record.atomic import write_text_atomic
 
         report = Path(args.report)
         report.mkdir(parents=True, exist_ok=True)
         figures = fit_figures(result, tests, report)
         for title, path in figures:
             print(f"figure: {title}: {path}")
+        header, rows = table4_rows(result)
+        text = io.StringIO()
+        csv.writer(text, lineterminator="\n").writerows([header, *rows])
+        table = report / "table4.csv"
+        write_text_atomic(table, text.getvalue())
+        print(f"table: Table 4 analogue: {table}")
     return 0

@@ -74,3 +74,15 @@ def test_temperature_band_wait_on_the_simulated_rig():
                 session, (ambient + 30, ambient + 40), 3.0, messages.append, sleep=lambda s: None
             )
         assert len(messages) == 1 and "waiting for damper temperature" in messages[0]
+
+
+def test_sim_rig_on_a_busy_port_is_a_one_line_fault(capfd):
+    import socket
+
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        with pytest.raises(RigFault, match=f"cannot listen for Modbus on 127.0.0.1:{port}"):
+            start_sim_rig(REPO / "rigs" / "sim.toml", modbus_port=port)
+    assert capfd.readouterr().err == ""  # no library log lines beside the error

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import logging
 import os
 import threading
 import time
@@ -31,6 +32,10 @@ from shockdyno.simrig.engine import CHUNK, SimEngine
 from shockdyno.simrig.faults import Fault
 from shockdyno.simrig.registers import DriveRegisters
 from shockdyno.simrig.scenario import Scenario, load_scenario
+
+# The server reports its own failures as one-line RigFaults; without a handler of its own,
+# pymodbus's error log would reach stderr through logging's last-resort handler as well.
+logging.getLogger("pymodbus").addHandler(logging.NullHandler())
 
 SINK_LIMIT = 1 << 20  # bytes queued for a slow reader before new frames are discarded
 SERVER_FAULTS = ("modbus_timeout", "daq_disconnect")  # faults of the wires, not the engine
@@ -183,7 +188,12 @@ class SimRig:
         # the RTU driver reaches it as the pyserial URL socket://127.0.0.1:PORT.
         framer = FramerType.RTU if self._modbus == "rtu" else FramerType.SOCKET
         server = ModbusTcpServer(device, address=("127.0.0.1", self._ports[0]), framer=framer)
-        await server.serve_forever(background=True)
+        try:
+            await server.serve_forever(background=True)
+        except Exception:
+            raise RigFault(
+                f"cannot listen for Modbus on 127.0.0.1:{self._ports[0]} (port in use?)"
+            ) from None
         sockets = server.transport.sockets  # type: ignore[attr-defined]
         self.modbus_port = int(sockets[0].getsockname()[1])
         if self._modbus == "rtu":

@@ -55,7 +55,7 @@ def test_ride_writes_the_documented_json_and_report(fit_file: Path, tmp_path: Pa
         (["--fit", "missing.json"], "fit file not found"),
         (["--roads", "A,Q"], "road class 'Q'"),
         (["--clicks", "5,x"], "--clicks"),
-        (["--clicks", "30"], "no result for 30 clicks"),
+        (["--clicks", "30"], "30 clicks is outside the fitted range"),
         (["--speeds-kmh", "0"], "speed"),
         (["--band-rad-per-m", "1"], "two numbers"),
         (["--dt-ms", "nan"], "finite"),

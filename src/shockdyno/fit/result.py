@@ -76,6 +76,12 @@ class FitResult:
                 if model == "talbott":
                     return c.a_b_talbott_m2, c.a_b_talbott_m2
                 return c.a_bc_m2, c.a_bt_m2
+        fitted = [c.clicks for c in self.clicks]
+        if fitted and not min(fitted) <= clicks <= max(fitted):
+            raise FitError(
+                f"{clicks} clicks is outside the fitted range {min(fitted)}-{max(fitted)}; "
+                "the trend is not extrapolated"
+            )
         if model == "proposed" and "A_bc" in self.trend and "A_bt" in self.trend:
             bc = float(np.polyval(self.trend["A_bc"]["coefficients"], clicks))
             bt = float(np.polyval(self.trend["A_bt"]["coefficients"], clicks))

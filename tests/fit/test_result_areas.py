@@ -1,0 +1,37 @@
+"""FitResult.areas: fitted values, the trend between them, never an extrapolation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from shockdyno.errors import FitError
+from shockdyno.fit.result import ClickFit, FitResult
+from shockdyno.model.spec import default_spec_path
+
+
+def _result() -> FitResult:
+    clicks = [ClickFit(c, 0, 1e-6 * (c + 1), 5e-7 * (c + 1), 8e-7 * (c + 1)) for c in (5, 15)]
+    trend = {
+        "A_bc": {"coefficients": [1e-6, 1e-6]},  # A = 1e-6 (n + 1)
+        "A_bt": {"coefficients": [5e-7, 5e-7]},
+    }
+    return FitResult(str(default_spec_path()), {}, clicks, trend=trend)
+
+
+def test_fitted_clicks_give_their_own_areas():
+    r = _result()
+    assert r.areas(15) == (16e-6, 8e-6)
+    assert r.areas(5, model="talbott") == (4.8e-6, 4.8e-6)
+
+
+def test_clicks_between_fitted_ones_follow_the_trend():
+    bc, bt = _result().areas(10)
+    assert bc == pytest.approx(np.polyval([1e-6, 1e-6], 10))
+    assert bt == pytest.approx(np.polyval([5e-7, 5e-7], 10))
+
+
+@pytest.mark.parametrize("clicks", [0, 4, 16, 30, -1])
+def test_clicks_outside_the_fitted_range_are_refused(clicks):
+    with pytest.raises(FitError, match="outside the fitted range 5-15"):
+        _result().areas(clicks)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -55,3 +56,24 @@ def test_pressure_drop_is_monotone_in_flow():
     q = np.linspace(0, 1e-3, 2000)
     dp = solve_pressure_drop(q, 3e-6, SPEC.rebound_valve, CD, RHO, SPEC.leak_conductance_m3_s_pa)
     assert np.all(np.diff(dp) > 0)
+
+
+def test_solve_agrees_with_brentq_on_the_equations_written_out_again():
+    """An independent scalar root-find of eq. 3, 4 and 7 with the valve law spelt out."""
+    from scipy.optimize import brentq
+
+    k_leak = SPEC.leak_conductance_m3_s_pa
+    for valve in (SPEC.compression_valve, SPEC.rebound_valve):
+        k = valve.stiffness_n_per_m
+        for a_b in (0.0, 1e-6, 8e-6):
+            for q in (1e-6, 3e-5, 1e-4, 3e-4):
+
+                def residual(dp, a_b=a_b, q=q, valve=valve, k=k):  # type: ignore[no-untyped-def]
+                    lift = min(max((dp * valve.face_area_m2 - k * valve.preload_m) / k, 0.0),
+                               valve.max_lift_m)  # fmt: skip
+                    area = a_b + np.pi * valve.seat_diameter_m * lift
+                    return CD * area * np.sqrt(2 * dp / RHO) + k_leak * dp - q
+
+                expected = brentq(residual, 0.0, 1e10, xtol=1e-6, rtol=1e-13)
+                got = solve_pressure_drop(np.array([q]), a_b, valve, CD, RHO, k_leak)[0]
+                assert got == pytest.approx(expected, rel=1e-7)

@@ -89,9 +89,10 @@ def solve_pressure_drop(
     a_full = a_b + valve.perimeter_m * valve.max_lift_m
     p_full = (valve.stiffness_n_per_m * valve.max_lift_m + valve.preload_n) / valve.face_area_m2
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        s_bleed = np.where(a_b > 0, q / (c * a_b), np.inf)
+        # Test the divisor itself: c·A_b can underflow to 0 for a subnormal area.
+        s_bleed = np.where(c * a_b > 0, q / (c * a_b), np.inf)
         s_leak = np.where(kl > 0, np.sqrt(q / kl), np.inf)
-        s_valve = np.where(a_full > 0, np.maximum(q / (c * a_full), math.sqrt(p_full)), np.inf)
+        s_valve = np.where(c * a_full > 0, np.maximum(q / (c * a_full), math.sqrt(p_full)), np.inf)
     hi = np.minimum(np.minimum(s_bleed, s_leak), np.minimum(s_valve, S_MAX))
     lo = np.zeros_like(q)
     s = 0.5 * hi

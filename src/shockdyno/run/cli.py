@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import sys
 import time
@@ -112,7 +113,7 @@ def _plan(args: argparse.Namespace, max_clicks: int, max_gas_clicks: int) -> Swe
         clicks=tuple(parse_clicks(args.clicks, max_clicks)),
         frequencies_hz=tuple(parse_frequencies(getattr(args, "freq", "0.5,1,1.5"))),
         amplitude_m=getattr(args, "amplitude_mm", 30.0) / 1e3,
-        gas_clicks=getattr(args, "gas_clicks", 0),
+        gas_clicks=gas,
         warmup_cycles=getattr(args, "warmup_cycles", 2),
         measured_cycles=args.cycles,
         temperature_band_c=getattr(args, "temp_band_c", None),
@@ -234,18 +235,18 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     console = Console()
     rig = load_rig(args.rig)
     plan = _plan(args, *_click_ranges(load_spec()))
-    if args.start_sim:
-        from shockdyno.simrig import start_sim_rig
+    with contextlib.ExitStack() as stack:
+        spec_used = ""  # a real rig's damper is whatever is mounted
+        if args.start_sim:
+            from shockdyno.simrig import start_sim_rig
 
-        with start_sim_rig(rig, scenario=args.scenario, speed=args.speed, seed=args.seed) as sim:
+            sim = stack.enter_context(
+                start_sim_rig(rig, scenario=args.scenario, speed=args.speed, seed=args.seed)
+            )
             for endpoint in sim.endpoints:
                 console.print(endpoint)
-            rig = sim.rig_config()
-            meta = _metadata(args, rig, str(default_spec_path()))
-            record_sweep(rig, plan, args.output, metadata=meta, overwrite=args.force,
-                         resume=args.resume, console=console)  # fmt: skip
-    else:
-        meta = _metadata(args, rig, "")
+            rig, spec_used = sim.rig_config(), str(default_spec_path())
+        meta = _metadata(args, rig, spec_used)
         record_sweep(rig, plan, args.output, metadata=meta, overwrite=args.force,
                      resume=args.resume, console=console)  # fmt: skip
     console.print(f"recording: {args.output}", soft_wrap=True)

@@ -27,24 +27,16 @@ from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.problem import StackedProblem
 from shockdyno.fit.result import apply_overrides
 from shockdyno.fit.sweep import fit_sweep, ga_fitness, l1_problems, polish_l1
-from shockdyno.fit.synthetic import synthetic_sweep
+from shockdyno.fit.synthetic import PERTURBED_GLOBALS, synthetic_sweep
 from shockdyno.model import load_spec
 
 TARGET_S = 60.0
-TRUE_GLOBALS = {
-    "gas_pressure_pa": 1.45e6,
-    "friction_n": 45.0,
-    "compression_valve.preload_m": 1.3e-4,
-    "compression_valve.face_area_m2": 2.3e-4,
-    "rebound_valve.preload_m": 1.8e-4,
-    "rebound_valve.face_area_m2": 1.45e-4,
-}
 GA_CLICKS = (2, 7, 14, 21)
 
 
 def main() -> None:
     nominal = load_spec()
-    truth = apply_overrides(nominal, TRUE_GLOBALS)
+    truth = apply_overrides(nominal, PERTURBED_GLOBALS)
     a_max = nominal.bleed_bore_area_m2
     tests = synthetic_sweep(truth, list(range(22)), cycles=3, seed=1)
     n_samples = sum(t.t.size for t in tests)

@@ -21,8 +21,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
-from shockdyno.fit.result import ClickFit, FitResult
-from shockdyno.model import damper_force, default_spec_path, load_spec
+from shockdyno.fit.result import FitResult
+from shockdyno.model import damper_force, default_spec_path
 from shockdyno.model.quarter_car import (
     QuarterCar,
     TabulatedDamper,
@@ -35,15 +35,6 @@ from shockdyno.ride.study import RideConfig, run_study
 SPAN_S, WARMUP_S, DT = 8.0, 2.0, 1e-3
 START_C = 6000.0  # N·s/m: the linear car whose steady state starts every integrator
 SAMPLE = [(5, "A", 20.0), (10, "C", 80.0), (15, "E", 120.0)]
-
-
-def true_fit() -> FitResult:
-    spec = load_spec()
-    clicks = []
-    for n in (5, 10, 15):
-        a_bc, a_bt = spec.bleed_areas(n)
-        clicks.append(ClickFit(n, 0, float(a_bc), float(a_bt), float(0.5 * (a_bc + a_bt))))
-    return FitResult(spec_path=str(default_spec_path()), globals={}, clicks=clicks)
 
 
 def ivp_run(
@@ -87,7 +78,7 @@ def ivp_run(
 
 
 def main() -> int:
-    fit = true_fit()
+    fit = FitResult.from_spec(default_spec_path(), (5, 10, 15))
     spec = fit.spec()
     car = QuarterCar()
 

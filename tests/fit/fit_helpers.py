@@ -4,18 +4,11 @@ from __future__ import annotations
 
 from shockdyno.fit.problem import nominal_value
 from shockdyno.fit.result import apply_overrides
+from shockdyno.fit.synthetic import PERTURBED_GLOBALS
 from shockdyno.model import load_spec
 from shockdyno.model.spec import DamperSpec
 
-# The "real" damper departs from the nominal spec the fit starts from by 10-30 %.
-TRUE_GLOBALS = {
-    "gas_pressure_pa": 1.45e6,
-    "friction_n": 45.0,
-    "compression_valve.preload_m": 1.3e-4,
-    "compression_valve.face_area_m2": 2.3e-4,
-    "rebound_valve.preload_m": 1.8e-4,
-    "rebound_valve.face_area_m2": 1.45e-4,
-}
+TRUE_GLOBALS = PERTURBED_GLOBALS  # the "real" damper of these tests
 
 
 def true_spec() -> DamperSpec:

@@ -9,6 +9,7 @@ base spec. Together they rebuild the fitted damper with `FitResult.spec()`.
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -65,6 +66,20 @@ class FitResult:
     trend: dict[str, Any] = field(default_factory=dict)
     tests: list[dict[str, Any]] = field(default_factory=list)
     info: dict[str, Any] = field(default_factory=dict)
+
+    @staticmethod
+    def from_spec(spec_path: str | Path, clicks: Sequence[int]) -> FitResult:
+        """What a perfect fit would give: the spec's own bleed areas at these clicks.
+
+        Talbott's single area is taken as the mean of the two (no fit to choose it).
+        Useful for a ride study of the nominal damper, and as known truth in checks.
+        """
+        spec = load_spec(spec_path)
+        fits = []
+        for n in clicks:
+            a_bc, a_bt = (float(a) for a in spec.bleed_areas(n))
+            fits.append(ClickFit(int(n), 0, a_bc, a_bt, 0.5 * (a_bc + a_bt)))
+        return FitResult(spec_path=str(spec_path), globals={}, clicks=fits)
 
     def spec(self) -> DamperSpec:
         return apply_overrides(load_spec(self.spec_path), self.globals)

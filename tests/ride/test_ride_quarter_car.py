@@ -11,7 +11,8 @@ import pytest
 from scipy.signal import welch
 
 from shockdyno.errors import ConfigError
-from shockdyno.model import ModelState, damper_force, load_spec, quarter_car
+from shockdyno.model import DamperModel, damper_force, load_spec
+from shockdyno.model.composite import CHAMBER, Term, Work
 from shockdyno.model.quarter_car import (
     LinearDamper,
     QuarterCar,
@@ -128,26 +129,21 @@ def test_damper_table_matches_the_full_model_per_run() -> None:
     assert table.added_mass_kg == pytest.approx(0.45, rel=0.01)
 
 
-def test_a_non_separable_model_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_non_separable_model_is_refused() -> None:
     """A term that mixes x and v breaks G(x) + H(v); the table must notice, not guess."""
 
-    class StrokeDependentBleed:
-        name = "stroke-dependent bleed"
+    class StrokeDependentBleed(Term):
+        name = "stroke_dependent_bleed"
+        stage = CHAMBER
 
-        def before_flow(self, state: ModelState) -> None:
-            state.bleed_compression_m2 = state.bleed_compression_m2 * (1 + 20 * state.x)
-            state.bleed_rebound_m2 = state.bleed_rebound_m2 * (1 + 20 * state.x)
+        def apply(self, w: Work, p: Any, carry: Any, stage: int) -> None:
+            w.bleed_compression_m2 = w.bleed_compression_m2 * (1 + 20 * w.x)
+            w.bleed_rebound_m2 = w.bleed_rebound_m2 * (1 + 20 * w.x)
 
-        def after_flow(self, state: ModelState) -> None:
-            pass
-
-    def with_term(*args: Any, **kwargs: Any) -> Any:
-        return damper_force(*args, **kwargs, terms=[StrokeDependentBleed()])
-
-    monkeypatch.setattr(quarter_car, "damper_force", with_term)
+    model = DamperModel(SPEC, (StrokeDependentBleed(),))
     area = tuple(float(a) for a in SPEC.bleed_areas(10))
     with pytest.raises(ConfigError, match="separable"):
-        TabulatedDamper(SPEC, [area], [0])  # type: ignore[list-item]
+        TabulatedDamper(model, [area], [0])  # type: ignore[list-item]
 
 
 def test_step_beyond_rk4_stability_diverges_and_is_reported() -> None:

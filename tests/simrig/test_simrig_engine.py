@@ -137,7 +137,9 @@ def test_scenarios_change_what_the_load_cell_sees(name: str, min_change_n: float
 
     sc = load_scenario(name)
     plain = decode(sine_engine(seed=1).advance(3000))
-    e = SimEngine(RIG, SPEC, seed=1, terms=sc.terms, lvdt_lag_s=sc.lvdt_lag_s)
+    e = SimEngine(
+        RIG, SPEC, seed=1, terms=sc.terms, term_values=sc.values, lvdt_lag_s=sc.lvdt_lag_s
+    )
     d = e.drive
     d.enable(0.0)
     d.move(0.0, C, 0.05)

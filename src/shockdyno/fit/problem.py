@@ -1,10 +1,13 @@
 """The fit's samples, stacked: one model call evaluates every test of the sweep at once.
 
-Each click setting (rod clicks, gas clicks) is a group with its own bleed areas. A sample
-moving in compression (v > 0) sees only A_bc, one in rebound only A_bt (the model picks
-the area by the sign of the flow, which is the sign of v), so the areas of different
-groups and directions touch disjoint samples. "Problems" index those disjoint sets:
-problem g is group g's compression samples, n_groups + g its rebound samples.
+Each test is a segment of the model's inputs with its own sample step, so stateful terms
+filter each test from its own steady state. Each click setting (rod clicks, gas clicks)
+is a group with its own bleed areas. A sample moving in compression (v > 0, the velocity
+the damper sees after any sensor delay) sees only A_bc, one in rebound only A_bt, so
+the areas of different groups and directions touch disjoint samples (exactly for the
+paper's model; to within a lag's memory near reversal with stateful terms). "Problems"
+index those disjoint sets: problem g is group g's compression samples, n_groups + g its
+rebound samples.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from numpy.typing import NDArray
 
 from shockdyno.fit.prepare import PreparedTest
 from shockdyno.fit.result import apply_overrides
-from shockdyno.model import damper_force
+from shockdyno.model.composite import DamperModel, ModelInputs
 from shockdyno.model.spec import DamperSpec
 
 FloatArray = NDArray[np.float64]
@@ -62,38 +65,65 @@ def global_params(spec: DamperSpec, keys: Sequence[str] = DEFAULT_GLOBALS) -> li
     return out
 
 
-# Channel delay: the measured force at sample time t is the damper's response to the
-# motion at t - delay (load-cell or LVDT filtering, the DAQ sampling the two channels at
-# different instants, a velocity estimated by a backward difference). Calibrated within
-# ±5 ms, in ms.
-DELAY_SCALE_S = 1e-3
-DELAY_BOUND_S = 5e-3
+def prepared_inputs(tests: Sequence[PreparedTest], full_rate: bool = False) -> ModelInputs:
+    """Model inputs of the tests: their objective samples (or every sample), one segment each."""
+    parts = []
+    for p in tests:
+        d = p.data
+        idx = np.arange(d.t.size) if full_rate else p.obj
+        step = 1 if full_rate or idx.size < 2 else int(idx[1] - idx[0])
+        dt = float(d.t[1] - d.t[0]) * step
+        temp = None if d.temperature is None else np.asarray(d.temperature[idx], dtype=float)
+        gas = None
+        if d.meta.gas_pressure_pa is not None:
+            gas = np.array([float(d.meta.gas_pressure_pa)])
+        parts.append(
+            ModelInputs(
+                x=np.ascontiguousarray(d.x[idx]),
+                v=np.ascontiguousarray(p.v[idx]),
+                a=np.ascontiguousarray(p.a[idx]),
+                starts=np.zeros(1, dtype=np.intp),
+                dt_s=np.array([dt]),
+                temperature_c=temp,
+                gas_pressure_pa=gas,
+            )
+        )
+    return ModelInputs.stack(parts)
 
 
-def delayed_motion(
-    x: FloatArray, v: FloatArray, a: FloatArray, delay_s: float
-) -> tuple[FloatArray, FloatArray]:
-    """(x, v) at t - delay, to first order: the omitted terms, δ²/2 times a or the jerk,
-    are below 1e-5 m and 1e-4 m/s for δ <= 1 ms on the dyno's sines."""
-    if delay_s == 0.0:
-        return x, v
-    return x - delay_s * v, v - delay_s * a
+def _step(p: PreparedTest) -> int:
+    return int(p.obj[1] - p.obj[0]) if p.obj.size >= 2 else 1
 
 
 class StackedProblem:
     """All objective samples of a sweep, grouped by click setting.
 
-    `x`, `v` are the motion the model sees: the measured one shifted by the channel delay
-    set with `set_delay`; compression and rebound samples follow the shifted velocity.
+    `set_model` fixes which model's motion stage (a sensor delay) decides the
+    compression / rebound split of the samples.
     """
 
     def __init__(self, base: DamperSpec, tests: Sequence[PreparedTest]) -> None:
         self.base = base
         self.keys: list[tuple[int, int]] = sorted({p.key for p in tests})
         index = {k: i for i, k in enumerate(self.keys)}
-        self.x_measured = np.concatenate([p.data.x[p.obj] for p in tests])
-        self.v_measured = np.concatenate([p.v[p.obj] for p in tests])
-        self.a = np.concatenate([p.a[p.obj] for p in tests])
+        self.inputs = prepared_inputs(tests)
+        # Models with fast lags run on every sample, then give the objective's samples.
+        self.full_inputs = prepared_inputs(tests, full_rate=True)
+        offsets = np.cumsum([0] + [p.data.t.size for p in tests[:-1]])
+        self.obj_in_full: IntArray = np.concatenate(
+            [p.obj + o for p, o in zip(tests, offsets, strict=True)]
+        ).astype(np.intp)
+        self.full_to_obj: IntArray = np.concatenate(
+            [
+                o_start + np.minimum(np.arange(p.data.t.size) // max(_step(p), 1), p.obj.size - 1)
+                for p, o_start in zip(
+                    tests, np.cumsum([0] + [p.obj.size for p in tests[:-1]]), strict=True
+                )
+            ]
+        ).astype(np.intp)
+        self.full_rate = False
+        self.x_measured = self.inputs.x
+        self.a = self.inputs.a
         self.f = np.concatenate([p.data.force[p.obj] for p in tests])
         self.group: IntArray = np.concatenate(
             [np.full(p.obj.size, index[p.key], dtype=np.intp) for p in tests]
@@ -103,12 +133,14 @@ class StackedProblem:
         )
         self.evaluations = 0
         self.samples_evaluated = 0
-        self.set_delay(0.0)
+        self.set_model(DamperModel(base))
 
-    def set_delay(self, delay_s: float) -> None:
+    def set_model(self, model: DamperModel, free: Sequence[str] = ()) -> None:
+        """The model whose motion splits the samples, and whether (with `free` varied) it
+        needs the full rate."""
+        self.full_rate = model.needs_full_rate(free)
         n = len(self.keys)
-        self.delay_s = float(delay_s)
-        self.x, self.v = delayed_motion(self.x_measured, self.v_measured, self.a, self.delay_s)
+        _, self.v, _ = model.motion(self.inputs)
         self.comp = self.v > 0
         # Problem id per sample; samples at v == 0 exactly belong to neither (id 2n).
         self.problem: IntArray = np.where(
@@ -121,30 +153,29 @@ class StackedProblem:
 
     @property
     def size(self) -> int:
-        return int(self.x.size)
+        return int(self.inputs.size)
 
     def spec_with(self, overrides: dict[str, float]) -> DamperSpec:
         return apply_overrides(self.base, overrides) if overrides else self.base
 
     def force(
-        self,
-        spec: DamperSpec,
-        a_bc: FloatArray,
-        a_bt: FloatArray,
-        delay_s: float | None = None,
+        self, model: DamperModel | DamperSpec, a_bc: FloatArray, a_bt: FloatArray
     ) -> FloatArray:
-        """Model force on every sample; a_bc and a_bt are per group (or per sample).
-
-        delay_s (else the one set) shifts the motion; the problem ids stay as set.
-        """
+        """Model force on every sample; a_bc and a_bt are per group (or per sample)."""
+        m = model if isinstance(model, DamperModel) else DamperModel(model)
         bc = a_bc[self.group] if a_bc.size == self.n_groups else a_bc
         bt = a_bt[self.group] if a_bt.size == self.n_groups else a_bt
         self.evaluations += 1
-        self.samples_evaluated += self.size
-        x, v = self.x, self.v
-        if delay_s is not None and delay_s != self.delay_s:
-            x, v = delayed_motion(self.x_measured, self.v_measured, self.a, delay_s)
-        return damper_force(spec, x, v, self.a, bc, bt)
+        if not self.full_rate:
+            self.samples_evaluated += self.size
+            return m.force(self.inputs, bc, bt)
+        self.samples_evaluated += self.full_inputs.size
+        return m.force(self.full_inputs, self.to_full(bc), self.to_full(bt))[self.obj_in_full]
+
+    def to_full(self, per_obj: FloatArray) -> FloatArray:
+        """Per-objective-sample values spread over every sample: each sample takes the
+        value of the objective sample at or before it in its test."""
+        return per_obj[self.full_to_obj]
 
     def per_problem(self, values: FloatArray) -> FloatArray:
         """Sum of a per-sample quantity over each of the 2 n_groups problems."""

@@ -17,7 +17,10 @@ from typing import Any
 import numpy as np
 
 from shockdyno.errors import ConfigError, FitError
+from shockdyno.model.composite import DamperModel
+from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, load_spec
+from shockdyno.model.terms import make_term
 from shockdyno.record.atomic import write_text_atomic
 
 
@@ -66,6 +69,8 @@ class FitResult:
     trend: dict[str, Any] = field(default_factory=dict)
     tests: list[dict[str, Any]] = field(default_factory=list)
     info: dict[str, Any] = field(default_factory=dict)
+    # Fitted physics terms: {term: {local parameter: Estimate}} (docs/fit.md).
+    terms: dict[str, dict[str, Estimate]] = field(default_factory=dict)
 
     @staticmethod
     def from_spec(spec_path: str | Path, clicks: Sequence[int]) -> FitResult:
@@ -83,6 +88,23 @@ class FitResult:
 
     def spec(self) -> DamperSpec:
         return apply_overrides(load_spec(self.spec_path), self.globals)
+
+    def model(self) -> DamperModel:
+        """The fitted damper: spec with the globals, and the fitted terms at their values.
+
+        A result written before terms existed had its channel delay in
+        info.calibration.force_delay_s: it becomes the sensor_lag term's delay.
+        """
+        terms = self.terms
+        if not terms:
+            delay = self.info.get("calibration", {}).get("force_delay_s")
+            if delay:
+                terms = {"sensor_lag": {"delay_s": Estimate(float(delay), float("nan"), "s")}}
+        built = [make_term(name) for name in terms]
+        values = {
+            f"{name}.{k}": est.value for name, params in terms.items() for k, est in params.items()
+        }
+        return DamperModel(self.spec(), tuple(built), values)
 
     def areas(self, clicks: int, model: str = "proposed") -> tuple[float, float]:
         """(A_bc, A_bt) at a click setting: the fitted value, else the trend."""
@@ -126,6 +148,10 @@ class FitResult:
                 }
                 for c in self.clicks
             ],
+            "terms": {
+                name: {k: est.to_json() for k, est in params.items()}
+                for name, params in self.terms.items()
+            },
             "trend": self.trend,
             "tests": self.tests,
             "info": self.info,
@@ -166,10 +192,23 @@ class FitResult:
                 trend=dict(doc.get("trend", {})),
                 tests=list(doc.get("tests", [])),
                 info=dict(doc.get("info", {})),
+                terms={
+                    str(name): {
+                        str(k): Estimate(
+                            _none_to_nan(e["value"]),
+                            _none_to_nan(e.get("sd")),
+                            str(e.get("unit", "")),
+                            bool(e.get("fixed", False)),
+                            bool(e.get("at_bound", False)),
+                        )
+                        for k, e in dict(params).items()
+                    }
+                    for name, params in dict(doc.get("terms", {})).items()
+                },
             )
         except FileNotFoundError:
             raise ConfigError(f"fit file not found: {p}") from None
-        except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
+        except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError) as exc:
             raise ConfigError(f"{p}: not a shockdyno fit result ({exc!r})") from None
 
 

@@ -18,10 +18,9 @@ from numpy.typing import NDArray
 from shockdyno.errors import FitError
 from shockdyno.fit.metrics import error_metrics
 from shockdyno.fit.prepare import PreparedTest, prepare_tests
-from shockdyno.fit.problem import delayed_motion
+from shockdyno.fit.problem import prepared_inputs
 from shockdyno.fit.result import FitResult
-from shockdyno.model import damper_force, talbott_force
-from shockdyno.model.spec import DamperSpec
+from shockdyno.model.composite import DamperModel
 from shockdyno.record.types import TestData
 
 FloatArray = NDArray[np.float64]
@@ -47,30 +46,22 @@ def click_areas(result: FitResult, clicks: int, gas_clicks: int) -> tuple[float,
     raise FitError(f"the fit has no result for {clicks} clicks (gas {gas_clicks})")
 
 
-def force_delay_s(result: FitResult) -> float:
-    """The calibrated channel delay (0 for results written before it was calibrated)."""
-    value = result.info.get("calibration", {}).get("force_delay_s")
-    return float(value) if value is not None else 0.0
-
-
 def model_forces(
-    spec: DamperSpec, result: FitResult, prepared: Sequence[PreparedTest]
+    model: DamperModel, result: FitResult, prepared: Sequence[PreparedTest]
 ) -> list[ModelForces]:
-    """Both models on every measured sample, fed the motion shifted by the channel delay."""
-    delay = force_delay_s(result)
+    """Both models on every measured sample (full rate), each test its own segment."""
     out = []
     for p in prepared:
         m = p.data.meta
         a_bc, a_bt, a_b = click_areas(result, m.clicks, m.gas_clicks)
-        d = p.data
-        x, v = delayed_motion(d.x, p.v, p.a, delay)
+        inputs = prepared_inputs([p], full_rate=True)
         out.append(
             ModelForces(
-                test=d,
+                test=p.data,
                 v=p.v,
                 a=p.a,
-                proposed=damper_force(spec, x, v, p.a, a_bc, a_bt),
-                talbott=talbott_force(spec, x, v, p.a, a_b),
+                proposed=model.force(inputs, a_bc, a_bt),
+                talbott=model.force(inputs, a_b, a_b),
             )
         )
     return out
@@ -79,15 +70,15 @@ def model_forces(
 def forces_for_tests(result: FitResult, tests: Sequence[TestData]) -> list[ModelForces]:
     """Both models' forces for recorded tests (prepared as the fit prepared them)."""
     prepared, _ = prepare_tests(tests)
-    return model_forces(result.spec(), result, prepared)
+    return model_forces(result.model(), result, prepared)
 
 
 def validate_tests(
-    spec: DamperSpec, result: FitResult, prepared: Sequence[PreparedTest]
+    model: DamperModel, result: FitResult, prepared: Sequence[PreparedTest]
 ) -> list[dict[str, Any]]:
     """The `tests[]` entries of the fit JSON."""
     rows = []
-    for mf in model_forces(spec, result, prepared):
+    for mf in model_forces(model, result, prepared):
         d, m = mf.test, mf.test.meta
         entry: dict[str, Any] = {
             "index": m.index,

@@ -48,7 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from shockdyno.errors import ConfigError
-from shockdyno.model.damper import damper_force
+from shockdyno.model.composite import DamperModel, ModelInputs
 from shockdyno.model.spec import DamperSpec
 
 FloatArray = NDArray[np.float64]
@@ -110,7 +110,7 @@ class TabulatedDamper:
 
     def __init__(
         self,
-        spec: DamperSpec,
+        spec: DamperSpec | DamperModel,
         areas: Sequence[tuple[float, float]],
         run_table: ArrayLike,
         x_max_m: float = 0.35,
@@ -123,6 +123,9 @@ class TabulatedDamper:
     ) -> None:
         if not areas:
             raise ConfigError("no damper setting to tabulate")
+        model = spec.vehicle() if isinstance(spec, DamperModel) else DamperModel(spec)
+        self.model = model
+        spec = model.spec
         if x_max_m >= 0.95 * spec.max_travel_m:
             raise ConfigError(
                 f"stroke table ±{x_max_m} m reaches the gas chamber's limit "
@@ -148,14 +151,14 @@ class TabulatedDamper:
         v_grid = v_scale_m_s * np.sinh(np.linspace(-u_max, u_max, n_v))
         g_rows, h_rows, masses = [], [], []
         for a_bc, a_bt in self.areas:
-            f0 = _at(spec, 0.0, a_bc, a_bt)
-            masses.append(_at(spec, 1.0, a_bc, a_bt) - f0)
-            g_rows.append(damper_force(spec, x_grid, 0.0, 0.0, a_bc, a_bt) - f0)
-            h_rows.append(damper_force(spec, np.zeros(n_v), v_grid, 0.0, a_bc, a_bt) - f0)
+            f0 = _at(model, 0.0, a_bc, a_bt)
+            masses.append(_at(model, 1.0, a_bc, a_bt) - f0)
+            g_rows.append(quasi_static_force(model, x_grid, 0.0, 0.0, a_bc, a_bt) - f0)
+            h_rows.append(quasi_static_force(model, np.zeros(n_v), v_grid, 0.0, a_bc, a_bt) - f0)
         if max(masses) - min(masses) > 1e-9:
             raise ConfigError("damper settings disagree on the moving mass; cannot tabulate")
         self.added_mass_kg = masses[0]
-        self.force_at_rest_n = _at(spec, 0.0, *self.areas[0])
+        self.force_at_rest_n = _at(model, 0.0, *self.areas[0])
         g, h = np.array(g_rows), np.array(h_rows)
         self.x_grid, self.v_grid = x_grid, v_grid
         self.g_table, self.h_table = g, h
@@ -233,7 +236,7 @@ class TabulatedDamper:
                 ]
             )
             a = rng.uniform(-200.0, 200.0, n)
-            full = damper_force(self.spec, x, v, a, a_bc, a_bt)
+            full = quasi_static_force(self.model, x, v, a, a_bc, a_bt)
             err = np.abs(full - self.table_force(s, x, v, a))
             worst = max(worst, float(np.max(err)))
             allowed = tol_n + tol_rel * np.abs(full - self.force_at_rest_n)
@@ -246,9 +249,28 @@ class TabulatedDamper:
         return float(np.max(np.diff(self.h_table, axis=1) / np.diff(self.v_grid)))
 
 
-def _at(spec: DamperSpec, accel: float, a_bc: float, a_bt: float) -> float:
+def quasi_static_force(
+    model: DamperModel, x: ArrayLike, v: ArrayLike, a: ArrayLike, a_bc: float, a_bt: float
+) -> FloatArray:
+    """The model's force with every sample its own segment: lags at their steady state.
+
+    A table point is a state, not a time series; stateful terms (compressibility) give
+    their quasi-static force here, and `DamperModel.vehicle` holds the oil at the
+    reference temperature (docs/ride.md).
+    """
+    xs, vs, acc = np.broadcast_arrays(
+        np.atleast_1d(np.asarray(x, dtype=float)),
+        np.asarray(v, dtype=float),
+        np.asarray(a, dtype=float),
+    )
+    if not model.terms:
+        return model.force(ModelInputs.single(xs, vs, acc), a_bc, a_bt)
+    return model.force(ModelInputs.points(xs, vs, acc), a_bc, a_bt)
+
+
+def _at(model: DamperModel, accel: float, a_bc: float, a_bt: float) -> float:
     """The model's force at x = v = 0 and rod acceleration `accel`."""
-    return float(np.ravel(damper_force(spec, [0.0], [0.0], [accel], a_bc, a_bt))[0])
+    return float(np.ravel(quasi_static_force(model, [0.0], [0.0], [accel], a_bc, a_bt))[0])
 
 
 @dataclass(frozen=True)

@@ -39,6 +39,9 @@ class DamperSpec:
     compression_bleed: BleedLaw
     rebound_bleed: BleedLaw
     max_gas_clicks: int = 0
+    # Oil column above the piston: with the bore it gives the compression chamber's volume
+    # (the compressibility term's V). Not in the paper; 80 mm for a 40 mm bore is typical.
+    oil_column_m: float = 0.08
 
     # -- derived geometry -------------------------------------------------------------
     @property

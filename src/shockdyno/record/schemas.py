@@ -161,6 +161,9 @@ TEST_SCHEMA = _json_schema(
         "cycle_start_s": {"type": "array", "items": _NUM},
         "dropped_frames": _OPT_INT,
         "corrupt_frames": _OPT_INT,
+        "gas_pressure_pa": {**_OPT_NUM, "description": "gas charge, absolute Pa"},
+        "abort_reason": {"type": ["string", "null"]},
+        "start_temperature_c": _OPT_NUM,
     },
     required=["phase", "test", "index", "clicks", "gas_clicks", "frequency_hz", "amplitude_m"],
 )
@@ -197,7 +200,18 @@ def meta_from_json(d: dict[str, Any]) -> TestMeta:
     kw = {k: v for k, v in d.items() if k in _META_FIELDS}
     try:
         kw["cycle_start_s"] = tuple(float(v) for v in kw.get("cycle_start_s", ()))
-        kw["extra"] = {str(k): str(v) for k, v in dict(kw.get("extra", {})).items()}
+        extra = {str(k): str(v) for k, v in dict(kw.get("extra", {})).items()}
+        # Recordings before the typed fields kept these as strings in `extra`.
+        if kw.get("abort_reason") is None and "reason" in extra:
+            kw["abort_reason"] = extra.pop("reason")
+        if kw.get("start_temperature_c") is None and "start_temperature_c" in extra:
+            kw["start_temperature_c"] = float(extra.pop("start_temperature_c"))
+        if kw.get("gas_pressure_pa") is None and "gas_pressure_pa" in extra:
+            kw["gas_pressure_pa"] = float(extra.pop("gas_pressure_pa"))
+        stored = extra.pop("dropped_frames", "").strip()
+        if stored.isdigit():
+            kw["dropped_frames"] = max(int(stored), int(kw.get("dropped_frames") or 0))
+        kw["extra"] = extra
         return TestMeta(**kw)
     except (TypeError, ValueError) as exc:
         raise RecordingError(f"bad test record: {exc}") from exc

@@ -32,6 +32,9 @@ class TestMeta:
     cycle_start_s: tuple[float, ...] = ()  # start of each cycle (warm-up and measured), s
     dropped_frames: int | None = None  # frames lost between DAQ and host (seq gaps if not given)
     corrupt_frames: int | None = None  # frames that failed their check (known only to the DAQ)
+    gas_pressure_pa: float | None = None  # measured gas charge (absolute), when known
+    abort_reason: str | None = None  # why a test stopped early (status "aborted")
+    start_temperature_c: float | None = None  # oil temperature when the test began
 
 
 @dataclass(frozen=True)

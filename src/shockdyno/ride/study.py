@@ -255,14 +255,15 @@ def _build_damper(
         return LinearDamper(np.full(n, c)), c, info, np.full(n, max(c, 1.0))
     if fit is None:
         raise ConfigError("a fit result (--fit) is needed unless the damper is linear")
-    spec = fit.spec()
+    model = fit.model()
+    spec = model.spec
     settings = list(dict.fromkeys(config.clicks))
     areas = [fit.areas(c, config.model) for c in settings]
     for c, (a_bc, a_bt) in zip(settings, areas, strict=True):
         if not (a_bc >= 0 and a_bt >= 0 and math.isfinite(a_bc + a_bt)):
             raise ConfigError(f"the fit's bleed areas at {c} clicks are not usable: {a_bc}, {a_bt}")
     row = [settings.index(r.clicks) for r in runs if r.clicks is not None]
-    table = TabulatedDamper(spec, areas, row)
+    table = TabulatedDamper(model, areas, row)
     # Start each run from the linear car whose rate is the damper's secant at ±0.1 m/s.
     v = np.array([-0.1, 0.1])
     secant = [
@@ -275,6 +276,8 @@ def _build_damper(
         "spec": spec.name,
         "spec_path": fit.spec_path,
         "globals": fit.globals,
+        "terms": [t.name for t in table.model.terms],
+        "terms_dropped": [t.name for t in model.terms if not t.vehicle_ok()],
         "settings": [
             {
                 "clicks": c,

@@ -23,8 +23,7 @@ from numpy.typing import NDArray
 from scipy.signal import bilinear, lfilter, lfiltic
 
 from shockdyno.errors import ConfigError
-from shockdyno.model.damper import damper_force
-from shockdyno.model.extras import first_order_lag
+from shockdyno.model.composite import DamperModel, ModelInputs, Term
 from shockdyno.model.spec import DamperSpec
 from shockdyno.rig.config import RigConfig
 from shockdyno.rig.frames import FRAME_LEN, STATUS_MOTION, encode_frames
@@ -80,7 +79,7 @@ class _State:
     servo_zi: FloatArray
     x_hist: tuple[float, float, float]  # the last three ram positions, oldest first
     lvdt_zi: FloatArray | None
-    terms: list[Any]
+    term_state: dict[str, FloatArray]
     rng_force: np.random.Generator
     rng_pos: np.random.Generator
     rng_temp: np.random.Generator
@@ -103,13 +102,15 @@ class SimEngine:
         rig: RigConfig,
         spec: DamperSpec,
         *,
-        terms: list[Any] | None = None,
+        terms: list[Term] | None = None,
+        term_values: dict[str, float] | None = None,
         lvdt_lag_s: float = 0.0,
         seed: int = 0,
         faults: list[Fault] | None = None,
     ) -> None:
         self.rig = rig
         self.spec = spec
+        self.model = DamperModel(spec, tuple(terms or ()), dict(term_values or {}))
         self.params = SimParams.from_rig(rig)
         self.fs = rig.daq.sample_rate_hz
         self.cal = rig.daq.calibration
@@ -137,7 +138,7 @@ class SimEngine:
             servo_zi=np.asarray(zi, float),
             x_hist=(x0, x0, x0),
             lvdt_zi=None,
-            terms=list(terms or []),
+            term_state={},
             rng_force=rngs[0],
             rng_pos=rngs[1],
             rng_temp=rngs[2],
@@ -228,15 +229,15 @@ class SimEngine:
         st.x_hist = _tail(st.x_hist, x)
         rel = x - self.centre
         a_bc, a_bt = st.areas
-        force = damper_force(self.spec, rel, v, a, a_bc, a_bt, st.terms, t)
+        ev = self.model.evaluate(
+            ModelInputs.single(rel, v, a, 1.0 / self.fs), a_bc, a_bt, state=st.term_state
+        )
+        st.term_state = ev.state
+        force = ev.force
         if st.jam_until > t[0]:
             ramp = np.clip((t - st.jam_start) / 0.2, 0.0, 1.0)
             force = force + np.where(t < st.jam_until, p.jam_force_n * ramp, 0.0)
-        temp = np.full(n, p.ambient_c)
-        for term in st.terms:
-            tc = getattr(term, "temperature_c", None)
-            if isinstance(tc, np.ndarray) and tc.size == n:
-                temp = tc
+        temp = ev.outputs.get("thermal.temperature_c", np.full(n, p.ambient_c))
         drv.position_m = float(x[-1])
         drv.last_force_n = float(force[-1])
         st.temperature_c = float(temp[-1])
@@ -254,7 +255,10 @@ class SimEngine:
         # sensors
         pos = x
         if self._lvdt_k < 1.0:
-            pos, st.lvdt_zi = first_order_lag(x, self._lvdt_k, st.lvdt_zi)
+            if st.lvdt_zi is None:
+                st.lvdt_zi = np.array([(1 - self._lvdt_k) * x[0]])
+            lagged, zf = lfilter([self._lvdt_k], [1.0, -(1.0 - self._lvdt_k)], x, zi=st.lvdt_zi)
+            pos, st.lvdt_zi = np.asarray(lagged, float), np.asarray(zf, float)
         pos = pos + p.position_noise_m * st.rng_pos.standard_normal(n)
         f_meas = force + p.force_noise_n * st.rng_force.standard_normal(n)
         t_meas = temp + p.temperature_noise_c * st.rng_temp.standard_normal(n)

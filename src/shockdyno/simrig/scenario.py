@@ -4,28 +4,30 @@
 name = "aerated-oil"
 description = "..."
 [[term]]
-kind = "compressibility"      # a key of shockdyno.model.extras.TERM_KINDS
-air_fraction = 0.03           # the term's parameters (SI)
+kind = "compressibility"      # a term of the library (shockdyno.model.terms.LIBRARY)
+air_fraction = 0.03           # its parameters by local name (SI); others stay nominal
 [sensors]
 lvdt_lag_s = 0.001            # optional LVDT first-order lag
 """
 
 from __future__ import annotations
 
+import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from shockdyno.errors import ConfigError
-from shockdyno.model.extras import make_term
+from shockdyno.model.composite import Term
+from shockdyno.model.terms import make_term
 
 
 @dataclass
 class Scenario:
     name: str
     description: str = ""
-    terms: list[Any] = field(default_factory=list)
+    terms: list[Term] = field(default_factory=list)
+    values: dict[str, float] = field(default_factory=dict)  # qualified parameter values
     lvdt_lag_s: float = 0.0
     source: str = ""
 
@@ -52,12 +54,29 @@ def load_scenario(path: str | Path) -> Scenario:
     unknown = sorted(set(doc) - {"scenario", "term", "sensors"})
     if unknown:
         raise ConfigError(f"{p}: {unknown[0]}: unknown key")
-    terms = []
+    terms: list[Term] = []
+    values: dict[str, float] = {}
     for i, t in enumerate(doc.get("term", [])):
+        where = f"{p}: term[{i}]"
         if not isinstance(t, dict) or "kind" not in t:
-            raise ConfigError(f"{p}: term[{i}].kind: missing")
-        params = {k: v for k, v in t.items() if k != "kind"}
-        terms.append(make_term(str(t["kind"]), params, f"{p}: term[{i}]"))
+            raise ConfigError(f"{where}.kind: missing")
+        try:
+            term = make_term(str(t["kind"]))
+        except ConfigError as exc:
+            raise ConfigError(f"{where}: {exc}") from None
+        declared = {q.name: q for q in term.params()}
+        for key, value in t.items():
+            if key == "kind":
+                continue
+            if key not in declared:
+                raise ConfigError(f"{where}: unknown key {key!r} for {term.name}")
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ConfigError(f"{where}: {key} must be a number, got {value!r}")
+            q = declared[key]
+            if not (math.isfinite(value) and q.lo <= value <= q.hi):
+                raise ConfigError(f"{where}: {key} must be in [{q.lo:g}, {q.hi:g}], got {value!r}")
+            values[term.qualified(key)] = float(value)
+        terms.append(term)
     sensors = doc.get("sensors", {})
     lag = sensors.get("lvdt_lag_s", 0.0) if isinstance(sensors, dict) else None
     if isinstance(lag, bool) or not isinstance(lag, int | float) or lag < 0:
@@ -66,6 +85,7 @@ def load_scenario(path: str | Path) -> Scenario:
         name=head["name"],
         description=str(head.get("description", "")),
         terms=terms,
+        values=values,
         lvdt_lag_s=float(lag),
         source=str(p),
     )

@@ -104,6 +104,7 @@ class SimRig:
             rig,
             self.spec,
             terms=scenario.terms if scenario else None,
+            term_values=scenario.values if scenario else None,
             lvdt_lag_s=scenario.lvdt_lag_s if scenario else 0.0,
             seed=seed,
             faults=sched,

@@ -1,0 +1,191 @@
+"""Joint least squares over the damper's globals, the terms' free parameters and every
+click's bleed areas (the fit's step 2, docs/fit.md).
+
+Unknowns, scaled to order 1: the spec globals / their scale, each term parameter / its
+declared scale, and the areas in mm². The Jacobian is built by finite differences in
+(globals + term parameters + 2) model evaluations whatever the number of clicks: one
+column per global or term parameter, and all areas in one go, since they touch disjoint
+samples. Its covariance, inflated for correlated residuals, gives each uncertainty.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+
+from shockdyno.fit.problem import GlobalParam, StackedProblem, nominal_value
+from shockdyno.model.composite import DamperModel
+from shockdyno.model.params import Param
+
+FloatArray = NDArray[np.float64]
+AREA_SCALE = 1e-6  # m²: areas are optimised in mm²
+
+
+@dataclass(frozen=True)
+class Calibration:
+    overrides: dict[str, float]  # spec globals
+    globals_sd: dict[str, float]
+    term_values: dict[str, float]  # qualified term parameters, fitted
+    term_sd: dict[str, float]
+    a_bc: FloatArray
+    a_bt: FloatArray
+    sd_bc: FloatArray
+    sd_bt: FloatArray
+    tau: float  # variance inflation for correlated residuals
+    nfev: int
+    cost_rms_n: float
+
+    def model(self, prob: StackedProblem, base: DamperModel) -> DamperModel:
+        return DamperModel(prob.spec_with(self.overrides), base.terms, base.values).with_values(
+            self.term_values
+        )
+
+
+def autocorrelation_factor(r: FloatArray, test_id: NDArray[np.intp], max_lag: int = 40) -> float:
+    """1 + 2 Σ ρ_k of the residuals (within tests), summed while ρ_k stays above 0.05.
+
+    Least-squares covariance assumes independent residuals; correlated ones (model error,
+    differentiation of a noisy x) carry fewer independent pieces of information, and the
+    variance is scaled up by this factor, as for the mean of a correlated series.
+    """
+    denom = float(np.sum(r * r))
+    if denom <= 0:
+        return 1.0
+    tau = 1.0
+    for k in range(1, max_lag + 1):
+        same_k = test_id[k:] == test_id[:-k]
+        rho = float(np.sum(r[k:] * r[:-k] * same_k)) / denom
+        if rho < 0.05:
+            break
+        tau += 2 * rho
+    return tau
+
+
+def calibrate(
+    prob: StackedProblem,
+    base: DamperModel,
+    params: Sequence[GlobalParam],
+    free: Sequence[str],
+    a_bc0: FloatArray,
+    a_bt0: FloatArray,
+    a_max: float,
+    max_nfev: int = 60,
+    robust: bool = True,
+) -> Calibration:
+    """Least squares (then soft-L1) over globals, free term parameters and all areas."""
+    n = prob.n_groups
+    declared: dict[str, Param] = dict(base.param_list())
+    tparams = [declared[q] for q in free]
+    ng = len(params) + len(tparams)
+    lb = np.concatenate(
+        [[p.lo for p in params], [t.lo / t.scale for t in tparams], np.zeros(2 * n)]
+    )
+    ub = np.concatenate(
+        [
+            [p.hi for p in params],
+            [t.hi / t.scale for t in tparams],
+            np.full(2 * n, a_max / AREA_SCALE),
+        ]
+    )
+    theta0 = [nominal_value(prob.base, p.key) / p.scale for p in params]
+    theta0 += [base.value(q) / t.scale for q, t in zip(free, tparams, strict=True)]
+    p0 = np.concatenate([theta0, a_bc0 / AREA_SCALE, a_bt0 / AREA_SCALE])
+    p0 = np.clip(p0, lb, np.where(ub > lb, ub - 1e-12 * np.maximum(np.abs(ub), 1), ub))
+    in_group = [prob.group == g for g in range(n)]
+    penalty_weight = math.sqrt(prob.size)
+    cache: dict[bytes, FloatArray] = {}
+
+    def model_at(p: FloatArray) -> DamperModel:
+        overrides = {
+            g.key: float(th * g.scale) for g, th in zip(params, p[: len(params)], strict=True)
+        }
+        values = {
+            q: float(th * t.scale)
+            for q, t, th in zip(free, tparams, p[len(params) : ng], strict=True)
+        }
+        return DamperModel(prob.spec_with(overrides), base.terms, base.values).with_values(values)
+
+    def residual(p: FloatArray) -> FloatArray:
+        key = p.tobytes()
+        if key not in cache:
+            cache.clear()
+            model = model_at(p)
+            r = prob.force(model, p[ng : ng + n] * AREA_SCALE, p[ng + n :] * AREA_SCALE) - prob.f
+            pen = model.penalty()
+            cache[key] = np.concatenate([r, penalty_weight * pen]) if pen.size else r
+        return cache[key]
+
+    def jacobian(p: FloatArray) -> FloatArray:
+        r0 = residual(p).copy()
+        jac = np.zeros((r0.size, p.size))
+        h = 1e-6 * np.maximum(np.abs(p), 0.1)
+        h = np.where(p + h > ub, -h, h)
+        for j in range(ng):
+            q = p.copy()
+            q[j] += h[j]
+            jac[:, j] = (residual(q) - r0) / h[j]
+        q = p.copy()
+        q[ng:] += h[ng:]
+        dr = residual(q) - r0
+        _, v, _ = model_at(p).motion(prob.inputs)  # the split the areas follow
+        comp, reb = v > 0, v < 0
+        m = prob.size
+        for g in range(n):
+            rows_bc = np.flatnonzero(in_group[g] & comp)
+            rows_bt = np.flatnonzero(in_group[g] & reb)
+            jac[rows_bc, ng + g] = dr[:m][rows_bc] / h[ng + g]
+            jac[rows_bt, ng + n + g] = dr[:m][rows_bt] / h[ng + n + g]
+        return jac
+
+    common: dict[str, Any] = {
+        "jac": jacobian,
+        "bounds": (lb, ub),
+        "method": "trf",
+        "x_scale": "jac",
+        "ftol": 1e-10,
+        "xtol": 1e-10,
+        "gtol": 1e-10,
+        "max_nfev": max_nfev,
+    }
+    sol = least_squares(residual, p0, **common)
+    nfev = int(sol.nfev)
+    if robust:
+        r = residual(sol.x)[: prob.size]
+        scale = 3 * 1.4826 * float(np.median(np.abs(r - np.median(r))))
+        sol = least_squares(residual, sol.x, loss="soft_l1", f_scale=max(scale, 1e-3), **common)
+        nfev += int(sol.nfev)
+    p = sol.x
+    r_all = residual(p)
+    r = r_all[: prob.size]
+    jac = jacobian(p)
+    dof = max(r.size - p.size, 1)
+    tau = autocorrelation_factor(r, prob.test_id)
+    s2 = float(np.sum(r * r)) / dof
+    cov = np.linalg.pinv(jac.T @ jac) * s2 * tau
+    sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    sd[~np.any(jac != 0, axis=0)] = np.inf  # no sample depends on it: not measured at all
+    k = len(params)
+    return Calibration(
+        overrides={g.key: float(p[i] * g.scale) for i, g in enumerate(params)},
+        globals_sd={g.key: float(sd[i] * g.scale) for i, g in enumerate(params)},
+        term_values={
+            q: float(p[k + i] * t.scale) for i, (q, t) in enumerate(zip(free, tparams, strict=True))
+        },
+        term_sd={
+            q: float(sd[k + i] * t.scale)
+            for i, (q, t) in enumerate(zip(free, tparams, strict=True))
+        },
+        a_bc=p[ng : ng + n] * AREA_SCALE,
+        a_bt=p[ng + n :] * AREA_SCALE,
+        sd_bc=sd[ng : ng + n] * AREA_SCALE,
+        sd_bt=sd[ng + n :] * AREA_SCALE,
+        tau=tau,
+        nfev=nfev,
+        cost_rms_n=math.sqrt(float(np.mean(r * r))),
+    )

@@ -1,0 +1,459 @@
+"""One damper model: the paper's physics plus any set of declared terms.
+
+`DamperModel(spec, terms, values)` is immutable and is what the simulated rig, the fit,
+validation, diagnose, the report and the ride study all evaluate, so a term written once
+appears everywhere. A term declares its parameters (`model/params.py`) and a stage; the
+model runs the stages in a fixed order, so any set of terms in any order gives the same
+force:
+
+    MOTION    (10) the motion the damper sees (sensor delay, LVDT lag)
+    CHAMBER   (20) leak conductance and chamber pressure before the flow solve (thermal,
+                   gas spring)
+    flow solve     Δp for the flow demand (eq. 2-4, 7)
+    PRESSURE  (40) pressures after the solve (compressibility, cavitation)
+    FORCE     (60) added forces (friction, position force)
+    SENSOR    (80) what the load cell reports (load-cell lag)
+
+Within a stage terms run by name. Each term adds its own force component, and the
+components sum to the total exactly (`Evaluation.components`).
+
+Inputs are segments (one per test), each with its own sample step; stateful terms
+filter each segment from steady state, and a single-segment call may carry state into
+the next (`Evaluation.state`), never on the term or the model.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from shockdyno.errors import ConfigError
+from shockdyno.model.flow import solve_pressure_drop
+from shockdyno.model.gas import compression_pressure
+from shockdyno.model.params import Param
+from shockdyno.model.spec import DamperSpec
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.intp]
+
+ATMOSPHERE_PA = 101_325.0  # pressures are absolute (the gas law needs it)
+MOTION, CHAMBER, FLOW, PRESSURE, FORCE, SENSOR = 10, 20, 30, 40, 60, 80
+BASE_COMPONENTS = ("inertia", "gas", "hydraulic", "coulomb")  # never a term's name
+
+
+@dataclass(frozen=True)
+class ModelInputs:
+    """Motion per sample, in segments (tests) with their own sample step.
+
+    `temperature_c` is the measured oil temperature per sample (NaN where unknown);
+    `gas_pressure_pa` the measured gas charge per segment, absolute (NaN: unknown).
+    """
+
+    x: FloatArray
+    v: FloatArray
+    a: FloatArray
+    starts: IntArray
+    dt_s: FloatArray
+    temperature_c: FloatArray | None = None
+    gas_pressure_pa: FloatArray | None = None
+
+    @staticmethod
+    def single(
+        x: ArrayLike,
+        v: ArrayLike,
+        a: ArrayLike,
+        dt_s: float = 1e-3,
+        temperature_c: ArrayLike | None = None,
+    ) -> ModelInputs:
+        xs = np.atleast_1d(np.asarray(x, dtype=float))
+        vs, acc = (
+            np.ascontiguousarray(np.broadcast_to(np.asarray(u, float), xs.shape)) for u in (v, a)
+        )
+        temp = None
+        if temperature_c is not None:
+            temp = np.ascontiguousarray(np.broadcast_to(np.asarray(temperature_c, float), xs.shape))
+        return ModelInputs(xs, vs, acc, np.zeros(1, dtype=np.intp), np.array([float(dt_s)]), temp)
+
+    @staticmethod
+    def points(x: FloatArray, v: FloatArray, a: FloatArray) -> ModelInputs:
+        """Every sample its own segment: states, not a time series (stateful terms sit
+        at their steady state)."""
+        n = x.size
+        return ModelInputs(
+            np.ascontiguousarray(x),
+            np.ascontiguousarray(v),
+            np.ascontiguousarray(a),
+            np.arange(n, dtype=np.intp),
+            np.full(n, 1e-3),
+        )
+
+    @staticmethod
+    def stack(parts: Sequence[ModelInputs]) -> ModelInputs:
+        sizes = np.array([p.x.size for p in parts], dtype=np.intp)
+        offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.intp)
+        temps = [p.temperature_c for p in parts]
+        temp = None
+        if any(t is not None for t in temps):
+            temp = np.concatenate(
+                [
+                    t if t is not None else np.full(p.x.size, np.nan)
+                    for t, p in zip(temps, parts, strict=True)
+                ]
+            )
+        gases = [p.gas_pressure_pa for p in parts]
+        gas = None
+        if any(g is not None for g in gases):
+            gas = np.concatenate(
+                [
+                    g if g is not None else np.full(p.starts.size, np.nan)
+                    for g, p in zip(gases, parts, strict=True)
+                ]
+            )
+        return ModelInputs(
+            x=np.concatenate([p.x for p in parts]),
+            v=np.concatenate([p.v for p in parts]),
+            a=np.concatenate([p.a for p in parts]),
+            starts=np.concatenate([p.starts + o for p, o in zip(parts, offsets, strict=True)]),
+            dt_s=np.concatenate([p.dt_s for p in parts]),
+            temperature_c=temp,
+            gas_pressure_pa=gas,
+        )
+
+    def tile(self, k: int) -> ModelInputs:
+        """k copies one after another (the GA scores a population in one call)."""
+        return ModelInputs.stack([self] * k)
+
+    @property
+    def size(self) -> int:
+        return int(self.x.size)
+
+    def segment_of_sample(self) -> IntArray:
+        seg = np.zeros(self.size, dtype=np.intp)
+        seg[self.starts[1:]] = 1
+        return np.cumsum(seg).astype(np.intp)
+
+
+@dataclass
+class Work:
+    """The evaluation's scratch: what every stage reads and edits, per sample."""
+
+    spec: DamperSpec
+    inputs: ModelInputs
+    x: FloatArray
+    v: FloatArray
+    a: FloatArray
+    bleed_compression_m2: FloatArray
+    bleed_rebound_m2: FloatArray
+    k_leak: FloatArray
+    q_demand: FloatArray
+    p_c: FloatArray
+    dp: FloatArray | None = None
+    parts: dict[str, FloatArray] = field(default_factory=dict)
+    outputs: dict[str, FloatArray] = field(default_factory=dict)
+    total: FloatArray | None = None
+
+    @property
+    def starts(self) -> IntArray:
+        return self.inputs.starts
+
+    @property
+    def dt_s(self) -> FloatArray:
+        return self.inputs.dt_s
+
+    def add_part(self, name: str, force: FloatArray) -> None:
+        self.parts[name] = self.parts[name] + force if name in self.parts else force
+
+    def set_dp(self, name: str, dp: FloatArray) -> None:
+        """Replace Δp after the solve; the change of hydraulic force is `name`'s part."""
+        assert self.dp is not None
+        self.add_part(name, (dp - self.dp) * self.spec.annulus_area_m2)
+        self.dp = dp
+
+    def set_p_c(self, name: str, p_c: FloatArray) -> None:
+        """Replace the compression-chamber pressure; the gas-force change is `name`'s."""
+        self.add_part(name, (p_c - self.p_c) * self.spec.rod_area_m2)
+        self.p_c = p_c
+
+
+class Term:
+    """A piece of physics (or sensor behaviour) the paper's model leaves out.
+
+    Subclasses set `name`, `stage`, `PARAMS` and implement `apply`. `apply` gets the
+    term's parameter values by local name and the state it carried out of the previous
+    call (single segment only), and returns the state to carry on (or None).
+    """
+
+    name: ClassVar[str]
+    stage: ClassVar[int]  # where the term sorts; it runs at each of `stages`
+    stages: ClassVar[tuple[int, ...]] = ()
+    sensor: ClassVar[bool] = False  # measurement, not damper: left out of the vehicle
+    stateful: ClassVar[bool] = False
+    PARAMS: ClassVar[tuple[Param, ...]] = ()
+    summary: ClassVar[str] = ""
+
+    def params(self) -> tuple[Param, ...]:
+        return self.PARAMS
+
+    def qualified(self, local: str) -> str:
+        return f"{self.name}.{local}"
+
+    def run_stages(self) -> tuple[int, ...]:
+        return self.stages or (self.stage,)
+
+    def apply(
+        self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
+    ) -> FloatArray | None:
+        raise NotImplementedError
+
+    def penalty(self, p: Mapping[str, float]) -> FloatArray:
+        """Extra least-squares residuals (N) that regularise the term (none by default)."""
+        return np.zeros(0)
+
+    def vehicle_ok(self) -> bool:
+        return not self.sensor
+
+    def full_rate(self, p: Mapping[str, float], free: Iterable[str]) -> bool:
+        """Whether the term must run at the recording's own rate to be accurate: a lag
+        of a few ms on a force that turns in a few ms after reversal cannot be computed
+        from the fit's 5 ms samples. `free` are the local names the fit will vary."""
+        return self.stateful
+
+    def vehicle_values(self) -> dict[str, float]:
+        """Parameter values for the damper on a car, where they differ from the dyno's."""
+        return {}
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}()"
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    force: FloatArray
+    components: dict[str, FloatArray]
+    dp: FloatArray
+    p_c: FloatArray
+    outputs: dict[str, FloatArray]
+    state: dict[str, FloatArray]
+
+
+def _samples(value: ArrayLike, n: int) -> FloatArray:
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(value, dtype=float), (n,)))
+
+
+def solve_flow(w: Work) -> FloatArray:
+    spec = w.spec
+    q = w.q_demand
+    dp = np.zeros_like(q)
+    common = (spec.discharge_coefficient, spec.oil_density_kg_m3)
+    comp = q > 0
+    if np.any(comp):
+        dp[comp] = solve_pressure_drop(
+            q[comp], w.bleed_compression_m2[comp], spec.compression_valve, *common, w.k_leak[comp]
+        )
+    reb = q < 0
+    if np.any(reb):
+        dp[reb] = -solve_pressure_drop(
+            q[reb], w.bleed_rebound_m2[reb], spec.rebound_valve, *common, w.k_leak[reb]
+        )
+    return dp
+
+
+@dataclass(frozen=True, eq=False)
+class DamperModel:
+    """The paper's damper (`spec`) with extra `terms` at parameter `values`.
+
+    `values` maps qualified names (`friction.breakaway_n`) to values; a parameter not in
+    it sits at its nominal value (the term "on"). Immutable: `with_values` gives a copy.
+    """
+
+    spec: DamperSpec
+    terms: tuple[Term, ...] = ()
+    values: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        ordered = tuple(sorted(self.terms, key=lambda t: (t.stage, t.name)))
+        names = [t.name for t in ordered]
+        dupes = {n for n in names if names.count(n) > 1 or n in BASE_COMPONENTS}
+        if dupes:
+            raise ConfigError(f"term {sorted(dupes)[0]!r} given twice")
+        object.__setattr__(self, "terms", ordered)
+        known = {t.qualified(p.name) for t in ordered for p in t.params()}
+        unknown = sorted(set(self.values) - known)
+        if unknown:
+            raise ConfigError(f"unknown term parameter {unknown[0]!r}")
+        object.__setattr__(self, "values", dict(self.values))
+
+    # -- parameters ---------------------------------------------------------------------
+    def param_list(self) -> list[tuple[str, Param]]:
+        return [(t.qualified(p.name), p) for t in self.terms for p in t.params()]
+
+    def value(self, qualified: str) -> float:
+        for name, p in self.param_list():
+            if name == qualified:
+                return float(self.values.get(name, p.nominal))
+        raise ConfigError(f"unknown term parameter {qualified!r}")
+
+    def local_values(self, term: Term) -> dict[str, float]:
+        return {
+            p.name: float(self.values.get(term.qualified(p.name), p.nominal)) for p in term.params()
+        }
+
+    def with_values(self, values: Mapping[str, float]) -> DamperModel:
+        return replace(self, values={**self.values, **values})
+
+    def with_spec(self, spec: DamperSpec) -> DamperModel:
+        return replace(self, spec=spec)
+
+    def with_terms(self, terms: Iterable[Term]) -> DamperModel:
+        terms = tuple(terms)
+        keep = {t.qualified(p.name) for t in terms for p in t.params()}
+        return DamperModel(self.spec, terms, {k: v for k, v in self.values.items() if k in keep})
+
+    def off(self) -> DamperModel:
+        """Every term at its off value: the paper's model, with the terms still attached."""
+        return self.with_values({name: p.off for name, p in self.param_list()})
+
+    def without(self, predicate: type[Term] | str) -> DamperModel:
+        return self.with_terms(
+            t
+            for t in self.terms
+            if not (t.name == predicate if isinstance(predicate, str) else isinstance(t, predicate))
+        )
+
+    def vehicle(self) -> DamperModel:
+        """The damper as a car carries it: sensor terms dropped, and each term's
+        `vehicle_values` (the oil held at the reference temperature)."""
+        kept = self.with_terms(t for t in self.terms if t.vehicle_ok())
+        fixed: dict[str, float] = {}
+        for t in kept.terms:
+            fixed.update({t.qualified(k): v for k, v in t.vehicle_values().items()})
+        return kept.with_values(fixed)
+
+    def needs_full_rate(self, free: Iterable[str] = ()) -> bool:
+        qualified = set(free)
+        return any(
+            t.full_rate(
+                self.local_values(t),
+                {p.name for p in t.params() if t.qualified(p.name) in qualified},
+            )
+            for t in self.terms
+        )
+
+    def term(self, name: str) -> Term | None:
+        return next((t for t in self.terms if t.name == name), None)
+
+    def penalty(self) -> FloatArray:
+        parts = [t.penalty(self.local_values(t)) for t in self.terms]
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    # -- evaluation -----------------------------------------------------------------------
+    def motion(self, inputs: ModelInputs) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(x, v, a) the damper sees after the MOTION stage (a sensor delay shifts them)."""
+        movers = [t for t in self.terms if MOTION in t.run_stages()]
+        if not movers:
+            return inputs.x, inputs.v, inputs.a
+        w = Work(
+            spec=self.spec,
+            inputs=inputs,
+            x=inputs.x,
+            v=inputs.v,
+            a=inputs.a,
+            bleed_compression_m2=np.zeros(0),
+            bleed_rebound_m2=np.zeros(0),
+            k_leak=np.zeros(0),
+            q_demand=np.zeros(0),
+            p_c=np.zeros(0),
+        )
+        for t in movers:
+            t.apply(w, self.local_values(t), None, MOTION)
+        return w.x, w.v, w.a
+
+    def evaluate(
+        self,
+        inputs: ModelInputs,
+        a_bc: ArrayLike,
+        a_bt: ArrayLike,
+        state: Mapping[str, FloatArray] | None = None,
+    ) -> Evaluation:
+        """Force and its components for every sample; a_bc, a_bt per sample or scalar."""
+        spec = self.spec
+        n = inputs.size
+        if state and inputs.starts.size != 1:
+            raise ConfigError("carried state needs a single-segment input")
+        w = Work(
+            spec=spec,
+            inputs=inputs,
+            x=inputs.x,
+            v=inputs.v,
+            a=inputs.a,
+            bleed_compression_m2=_samples(a_bc, n),
+            bleed_rebound_m2=_samples(a_bt, n),
+            k_leak=np.full(n, spec.leak_conductance_m3_s_pa),
+            q_demand=np.zeros(n),
+            p_c=np.zeros(n),
+        )
+        carry_out: dict[str, FloatArray] = {}
+
+        def run(lo: int, hi: int) -> None:
+            for term in self.terms:
+                for stage in term.run_stages():
+                    if lo <= stage < hi:
+                        carry = (state or {}).get(term.name)
+                        got = term.apply(w, self.local_values(term), carry, stage)
+                        if got is not None:
+                            carry_out[term.name] = got
+
+        run(0, CHAMBER)
+        w.p_c = chamber_pressure(spec, w.x, w.a, inputs)
+        w.q_demand = (spec.annulus_area_m2 - spec.couette_area_m2) * w.v
+        p_c_base = w.p_c
+        run(CHAMBER, FLOW)
+        w.dp = solve_flow(w)
+        dp_static = w.dp
+        run(FLOW, FORCE)
+        base = {
+            "inertia": spec.piston_rod_mass_kg * w.a,
+            "gas": (p_c_base - ATMOSPHERE_PA) * spec.rod_area_m2,
+            "hydraulic": dp_static * spec.annulus_area_m2,
+            "coulomb": spec.friction_n * np.tanh(w.v / spec.friction_velocity_m_s),
+        }
+        w.parts = {**base, **w.parts}
+        run(FORCE, SENSOR)
+        w.total = _sum(w.parts.values(), n)
+        run(SENSOR, 1000)
+        total = (
+            _sum(w.parts.values(), n)
+            if any(max(t.run_stages()) >= SENSOR for t in self.terms)
+            else w.total
+        )
+        assert w.dp is not None
+        return Evaluation(total, w.parts, w.dp, w.p_c, w.outputs, carry_out)
+
+    def force(self, inputs: ModelInputs, a_bc: ArrayLike, a_bt: ArrayLike) -> FloatArray:
+        return self.evaluate(inputs, a_bc, a_bt).force
+
+
+def chamber_pressure(
+    spec: DamperSpec, x: FloatArray, a: FloatArray, inputs: ModelInputs
+) -> FloatArray:
+    """Eq. 5-6; with a measured gas charge per test, the gas part scales with it about
+    the charge's mean (so the fitted global gas pressure still sets the level)."""
+    p_c = compression_pressure(spec, x, a)
+    gp = inputs.gas_pressure_pa
+    if gp is None or not np.any(np.isfinite(gp)):
+        return p_c
+    finite = np.isfinite(gp)
+    ratio = np.where(finite, gp / float(np.mean(gp[finite])), 1.0)
+    gas = compression_pressure(spec, x, np.zeros_like(x))
+    return np.asarray(p_c + gas * (ratio[inputs.segment_of_sample()] - 1.0), dtype=float)
+
+
+def _sum(parts: Iterable[FloatArray], n: int) -> FloatArray:
+    total = np.zeros(n)
+    for p in parts:
+        total = total + p
+    return total

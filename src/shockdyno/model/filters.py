@@ -1,0 +1,104 @@
+"""Causal filters that physics and sensor terms share, segment by segment.
+
+Every filter runs on each segment (one test) on its own, starting from steady state, so
+state never leaks from one test into the next. A single-segment call can carry its
+final state into the next call (the simulated rig computes a record in chunks), and any
+split of one record then gives the same numbers as one call.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.signal import lfilter
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.intp]
+
+
+def segment_bounds(starts: IntArray, n: int) -> list[tuple[int, int]]:
+    ends = [*(int(s) for s in starts[1:]), n]
+    return [(int(s), e) for s, e in zip(starts, ends, strict=True)]
+
+
+def lag_coefficients(tau_s: float, dt_s: float) -> tuple[float, float, float]:
+    """(b0, b1, e) of a first-order lag τ dy/dt = u - y, exact for u linear between samples.
+
+    y[n] = e y[n-1] + b0 u[n] + b1 u[n-1]. A first-order hold keeps the filter accurate
+    at the fit's decimated rate (5 ms steps against lags of a few ms), where holding u
+    constant over a step would add a delay of half a step.
+    """
+    if not tau_s > 0:
+        return 1.0, 0.0, 0.0
+    e = math.exp(-dt_s / tau_s)
+    g = tau_s / dt_s * (1.0 - e)
+    b0 = 1.0 - g
+    return b0, g - e, e
+
+
+def first_order_lag(
+    u: FloatArray,
+    tau_s: float | Sequence[float] | FloatArray,
+    starts: IntArray,
+    dt_s: FloatArray,
+    carry: FloatArray | None = None,
+) -> tuple[FloatArray, FloatArray | None]:
+    """Lag u by τ (per segment, or one τ for all) in every segment; (y, final state).
+
+    A segment starts at steady state (y = u at its first sample) unless `carry` is given,
+    which only a single-segment call may pass.
+    """
+    taus = np.broadcast_to(np.asarray(tau_s, dtype=float), (starts.size,))
+    if starts.size == u.size and carry is None:  # one sample per segment: steady state
+        return u.copy(), None
+    y = np.empty_like(u)
+    zf: FloatArray | None = None
+    for k, (lo, hi) in enumerate(segment_bounds(starts, u.size)):
+        seg = u[lo:hi]
+        b0, b1, e = lag_coefficients(float(taus[k]), float(dt_s[k]))
+        if e == 0.0 and b1 == 0.0:
+            y[lo:hi] = seg
+            zf = np.zeros(1)
+            continue
+        if carry is not None and starts.size == 1:
+            zi = carry
+        else:
+            zi = np.array([(b1 + e) * seg[0]]) if seg.size else np.zeros(1)
+        out, zf_k = lfilter([b0, b1], [1.0, -e], seg, zi=zi)
+        y[lo:hi] = out
+        zf = np.asarray(zf_k, dtype=float)
+    return y, zf
+
+
+def delayed(
+    values: FloatArray,
+    slope: FloatArray,
+    delay_s: float,
+    starts: IntArray,
+    dt_s: FloatArray,
+) -> FloatArray:
+    """values(t - delay) within each segment, by linear interpolation between samples.
+
+    The motion is smooth on the sample scale, so interpolation is accurate for any delay
+    (unlike the first-order shift x - δ v, off by δ²a/2 at tens of ms). Before a segment's
+    first sample (or after its last) the value is extended along `slope`.
+    """
+    if delay_s == 0.0:
+        return values
+    out = np.empty_like(values)
+    for k, (lo, hi) in enumerate(segment_bounds(starts, values.size)):
+        n = hi - lo
+        dt = float(dt_s[k])
+        pos = np.arange(n) - delay_s / dt
+        seg = values[lo:hi]
+        res = np.interp(pos, np.arange(n), seg)
+        before, after = pos < 0, pos > n - 1
+        if np.any(before):
+            res[before] = seg[0] + pos[before] * dt * slope[lo]
+        if np.any(after):
+            res[after] = seg[-1] + (pos[after] - (n - 1)) * dt * slope[hi - 1]
+        out[lo:hi] = res
+    return out

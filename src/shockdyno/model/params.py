@@ -1,0 +1,59 @@
+"""Declared parameters of physics terms: name, unit, nominal, bounds, scale, off value.
+
+Like lmfit's parameter hints: a term says what each of its parameters means once, and
+every consumer (the simulated rig, the fit, the fit JSON, diagnose, the report) reads it
+from here. Names are namespaced by the term, `friction.breakaway_n`, so two terms never
+clash. The `off` value is the one at which the term reduces exactly to the paper's model.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter of a term (local name; `Term.qualified` adds the namespace).
+
+    `nominal` is the value a term starts from when switched on; `free` says whether a fit
+    that names the term frees it (a parameter that a 0.5/1/1.5 Hz sweep cannot separate
+    from another is held at its nominal value unless named as `term.param`).
+    """
+
+    name: str
+    unit: str
+    nominal: float
+    lo: float
+    hi: float
+    scale: float
+    off: float
+    free: bool = True
+    doc: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.lo <= self.nominal <= self.hi:
+            raise ValueError(f"{self.name}: nominal {self.nominal} outside [{self.lo}, {self.hi}]")
+        if not (self.scale > 0 and math.isfinite(self.scale)):
+            raise ValueError(f"{self.name}: scale must be a positive number")
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """A fitted parameter: value, 1-σ uncertainty (nan: not estimated), unit, flags."""
+
+    value: float
+    sd: float
+    unit: str
+    fixed: bool = False
+    at_bound: bool = False
+
+    def to_json(self) -> dict[str, object]:
+        sd = self.sd if math.isfinite(self.sd) else None
+        value = self.value if math.isfinite(self.value) else None
+        out: dict[str, object] = {"value": value, "sd": sd, "unit": self.unit}
+        if self.fixed:
+            out["fixed"] = True
+        if self.at_bound:
+            out["at_bound"] = True
+        return out

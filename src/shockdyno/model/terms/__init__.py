@@ -1,0 +1,50 @@
+"""The term library: physics the paper's model leaves out, by interface name.
+
+Names are an interface (fit --terms, the fit JSON's `terms`, diagnose's findings):
+compressibility, thermal, friction, cavitation, sensor_lag, gas_spring, position_force.
+"""
+
+from __future__ import annotations
+
+from shockdyno.errors import ConfigError
+from shockdyno.model.composite import Term
+from shockdyno.model.terms.cavitation import Cavitation
+from shockdyno.model.terms.compressibility import Compressibility
+from shockdyno.model.terms.friction import Friction
+from shockdyno.model.terms.gas_spring import GasSpring
+from shockdyno.model.terms.position_force import PositionForce
+from shockdyno.model.terms.sensor_lag import SensorLag
+from shockdyno.model.terms.thermal import Thermal
+
+LIBRARY: dict[str, type[Term]] = {
+    cls.name: cls
+    for cls in (
+        Compressibility,
+        Thermal,
+        Friction,
+        Cavitation,
+        SensorLag,
+        GasSpring,
+        PositionForce,
+    )
+}
+
+
+def make_term(name: str) -> Term:
+    cls = LIBRARY.get(name)
+    if cls is None:
+        raise ConfigError(f"unknown physics term {name!r} (one of {', '.join(LIBRARY)})")
+    return cls()
+
+
+__all__ = [
+    "LIBRARY",
+    "Cavitation",
+    "Compressibility",
+    "Friction",
+    "GasSpring",
+    "PositionForce",
+    "SensorLag",
+    "Thermal",
+    "make_term",
+]

@@ -1,0 +1,48 @@
+"""Rebound-chamber cavitation: the chamber behind the piston cannot fall below the oil's
+vapour / air-release pressure.
+
+In a monotube the compression chamber sits at gas pressure p_c, so on a fast
+compression stroke the rebound chamber, p_r = p_c - Δp, is the one that would go below
+p_v once Δp exceeds p_c - p_v. It cannot: p_r = max(p_c - Δp, p_v), Δp = p_c - p_r, and
+the compression force saturates (earlier at lower gas pressure). Off: p_v = -∞ (no
+clamp). A recording that never reaches p_v bounds it only from above.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from shockdyno.model.composite import PRESSURE, FloatArray, Term, Work
+from shockdyno.model.params import Param
+
+
+class Cavitation(Term):
+    name = "cavitation"
+    stage = PRESSURE + 5  # after compressibility: the clamp acts on the chamber's pressure
+    summary = "rebound chamber clamped at the vapour / air-release pressure"
+    PARAMS = (
+        Param(
+            "release_pressure_pa",
+            "Pa",
+            3000.0,
+            0.0,
+            1.0e6,
+            1.0e5,
+            -math.inf,
+            doc="absolute pressure the rebound chamber cannot fall below",
+        ),
+    )
+
+    def apply(
+        self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
+    ) -> FloatArray | None:
+        floor = p["release_pressure_pa"]
+        if floor == -math.inf:
+            return None
+        assert w.dp is not None
+        p_r = np.maximum(w.p_c - w.dp, floor)
+        w.set_dp(self.name, w.p_c - p_r)
+        return None

@@ -1,0 +1,77 @@
+"""Oil compressibility with entrained air: the pressure drop lags the valve's static one.
+
+Wood's mixture law at the chamber's gas charge p (absolute):
+    1/β_eff = (1 - α) c_oil + α / p
+and the chamber of volume V (piston area × the spec's oil column) behind a valve of
+conductance G = ∂q/∂Δp fills with the time constant τ = V / (β_eff G), so
+    τ dΔp/dt = Δp_static - Δp.
+Off: α = 0 and c_oil = 0 (rigid oil: τ = 0). τ is per test, at its gas charge, so a test
+at another gas pressure sees another τ: that is how the data separate air from a sensor
+lag. Only τ is identifiable from one charge; the fit frees α and holds c_oil and G.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from shockdyno.model.composite import PRESSURE, FloatArray, Term, Work
+from shockdyno.model.filters import first_order_lag
+from shockdyno.model.params import Param
+
+
+class Compressibility(Term):
+    name = "compressibility"
+    stage = PRESSURE
+    stateful = True
+    summary = "oil bulk modulus with entrained air: Δp lags, the loop opens near reversal"
+    PARAMS = (
+        Param("air_fraction", "1", 0.01, 0.0, 0.3, 0.01, 0.0, doc="free air by volume"),
+        Param(
+            "oil_compressibility_per_gpa",
+            "1/GPa",
+            1 / 1.5,
+            0.0,
+            2.0,
+            0.5,
+            0.0,
+            free=False,
+            doc="1/β of the oil (mineral oil: 1/1.5 GPa)",
+        ),
+        Param(
+            "valve_conductance_m3_s_pa",
+            "m³/(s·Pa)",
+            2.0e-11,
+            1.0e-13,
+            1.0e-8,
+            1.0e-11,
+            2.0e-11,
+            free=False,
+            doc="∂q/∂Δp of the piston near its operating point",
+        ),
+    )
+
+    def time_constants(self, w: Work, p: Mapping[str, float]) -> FloatArray:
+        """τ per segment (s), at each segment's gas charge."""
+        spec = w.spec
+        charge = np.full(w.starts.size, spec.gas_pressure_pa)
+        gp = w.inputs.gas_pressure_pa
+        if gp is not None:
+            finite = np.isfinite(gp)
+            if np.any(finite):
+                charge = np.where(finite, spec.gas_pressure_pa * gp / np.mean(gp[finite]), charge)
+        alpha = p["air_fraction"]
+        compliance = (1 - alpha) * p["oil_compressibility_per_gpa"] * 1e-9 + alpha / charge
+        volume = spec.piston_area_m2 * spec.oil_column_m
+        return np.asarray(volume * compliance / p["valve_conductance_m3_s_pa"], dtype=float)
+
+    def apply(
+        self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
+    ) -> FloatArray | None:
+        assert w.dp is not None
+        tau = self.time_constants(w, p)
+        dp, state = first_order_lag(w.dp, tau, w.starts, w.dt_s, carry)
+        w.set_dp(self.name, dp)
+        w.outputs[f"{self.name}.time_constant_s"] = tau[w.inputs.segment_of_sample()]
+        return state

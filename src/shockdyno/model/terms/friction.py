@@ -1,0 +1,50 @@
+"""Seal friction with a Stribeck curve, added to the paper's Coulomb friction.
+
+    F = F_c tanh(v/v_ε)                              (paper: spec friction_n, v_ε)
+      + F_b exp(-(v/v_s)²) tanh(v/v_ε) + c_v v       (this term)
+
+F_b is the breakaway force above the Coulomb level (static = F_c + F_b), v_s the
+Stribeck velocity over which it decays, c_v the viscous drag of the seals. Off: F_b =
+c_v = 0. The Coulomb level stays the fitted global `friction_n`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from shockdyno.model.composite import FORCE, FloatArray, Term, Work
+from shockdyno.model.params import Param
+
+
+class Friction(Term):
+    name = "friction"
+    stage = FORCE
+    summary = (
+        "Stribeck seal friction: breakaway above Coulomb, decaying with speed, plus viscous drag"
+    )
+    PARAMS = (
+        Param("breakaway_n", "N", 25.0, 0.0, 1000.0, 10.0, 0.0, doc="breakaway above Coulomb"),
+        Param(
+            "stribeck_velocity_m_s",
+            "m/s",
+            0.005,
+            0.0005,
+            0.05,
+            0.005,
+            0.005,
+            doc="speed over which the breakaway decays (exists only with F_b > 0)",
+        ),
+        Param("viscous_n_s_m", "N·s/m", 40.0, 0.0, 5000.0, 50.0, 0.0, doc="viscous seal drag"),
+    )
+
+    def apply(
+        self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
+    ) -> FloatArray | None:
+        v = w.v
+        sign = np.tanh(v / w.spec.friction_velocity_m_s)
+        vs = p["stribeck_velocity_m_s"]
+        force = p["breakaway_n"] * np.exp(-((v / vs) ** 2)) * sign + p["viscous_n_s_m"] * v
+        w.add_part(self.name, force)
+        return None

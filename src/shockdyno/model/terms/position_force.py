@@ -1,0 +1,53 @@
+"""A smooth force of displacement for what no named physics explains (open set).
+
+F = s(x): piecewise-linear between K knots evenly spread over [x_lo, x_hi] (the
+recording's stroke), flat beyond. A bump stop, a top-out spring or a seal that grips
+harder at one end shows here. The fit regularises it: second differences of the knot
+values are penalised (smoothness), and so is their mean, which the fitted gas pressure
+already sets. Off: every knot 0.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from shockdyno.model.composite import FORCE, FloatArray, Term, Work
+from shockdyno.model.params import Param
+
+N_KNOTS = 8
+SMOOTHING = 0.3  # N of penalty residual per N of second difference
+MEAN_WEIGHT = 1.0
+
+
+class PositionForce(Term):
+    name = "position_force"
+    stage = FORCE + 5
+    summary = "smooth force of displacement (bump stop, top-out, position-dependent seal)"
+    PARAMS = (
+        Param("x_lo_m", "m", -0.035, -1.0, 1.0, 0.01, -0.035, free=False),
+        Param("x_hi_m", "m", 0.035, -1.0, 1.0, 0.01, 0.035, free=False),
+        *(
+            Param(f"f{k}_n", "N", 0.0, -5000.0, 5000.0, 20.0, 0.0, doc=f"force at knot {k}")
+            for k in range(N_KNOTS)
+        ),
+    )
+
+    @staticmethod
+    def knot_values(p: Mapping[str, float]) -> np.ndarray:
+        return np.array([p[f"f{k}_n"] for k in range(N_KNOTS)])
+
+    @staticmethod
+    def knots(p: Mapping[str, float]) -> np.ndarray:
+        return np.linspace(p["x_lo_m"], p["x_hi_m"], N_KNOTS)
+
+    def apply(
+        self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
+    ) -> FloatArray | None:
+        w.add_part(self.name, np.interp(w.x, self.knots(p), self.knot_values(p)))
+        return None
+
+    def penalty(self, p: Mapping[str, float]) -> FloatArray:
+        c = self.knot_values(p)
+        return np.concatenate([SMOOTHING * np.diff(c, 2), [MEAN_WEIGHT * float(np.mean(c))]])

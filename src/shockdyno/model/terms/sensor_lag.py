@@ -1,0 +1,62 @@
+"""The measurement chain: a pure channel delay, a load-cell lag and an LVDT lag.
+
+- delay δ: the force reported at t is the damper's response to the motion at t - δ
+  (channels sampled at different instants, a filter's group delay). The motion is
+  interpolated, so tens of ms are as accurate as one.
+- load-cell lag τ_F: the reported force is the true one through τ_F dF'/dt = F - F'.
+- LVDT lag τ_x: the recorded x lags the rod; the rod is x + τ_x ẋ (the lag inverted).
+
+Off: all three 0. At 0.5-1.5 Hz all three shift the loop by about the same time
+(τ_F + δ - τ_x) and attenuate by (ωτ)²/2 < 0.05 %, so a sweep pins their sum: the fit
+frees δ and holds the lags unless named (`--terms sensor_lag.load_cell_lag_s`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+
+import numpy as np
+
+from shockdyno.model.composite import MOTION, SENSOR, FloatArray, Term, Work
+from shockdyno.model.filters import delayed, first_order_lag
+from shockdyno.model.params import Param
+
+
+class SensorLag(Term):
+    name = "sensor_lag"
+    stage = SENSOR
+    stages = (MOTION, SENSOR)
+    sensor = True
+    stateful = True
+    summary = "measurement chain: channel delay, load-cell lag, LVDT lag"
+    PARAMS = (
+        Param("delay_s", "s", 0.0, -0.05, 0.05, 1e-3, 0.0, doc="force behind motion"),
+        Param("load_cell_lag_s", "s", 0.0, 0.0, 0.05, 1e-3, 0.0, free=False),
+        Param("lvdt_lag_s", "s", 0.0, 0.0, 0.02, 1e-3, 0.0, free=False),
+    )
+
+    def full_rate(self, p: Mapping[str, float], free: Iterable[str]) -> bool:
+        return p["load_cell_lag_s"] > 0 or "load_cell_lag_s" in set(free)
+
+    def apply(
+        self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
+    ) -> FloatArray | None:
+        if stage == MOTION:
+            tx = p["lvdt_lag_s"]
+            if tx:
+                w.x = w.x + tx * w.v
+                w.v = w.v + tx * w.a
+            delay = p["delay_s"]
+            if delay:
+                x, v, a = w.x, w.v, w.a
+                w.x = delayed(x, v, delay, w.starts, w.dt_s)
+                w.v = delayed(v, a, delay, w.starts, w.dt_s)
+                w.a = delayed(a, np.zeros_like(a), delay, w.starts, w.dt_s)
+            return None
+        tau = p["load_cell_lag_s"]
+        if not tau:
+            return None
+        assert w.total is not None
+        lagged, state = first_order_lag(w.total, tau, w.starts, w.dt_s, carry)
+        w.add_part(self.name, lagged - w.total)
+        return state

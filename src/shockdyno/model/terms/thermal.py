@@ -1,0 +1,73 @@
+"""Temperature: the oil's viscosity falls and the gas spring stiffens as the damper warms.
+
+    ν(T) = ν_ref exp(-b (T - T_ref))  →  leak conductance × exp(b (T - T_ref))
+    p_c × (1 + g ((T + 273.15)/(T_ref + 273.15) - 1))     (gas at the oil's temperature)
+
+T is the measured temperature channel when the recording has one. Otherwise an energy
+balance estimates it, C dT/dt = c_eq v² - h (T - T_ref), written as a first-order lag of
+k τ v² with τ = C/h and k = c_eq/C, starting each test at T_ref (the sim-rig carries it
+across a whole session). Off: b = g = 0. The leak's share of the flow is small, so b is
+weakly identified; the gas part g is the strong signature (force offset that follows T).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+
+import numpy as np
+
+from shockdyno.model.composite import CHAMBER, FloatArray, Term, Work
+from shockdyno.model.filters import first_order_lag, segment_bounds
+from shockdyno.model.params import Param
+
+KELVIN = 273.15
+
+
+class Thermal(Term):
+    name = "thermal"
+    stage = CHAMBER + 5  # after the gas spring: the temperature scales the gas it gives
+    stateful = True
+    summary = "temperature: viscosity falls, gas pressure rises with the oil's temperature"
+    PARAMS = (
+        Param("gas_coupling", "1", 1.0, 0.0, 3.0, 1.0, 0.0, doc="1: gas at the oil's temperature"),
+        Param("viscosity_coeff_per_k", "1/K", 0.025, 0.0, 0.1, 0.01, 0.0, doc="ν falls b per K"),
+        Param("reference_c", "°C", 40.0, -40.0, 150.0, 10.0, 40.0, free=False),
+        Param("heat_rate_k_s_m2", "K·s/m²", 3.33, 0.0, 100.0, 1.0, 3.33, free=False),
+        Param("cooling_time_s", "s", 300.0, 1.0, 1.0e5, 100.0, 300.0, free=False),
+    )
+
+    def full_rate(self, p: Mapping[str, float], free: Iterable[str]) -> bool:
+        return False  # minutes of thermal lag: the fit's 5 ms samples resolve it
+
+    def vehicle_values(self) -> dict[str, float]:
+        # No heating on the car: a ride run is seconds, the oil's warm-up minutes.
+        return {"heat_rate_k_s_m2": 0.0}
+
+    def temperature(
+        self, w: Work, p: Mapping[str, float], carry: FloatArray | None
+    ) -> tuple[FloatArray, FloatArray | None]:
+        ref = p["reference_c"]
+        measured = w.inputs.temperature_c
+        tau = p["cooling_time_s"]
+        rise, state = first_order_lag(
+            p["heat_rate_k_s_m2"] * tau * w.v**2, tau, w.starts, w.dt_s, carry
+        )
+        temp = ref + rise
+        if measured is not None:
+            for lo, hi in segment_bounds(w.starts, w.x.size):
+                seg = measured[lo:hi]
+                ok = np.isfinite(seg)
+                if np.any(ok):
+                    temp[lo:hi] = np.where(ok, seg, float(np.mean(seg[ok])))
+        return temp, state
+
+    def apply(
+        self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
+    ) -> FloatArray | None:
+        temp, state = self.temperature(w, p, carry)
+        ref = p["reference_c"]
+        w.k_leak = w.k_leak * np.exp(p["viscosity_coeff_per_k"] * (temp - ref))
+        ratio = 1.0 + p["gas_coupling"] * ((temp + KELVIN) / (ref + KELVIN) - 1.0)
+        w.set_p_c(self.name, w.p_c * ratio)
+        w.outputs[f"{self.name}.temperature_c"] = temp
+        return state

@@ -1,0 +1,268 @@
+"""The term library against analytic answers; off = the paper's model; composition."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from shockdyno.errors import ConfigError
+from shockdyno.model import DamperModel, ModelInputs, damper_force, evaluate, load_spec
+from shockdyno.model.composite import ATMOSPHERE_PA
+from shockdyno.model.terms import LIBRARY, Compressibility, SensorLag, Thermal, make_term
+from shockdyno.simrig.scenario import load_scenario
+
+REPO = Path(__file__).resolve().parents[2]
+SPEC = load_spec()
+A_BC, A_BT = (float(a) for a in SPEC.bleed_areas(8, 0))
+FS = 1000.0
+
+
+def sine(n: int = 3000, f: float = 1.5, amp: float = 0.03) -> ModelInputs:
+    t = np.arange(n) / FS
+    w = 2 * np.pi * f
+    return ModelInputs.single(
+        amp * np.sin(w * t), amp * w * np.cos(w * t), -amp * w * w * np.sin(w * t), 1 / FS
+    )
+
+
+def two_tests() -> ModelInputs:
+    """Two segments at different rates (1 kHz and 300 Hz), as a fit stacks them."""
+    a = sine(2000, 1.0)
+    t = np.arange(600) / 300.0
+    w = 2 * np.pi * 0.5
+    b = ModelInputs.single(
+        0.03 * np.sin(w * t), 0.03 * w * np.cos(w * t), -0.03 * w * w * np.sin(w * t), 1 / 300
+    )
+    return ModelInputs.stack([a, b])
+
+
+def on_values(name: str) -> dict[str, float]:
+    """Values that switch a term visibly on (its nominal, or more where nominal is off)."""
+    strong = {
+        "sensor_lag": {"sensor_lag.delay_s": 0.004, "sensor_lag.load_cell_lag_s": 0.003},
+        "gas_spring": {"gas_spring.volume_factor": 0.5},
+        "position_force": {"position_force.f7_n": 300.0, "position_force.f0_n": -100.0},
+        "cavitation": {"cavitation.release_pressure_pa": 1.2e6},
+    }
+    return strong.get(name, {})
+
+
+@pytest.mark.parametrize("name", sorted(LIBRARY))
+def test_every_term_off_is_the_papers_model(name: str) -> None:
+    inputs = two_tests()
+    base = DamperModel(SPEC).force(inputs, A_BC, A_BT)
+    model = DamperModel(SPEC, (make_term(name),)).off()
+    got = model.force(inputs, A_BC, A_BT)
+    np.testing.assert_allclose(got, base, rtol=1e-9, atol=1e-9 * float(np.max(np.abs(base))))
+    on = DamperModel(SPEC, (make_term(name),), on_values(name)).force(inputs, A_BC, A_BT)
+    assert np.max(np.abs(on - base)) > 1.0, f"{name} on changes nothing"
+
+
+@pytest.mark.parametrize("pair", list(itertools.combinations(sorted(LIBRARY), 2)), ids=str)
+def test_every_pair_composes_in_any_order_and_components_sum(pair: tuple[str, str]) -> None:
+    inputs = two_tests()
+    values = {**on_values(pair[0]), **on_values(pair[1])}
+    ab = DamperModel(SPEC, (make_term(pair[0]), make_term(pair[1])), values)
+    ba = DamperModel(SPEC, (make_term(pair[1]), make_term(pair[0])), values)
+    ev = ab.evaluate(inputs, A_BC, A_BT)
+    np.testing.assert_array_equal(ev.force, ba.evaluate(inputs, A_BC, A_BT).force)
+    total = sum(ev.components.values())
+    np.testing.assert_allclose(total, ev.force, atol=1e-9 * float(np.max(np.abs(ev.force))))
+    for name in pair:  # each term's force is visible as its own component (if it has one)
+        if name != "thermal":
+            assert name in ev.components
+
+
+def test_a_term_given_twice_or_an_unknown_parameter_is_refused() -> None:
+    with pytest.raises(ConfigError, match="given twice"):
+        DamperModel(SPEC, (make_term("friction"), make_term("friction")))
+    with pytest.raises(ConfigError, match="unknown term parameter"):
+        DamperModel(SPEC, (make_term("friction"),), {"friction.nope": 1.0})
+    with pytest.raises(ConfigError, match="unknown physics term"):
+        make_term("magic")
+
+
+def test_cavitation_clamps_the_rebound_chamber_at_its_release_pressure() -> None:
+    v = np.linspace(0.05, 4.0, 80)  # ever faster compression: p_r = p_c - Δp falls
+    z = np.zeros_like(v)
+    plain = evaluate(SPEC, z, v, z, A_BC, A_BT)
+    model = DamperModel(SPEC, (make_term("cavitation"),), {"cavitation.release_pressure_pa": 3e3})
+    ev = model.evaluate(ModelInputs.single(z, v, z), A_BC, A_BT)
+    p_r = ev.p_c - ev.dp
+    assert np.min(plain.p_r) < 3000.0
+    assert np.all(p_r >= 3000.0 - 1e-9)
+    hyd = ev.components["hydraulic"] + ev.components["cavitation"]
+    limit = (ev.p_c - 3000.0) * SPEC.annulus_area_m2
+    assert hyd[-1] == pytest.approx(limit[-1])  # saturated
+    ok = plain.p_r > 3000.0
+    np.testing.assert_allclose(ev.force[ok], plain.force[ok])  # untouched without cavitation
+
+
+def test_friction_breakaway_and_coulomb_levels() -> None:
+    v = np.array([0.003, 0.5, -0.5])
+    z = np.zeros(3)
+    values = {"friction.breakaway_n": 25.0, "friction.viscous_n_s_m": 40.0}
+    ev = DamperModel(SPEC, (make_term("friction"),), values).evaluate(
+        ModelInputs.single(z, v, z), A_BC, A_BT
+    )
+    term = ev.components["friction"]
+    coulomb = ev.components["coulomb"]
+    np.testing.assert_allclose(coulomb, SPEC.friction_n * np.tanh(v / SPEC.friction_velocity_m_s))
+    expected0 = 25 * math.exp(-((0.003 / 0.005) ** 2)) * math.tanh(3.0) + 40 * 0.003
+    assert term[0] == pytest.approx(expected0)
+    assert (term + coulomb)[1] == pytest.approx(35 + 40 * 0.5, rel=1e-6)
+    assert (term + coulomb)[2] == pytest.approx(-(35 + 40 * 0.5), rel=1e-6)
+
+
+def test_compressibility_lags_the_pressure_by_its_time_constant() -> None:
+    n = 1000
+    t = np.arange(n) / FS
+    v = np.where(t > 0.1, 0.2, 0.0)  # a velocity step at 0.1 s
+    z = np.zeros(n)
+    inputs = ModelInputs.single(z, v, z, 1 / FS)
+    values = {"compressibility.air_fraction": 0.02}
+    model = DamperModel(SPEC, (Compressibility(),), values)
+    ev = model.evaluate(inputs, A_BC, A_BT)
+    tau = float(ev.outputs["compressibility.time_constant_s"][0])
+    beta = 1 / (0.98 / 1.5e9 + 0.02 / SPEC.gas_pressure_pa)
+    volume = SPEC.piston_area_m2 * SPEC.oil_column_m
+    assert tau == pytest.approx(volume / (beta * 2e-11), rel=1e-3)
+    static = evaluate(SPEC, z, v, z, A_BC, A_BT).dp
+    k = 100 + round(tau * FS)  # one time constant after the step
+    assert ev.dp[k] / static[k] == pytest.approx(1 - math.exp(-1), abs=0.02)
+
+
+def test_a_lag_of_zero_is_no_lag_not_a_division_by_zero() -> None:
+    inputs = sine()
+    m = DamperModel(SPEC, (SensorLag(),), {"sensor_lag.load_cell_lag_s": 0.0})
+    np.testing.assert_array_equal(
+        m.force(inputs, A_BC, A_BT), damper_force(SPEC, inputs.x, inputs.v, inputs.a, A_BC, A_BT)
+    )
+
+
+@pytest.mark.parametrize("name", ["compressibility", "thermal", "sensor_lag"])
+def test_state_is_carried_explicitly_split_or_whole(name: str) -> None:
+    """One call, or three calls carrying the state, give the same bits; the model holds none."""
+    inputs = sine()
+    values = {**on_values(name)}
+    values.pop("sensor_lag.delay_s", None)  # a delay needs the future of a chunk
+    model = DamperModel(SPEC, (make_term(name),), values)
+    whole = model.evaluate(inputs, A_BC, A_BT)
+    parts, state = [], {}
+    for s in (slice(0, 700), slice(700, 710), slice(710, inputs.size)):
+        piece = ModelInputs.single(inputs.x[s], inputs.v[s], inputs.a[s], 1 / FS)
+        ev = model.evaluate(piece, A_BC, A_BT, state=state)
+        state = ev.state
+        parts.append(ev.force)
+    np.testing.assert_allclose(np.concatenate(parts), whole.force, rtol=1e-12, atol=1e-9)
+    again = model.evaluate(inputs, A_BC, A_BT)  # nothing leaked into the model
+    np.testing.assert_array_equal(again.force, whole.force)
+
+
+def test_stacked_tests_do_not_share_state() -> None:
+    """Each segment starts from steady state: a test stacked after another is unchanged."""
+    a, b = sine(1500, 1.5), sine(1500, 0.5)
+    model = DamperModel(SPEC, (Compressibility(),), {"compressibility.air_fraction": 0.02})
+    stacked = model.force(ModelInputs.stack([a, b]), A_BC, A_BT)
+    np.testing.assert_allclose(stacked[1500:], model.force(b, A_BC, A_BT), rtol=1e-12)
+
+
+def test_pure_delay_shifts_the_motion_exactly() -> None:
+    inputs = sine(3000, 1.0)
+    delay = 0.02  # tens of ms: beyond a first-order shift's accuracy
+    shifted = DamperModel(SPEC, (SensorLag(),), {"sensor_lag.delay_s": delay})
+    t = np.arange(3000) / FS - delay
+    w = 2 * np.pi
+    want = damper_force(
+        SPEC,
+        0.03 * np.sin(w * t),
+        0.03 * w * np.cos(w * t),
+        -0.03 * w * w * np.sin(w * t),
+        A_BC,
+        A_BT,
+    )
+    got = shifted.force(inputs, A_BC, A_BT)
+    np.testing.assert_allclose(got[100:], want[100:], atol=0.05)
+
+
+def test_long_lags_are_accurate_at_the_fits_rate_and_short_ones_ask_for_the_full_rate() -> None:
+    """A first-order hold keeps a long lag (compressibility, ~66 ms) accurate on the fit's
+    5 ms samples; a lag of a few ms on a force that turns in a few ms is not, so the model
+    says it needs the recording's own rate."""
+    inputs = sine(4000, 1.5)
+    idx = np.arange(0, 4000, 5)
+    coarse = ModelInputs.single(inputs.x[idx], inputs.v[idx], inputs.a[idx], 5 / FS)
+    slow = DamperModel(SPEC, (Compressibility(),), {"compressibility.air_fraction": 0.02})
+    err = np.abs(slow.force(coarse, A_BC, A_BT) - slow.force(inputs, A_BC, A_BT)[idx])[40:]
+    assert np.median(err) < 0.5 and np.max(err) < 15.0
+    fast = DamperModel(SPEC, (SensorLag(),), {"sensor_lag.load_cell_lag_s": 0.004})
+    err = np.abs(fast.force(coarse, A_BC, A_BT) - fast.force(inputs, A_BC, A_BT)[idx])[40:]
+    assert np.max(err) > 15.0  # why the fit evaluates it at the full rate
+    assert fast.needs_full_rate() and slow.needs_full_rate()
+    delay_only = DamperModel(SPEC, (SensorLag(),), {"sensor_lag.delay_s": 0.004})
+    assert not delay_only.needs_full_rate()
+    assert delay_only.needs_full_rate(["sensor_lag.load_cell_lag_s"])
+    assert not DamperModel(SPEC, (Thermal(),)).needs_full_rate(["thermal.gas_coupling"])
+
+
+def test_thermal_uses_the_measured_temperature_and_else_an_energy_balance() -> None:
+    n = 60_000
+    v = np.full(n, 0.2)
+    z = np.zeros(n)
+    values = {"thermal.heat_rate_k_s_m2": 10.0 / 10.0 * 100.0, "thermal.cooling_time_s": 5.0}
+    model = DamperModel(SPEC, (Thermal(),), values)
+    ev = model.evaluate(ModelInputs.single(z, v, z, 1 / FS), A_BC, A_BT)
+    rise = 100.0 * 5.0 * 0.2**2  # k τ v² = 20 K
+    assert ev.outputs["thermal.temperature_c"][-1] == pytest.approx(40.0 + rise, rel=1e-3)
+    ratio = (60.0 + 273.15) / (40.0 + 273.15)
+    plain = evaluate(SPEC, z[:1], v[:1], z[:1], A_BC, A_BT)
+    gas = ev.components["gas"][-1] + ev.components["thermal"][-1] + ATMOSPHERE_PA * SPEC.rod_area_m2
+    assert gas == pytest.approx(plain.p_c[0] * ratio * SPEC.rod_area_m2, rel=1e-3)
+    measured = ModelInputs.single(z[:10], v[:10], z[:10], 1 / FS, temperature_c=np.full(10, 70.0))
+    ev2 = model.evaluate(measured, A_BC, A_BT)
+    np.testing.assert_allclose(ev2.outputs["thermal.temperature_c"], 70.0)
+
+
+def test_the_vehicle_drops_sensor_terms_and_holds_the_oil_temperature() -> None:
+    model = DamperModel(SPEC, (SensorLag(), Thermal(), make_term("friction")))
+    car = model.vehicle()
+    assert [t.name for t in car.terms] == ["thermal", "friction"]
+    assert car.value("thermal.heat_rate_k_s_m2") == 0.0
+
+
+def test_position_force_is_a_smooth_regularised_function_of_x() -> None:
+    term = make_term("position_force")
+    values = {f"position_force.f{k}_n": float(k * k) for k in range(8)}
+    model = DamperModel(SPEC, (term,), values)
+    x = np.linspace(-0.035, 0.035, 8)
+    z = np.zeros(8)
+    ev = model.evaluate(ModelInputs.single(x, z, z), A_BC, A_BT)
+    np.testing.assert_allclose(ev.components["position_force"], np.arange(8.0) ** 2)
+    pen = model.penalty()
+    assert pen.size == 7 and np.all(pen[:6] > 0)  # curvature and mean are penalised
+
+
+@pytest.mark.parametrize("path", sorted((REPO / "sim" / "scenarios").glob("*.toml")), ids=str)
+def test_every_scenario_file_loads(path: Path) -> None:
+    sc = load_scenario(path)
+    assert sc.terms and sc.description
+    assert load_scenario(path.stem).name == sc.name
+
+
+def test_scenario_mistakes_are_config_errors(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[scenario]\nname = "x"\n[[term]]\nkind = "magic"\n')
+    with pytest.raises(ConfigError, match="unknown physics term 'magic'"):
+        load_scenario(bad)
+    bad.write_text('[scenario]\nname = "x"\n[[term]]\nkind = "compressibility"\nbulk = 1.0\n')
+    with pytest.raises(ConfigError, match="unknown key 'bulk' for compressibility"):
+        load_scenario(bad)
+    bad.write_text('[scenario]\nname = "x"\n[[term]]\nkind = "friction"\nbreakaway_n = -5\n')
+    with pytest.raises(ConfigError, match="breakaway_n must be in"):
+        load_scenario(bad)
+    with pytest.raises(ConfigError, match="scenario not found: nope"):
+        load_scenario("nope")

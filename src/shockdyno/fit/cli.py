@@ -40,7 +40,53 @@ def register(sub: Any) -> None:
         "--spec", metavar="PATH", help="base damper spec TOML (default: sim/ohlins-s46.toml)"
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the GA (default 0)")
+    p.add_argument(
+        "--terms",
+        default="sensor_lag",
+        metavar="LIST",
+        help=(
+            "physics terms fitted with the globals, comma-separated: compressibility, "
+            "thermal, friction, cavitation, sensor_lag, gas_spring, position_force; "
+            "term.param frees a parameter the term holds; none: the paper's model alone "
+            "(default: sensor_lag, the channel delay)"
+        ),
+    )
     p.set_defaults(func=run_fit)
+
+
+def terms_table(terms: dict[str, Any]) -> Any:
+    """Fitted term parameters: value ± σ with unit; held ones and those at a bound marked."""
+    from rich.table import Table
+
+    table = Table(title="Physics terms (±1σ)")
+    for name in ("term", "parameter", "value", "±1σ", "unit", "note"):
+        table.add_column(name, justify="left" if name in ("term", "parameter", "note") else "right")
+    for term, params in terms.items():
+        for k, est in params.items():
+            note = "held" if est.fixed else ("at a bound" if est.at_bound else "")
+            sd = "" if not math.isfinite(est.sd) else f"{est.sd:.3g}"
+            table.add_row(term, k, f"{est.value:.4g}", sd, est.unit, note)
+    return table
+
+
+def globals_table(result: Any) -> Any:
+    from rich.table import Table
+
+    sd = result.info.get("calibration", {}).get("globals_sd", {})
+    nominal = result.info.get("calibration", {}).get("globals_nominal", {})
+    table = Table(title="Calibrated damper globals (±1σ)")
+    for name in ("parameter", "fitted", "±1σ", "spec"):
+        table.add_column(name, justify="left" if name == "parameter" else "right")
+    for key, value in result.globals.items():
+        s = sd.get(key)
+        nom = nominal.get(key)
+        table.add_row(
+            key,
+            f"{value:.4g}",
+            "" if s is None else f"{s:.2g}",
+            "" if nom is None else f"{nom:.4g}",
+        )
+    return table
 
 
 def _mm2(value: float, sd: float) -> str:
@@ -84,10 +130,12 @@ def run_fit(args: argparse.Namespace) -> int:
         raise ConfigError(f"--json: directory {out.parent} does not exist")
     if out.is_dir():
         raise ConfigError(f"--json: {out} is a directory")
+    from shockdyno.fit.terms import parse_terms
     from shockdyno.model import load_spec
     from shockdyno.record import open_recording
 
-    load_spec(args.spec)  # a bad spec fails now, not after reading the recording
+    load_spec(args.spec)  # a bad spec or term list fails now, not after reading
+    selection = parse_terms(args.terms)
     tests = open_recording(args.recording).load_all()
     console = Console(stderr=True)
     with Progress(
@@ -104,9 +152,17 @@ def run_fit(args: argparse.Namespace) -> int:
             bar.update(task, description=stage, completed=fraction)
 
         result = fit_sweep(
-            tests, spec_path=args.spec, optimizer=args.optimizer, seed=args.seed, progress=progress
+            tests,
+            spec_path=args.spec,
+            optimizer=args.optimizer,
+            seed=args.seed,
+            progress=progress,
+            terms=selection,
         )
     result.save(out)
+    Console().print(globals_table(result))
+    if result.terms:
+        Console().print(terms_table(result.terms))
     Console().print(_clicks_table(result))
     Console().print(table4_table(result))
     info = result.info

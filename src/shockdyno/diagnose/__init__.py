@@ -1,1 +1,1 @@
-"""Residual localisation, candidate physics, augmentation, verdicts."""
+"""Locate the mismatch between model and recording, name the missing physics, refit."""

@@ -120,7 +120,7 @@ def ga_fitness(
     # A model with fast lags runs on every sample; the objective takes its own samples.
     base = prob.full_inputs if prob.full_rate else prob.inputs
     pick = prob.obj_in_full if prob.full_rate else np.arange(m)
-    g = prob.group[prob.full_to_obj] if prob.full_rate else prob.group
+    g = prob.full_group if prob.full_rate else prob.group
     mb = base.size
     # Calls of ~20-40 k samples run fastest (per-call overhead vs cache misses).
     chunk = max(1, 30_000 // max(mb, 1))

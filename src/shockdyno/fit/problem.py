@@ -65,13 +65,27 @@ def global_params(spec: DamperSpec, keys: Sequence[str] = DEFAULT_GLOBALS) -> li
     return out
 
 
-def prepared_inputs(tests: Sequence[PreparedTest], full_rate: bool = False) -> ModelInputs:
-    """Model inputs of the tests: their objective samples (or every sample), one segment each."""
+def full_step(p: PreparedTest, max_rate_hz: float | None) -> int:
+    """Samples per "full-rate" step: 1, or with a rate cap the largest divisor of the
+    objective's step that keeps at least max_rate_hz (so objective samples stay on it)."""
+    if max_rate_hz is None or p.obj.size < 2:
+        return 1
+    k = int(p.obj[1] - p.obj[0])
+    fs = 1.0 / float(p.data.t[1] - p.data.t[0])
+    return max(d for d in range(1, k + 1) if k % d == 0 and fs / d >= max_rate_hz - 1e-9)
+
+
+def prepared_inputs(
+    tests: Sequence[PreparedTest], full_rate: bool = False, max_rate_hz: float | None = None
+) -> ModelInputs:
+    """Model inputs of the tests: their objective samples (or every sample, or every
+    sample at up to `max_rate_hz`), one segment each."""
     parts = []
     for p in tests:
         d = p.data
-        idx = np.arange(d.t.size) if full_rate else p.obj
-        step = 1 if full_rate or idx.size < 2 else int(idx[1] - idx[0])
+        fstep = full_step(p, max_rate_hz)
+        idx = np.arange(0, d.t.size, fstep) if full_rate else p.obj
+        step = fstep if full_rate or idx.size < 2 else int(idx[1] - idx[0])
         dt = float(d.t[1] - d.t[0]) * step
         temp = None if d.temperature is None else np.asarray(d.temperature[idx], dtype=float)
         gas = None
@@ -86,13 +100,11 @@ def prepared_inputs(tests: Sequence[PreparedTest], full_rate: bool = False) -> M
                 dt_s=np.array([dt]),
                 temperature_c=temp,
                 gas_pressure_pa=gas,
+                # A sine test's measured cycles follow warm-up cycles: periodic.
+                periodic=d.meta.motion == "sine",
             )
         )
     return ModelInputs.stack(parts)
-
-
-def _step(p: PreparedTest) -> int:
-    return int(p.obj[1] - p.obj[0]) if p.obj.size >= 2 else 1
 
 
 class StackedProblem:
@@ -102,25 +114,32 @@ class StackedProblem:
     compression / rebound split of the samples.
     """
 
-    def __init__(self, base: DamperSpec, tests: Sequence[PreparedTest]) -> None:
+    def __init__(
+        self,
+        base: DamperSpec,
+        tests: Sequence[PreparedTest],
+        full_rate_hz: float | None = None,
+    ) -> None:
         self.base = base
         self.keys: list[tuple[int, int]] = sorted({p.key for p in tests})
         index = {k: i for i, k in enumerate(self.keys)}
         self.inputs = prepared_inputs(tests)
         # Models with fast lags run on every sample, then give the objective's samples.
-        self.full_inputs = prepared_inputs(tests, full_rate=True)
-        offsets = np.cumsum([0] + [p.data.t.size for p in tests[:-1]])
+        # (at up to full_rate_hz: the diagnosis trades a little accuracy for speed).
+        self.full_inputs = prepared_inputs(tests, full_rate=True, max_rate_hz=full_rate_hz)
+        steps = [full_step(p, full_rate_hz) for p in tests]
+        sizes = [-(-p.data.t.size // k) for p, k in zip(tests, steps, strict=True)]
+        offsets = np.cumsum([0, *sizes[:-1]])
         self.obj_in_full: IntArray = np.concatenate(
-            [p.obj + o for p, o in zip(tests, offsets, strict=True)]
+            [p.obj // k + o for p, k, o in zip(tests, steps, offsets, strict=True)]
         ).astype(np.intp)
-        self.full_to_obj: IntArray = np.concatenate(
-            [
-                o_start + np.minimum(np.arange(p.data.t.size) // max(_step(p), 1), p.obj.size - 1)
-                for p, o_start in zip(
-                    tests, np.cumsum([0] + [p.obj.size for p in tests[:-1]]), strict=True
-                )
-            ]
-        ).astype(np.intp)
+        self.full_group: IntArray = np.concatenate(
+            [np.full(n, index[p.key], dtype=np.intp) for p, n in zip(tests, sizes, strict=True)]
+        )
+        # Each full-rate sample's objective sample: the one at or before it in its test.
+        seg = self.full_inputs.segment_of_sample()
+        pos = np.searchsorted(self.obj_in_full, np.arange(self.full_inputs.size), side="right") - 1
+        self.full_to_obj: IntArray = np.maximum(pos, self.inputs.starts[seg]).astype(np.intp)
         self.full_rate = False
         self.x_measured = self.inputs.x
         self.a = self.inputs.a
@@ -163,14 +182,19 @@ class StackedProblem:
     ) -> FloatArray:
         """Model force on every sample; a_bc and a_bt are per group (or per sample)."""
         m = model if isinstance(model, DamperModel) else DamperModel(model)
-        bc = a_bc[self.group] if a_bc.size == self.n_groups else a_bc
-        bt = a_bt[self.group] if a_bt.size == self.n_groups else a_bt
+        per_group = a_bc.size == self.n_groups
         self.evaluations += 1
         if not self.full_rate:
             self.samples_evaluated += self.size
-            return m.force(self.inputs, bc, bt)
+            if per_group:
+                return m.force(self.inputs, a_bc[self.group], a_bt[self.group])
+            return m.force(self.inputs, a_bc, a_bt)
         self.samples_evaluated += self.full_inputs.size
-        return m.force(self.full_inputs, self.to_full(bc), self.to_full(bt))[self.obj_in_full]
+        if per_group:
+            bc, bt = a_bc[self.full_group], a_bt[self.full_group]
+        else:
+            bc, bt = self.to_full(a_bc), self.to_full(a_bt)
+        return m.force(self.full_inputs, bc, bt)[self.obj_in_full]
 
     def to_full(self, per_obj: FloatArray) -> FloatArray:
         """Per-objective-sample values spread over every sample: each sample takes the

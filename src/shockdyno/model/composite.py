@@ -51,6 +51,8 @@ class ModelInputs:
 
     `temperature_c` is the measured oil temperature per sample (NaN where unknown);
     `gas_pressure_pa` the measured gas charge per segment, absolute (NaN: unknown).
+    `periodic`: every segment is whole cycles of a periodic motion in its steady state
+    (a sweep's measured cycles): fast lags start in the state they end in.
     """
 
     x: FloatArray
@@ -60,6 +62,7 @@ class ModelInputs:
     dt_s: FloatArray
     temperature_c: FloatArray | None = None
     gas_pressure_pa: FloatArray | None = None
+    periodic: bool = False
 
     @staticmethod
     def single(
@@ -121,6 +124,7 @@ class ModelInputs:
             dt_s=np.concatenate([p.dt_s for p in parts]),
             temperature_c=temp,
             gas_pressure_pa=gas,
+            periodic=all(p.periodic for p in parts),
         )
 
     def tile(self, k: int) -> ModelInputs:
@@ -221,6 +225,16 @@ class Term:
         of a few ms on a force that turns in a few ms after reversal cannot be computed
         from the fit's 5 ms samples. `free` are the local names the fit will vary."""
         return self.stateful
+
+    def nesting_free(self) -> tuple[str, ...]:
+        """Local names to free when testing the term against the paper's model: the
+        default-free ones, plus any held one without which the term cannot reach off."""
+        return tuple(p.name for p in self.params() if p.free)
+
+    def start_grid(self) -> list[dict[str, float]]:
+        """Starting values worth trying before a fit (local names), where the term's
+        effect can vanish at its nominal value (a threshold no sample reaches)."""
+        return [{}]
 
     def vehicle_values(self) -> dict[str, float]:
         """Parameter values for the damper on a car, where they differ from the dyno's."""

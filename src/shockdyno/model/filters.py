@@ -45,11 +45,15 @@ def first_order_lag(
     starts: IntArray,
     dt_s: FloatArray,
     carry: FloatArray | None = None,
+    periodic: bool = False,
 ) -> tuple[FloatArray, FloatArray | None]:
     """Lag u by τ (per segment, or one τ for all) in every segment; (y, final state).
 
     A segment starts at steady state (y = u at its first sample) unless `carry` is given,
-    which only a single-segment call may pass.
+    which only a single-segment call may pass. `periodic`: each segment is whole cycles
+    of a motion already in its periodic steady state (a sweep's measured cycles, after
+    warm-up), so it starts in the state it ends in (exact, by superposition); starting
+    at y = u instead would add a transient of a few τ to every test.
     """
     taus = np.broadcast_to(np.asarray(tau_s, dtype=float), (starts.size,))
     if starts.size == u.size and carry is None:  # one sample per segment: steady state
@@ -65,6 +69,14 @@ def first_order_lag(
             continue
         if carry is not None and starts.size == 1:
             zi = carry
+        elif periodic and seg.size:
+            # y = y₀ + z eⁿ for initial state z (y₀: from rest); periodic: z_end(z) = z.
+            out0, zf0 = lfilter([b0, b1], [1.0, -e], seg, zi=np.zeros(1))
+            decay = e**seg.size
+            z = np.asarray(zf0, dtype=float) / (1.0 - decay)
+            y[lo:hi] = out0 + z[0] * e ** np.arange(seg.size)
+            zf = z
+            continue
         else:
             zi = np.array([(b1 + e) * seg[0]]) if seg.size else np.zeros(1)
         out, zf_k = lfilter([b0, b1], [1.0, -e], seg, zi=zi)

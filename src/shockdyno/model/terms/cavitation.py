@@ -36,6 +36,10 @@ class Cavitation(Term):
         ),
     )
 
+    def start_grid(self) -> list[dict[str, float]]:
+        # Below the lowest pressure the data reach the clamp does nothing (no gradient).
+        return [{"release_pressure_pa": p} for p in (3e3, 1e5, 3e5, 5e5, 7e5, 9e5)]
+
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:

@@ -52,6 +52,14 @@ class Compressibility(Term):
         ),
     )
 
+    def nesting_free(self) -> tuple[str, ...]:
+        # The oil alone lags (β = 1.5 GPa): only with its compressibility free too can the
+        # term fall back to the paper's rigid oil.
+        return ("air_fraction", "oil_compressibility_per_gpa")
+
+    def start_grid(self) -> list[dict[str, float]]:
+        return [{"air_fraction": a} for a in (0.001, 0.01, 0.05)]
+
     def time_constants(self, w: Work, p: Mapping[str, float]) -> FloatArray:
         """τ per segment (s), at each segment's gas charge."""
         spec = w.spec
@@ -71,7 +79,7 @@ class Compressibility(Term):
     ) -> FloatArray | None:
         assert w.dp is not None
         tau = self.time_constants(w, p)
-        dp, state = first_order_lag(w.dp, tau, w.starts, w.dt_s, carry)
+        dp, state = first_order_lag(w.dp, tau, w.starts, w.dt_s, carry, periodic=w.inputs.periodic)
         w.set_dp(self.name, dp)
         w.outputs[f"{self.name}.time_constant_s"] = tau[w.inputs.segment_of_sample()]
         return state

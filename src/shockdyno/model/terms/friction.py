@@ -39,6 +39,9 @@ class Friction(Term):
         Param("viscous_n_s_m", "N·s/m", 40.0, 0.0, 5000.0, 50.0, 0.0, doc="viscous seal drag"),
     )
 
+    def start_grid(self) -> list[dict[str, float]]:
+        return [{"stribeck_velocity_m_s": v} for v in (0.002, 0.005, 0.015, 0.04)]
+
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:

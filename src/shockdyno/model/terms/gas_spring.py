@@ -26,6 +26,9 @@ class GasSpring(Term):
         Param("polytropic_index", "1", 1.0, 1.0, 1.67, 0.1, 1.0, free=False),
     )
 
+    def start_grid(self) -> list[dict[str, float]]:
+        return [{"volume_factor": f} for f in (0.5, 1.0, 2.0)]
+
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:

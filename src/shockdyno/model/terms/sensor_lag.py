@@ -31,9 +31,15 @@ class SensorLag(Term):
     summary = "measurement chain: channel delay, load-cell lag, LVDT lag"
     PARAMS = (
         Param("delay_s", "s", 0.0, -0.05, 0.05, 1e-3, 0.0, doc="force behind motion"),
-        Param("load_cell_lag_s", "s", 0.0, 0.0, 0.05, 1e-3, 0.0, free=False),
+        # A load-cell amplifier slower than 20 ms (8 Hz) would not be on a damper dyno.
+        Param("load_cell_lag_s", "s", 0.0, 0.0, 0.02, 1e-3, 0.0, free=False),
         Param("lvdt_lag_s", "s", 0.0, 0.0, 0.02, 1e-3, 0.0, free=False),
     )
+
+    def nesting_free(self) -> tuple[str, ...]:
+        # A delay and a lag differ only at sharp events (the friction flip at reversal):
+        # the diagnosis tries both, the fit by default only the delay.
+        return ("delay_s", "load_cell_lag_s")
 
     def full_rate(self, p: Mapping[str, float], free: Iterable[str]) -> bool:
         return p["load_cell_lag_s"] > 0 or "load_cell_lag_s" in set(free)
@@ -57,6 +63,8 @@ class SensorLag(Term):
         if not tau:
             return None
         assert w.total is not None
-        lagged, state = first_order_lag(w.total, tau, w.starts, w.dt_s, carry)
+        lagged, state = first_order_lag(
+            w.total, tau, w.starts, w.dt_s, carry, periodic=w.inputs.periodic
+        )
         w.add_part(self.name, lagged - w.total)
         return state

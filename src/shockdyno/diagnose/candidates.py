@@ -1,0 +1,218 @@
+"""One candidate term: refit with it, test it, score it on held-out tests."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from shockdyno.diagnose.cycles import BinnedTest
+from shockdyno.diagnose.data import Data, time_halves
+from shockdyno.diagnose.fitting import Fitted, predict, refit
+from shockdyno.diagnose.stats import lr_bootstrap
+from shockdyno.fit.problem import DEFAULT_GLOBALS, global_params
+from shockdyno.fit.result import apply_overrides
+from shockdyno.model.composite import DamperModel
+from shockdyno.model.terms import make_term
+
+FloatArray = NDArray[np.float64]
+AREA_SCALE = 1e-6  # areas per mm², like the fit
+
+
+def with_term(model: DamperModel, name: str, data: Data) -> DamperModel:
+    """`model` plus the library term `name` at its nominal ("on") values."""
+    m = DamperModel(model.spec, (*model.terms, make_term(name)), model.values)
+    if name == "position_force":
+        x = data.prob.inputs.x
+        m = m.with_values(
+            {"position_force.x_lo_m": float(np.min(x)), "position_force.x_hi_m": float(np.max(x))}
+        )
+    return m
+
+
+def default_free(name: str) -> tuple[str, ...]:
+    term = make_term(name)
+    return tuple(term.qualified(k) for k in term.nesting_free())
+
+
+def best_start(data: Data, model: DamperModel, name: str, base: Fitted) -> DamperModel:
+    """The term's start (from its grid) with the least squared error, the rest held."""
+    term = model.term(name)
+    if term is None:
+        return model
+    grid = term.start_grid()
+    if len(grid) < 2:
+        return model
+    bc, bt = base.area_vectors(data)
+    data.prob.set_model(model)
+    best, best_sse = model, math.inf
+    for start in grid:
+        m = model.with_values({term.qualified(k): v for k, v in start.items()})
+        r = data.prob.force(m, bc, bt) - data.prob.f
+        sse = float(r @ r)
+        if sse < best_sse:
+            best, best_sse = m, sse
+    return best
+
+
+def binned_jacobian(data: Data, fitted: Fitted) -> tuple[FloatArray, int]:
+    """d(force)/d(parameter) in the binned space at a fit: globals, the fit's free term
+    parameters, then every (click, direction) area; and how many columns precede the
+    areas. Columns are per unit of each parameter's scale."""
+    prob = data.prob
+    model = fitted.model
+    prob.set_model(model)
+    bc, bt = fitted.area_vectors(data)
+    f0 = fitted.force
+    cols: list[FloatArray] = []
+    for g in global_params(model.spec, DEFAULT_GLOBALS):
+        h = 1e-4 * g.scale
+        value = _spec_value(model, g.key)
+        moved = model.with_spec(apply_overrides(model.spec, {g.key: value + h}))
+        cols.append((prob.force(moved, bc, bt) - f0) / h * g.scale)
+    declared = dict(model.param_list())
+    for q in fitted.free:
+        p = declared[q]
+        v = model.value(q)
+        h = 1e-3 * p.scale
+        if v + h > p.hi:
+            h = -h
+        moved = model.with_values({q: v + h})
+        cols.append((prob.force(moved, bc, bt) - f0) / h * p.scale)
+    ng = len(cols)
+    n = prob.n_groups
+    h_area = np.maximum(1e-3 * np.concatenate([bc, bt]), 1e-10)
+    dr = prob.force(model, bc + h_area[:n], bt + h_area[n:]) - f0
+    area_cols = np.zeros((prob.size, 2 * n))
+    rows = np.arange(prob.size)
+    pid = prob.problem
+    ok = pid < 2 * n
+    area_cols[rows[ok], pid[ok]] = dr[ok] / h_area[pid[ok]] * AREA_SCALE
+    stacked = np.column_stack([*cols, area_cols]) if cols else area_cols
+    return data.bin_matrix(stacked), ng
+
+
+def _spec_value(model: DamperModel, key: str) -> float:
+    head, _, tail = key.partition(".")
+    obj = getattr(model.spec, head)
+    return float(getattr(obj, tail) if tail else obj)
+
+
+def binned_means(data: Data, residual: FloatArray) -> tuple[FloatArray, list[BinnedTest]]:
+    binned = data.binned(residual)
+    return np.concatenate([b.mean for b in binned]), binned
+
+
+@dataclass(frozen=True)
+class Candidate:
+    name: str
+    fitted: Fitted
+    lr: float  # drop in Σ phase-mean² (N²) from the baseline refit
+    p_value: float
+    effect_rms_n: float  # RMS change of the model force the term makes on these tests
+    effect_peak_n: float  # largest change of a phase mean: the effect where the term acts
+    explained: FloatArray  # baseline phase means minus the candidate's
+    heldout_gain: float = math.nan
+    heldout_detail: str = ""
+
+
+def try_candidate(
+    data: Data,
+    base: Fitted,
+    base_means: FloatArray,
+    name: str,
+    noise: FloatArray,
+    max_nfev: int,
+) -> Candidate:
+    model = best_start(data, with_term(base.model, name, data), name, base)
+    free = (*base.free, *default_free(name))
+    fitted = refit(data, model, free, base, max_nfev=max_nfev)
+    means, _ = binned_means(data, fitted.residual)
+    lr = float(np.sum(base_means**2) - np.sum(means**2))
+    jac, ng = binned_jacobian(data, fitted)
+    n_new = len(default_free(name))
+    null_cols = np.r_[np.arange(ng - n_new), np.arange(ng, jac.shape[1])]
+    p = lr_bootstrap(lr, jac[:, null_cols], jac, noise) if lr > 0 else 1.0
+    effect = float(np.sqrt(np.mean((fitted.force - base.force) ** 2)))
+    change = data.bin_matrix((fitted.force - base.force)[:, None])[:, 0]
+    peak = float(np.max(np.abs(change))) if change.size else 0.0
+    return Candidate(name, fitted, lr, p, effect, peak, base_means - means)
+
+
+def _structured_mse(data: Data, residual: FloatArray) -> float:
+    """Mean square of the phase means less their noise variance: the structure left."""
+    _, binned = binned_means(data, residual)
+    total = sum(float(np.sum(b.mean**2 - b.mean_var)) for b in binned)
+    n = sum(b.mean.size for b in binned)
+    return total / max(n, 1)
+
+
+@dataclass(frozen=True)
+class Fold:
+    label: str
+    train: Data
+    test: Data
+
+
+def folds(data: Data, max_click_folds: int = 2) -> list[Fold]:
+    """Leave one frequency out; leave one click out where there are three or more; a
+    single test (or one setting) is split into its first and second halves in time."""
+    metas = [p.data.meta for p in data.prepared]
+    freqs = sorted({round(m.frequency_hz, 3) for m in metas})
+    clicks = sorted({(m.clicks, m.gas_clicks) for m in metas})
+    out: list[Fold] = []
+    if len(freqs) >= 2:
+        for f in freqs:
+            held = [i for i, m in enumerate(metas) if round(m.frequency_hz, 3) == f]
+            rest = [i for i in range(len(metas)) if i not in held]
+            out.append(Fold(f"{f:g} Hz left out", data.subset(rest), data.subset(held)))
+    if len(clicks) >= 3:
+        pick = [clicks[0], clicks[-1], clicks[len(clicks) // 2]][:max_click_folds]
+        for c in dict.fromkeys(pick):
+            held = [i for i, m in enumerate(metas) if (m.clicks, m.gas_clicks) == c]
+            rest = [i for i in range(len(metas)) if i not in held]
+            out.append(Fold(f"{c[0]} clicks left out", data.subset(rest), data.subset(held)))
+    if not out:
+        firsts, seconds = [], []
+        for p in data.prepared:
+            halves = time_halves(p)
+            if halves is not None:
+                firsts.append(halves[0])
+                seconds.append(halves[1])
+        if firsts:
+            a = Data.build(data.prob.base, firsts, data.full_rate_hz)
+            b = Data.build(data.prob.base, seconds, data.full_rate_hz)
+            out += [Fold("second half predicted", a, b), Fold("first half predicted", b, a)]
+    return out
+
+
+def baseline_folds(fold_list: Sequence[Fold], base: Fitted, max_nfev: int) -> list[float]:
+    """The baseline's held-out structure (mean square) in each fold."""
+    out = []
+    for fold in fold_list:
+        b_train = refit(fold.train, base.model, base.free, base, max_nfev=max_nfev)
+        out.append(_structured_mse(fold.test, predict(fold.test, b_train).residual))
+    return out
+
+
+def heldout_gain(
+    fold_list: Sequence[Fold], base_mse: Sequence[float], cand: Candidate, max_nfev: int
+) -> tuple[float, str]:
+    """Share of the held-out structure the term removes, over all folds (1: all of it,
+    0: none, < 0: the term makes held-out prediction worse)."""
+    mse_base = mse_cand = 0.0
+    parts = []
+    for fold, b in zip(fold_list, base_mse, strict=True):
+        c_train = refit(
+            fold.train, cand.fitted.model, cand.fitted.free, cand.fitted, max_nfev=max_nfev
+        )
+        c = _structured_mse(fold.test, predict(fold.test, c_train).residual)
+        mse_base += max(b, 0.0)
+        mse_cand += max(c, 0.0)
+        parts.append(f"{fold.label}: {math.sqrt(max(b, 0)):.3g} → {math.sqrt(max(c, 0)):.3g} N")
+    if mse_base <= 0:
+        return 0.0, "; ".join(parts)
+    return 1.0 - mse_cand / mse_base, "; ".join(parts)

@@ -1,0 +1,160 @@
+"""`shockdyno diagnose REC.mcap [--fit FIT.json] [--terms LIST] --json DIAG.json [--report DIR]`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from shockdyno.errors import ConfigError
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "diagnose",
+        help="find where model and recording differ, name the missing physics, refit",
+        description=(
+            "Split the fitted model's residual into structure and noise, locate the "
+            "structure, try each physics term of the library (refitted with the globals "
+            "and areas), claim a term only when a cycle-bootstrap likelihood ratio and "
+            "held-out prediction agree, and refit with it. DIAG.json is documented in "
+            "docs/diagnose.md."
+        ),
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    p.add_argument("recording", metavar="REC.mcap", help="recording to diagnose")
+    p.add_argument(
+        "--json",
+        required=True,
+        metavar="DIAG.json",
+        help="where to write the diagnosis ('-': standard output)",
+    )
+    p.add_argument(
+        "--fit", metavar="FIT.json", help="start from this fit's model (default: fit the paper's)"
+    )
+    p.add_argument(
+        "--terms",
+        default="all",
+        metavar="LIST",
+        help="candidate terms, comma-separated, or 'all' (the whole library)",
+    )
+    p.add_argument("--report", metavar="DIR", help="also write figures and index.html here")
+    p.add_argument("--spec", metavar="PATH", help="base damper spec TOML (without --fit)")
+    p.add_argument("--alpha", type=float, default=0.01, help="significance level of a claim")
+    p.add_argument("--seed", type=int, default=0, help="seed of the bootstrap")
+    p.add_argument("--force", action="store_true", help="overwrite an existing DIAG.json")
+    p.set_defaults(func=run_diagnose)
+
+
+def _candidates(text: str) -> tuple[str, ...]:
+    from shockdyno.model.terms import LIBRARY
+
+    if text.strip() in ("", "all"):
+        return tuple(LIBRARY)
+    names = tuple(dict.fromkeys(s.strip() for s in text.split(",") if s.strip()))
+    for n in names:
+        if n not in LIBRARY:
+            raise ConfigError(f"--terms: unknown term {n!r} (one of {', '.join(LIBRARY)})")
+    return names
+
+
+def _check_output(out: str, inputs: list[str], force: bool) -> Path | None:
+    if out == "-":
+        return None
+    path = Path(out)
+    for i in inputs:
+        if Path(i).exists() and path.exists() and path.resolve() == Path(i).resolve():
+            raise ConfigError(f"--json {out} is one of the inputs; refusing to write over it")
+    if path.exists() and not force:
+        raise ConfigError(f"--json {out} exists (use --force to overwrite)")
+    if not path.parent.is_dir():
+        raise ConfigError(f"--json: directory {path.parent} does not exist")
+    return path
+
+
+def _summary(doc: dict[str, Any]) -> Any:
+    from rich.table import Table
+
+    table = Table(title="Candidate physics (refitted with globals and areas)")
+    for name in ("round", "physics", "claimed", "p", "held-out gain", "peak effect N", "note"):
+        table.add_column(name, justify="left" if name in ("physics", "note") else "right")
+    for f in doc["findings"]:
+        gain = f["heldout_gain"]
+        note = f["why_not"] or (
+            "alike: " + ", ".join(f["ambiguous_with"]) if f["ambiguous_with"] else ""
+        )
+        table.add_row(
+            str(f["round"]),
+            f["physics"],
+            "[bold green]yes[/]" if f["claimed"] else "",
+            f"{f['p_value']:.3g}",
+            "–" if gain is None else f"{gain:.2f}",
+            f"{f['effect_peak_n']:.3g}",
+            note,
+        )
+    return table
+
+
+def run_diagnose(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from shockdyno.diagnose.engine import Settings, diagnose
+    from shockdyno.diagnose.verdict import to_json
+    from shockdyno.fit.result import FitResult
+    from shockdyno.model import load_spec
+    from shockdyno.record import open_recording
+    from shockdyno.record.atomic import write_text_atomic
+
+    inputs = [args.recording, *([args.fit] if args.fit else [])]
+    out = _check_output(args.json, inputs, args.force)
+    if not 0 < args.alpha < 1:
+        raise ConfigError(f"--alpha must be between 0 and 1, got {args.alpha}")
+    settings = Settings(alpha=args.alpha, seed=args.seed, candidates=_candidates(args.terms))
+    fit = FitResult.load(args.fit) if args.fit else None
+    if fit is None:
+        load_spec(args.spec)  # a bad spec fails before reading the recording
+    tests = open_recording(args.recording).load_all()
+    if not tests:
+        raise ConfigError(f"{args.recording}: no tests to diagnose")
+    console = Console(stderr=True)
+    with Progress(
+        TextColumn("[bold]diagnose[/] {task.description}"),
+        BarColumn(),
+        TextColumn("{task.percentage:>3.0f}%"),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+    ) as bar:
+        task = bar.add_task("prepare", total=1.0)
+
+        def progress(stage: str, fraction: float) -> None:
+            bar.update(task, description=stage, completed=fraction)
+
+        d = diagnose(tests, fit, settings, progress, spec_path=args.spec)
+    doc = to_json(d)
+    text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
+    if out is None:
+        sys.stdout.write(text)
+    else:
+        write_text_atomic(out, text)
+    shown = Console(stderr=out is None)
+    m = doc["mismatch"]
+    shown.print(
+        f"mismatch: {'[bold red]significant[/]' if m['significant'] else 'none beyond noise'} "
+        f"(p = {m['p_value']:.3g}); structure {m['structured_rms_n']:.3g} N RMS, noise "
+        f"{m['noise_floor_n']:.3g} N, about {m['effective_values']:.0f} independent values"
+    )
+    if m["significant"]:
+        shown.print(_summary(doc))
+    shown.print(f"[bold]verdict:[/] {doc['verdict']['text']}")
+    if args.report:
+        from shockdyno.diagnose.report import write_report
+
+        index = write_report(d, doc, Path(args.report))
+        shown.print(f"report: {index}")
+    if out is not None:
+        shown.print(f"wrote {out} in {d.wall_s:.1f} s")
+    return 0

@@ -1,0 +1,136 @@
+"""Cycles and phase of each test, and the phase-locked structure of a residual.
+
+Dyno tests are periodic, so a residual splits into what repeats every cycle (the
+phase-locked mean: structure, what a model can explain) and what does not (the
+cycle-to-cycle scatter at the same phase: noise). Cycles are found from the motion
+itself (upward crossings of the mean displacement), so a sine, a slider-crank or any
+periodic motion is handled alike; a test with fewer than two whole cycles is one
+"cycle" of phase by time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.intp]
+
+N_BINS = 40  # phase bins per cycle: 12-50 ms each at 0.5-1.5 Hz
+
+
+@dataclass(frozen=True)
+class Phase:
+    """Per sample: its cycle (-1: outside a whole cycle) and its phase bin."""
+
+    cycle: IntArray
+    bin: IntArray
+    n_cycles: int
+
+
+def cycle_starts(t: FloatArray, x: FloatArray) -> FloatArray:
+    """Times of upward crossings of the mid-stroke, at least half a period apart."""
+    if t.size < 8:
+        return np.zeros(0)
+    mid = 0.5 * (float(np.max(x)) + float(np.min(x)))
+    span = float(np.ptp(x))
+    if span <= 0:
+        return np.zeros(0)
+    # Hysteresis of 10 % of the stroke: sensor noise never makes a false crossing.
+    lo, hi = mid - 0.1 * span, mid + 0.1 * span
+    state = 0
+    out: list[float] = []
+    below = x < lo
+    above = x > hi
+    idx_below = np.flatnonzero(below)
+    if idx_below.size == 0:
+        return np.zeros(0)
+    i = int(idx_below[0])
+    n = x.size
+    while i < n:
+        if state == 0:
+            nxt = np.flatnonzero(above[i:])
+            if nxt.size == 0:
+                break
+            j = i + int(nxt[0])
+            # the crossing of mid between i and j
+            seg = np.flatnonzero(x[i : j + 1] >= mid)
+            k = i + int(seg[0]) if seg.size else j
+            if k > 0 and x[k] != x[k - 1]:
+                frac = (mid - x[k - 1]) / (x[k] - x[k - 1])
+                out.append(float(t[k - 1] + frac * (t[k] - t[k - 1])))
+            else:
+                out.append(float(t[k]))
+            state, i = 1, j
+        else:
+            nxt = np.flatnonzero(below[i:])
+            if nxt.size == 0:
+                break
+            state, i = 0, i + int(nxt[0])
+    return np.asarray(out)
+
+
+def phase_of(t: FloatArray, x: FloatArray, n_bins: int = N_BINS) -> Phase:
+    starts = cycle_starts(t, x)
+    if starts.size < 3:  # fewer than two whole cycles: one "cycle" over the record
+        frac = (t - t[0]) / max(float(t[-1] - t[0]), 1e-12)
+        b = np.minimum((frac * n_bins).astype(np.intp), n_bins - 1)
+        return Phase(np.zeros(t.size, dtype=np.intp), b, 1)
+    # The part cycles before the first crossing and after the last are kept, their phase
+    # from the median period: with five cycles recorded, that is one more cycle of data.
+    period = float(np.median(np.diff(starts)))
+    edges = np.concatenate([[starts[0] - period], starts, [starts[-1] + period]])
+    k = np.searchsorted(edges, t, side="right") - 1
+    inside = (k >= 0) & (k < edges.size - 1)
+    kk = np.clip(k, 0, edges.size - 2)
+    frac = (t - edges[kk]) / (edges[kk + 1] - edges[kk])
+    b = np.minimum((np.clip(frac, 0, 1) * n_bins).astype(np.intp), n_bins - 1)
+    cyc = np.where(inside, kk, -1).astype(np.intp)
+    used = np.unique(cyc[cyc >= 0])
+    remap = np.full(edges.size, -1, dtype=np.intp)
+    remap[used] = np.arange(used.size)
+    cyc = np.where(cyc >= 0, remap[np.maximum(cyc, 0)], -1).astype(np.intp)
+    return Phase(cyc, b, int(used.size))
+
+
+@dataclass(frozen=True)
+class BinnedTest:
+    """A residual on one test, per (cycle, bin): the structure and the noise.
+
+    `cell[k, b]` is the mean residual of cycle k in bin b (NaN where empty); `mean[b]`
+    the phase-locked mean (all samples of the bin over every cycle); `noise_sd_n` the
+    per-sample noise (scatter about the mean in each bin); `mean_var[b]` the variance of
+    `mean[b]` due to noise.
+    """
+
+    cell: FloatArray
+    mean: FloatArray
+    mean_var: FloatArray
+    noise_sd_n: float
+    counts: FloatArray  # samples per (cycle, bin)
+
+
+def bin_residual(r: FloatArray, phase: Phase, n_bins: int = N_BINS) -> BinnedTest:
+    ok = phase.cycle >= 0
+    k, b, v = phase.cycle[ok], phase.bin[ok], r[ok]
+    nc = phase.n_cycles
+    flat = k * n_bins + b
+    counts = np.bincount(flat, minlength=nc * n_bins).astype(float).reshape(nc, n_bins)
+    sums = np.bincount(flat, weights=v, minlength=nc * n_bins).reshape(nc, n_bins)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cell = np.where(counts > 0, sums / counts, np.nan)
+    total = counts.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(total > 0, sums.sum(axis=0) / total, 0.0)
+    dev = v - mean[b]
+    dof = max(v.size - n_bins, 1)
+    noise_sd = float(np.sqrt(np.sum(dev * dev) / dof))
+    # Scatter of the cycle means about the phase mean: the noise of the mean (it keeps
+    # the within-bin correlation of the noise, which a per-sample σ²/n would not).
+    n_k = np.sum(np.isfinite(cell), axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        var_cells = np.nansum((cell - mean) ** 2, axis=0) / np.maximum(n_k - 1, 1)
+        mean_var = np.where(n_k > 1, var_cells / n_k, noise_sd**2)
+    return BinnedTest(cell, mean, mean_var, noise_sd, counts)

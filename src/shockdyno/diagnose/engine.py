@@ -1,0 +1,346 @@
+"""The diagnosis: locate the mismatch, name the missing physics, model it, refit.
+
+1. Baseline: the paper's model (or a given fit's model) refitted to the recording; its
+   residual is split into structure and noise (cycles.py) and tested (stats.py), and the
+   structure located (locate.py).
+2. Forward selection: each library term not yet in the model is added and refitted
+   jointly with the globals and areas (fitting.py); scored by a bootstrap likelihood
+   ratio (p-value) and by held-out prediction (leave one frequency out, one click out,
+   or one half of a single test). A term is claimed when both agree (p < alpha and a
+   held-out gain of at least `min_gain`) and its effect is material; candidates whose
+   explained structure has the same shape are reported as indistinguishable. The claimed
+   term joins the model and the search repeats on what remains.
+3. Open set: `position_force` competes as a candidate, but is claimed only when no named
+   term is; what no candidate explains is reported as the unexplained regions.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from shockdyno.diagnose.candidates import (
+    Candidate,
+    baseline_folds,
+    binned_means,
+    folds,
+    heldout_gain,
+    try_candidate,
+)
+from shockdyno.diagnose.data import Data
+from shockdyno.diagnose.fitting import Fitted, refit
+from shockdyno.diagnose.locate import Location, locate
+from shockdyno.diagnose.stats import MismatchStat, mismatch_test, noise_draws
+from shockdyno.errors import FitError
+from shockdyno.fit.metrics import error_metrics
+from shockdyno.fit.prepare import prepare_tests
+from shockdyno.fit.problem import prepared_inputs
+from shockdyno.fit.result import FitResult
+from shockdyno.model.composite import DamperModel
+from shockdyno.model.spec import load_spec
+from shockdyno.model.terms import LIBRARY
+from shockdyno.record.types import TestData
+
+FloatArray = NDArray[np.float64]
+Progress = Callable[[str, float], None]
+
+OPEN_SET = "position_force"
+# What separates two candidates that explain the same shape of residual.
+SEPARATE_BY = {
+    frozenset({"sensor_lag", "compressibility"}): (
+        "tests at other gas pressures (air's lag falls as the charge rises; a sensor's does "
+        "not) or a wider frequency range (a pure delay shifts every frequency by one time)"
+    ),
+    frozenset({"sensor_lag", "friction"}): "slow tests (below 25 mm/s) where friction dominates",
+    frozenset({"compressibility", "friction"}): "tests at other frequencies and gas pressures",
+    frozenset({"gas_spring", "position_force"}): "a test at another gas pressure",
+    frozenset({"gas_spring", "thermal"}): "a test held at constant temperature",
+    frozenset({"thermal", "position_force"}): "a test held at constant temperature",
+}
+DEFAULT_SEPARATE = "tests at other frequencies, amplitudes and gas pressures"
+
+
+@dataclass(frozen=True)
+class Settings:
+    alpha: float = 0.01
+    screen_alpha: float = 0.05
+    min_gain: float = 0.1  # share of the held-out structure a claimed term must remove
+    # Too weak to matter: a term whose largest effect on a phase mean is below this share
+    # of the largest force, or below three noise-σ of a phase mean.
+    min_effect_share: float = 0.001
+    max_terms: int = 3
+    n_boot: int = 999
+    seed: int = 0
+    max_nfev: int = 15
+    fold_nfev: int = 8
+    # The search for terms runs on at most this many click settings, spread over the
+    # sweep (the terms are the damper's, not a click's); the model it finds is then
+    # refitted to every test.
+    search_clicks: int = 8
+    heldout_top: int = 2  # candidates per round scored on held-out tests
+    objective_rate_hz: float = 100.0
+    full_rate_hz: float = 500.0  # fast lags run at up to this rate (the fit: the recording's)
+    candidates: tuple[str, ...] = tuple(LIBRARY)
+
+
+@dataclass
+class Finding:
+    physics: str
+    round: int
+    claimed: bool
+    p_value: float
+    lr_n2: float
+    heldout_gain: float
+    heldout_detail: str
+    effect_rms_n: float
+    effect_peak_n: float
+    parameters: dict[str, dict[str, object]]
+    ambiguous_with: list[str] = field(default_factory=list)
+    why_not: str = ""
+
+
+@dataclass
+class TestScore:
+    index: int
+    clicks: int
+    frequency_hz: float
+    e_t_before: float
+    e_t_after: float
+
+
+@dataclass
+class Diagnosis:
+    mismatch: MismatchStat
+    location: Location
+    findings: list[Finding]
+    claimed: list[str]
+    indistinguishable: list[dict[str, object]]
+    unexplained: Location
+    remaining: MismatchStat
+    tests: list[TestScore]
+    baseline: Fitted
+    final: Fitted
+    data: Data
+    notes: list[str]
+    wall_s: float
+    single_frequency: bool
+
+
+def _parameters(fitted: Fitted, name: str) -> dict[str, dict[str, object]]:
+    term = fitted.model.term(name)
+    if term is None:
+        return {}
+    out: dict[str, dict[str, object]] = {}
+    for p in term.params():
+        q = term.qualified(p.name)
+        sd = fitted.term_sd.get(q, math.nan)
+        value = fitted.model.value(q)
+        out[p.name] = {
+            "value": value if math.isfinite(value) else None,
+            "sd": sd if math.isfinite(sd) else None,
+            "unit": p.unit,
+            **({"fixed": True} if q not in fitted.free else {}),
+        }
+    return out
+
+
+def _cosine(a: FloatArray, b: FloatArray) -> float:
+    na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+    return float(a @ b / (na * nb)) if na > 0 and nb > 0 else 0.0
+
+
+def _e_t(data: Data, fitted: Fitted) -> list[float]:
+    out = []
+    for p in data.prepared:
+        m = p.data.meta
+        a_bc, a_bt = fitted.areas[(m.clicks, m.gas_clicks)]
+        f = fitted.model.force(prepared_inputs([p], full_rate=True), a_bc, a_bt)
+        out.append(error_metrics(p.data.t, p.data.x, p.data.force, f, v=p.v, a=p.a)["E_t"])
+    return out
+
+
+def why_not(
+    c: Candidate, scored: dict[str, tuple[float, str]], s: Settings, min_effect_n: float
+) -> str:
+    """Why a candidate is not claimable ("" when it is)."""
+    if c.p_value >= s.alpha:
+        return f"p = {c.p_value:.3g} ≥ {s.alpha:g}"
+    gain = scored.get(c.name, (math.nan, ""))[0]
+    if not gain >= s.min_gain:
+        return f"held-out gain {gain:.2g} < {s.min_gain:g}"
+    if c.effect_peak_n < min_effect_n:
+        return f"effect {c.effect_peak_n:.2g} N too small to matter"
+    return ""
+
+
+def search_subset(data: Data, n_clicks: int) -> Data:
+    """The tests of at most n_clicks click settings, evenly spread (all when fewer)."""
+    keys = sorted({(p.data.meta.clicks, p.data.meta.gas_clicks) for p in data.prepared})
+    if len(keys) <= n_clicks:
+        return data
+    pick = {keys[round(i)] for i in np.linspace(0, len(keys) - 1, n_clicks)}
+    keep = [
+        i
+        for i, p in enumerate(data.prepared)
+        if (p.data.meta.clicks, p.data.meta.gas_clicks) in pick
+    ]
+    return data.subset(keep)
+
+
+def _baseline(data: Data, fit: FitResult | None, settings: Settings) -> Fitted:
+    if fit is None:
+        return refit(data, DamperModel(data.prob.base), (), None, max_nfev=60)
+    model = fit.model()
+    areas = {(c.clicks, c.gas_clicks): (c.a_bc_m2, c.a_bt_m2) for c in fit.clicks}
+    start = Fitted(model, (), areas, {}, np.zeros(0), np.zeros(0))
+    return refit(data, model, (), start, max_nfev=settings.max_nfev)
+
+
+def diagnose(
+    tests: Sequence[TestData],
+    fit: FitResult | None = None,
+    settings: Settings | None = None,
+    progress: Progress | None = None,
+    spec_path: str | None = None,
+) -> Diagnosis:
+    s = settings or Settings()
+    wall0 = time.perf_counter()
+
+    def report(stage: str, fraction: float) -> None:
+        if progress is not None:
+            progress(stage, fraction)
+
+    report("prepare", 0.0)
+    prepared, notes = prepare_tests(list(tests), s.objective_rate_hz)
+    if not prepared:
+        raise FitError("no usable test to diagnose (each needs motion, force and 20 samples)")
+    spec = fit.spec() if fit is not None else load_spec(spec_path)
+    data = Data.build(spec, prepared, s.full_rate_hz)
+    rng = np.random.default_rng(s.seed)
+    report("baseline fit", 0.05)
+    base = _baseline(data, fit, s)
+    baseline = base
+    base_means, binned = binned_means(data, base.residual)
+    mismatch = mismatch_test(binned, rng, s.n_boot)
+    location = locate(data, binned)
+    search = search_subset(data, s.search_clicks)
+    fold_list = folds(search)
+    force_peak = float(np.max(np.abs(data.prob.f)))
+    findings: list[Finding] = []
+    claimed: list[str] = []
+    groups: list[dict[str, object]] = []
+    if search is not data:
+        base = refit(search, base.model, base.free, base, max_nfev=s.max_nfev)
+        base_means, binned = binned_means(search, base.residual)
+    present = {t.name for t in base.model.terms}
+    remaining = [c for c in s.candidates if c not in present]
+    left = mismatch
+    for rnd in range(1, s.max_terms + 1):
+        if not remaining or left.p_value >= s.alpha:
+            break  # nothing (more) beyond noise to explain
+        noise = noise_draws(binned, rng, s.n_boot)
+        cands: list[Candidate] = []
+        for i, name in enumerate(remaining):
+            report(f"round {rnd}: {name}", 0.1 + 0.8 * (rnd - 1 + i / len(remaining)) / s.max_terms)
+            cands.append(try_candidate(search, base, base_means, name, noise, s.max_nfev))
+        screened = sorted(
+            (c for c in cands if c.p_value < s.screen_alpha and c.lr > 0), key=lambda c: -c.lr
+        )
+        scored: dict[str, tuple[float, str]] = {}
+        top = screened[: s.heldout_top]
+        base_mse: list[float] = []
+        if top and fold_list:
+            report(f"round {rnd}: held-out baseline", 0.1 + 0.8 * (rnd - 0.3) / s.max_terms)
+            base_mse = baseline_folds(fold_list, base, s.fold_nfev)
+        for c in top:
+            report(f"round {rnd}: held-out {c.name}", 0.1 + 0.8 * (rnd - 0.2) / s.max_terms)
+            scored[c.name] = (
+                heldout_gain(fold_list, base_mse, c, s.fold_nfev)
+                if fold_list
+                else (0.0, "no held-out split")
+            )
+
+        # Noise of a phase mean under the current model (a misfit inflates the scatter).
+        mean_noise = float(np.sqrt(np.mean(np.concatenate([b.mean_var for b in binned]))))
+        limit = max(s.min_effect_share * force_peak, 3 * mean_noise)
+
+        passing = [c for c in screened if not why_not(c, scored, s, limit)]
+        named = [c for c in passing if c.name != OPEN_SET]
+        pool = named or passing
+        best = max(pool, key=lambda c: scored[c.name][0]) if pool else None
+        for c in cands:
+            gain, detail = scored.get(c.name, (math.nan, ""))
+            amb: list[str] = []
+            if best is not None and c is not best and c.p_value < s.alpha:
+                # Alike: the same shape explained, and held out it leaves about as much.
+                rest, rest_best = 1 - gain, 1 - scored[best.name][0]
+                if _cosine(c.explained, best.explained) > 0.9 and rest <= 1.5 * rest_best + 0.05:
+                    amb.append(best.name)
+            findings.append(
+                Finding(
+                    physics=c.name,
+                    round=rnd,
+                    claimed=c is best,
+                    p_value=c.p_value,
+                    lr_n2=c.lr,
+                    heldout_gain=gain,
+                    heldout_detail=detail,
+                    effect_rms_n=c.effect_rms_n,
+                    effect_peak_n=c.effect_peak_n,
+                    parameters=_parameters(c.fitted, c.name),
+                    ambiguous_with=amb,
+                    why_not=""
+                    if c is best
+                    else (why_not(c, scored, s, limit) or "another term explained more"),
+                )
+            )
+        if best is None:
+            break
+        best_f = next(f for f in findings if f.physics == best.name and f.round == rnd)
+        alike = [f.physics for f in findings if f.round == rnd and best.name in f.ambiguous_with]
+        if alike:
+            best_f.ambiguous_with = alike
+            group = sorted([best.name, *alike])
+            pairs = [SEPARATE_BY.get(frozenset({best.name, a}), DEFAULT_SEPARATE) for a in alike]
+            groups.append({"group": group, "separate_by": "; ".join(dict.fromkeys(pairs))})
+        claimed.append(best.name)
+        base = best.fitted
+        base_means, binned = binned_means(search, base.residual)
+        left = mismatch_test(binned, rng, s.n_boot)
+        remaining = [c for c in remaining if c != best.name]
+    report("scores", 0.95)
+    if search is not data:
+        base = refit(data, base.model, base.free, base, max_nfev=s.max_nfev)
+    before, after = _e_t(data, baseline), _e_t(data, base)
+    scores = [
+        TestScore(p.data.meta.index, p.data.meta.clicks, p.data.meta.frequency_hz, b, a)
+        for p, b, a in zip(data.prepared, before, after, strict=True)
+    ]
+    _, final_binned = binned_means(data, base.residual)
+    remaining_stat = mismatch_test(final_binned, rng, s.n_boot)
+    unexplained = (
+        locate(data, final_binned) if remaining_stat.p_value < s.alpha else Location([], {})
+    )
+    freqs = {round(p.data.meta.frequency_hz, 3) for p in data.prepared}
+    report("done", 1.0)
+    return Diagnosis(
+        mismatch=mismatch,
+        location=location,
+        findings=findings,
+        claimed=claimed,
+        indistinguishable=groups,
+        unexplained=unexplained,
+        remaining=remaining_stat,
+        tests=scores,
+        baseline=baseline,
+        final=base,
+        data=data,
+        notes=notes,
+        wall_s=time.perf_counter() - wall0,
+        single_frequency=len(freqs) == 1,
+    )

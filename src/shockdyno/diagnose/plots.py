@@ -1,0 +1,101 @@
+"""The diagnosis's figures: residual maps before and after, and loops with both models.
+
+matplotlib's object API on the Agg canvas (no pyplot, no display), like report/plots.py.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+from numpy.typing import NDArray
+
+from shockdyno.diagnose.data import Data
+from shockdyno.diagnose.engine import Diagnosis
+from shockdyno.diagnose.fitting import Fitted
+from shockdyno.fit.problem import prepared_inputs
+
+FloatArray = NDArray[np.float64]
+COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#e377c2")
+DPI = 100
+
+
+def _phase_means(
+    data: Data, fitted: Fitted
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Per (test, bin): x, v, residual phase mean and the test's frequency."""
+    res = np.concatenate([b.mean for b in data.binned(fitted.residual)])
+    xv = data.bin_matrix(np.column_stack([data.prob.inputs.x, data.prob.inputs.v]))
+    freq = np.repeat([p.data.meta.frequency_hz for p in data.prepared], res.size // data.n_tests)
+    return xv[:, 0], xv[:, 1], res, freq
+
+
+def residual_maps(d: Diagnosis, path: Path) -> Path:
+    fig = Figure(figsize=(10, 7), layout="constrained")
+    axes = fig.subplots(2, 2, sharey=True)
+    freqs = sorted({round(p.data.meta.frequency_hz, 3) for p in d.data.prepared})
+    for row, (label, fitted) in enumerate((("before", d.baseline), ("after", d.final))):
+        if fitted.residual.size != d.data.prob.size:
+            continue
+        x, v, r, f = _phase_means(d.data, fitted)
+        for k, fr in enumerate(freqs):
+            sel = np.isclose(f, fr, atol=1e-3)
+            c = COLOURS[k % len(COLOURS)]
+            axes[row, 0].plot(x[sel] * 1e3, r[sel], ".", ms=3, color=c, label=f"{fr:g} Hz")
+            axes[row, 1].plot(v[sel], r[sel], ".", ms=3, color=c, label=f"{fr:g} Hz")
+        names = ", ".join(t.name for t in fitted.model.terms) or "paper's model"
+        axes[row, 0].set_ylabel(f"residual {label} (N)\n{names}")
+        for ax in axes[row]:
+            ax.axhline(0.0, color="0.5", lw=0.8)
+            ax.grid(alpha=0.3)
+    axes[1, 0].set_xlabel("displacement (mm, + compression)")
+    axes[1, 1].set_xlabel("velocity (m/s, + compression)")
+    axes[0, 1].legend(loc="best", fontsize=8)
+    fig.suptitle("Phase-locked residual (measured − model) per test, before and after")
+    fig.savefig(path, dpi=DPI, format="png")
+    return path
+
+
+def loops(d: Diagnosis, path: Path, n_tests: int = 3) -> Path:
+    """The tests with the most structure: measured loop, baseline and augmented model."""
+    data = d.data
+    binned = data.binned(d.baseline.residual)
+    energy = [float(np.mean(b.mean**2)) for b in binned]
+    pick = sorted(np.argsort(energy)[-n_tests:][::-1].tolist())
+    fig = Figure(figsize=(11, 3.4 * len(pick)), layout="constrained")
+    axes = np.atleast_2d(fig.subplots(len(pick), 2))
+    for row, i in enumerate(pick):
+        p = data.prepared[i]
+        m = p.data.meta
+        inputs = prepared_inputs([p], full_rate=True)
+        step = max(1, p.data.t.size // 3000)
+        for label, fitted, style in (
+            ("paper's model", d.baseline, dict(color="#d62728", lw=1.2, ls="--")),
+            ("with the claimed physics", d.final, dict(color="#2ca02c", lw=1.2)),
+        ):
+            a_bc, a_bt = fitted.areas[(m.clicks, m.gas_clicks)]
+            f = fitted.model.force(inputs, a_bc, a_bt)
+            axes[row, 0].plot(p.v[::step], f[::step], label=label, **style)
+            axes[row, 1].plot(p.data.x[::step] * 1e3, f[::step], label=label, **style)
+        axes[row, 0].plot(
+            p.v[::step], p.data.force[::step], color="0.2", lw=0.6, label="measured", zorder=0
+        )
+        axes[row, 1].plot(
+            p.data.x[::step] * 1e3,
+            p.data.force[::step],
+            color="0.2",
+            lw=0.6,
+            label="measured",
+            zorder=0,
+        )
+        axes[row, 0].set_title(f"test {m.index}: {m.clicks} clicks, {m.frequency_hz:g} Hz (F–v)")
+        axes[row, 1].set_title(f"test {m.index}: F–x")
+        axes[row, 0].set_xlabel("velocity (m/s, + compression)")
+        axes[row, 1].set_xlabel("displacement (mm, + compression)")
+        for ax in axes[row]:
+            ax.set_ylabel("force (N)")
+            ax.grid(alpha=0.3)
+    axes[0, 0].legend(loc="best", fontsize=8)
+    fig.savefig(path, dpi=DPI, format="png")
+    return path

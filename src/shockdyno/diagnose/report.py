@@ -1,0 +1,76 @@
+"""`diagnose --report DIR`: the figures and a page that states the verdict."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from shockdyno.diagnose.engine import Diagnosis
+from shockdyno.diagnose.plots import loops, residual_maps
+from shockdyno.record.atomic import write_text_atomic
+from shockdyno.report.html import Page
+
+
+def write_report(d: Diagnosis, doc: dict[str, Any], out: Path) -> Path:
+    out.mkdir(parents=True, exist_ok=True)
+    maps = residual_maps(d, out / "diagnose-residual-maps.png")
+    lp = loops(d, out / "diagnose-loops.png")
+    page = Page("Diagnosis: where the model and the recording differ, and why")
+    page.section("Verdict")
+    page.paragraph(doc["verdict"]["text"])
+    page.section(
+        "Findings",
+        "Each candidate term refitted with the globals and areas; p from a cycle-bootstrap "
+        "likelihood ratio, held-out gain the share of held-out structure it removes.",
+    )
+    rows = []
+    for f in doc["findings"]:
+        gain = f["heldout_gain"]
+        rows.append(
+            [
+                str(f["round"]),
+                f["physics"],
+                "yes" if f["claimed"] else "",
+                f"{f['p_value']:.3g}",
+                "–" if gain is None else f"{gain:.2f}",
+                f"{f['effect_peak_n']:.3g}",
+                ", ".join(f["ambiguous_with"]),
+                f["why_not"],
+            ]
+        )
+    page.table(
+        [
+            "round",
+            "physics",
+            "claimed",
+            "p",
+            "held-out gain",
+            "peak effect (N)",
+            "alike",
+            "why not",
+        ],
+        rows,
+        numeric=[True, False, False, True, True, True, False, False],
+    )
+    page.section("Residual maps", "Phase-locked residual against displacement and velocity.")
+    page.figure(maps.name, "Residual before (paper's model) and after (with the claimed physics)")
+    page.section("Loops", "The tests with the most structure, measured against both models.")
+    page.figure(lp.name, "Measured loops with the paper's model and the augmented model")
+    page.section("Per test")
+    page.table(
+        ["test", "clicks", "Hz", "E_t before", "E_t after"],
+        [
+            [
+                str(t["index"]),
+                str(t["clicks"]),
+                f"{t['frequency_hz']:g}",
+                f"{t['E_t_before']:.4g}" if t["E_t_before"] is not None else "–",
+                f"{t['E_t_after']:.4g}" if t["E_t_after"] is not None else "–",
+            ]
+            for t in doc["tests"]
+        ],
+        numeric=[True, True, True, True, True],
+    )
+    index = out / "index.html"
+    write_text_atomic(index, page.render())
+    return index

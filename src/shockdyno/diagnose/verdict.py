@@ -1,0 +1,208 @@
+"""The diagnosis in words an engineer can act on, and as the DIAG.json document."""
+
+from __future__ import annotations
+
+import math
+from itertools import pairwise
+from typing import Any
+
+from shockdyno.diagnose.engine import Diagnosis, Finding
+from shockdyno.diagnose.locate import Location
+
+
+def _v(f: Finding, name: str) -> float:
+    p = f.parameters.get(name, {})
+    value = p.get("value")
+    return float(value) if isinstance(value, int | float) else math.nan
+
+
+def _sd(f: Finding, name: str) -> str:
+    sd = f.parameters.get(name, {}).get("sd")
+    return f" ± {sd:.2g}" if isinstance(sd, int | float) and math.isfinite(sd) else ""
+
+
+def _signature(loc: Location) -> str:
+    """How the located structure behaves: near reversal, with frequency, by stroke."""
+    bits = []
+    speed = loc.axes.get("speed", {})
+    if speed.get("near_reversal", 0) >= 0.3:
+        bits.append("near velocity reversal")
+    freq = loc.axes.get("frequency_hz", {})
+    if len(freq) >= 2:
+        ordered = sorted(freq.items(), key=lambda kv: float(kv[0]))
+        shares = [s for _, s in ordered]
+        if all(b >= a for a, b in pairwise(shares)) and shares[-1] > 1.5 * shares[0]:
+            bits.append("growing with frequency")
+        elif all(b <= a for a, b in pairwise(shares)) and shares[0] > 1.5 * shares[-1]:
+            bits.append("strongest at the lowest frequency")
+    stroke = loc.axes.get("stroke", {})
+    if stroke.get("compression", 0) >= 0.75:
+        bits.append("in compression")
+    elif stroke.get("rebound", 0) >= 0.75:
+        bits.append("in rebound")
+    order = loc.axes.get("test_order", {})
+    if order and abs(order.get("first_half", 0.5) - order.get("second_half", 0.5)) > 0.4:
+        bits.append("changing over the session")
+    return ", ".join(bits)
+
+
+def describe(f: Finding, spec_gas_pa: float) -> str:
+    """One finding as physics with its numbers."""
+    p = f.physics
+    if p == "compressibility":
+        alpha = _v(f, "air_fraction")
+        c_oil = _v(f, "oil_compressibility_per_gpa") * 1e-9
+        comp = (1 - alpha) * c_oil + alpha / spec_gas_pa
+        beta = 1 / comp if comp > 0 else math.inf
+        return (
+            f"compressibility: effective bulk modulus {beta / 1e6:.3g} MPa at the gas charge, "
+            f"about {100 * alpha:.2g} %{_sd(f, 'air_fraction').replace('±', '± 100×')} free air"
+        )
+    if p == "sensor_lag":
+        d, lag = _v(f, "delay_s"), _v(f, "load_cell_lag_s")
+        return (
+            f"sensor lag: force lags the motion by {1e3 * (d + lag):.3g} ms in all "
+            f"(pure delay {1e3 * d:.2g} ms, load-cell lag {1e3 * lag:.2g} ms)"
+        )
+    if p == "friction":
+        return (
+            f"seal friction: breakaway {_v(f, 'breakaway_n'):.3g}{_sd(f, 'breakaway_n')} N above "
+            f"Coulomb, Stribeck velocity {1e3 * _v(f, 'stribeck_velocity_m_s'):.2g} mm/s, "
+            f"viscous drag {_v(f, 'viscous_n_s_m'):.3g} N·s/m"
+        )
+    if p == "thermal":
+        return (
+            f"temperature: gas force follows the oil temperature (coupling "
+            f"{_v(f, 'gas_coupling'):.2g}{_sd(f, 'gas_coupling')}), viscosity falls "
+            f"{100 * _v(f, 'viscosity_coeff_per_k'):.2g} %/K"
+        )
+    if p == "cavitation":
+        return (
+            "cavitation: the rebound chamber holds at "
+            f"{_v(f, 'release_pressure_pa') / 1e3:.3g} kPa absolute; compression force saturates"
+        )
+    if p == "gas_spring":
+        return (
+            f"gas spring: gas volume {_v(f, 'volume_factor'):.3g}{_sd(f, 'volume_factor')} × the "
+            f"spec's (polytropic index {_v(f, 'polytropic_index'):.3g})"
+        )
+    if p == "position_force":
+        knots = [_v(f, f"f{k}_n") for k in range(8)]
+        lo, hi = _v(f, "x_lo_m"), _v(f, "x_hi_m")
+        k = max(range(8), key=lambda i: abs(knots[i]))
+        x = lo + (hi - lo) * k / 7
+        return (
+            f"a force of position no named physics explains: up to {knots[k]:+.3g} N at "
+            f"x = {1e3 * x:+.3g} mm (bump stop, top-out or a seal that grips at one end?)"
+        )
+    return p
+
+
+def verdict_text(d: Diagnosis) -> str:
+    spec_gas = d.final.model.spec.gas_pressure_pa
+    m = d.mismatch
+    if m.p_value >= 0.01:
+        return (
+            f"No mismatch beyond noise: the model's residual repeats by {m.structured_rms_n:.2g} N "
+            f"RMS against {m.noise_floor_n:.2g} N of noise (p = {m.p_value:.2g}). Nothing claimed."
+        )
+    where = _signature(d.location)
+    lines = [
+        f"Mismatch: {m.structured_rms_n:.3g} N RMS repeats every cycle "
+        f"(noise {m.noise_floor_n:.2g} N)" + (f", {where}" if where else "") + "."
+    ]
+    claimed = [f for f in d.findings if f.claimed]
+    if not claimed:
+        lines.append(
+            "No candidate physics explains it on held-out tests; see the unexplained regions."
+        )
+    for f in claimed:
+        alike = (
+            f" (indistinguishable here from {', '.join(f.ambiguous_with)})"
+            if f.ambiguous_with
+            else ""
+        )
+        lines.append(
+            f"Claimed {describe(f, spec_gas)}{alike}: p = {f.p_value:.2g}, it removes "
+            f"{100 * f.heldout_gain:.0f} % of the held-out structure."
+        )
+    for g in d.indistinguishable:
+        lines.append(f"To separate {' and '.join(g['group'])}: {g['separate_by']}.")  # type: ignore[arg-type]
+    if d.single_frequency:
+        lines.append(
+            "One frequency only: a lag, a delay and compressibility all open the loop alike "
+            "here; tests at two or more frequencies would separate them."
+        )
+    if d.unexplained.regions:
+        r = d.unexplained.regions[0]
+        lines.append(
+            f"Still unexplained: {d.remaining.structured_rms_n:.2g} N RMS, most in {r.stroke} at "
+            f"{1e3 * r.x_range_m[0]:.3g}…{1e3 * r.x_range_m[1]:.3g} mm, "
+            f"{r.v_range_m_s[0]:.2g}…{r.v_range_m_s[1]:.2g} m/s."
+        )
+    return " ".join(lines)
+
+
+def _num(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def to_json(d: Diagnosis) -> dict[str, Any]:
+    m = d.mismatch
+    claimed = [f for f in d.findings if f.claimed]
+    # Most important first: by the share of the held-out structure removed.
+    order = sorted(claimed, key=lambda f: -f.heldout_gain)
+    return {
+        "mismatch": {
+            "significant": m.p_value < 0.01,
+            "p_value": m.p_value,
+            "noise_floor_n": m.noise_floor_n,
+            "structured_rms_n": m.structured_rms_n,
+            "structured_share": m.structured_share,
+            "effective_values": m.effective_values,
+            "where": [r.to_json() for r in d.location.regions],
+            "axes": d.location.axes,
+        },
+        "findings": [
+            {
+                "physics": f.physics,
+                "round": f.round,
+                "claimed": f.claimed,
+                "p_value": f.p_value,
+                "heldout_gain": _num(f.heldout_gain),
+                "heldout_detail": f.heldout_detail,
+                "lr_n2": f.lr_n2,
+                "effect_rms_n": f.effect_rms_n,
+                "effect_peak_n": f.effect_peak_n,
+                "parameters": f.parameters,
+                "ambiguous_with": f.ambiguous_with,
+                "why_not": f.why_not,
+            }
+            for f in d.findings
+        ],
+        "verdict": {
+            "physics": [f.physics for f in order],
+            "unexplained": [r.to_json() for r in d.unexplained.regions],
+            "indistinguishable": d.indistinguishable,
+            "text": verdict_text(d),
+            "remaining_rms_n": d.remaining.structured_rms_n,
+            "remaining_p_value": d.remaining.p_value,
+        },
+        "tests": [
+            {
+                "index": t.index,
+                "clicks": t.clicks,
+                "frequency_hz": t.frequency_hz,
+                "E_t_before": _num(t.e_t_before),
+                "E_t_after": _num(t.e_t_after),
+            }
+            for t in d.tests
+        ],
+        "info": {
+            "wall_s": d.wall_s,
+            "n_tests": len(d.tests),
+            "single_frequency": d.single_frequency,
+            "skipped": d.notes,
+            "final_terms": [t.name for t in d.final.model.terms],
+        },
+    }

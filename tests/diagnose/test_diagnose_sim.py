@@ -1,0 +1,146 @@
+"""Concealed effects: sim-rig recordings with extra physics switched on, their names stored
+nowhere the diagnosis can read; it must name them (and nothing on a clean recording)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from shockdyno.diagnose.engine import Settings, diagnose
+from shockdyno.diagnose.verdict import to_json
+from shockdyno.record import open_recording
+
+REPO = Path(__file__).resolve().parents[2]
+CLI = [sys.executable, "-m", "shockdyno.cli"]
+
+# Scenario files under neutral names; their physics, not their names, is the answer.
+SCENARIOS = {
+    "clean": None,
+    "s-air": "[[term]]\nkind = 'compressibility'\nair_fraction = 0.02\n",
+    "s-seal": (
+        "[[term]]\nkind = 'friction'\nbreakaway_n = 25.0\nstribeck_velocity_m_s = 0.005\n"
+        "viscous_n_s_m = 40.0\n"
+    ),
+    "s-lag": (
+        "[[term]]\nkind = 'sensor_lag'\nload_cell_lag_s = 0.002\n[sensors]\nlvdt_lag_s = 0.001\n"
+    ),
+    "s-cav": "[[term]]\nkind = 'cavitation'\nrelease_pressure_pa = 9.0e5\n",
+    "s-heat": ("[[term]]\nkind = 'thermal'\nheat_rate_k_s_m2 = 20.0\ncooling_time_s = 300.0\n"),
+    "s-two": (
+        "[[term]]\nkind = 'friction'\nbreakaway_n = 25.0\n"
+        "[[term]]\nkind = 'compressibility'\nair_fraction = 0.01\n"
+    ),
+    "s-faint": (
+        "[[term]]\nkind = 'compressibility'\nair_fraction = 0.0002\n"
+        "oil_compressibility_per_gpa = 0.0\n"
+    ),
+}
+EXPECT = {
+    "s-air": {"compressibility"},
+    "s-seal": {"friction"},
+    "s-lag": {"sensor_lag"},
+    "s-cav": {"cavitation"},
+    "s-heat": {"thermal"},
+    "s-two": {"friction", "compressibility"},
+}
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    root = tmp_path_factory.mktemp("concealed")
+    out: dict[str, Path] = {}
+    for i, (name, body) in enumerate(SCENARIOS.items()):
+        rec = root / f"r{i}.mcap"
+        cmd = [*CLI, "sweep", "--rig", str(REPO / "rigs" / "sim.toml"), "--start-sim"]
+        cmd += ["--speed", "200", "--clicks", "0,14", "-o", str(rec), "--seed", str(i)]
+        if body is not None:
+            sc = root / f"p{i}.toml"
+            sc.write_text(f"[scenario]\nname = 'p{i}'\ndescription = 'x'\n{body}")
+            cmd += ["--scenario", str(sc)]
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=120, cwd=REPO)
+        assert done.returncode == 0, done.stderr
+        out[name] = rec
+    return out
+
+
+@pytest.fixture(scope="module")
+def diagnoses(recordings: dict[str, Path]) -> dict[str, dict]:  # type: ignore[type-arg]
+    return {
+        name: to_json(diagnose(open_recording(p).load_all(), settings=Settings(n_boot=499)))
+        for name, p in recordings.items()
+    }
+
+
+def test_the_recordings_do_not_name_their_physics(recordings: dict[str, Path]) -> None:
+    for name, path in recordings.items():
+        blob = path.read_bytes()
+        for word in (b"compressibility", b"friction", b"sensor_lag", b"cavitation", b"thermal"):
+            assert word not in blob, (name, word)
+
+
+def test_a_clean_recording_claims_nothing(diagnoses: dict[str, dict]) -> None:  # type: ignore[type-arg]
+    d = diagnoses["clean"]
+    assert d["verdict"]["physics"] == []
+    assert not any(f["claimed"] for f in d["findings"])
+
+
+@pytest.mark.parametrize("name", sorted(EXPECT))
+def test_a_concealed_effect_is_named(diagnoses: dict[str, dict], name: str) -> None:  # type: ignore[type-arg]
+    d = diagnoses[name]
+    assert d["mismatch"]["significant"]
+    assert set(d["verdict"]["physics"]) == EXPECT[name], d["verdict"]["text"]
+    for t in d["tests"]:  # the refit with the named physics fits better, test by test
+        assert t["E_t_after"] <= t["E_t_before"] * 1.02
+    mean_before = sum(t["E_t_before"] for t in d["tests"]) / len(d["tests"])
+    mean_after = sum(t["E_t_after"] for t in d["tests"]) / len(d["tests"])
+    assert mean_after < 0.8 * mean_before
+
+
+def test_the_recovered_parameters_are_the_simulated_ones(diagnoses: dict[str, dict]) -> None:  # type: ignore[type-arg]
+    def claimed(name: str, physics: str) -> dict:  # type: ignore[type-arg]
+        return next(
+            f["parameters"]
+            for f in diagnoses[name]["findings"]
+            if f["claimed"] and f["physics"] == physics
+        )
+
+    assert claimed("s-cav", "cavitation")["release_pressure_pa"]["value"] == pytest.approx(
+        9e5, rel=0.05
+    )
+    assert claimed("s-seal", "friction")["breakaway_n"]["value"] == pytest.approx(25.0, rel=0.2)
+    lag = claimed("s-lag", "sensor_lag")
+    total = lag["delay_s"]["value"] + lag["load_cell_lag_s"]["value"]
+    assert total == pytest.approx(0.002 - 0.001, abs=0.0006)  # load cell lag less LVDT lag
+
+
+def test_a_faint_effect_is_not_claimed_or_claimed_small(diagnoses: dict[str, dict]) -> None:  # type: ignore[type-arg]
+    d = diagnoses["s-faint"]
+    for f in d["findings"]:
+        if f["claimed"]:
+            assert f["effect_peak_n"] < 30.0
+
+
+def test_the_json_has_every_documented_field(diagnoses: dict[str, dict]) -> None:  # type: ignore[type-arg]
+    d = diagnoses["s-air"]
+    m = d["mismatch"]
+    for key in ("significant", "p_value", "noise_floor_n", "structured_share", "where"):
+        assert key in m
+    for r in m["where"]:
+        assert r["stroke"] in ("compression", "rebound", "both")
+        assert len(r["x_range_m"]) == 2 and len(r["v_range_m_s"]) == 2 and 0 < r["share"] <= 1
+    for f in d["findings"]:
+        assert set(f) >= {
+            "physics",
+            "claimed",
+            "p_value",
+            "heldout_gain",
+            "parameters",
+            "ambiguous_with",
+        }
+    assert set(d["verdict"]) >= {"physics", "unexplained", "text"}
+    assert set(d["tests"][0]) >= {"index", "clicks", "frequency_hz", "E_t_before", "E_t_after"}
+    json.dumps(d, allow_nan=False)

@@ -47,6 +47,7 @@ def on_values(name: str) -> dict[str, float]:
         "gas_spring": {"gas_spring.volume_factor": 0.5},
         "position_force": {"position_force.f7_n": 300.0, "position_force.f0_n": -100.0},
         "cavitation": {"cavitation.release_pressure_pa": 1.2e6},
+        "thermal": {"thermal.heat_rate_k_s_m2": 100.0},
     }
     return strong.get(name, {})
 

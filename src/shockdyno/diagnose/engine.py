@@ -243,6 +243,11 @@ def diagnose(
     for rnd in range(1, s.max_terms + 1):
         if not remaining or left.p_value >= s.alpha:
             break  # nothing (more) beyond noise to explain
+        if rnd > 1:
+            # The null of this round, refitted with the candidates' budget: a term must
+            # beat more iterations of the model it would join, not a less converged one.
+            base = refit(search, base.model, base.free, base, max_nfev=s.max_nfev)
+            base_means, binned = binned_means(search, base.residual)
         noise = noise_draws(binned, rng, s.n_boot)
         cands: list[Candidate] = []
         for i, name in enumerate(remaining):

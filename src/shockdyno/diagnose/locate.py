@@ -143,10 +143,11 @@ def locate(data: Data, binned: Sequence[BinnedTest], max_regions: int = 5) -> Lo
     }
     order = feat["order"]
     half = np.median(order)
-    axes["test_order"] = {
-        "first_half": float(np.sum(e[order <= half]) / total),
-        "second_half": float(np.sum(e[order > half]) / total),
-    }
+    if data.n_tests >= 4:
+        axes["test_order"] = {
+            "first_half": float(np.sum(e[order <= half]) / total),
+            "second_half": float(np.sum(e[order > half]) / total),
+        }
     temp = feat["temperature"]
     if np.sum(np.isfinite(temp)) > 1 and np.nanstd(temp) > 0.5:
         cold = temp <= np.nanmedian(temp)

@@ -54,9 +54,11 @@ def describe(f: Finding, spec_gas_pa: float) -> str:
         c_oil = _v(f, "oil_compressibility_per_gpa") * 1e-9
         comp = (1 - alpha) * c_oil + alpha / spec_gas_pa
         beta = 1 / comp if comp > 0 else math.inf
+        sd = f.parameters.get("air_fraction", {}).get("sd")
+        pm = f" ± {100 * sd:.1g}" if isinstance(sd, int | float) and math.isfinite(sd) else ""
         return (
             f"compressibility: effective bulk modulus {beta / 1e6:.3g} MPa at the gas charge, "
-            f"about {100 * alpha:.2g} %{_sd(f, 'air_fraction').replace('±', '± 100×')} free air"
+            f"about {100 * alpha:.2g}{pm} % free air"
         )
     if p == "sensor_lag":
         d, lag = _v(f, "delay_s"), _v(f, "load_cell_lag_s")

@@ -72,7 +72,8 @@ def full_step(p: PreparedTest, max_rate_hz: float | None) -> int:
         return 1
     k = int(p.obj[1] - p.obj[0])
     fs = 1.0 / float(p.data.t[1] - p.data.t[0])
-    return max(d for d in range(1, k + 1) if k % d == 0 and fs / d >= max_rate_hz - 1e-9)
+    ok = [d for d in range(1, k + 1) if k % d == 0 and fs / d >= max_rate_hz - 1e-9]
+    return max(ok, default=1)  # a recording slower than the cap: every sample
 
 
 def prepared_inputs(

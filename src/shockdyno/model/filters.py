@@ -46,17 +46,19 @@ def first_order_lag(
     dt_s: FloatArray,
     carry: FloatArray | None = None,
     periodic: bool = False,
+    from_rest: bool = False,
 ) -> tuple[FloatArray, FloatArray | None]:
     """Lag u by τ (per segment, or one τ for all) in every segment; (y, final state).
 
     A segment starts at steady state (y = u at its first sample) unless `carry` is given,
-    which only a single-segment call may pass. `periodic`: each segment is whole cycles
-    of a motion already in its periodic steady state (a sweep's measured cycles, after
-    warm-up), so it starts in the state it ends in (exact, by superposition); starting
+    which only a single-segment call may pass, or `from_rest` (y = 0 before it).
+    `periodic`: each segment is whole cycles of a motion already in its periodic steady
+    state (a sweep's measured cycles, after warm-up), so it starts in the state it ends
+    in (exact, by superposition); starting
     at y = u instead would add a transient of a few τ to every test.
     """
     taus = np.broadcast_to(np.asarray(tau_s, dtype=float), (starts.size,))
-    if starts.size == u.size and carry is None:  # one sample per segment: steady state
+    if starts.size == u.size and carry is None and not from_rest:  # one sample each
         return u.copy(), None
     y = np.empty_like(u)
     zf: FloatArray | None = None
@@ -77,6 +79,8 @@ def first_order_lag(
             y[lo:hi] = out0 + z[0] * e ** np.arange(seg.size)
             zf = z
             continue
+        elif from_rest:  # y = 0 before the segment (a rise that starts at nothing)
+            zi = np.zeros(1)
         else:
             zi = np.array([(b1 + e) * seg[0]]) if seg.size else np.zeros(1)
         out, zf_k = lfilter([b0, b1], [1.0, -e], seg, zi=zi)

@@ -24,6 +24,7 @@ from scipy.signal import bilinear, lfilter, lfiltic
 
 from shockdyno.errors import ConfigError
 from shockdyno.model.composite import DamperModel, ModelInputs, Term
+from shockdyno.model.filters import first_order_lag
 from shockdyno.model.spec import DamperSpec
 from shockdyno.rig.config import RigConfig
 from shockdyno.rig.frames import FRAME_LEN, STATUS_MOTION, encode_frames
@@ -37,6 +38,7 @@ from shockdyno.simrig.drive import (
 )
 from shockdyno.simrig.faults import Fault
 
+_ONE_SEGMENT = np.zeros(1, dtype=np.intp)
 CHUNK = 10  # samples: the grid on which commands, faults and trips take effect
 FloatArray = NDArray[np.float64]
 
@@ -121,7 +123,7 @@ class SimEngine:
         self._servo_b, self._servo_a = np.asarray(b, float), np.asarray(a, float)
         x0 = p.initial_position_m
         zi = lfiltic(self._servo_b, self._servo_a, [x0, x0], [x0, x0])
-        self._lvdt_k = 1 - math.exp(-1 / (self.fs * lvdt_lag_s)) if lvdt_lag_s > 0 else 1.0
+        self._lvdt_lag_s = float(lvdt_lag_s)
         drive = SimDrive(
             DriveParams(
                 centre_m=self.centre,
@@ -254,11 +256,12 @@ class SimEngine:
                 trip = (code, k)
         # sensors
         pos = x
-        if self._lvdt_k < 1.0:
-            if st.lvdt_zi is None:
-                st.lvdt_zi = np.array([(1 - self._lvdt_k) * x[0]])
-            lagged, zf = lfilter([self._lvdt_k], [1.0, -(1.0 - self._lvdt_k)], x, zi=st.lvdt_zi)
-            pos, st.lvdt_zi = np.asarray(lagged, float), np.asarray(zf, float)
+        if self._lvdt_lag_s > 0:
+            # The same first-order lag the model's terms use (exact for a ramp between
+            # samples; a one-pole y += k (x - y) at τ = dt delays by 0.58 ms, not 1 ms).
+            pos, st.lvdt_zi = first_order_lag(
+                x, self._lvdt_lag_s, _ONE_SEGMENT, np.array([1.0 / self.fs]), st.lvdt_zi
+            )
         pos = pos + p.position_noise_m * st.rng_pos.standard_normal(n)
         f_meas = force + p.force_noise_n * st.rng_force.standard_normal(n)
         t_meas = temp + p.temperature_noise_c * st.rng_temp.standard_normal(n)

@@ -28,7 +28,7 @@ class Cavitation(Term):
             "release_pressure_pa",
             "Pa",
             3000.0,
-            0.0,
+            -5.0e6,  # below any pressure the data reach: the clamp never acts (nests "off")
             1.0e6,
             1.0e5,
             -math.inf,

@@ -15,6 +15,7 @@ from shockdyno.diagnose.verdict import to_json
 from shockdyno.record import open_recording
 
 REPO = Path(__file__).resolve().parents[2]
+pytestmark = pytest.mark.timeout(400)  # a recording diagnosed with the whole library
 CLI = [sys.executable, "-m", "shockdyno.cli"]
 
 # Scenario files under neutral names; their physics, not their names, is the answer.
@@ -56,7 +57,7 @@ def recordings(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     for i, (name, body) in enumerate(SCENARIOS.items()):
         rec = root / f"r{i}.mcap"
         cmd = [*CLI, "sweep", "--rig", str(REPO / "rigs" / "sim.toml"), "--start-sim"]
-        cmd += ["--speed", "200", "--clicks", "0,14", "-o", str(rec), "--seed", str(i)]
+        cmd += ["--speed", "50", "--clicks", "0,14", "-o", str(rec), "--seed", str(i)]
         if body is not None:
             sc = root / f"p{i}.toml"
             sc.write_text(f"[scenario]\nname = 'p{i}'\ndescription = 'x'\n{body}")
@@ -67,12 +68,22 @@ def recordings(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     return out
 
 
+class Diagnoses(dict):  # type: ignore[type-arg]
+    """Each recording diagnosed when a test first asks for it (each test pays its own)."""
+
+    def __init__(self, recordings: dict[str, Path]) -> None:
+        super().__init__()
+        self.recordings = recordings
+
+    def __missing__(self, name: str) -> dict:  # type: ignore[type-arg]
+        tests = open_recording(self.recordings[name]).load_all()
+        self[name] = to_json(diagnose(tests, settings=Settings(n_boot=499)))
+        return self[name]
+
+
 @pytest.fixture(scope="module")
-def diagnoses(recordings: dict[str, Path]) -> dict[str, dict]:  # type: ignore[type-arg]
-    return {
-        name: to_json(diagnose(open_recording(p).load_all(), settings=Settings(n_boot=499)))
-        for name, p in recordings.items()
-    }
+def diagnoses(recordings: dict[str, Path]) -> Diagnoses:
+    return Diagnoses(recordings)
 
 
 def test_the_recordings_do_not_name_their_physics(recordings: dict[str, Path]) -> None:

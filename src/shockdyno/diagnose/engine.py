@@ -84,7 +84,7 @@ class Settings:
     search_clicks: int = 8
     heldout_top: int = 2  # candidates per round scored on held-out tests
     objective_rate_hz: float = 100.0
-    full_rate_hz: float = 500.0  # fast lags run at up to this rate (the fit: the recording's)
+    full_rate_hz: float | None = None  # fast lags at up to this rate (None: the recording's)
     candidates: tuple[str, ...] = tuple(LIBRARY)
 
 

@@ -39,7 +39,12 @@ class SensorLag(Term):
     def nesting_free(self) -> tuple[str, ...]:
         # A delay and a lag differ only at sharp events (the friction flip at reversal):
         # the diagnosis tries both, the fit by default only the delay.
-        return ("delay_s", "load_cell_lag_s")
+        return ("delay_s", "load_cell_lag_s", "lvdt_lag_s")
+
+    def start_grid(self) -> list[dict[str, float]]:
+        # A lag and a delay trade off near zero; start from a few lags so the refit
+        # does not stall at the bound with the delay doing all the work.
+        return [{"load_cell_lag_s": t} for t in (0.0, 0.001, 0.003, 0.008)]
 
     def full_rate(self, p: Mapping[str, float], free: Iterable[str]) -> bool:
         return p["load_cell_lag_s"] > 0 or "load_cell_lag_s" in set(free)

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
 from shockdyno.errors import RecordingError
+from shockdyno.outputs import check_output, is_stdout, write_output
 from shockdyno.record.csv_export import export_csv
 from shockdyno.record.csv_import import (
     FORCE_UNITS,
@@ -20,6 +20,7 @@ from shockdyno.record.csv_import import (
     import_csv,
 )
 from shockdyno.record.info import format_text, summarise
+from shockdyno.record.layout import set_paths
 from shockdyno.record.reader import open_recording
 
 
@@ -36,6 +37,7 @@ def register(subparsers: Any) -> None:
         metavar="PATH",
         help="also write the summary as JSON (- for stdout only)",
     )
+    p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
     p.set_defaults(func=_info)
 
     p = subparsers.add_parser(
@@ -102,18 +104,14 @@ def register(subparsers: Any) -> None:
 
 
 def _info(args: argparse.Namespace) -> int:
+    inputs = set_paths(args.recording)
+    if args.json is not None:
+        check_output(args.json, force=args.force, inputs=inputs)
     doc = summarise(open_recording(args.recording))
-    if args.json is None or str(args.json) != "-":
+    if not is_stdout(args.json):
         print(format_text(doc))
     if args.json is not None:
-        text = json.dumps(doc, indent=2)
-        if str(args.json) == "-":
-            sys.stdout.write(text + "\n")
-        else:
-            try:
-                args.json.write_text(text + "\n")
-            except OSError as exc:
-                raise RecordingError(f"cannot write {args.json}: {exc.strerror}") from exc
+        write_output(args.json, json.dumps(doc, indent=2) + "\n", force=args.force, inputs=inputs)
     return 0
 
 

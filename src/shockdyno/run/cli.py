@@ -16,6 +16,7 @@ from rich.console import Console
 from shockdyno import __version__
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.model.spec import default_spec_path, load_spec
+from shockdyno.outputs import check_output
 from shockdyno.run.plan import SweepPlan, parse_clicks, parse_frequencies
 
 if TYPE_CHECKING:
@@ -167,7 +168,14 @@ def record_sweep(
             f"{rig.source}: the adjuster is set by an operator, who confirms each setting at a "
             "terminal; run the sweep from a terminal (stdin is not one)"
         )
-    output.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        output.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise RecordingError(
+            f"-o {output}: cannot create {output.parent} ({exc.strerror})"
+        ) from None
+    # The recording must be creatable before the ram moves (found by a probe file now).
+    check_output(output, force=True, flag="-o")
 
     view = LiveView(len(todo), console=console)
 

@@ -18,6 +18,7 @@ from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.model.spec import default_spec_path, load_spec
 from shockdyno.outputs import check_output
 from shockdyno.run.plan import SweepPlan, parse_clicks, parse_frequencies
+from shockdyno.run.signals import stop_on_signals
 
 if TYPE_CHECKING:
     from shockdyno.rig.config import RigConfig
@@ -191,6 +192,7 @@ def record_sweep(
             output, metadata=metadata, rig_toml=rig.raw_toml, overwrite=overwrite, resume=resume
         ) as writer,
     ):
+        session.record_events(writer.write_event)
         try:
             return run_sweep(
                 session,
@@ -205,8 +207,7 @@ def record_sweep(
         finally:
             # Tear down before the recording closes, so the stop and its reason are in it.
             session.close(exit_reason(sys.exc_info()[1]))
-            for event in session.events:
-                writer.write_event(event.t_s, event.kind, event.message)
+            session.record_events(None)
 
 
 def _check_resume_matches(tests: list[Any], plan: SweepPlan, output: Path) -> None:
@@ -244,6 +245,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     rig = load_rig(args.rig)
     plan = _plan(args, *_click_ranges(load_spec()))
     with contextlib.ExitStack() as stack:
+        stack.enter_context(stop_on_signals())  # SIGTERM and SIGHUP stop like Ctrl-C
         spec_used = ""  # a real rig's damper is whatever is mounted
         if args.start_sim:
             from shockdyno.simrig import start_sim_rig
@@ -317,7 +319,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     rig = load_rig(repo_file("rigs/sim.toml"))
     console.rule("shockdyno demo: click sweep on the simulated rig")
     t0 = time.perf_counter()
-    with start_sim_rig(rig, speed=args.speed, seed=args.seed) as sim:
+    with stop_on_signals(), start_sim_rig(rig, speed=args.speed, seed=args.seed) as sim:
         for endpoint in sim.endpoints:
             console.print(endpoint)
         live_rig = sim.rig_config()

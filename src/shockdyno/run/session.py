@@ -31,6 +31,7 @@ from shockdyno.rig.config import RigConfig
 from shockdyno.rig.daq import READ_SIZE, SerialDaq
 from shockdyno.rig.frames import FRAME_LEN, STATUS_MOTION
 from shockdyno.rig.types import SampleBlock
+from shockdyno.run import signals
 from shockdyno.run.safety import LimitMonitor, SafetyEvent, SafetyTrip
 
 CENTRE_TOLERANCE_M = 0.001
@@ -54,6 +55,7 @@ class SineOutcome:
 
 
 BlockSink = Callable[[SampleBlock], None]
+EventSink = Callable[[float, str, str], None]
 ActuatorSink = Callable[[float, dict[str, float | int | bool]], None]
 
 
@@ -90,9 +92,7 @@ def exit_reason(exc: BaseException | None) -> str:
     """Why a session ends, for its teardown event."""
     if exc is None:
         return "session ended"
-    if isinstance(exc, KeyboardInterrupt):
-        return "operator interrupt (Ctrl-C)"
-    return f"{type(exc).__name__}: {exc}"
+    return signals.describe(exc) or f"{type(exc).__name__}: {exc}"
 
 
 class RigSession:
@@ -124,12 +124,32 @@ class RigSession:
         self._last_poll_wall = -math.inf
         self._on_block: BlockSink | None = None
         self._on_actuator: ActuatorSink | None = None
+        self._on_event: EventSink | None = None
 
     # -- events ------------------------------------------------------------------------
-    def _event(self, kind: str, message: str) -> SafetyEvent:
-        ev = SafetyEvent(self._t, kind, message)
+    def record_events(self, sink: EventSink | None) -> None:
+        """Send every event so far, then each one as it happens, to `sink` (e.g. the
+        recording's write_event), so that a crash cannot lose the events before it."""
+        self._on_event = sink
+        for ev in self.events:
+            self._send(ev)
+
+    def _send(self, ev: SafetyEvent) -> None:
+        if self._on_event is None:
+            return
+        try:
+            self._on_event(ev.t_s, ev.kind, ev.message)
+        except Exception as exc:  # a full disk must not stop the stop sequence; keep it here
+            self._on_event = None
+            self.events.append(SafetyEvent(self._t, "record_failed", f"events not recorded: {exc}"))
+
+    def _record(self, ev: SafetyEvent) -> SafetyEvent:
         self.events.append(ev)
+        self._send(ev)
         return ev
+
+    def _event(self, kind: str, message: str) -> SafetyEvent:
+        return self._record(SafetyEvent(self._t, kind, message))
 
     @property
     def enabled(self) -> bool:
@@ -272,7 +292,7 @@ class RigSession:
             except RigFault as exc:
                 ev = exc.event if isinstance(exc, SafetyTrip) else self._event("fault", str(exc))
                 if isinstance(exc, SafetyTrip):
-                    self.events.append(ev)
+                    self._record(ev)
                 status, reason = "aborted", ev.message
                 self._safe_stop(ev.message)
         finally:
@@ -534,6 +554,10 @@ class RigSession:
     def _teardown(self, reason: str) -> None:
         if self._closed:
             return
+        with signals.hold():  # a signal now waits until the ram is stopped and disabled
+            self._teardown_held(reason)
+
+    def _teardown_held(self, reason: str) -> None:
         self._event("exit", reason)
         self._on_block = self._on_actuator = None
         if self.actuator is not None and self.daq is not None and self._armed:
@@ -547,5 +571,5 @@ class RigSession:
                 try:
                     closer.close()
                 except Exception as exc:  # closing must not hide the original problem
-                    self.events.append(SafetyEvent(self._t, "close_failed", str(exc)))
+                    self._record(SafetyEvent(self._t, "close_failed", str(exc)))
         self._event("closed", "transports closed")

@@ -16,7 +16,9 @@ from typing import Protocol
 from shockdyno.errors import RigFault
 from shockdyno.record.types import TestMeta
 from shockdyno.rig.types import SampleBlock
+from shockdyno.run import signals
 from shockdyno.run.plan import SweepPlan, SweepPoint
+from shockdyno.run.signals import Terminated
 
 
 class _Outcome(Protocol):
@@ -184,6 +186,8 @@ def _meta(
 
 
 def _why(exc: BaseException) -> str:
+    if isinstance(exc, Terminated):
+        return f"stopped by {signals.describe(exc)}"
     if isinstance(exc, KeyboardInterrupt):
         return "interrupted by the operator (Ctrl-C)"
     return str(exc) or type(exc).__name__

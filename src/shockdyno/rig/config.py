@@ -134,6 +134,7 @@ class DaqConfig:
     calibration: Calibration
     frozen_timeout_s: float = 0.5  # wall time without a valid frame before the DAQ counts as frozen
     max_gap_s: float = 0.05  # a longer run of lost frames leaves the limits unwatched: stop
+    max_frame_loss: float = 0.01  # a test losing a larger fraction of its frames is degraded
 
 
 @dataclass(frozen=True)
@@ -155,6 +156,15 @@ class RampConfig:
 
 
 @dataclass(frozen=True)
+class VerifyConfig:
+    """How closely a finished test's measured motion must match its plan to be complete."""
+
+    frequency_tolerance: float = 0.01  # relative
+    amplitude_tolerance: float = 0.05  # relative
+    centre_tolerance_m: float = 0.001
+
+
+@dataclass(frozen=True)
 class HeartbeatConfig:
     period_s: float = 0.1
     timeout_s: float = 0.5
@@ -173,6 +183,7 @@ class RigConfig:
     ramp: RampConfig
     heartbeat: HeartbeatConfig
     poll_period_s: float = 0.02
+    verify: VerifyConfig = field(default_factory=VerifyConfig)
     simulation: dict[str, Any] = field(default_factory=dict)  # [simulation]: sim-rig only
     raw_toml: str = ""
 
@@ -383,7 +394,10 @@ def parse_rig(text: str, source: str = "<rig>") -> RigConfig:
         calibration=cal,
         frozen_timeout_s=daq_t.num("frozen_timeout_s", 0.5),
         max_gap_s=daq_t.num("max_gap_s", 0.05),
+        max_frame_loss=daq_t.num("max_frame_loss", 0.01, positive=False),
     )
+    if not 0 <= daq.max_frame_loss < 1:
+        raise daq_t.fail("max_frame_loss", "must be 0-1 (a fraction of the test's frames)")
     daq_t.check_unknown()
     bits_per_s = daq.sample_rate_hz * 18 * 10  # 18-byte frames, 10 bits per byte on the wire
     if not daq.url.startswith(("socket://", "loop://")) and bits_per_s > daq.baudrate:
@@ -420,6 +434,14 @@ def parse_rig(text: str, source: str = "<rig>") -> RigConfig:
     if hb.timeout_s * 1000 > 65535:
         raise hb_t.fail("timeout_s", "must be below 65.5 s (a uint16 of milliseconds)")
 
+    ver_t = top.table("verify", required=False)
+    verify = VerifyConfig(
+        frequency_tolerance=ver_t.num("frequency_tolerance", 0.01),
+        amplitude_tolerance=ver_t.num("amplitude_tolerance", 0.05),
+        centre_tolerance_m=ver_t.num("centre_tolerance_m", 0.001),
+    )
+    ver_t.check_unknown()
+
     sim = top.raw("simulation", {})
     if not isinstance(sim, dict):
         raise top.fail("simulation", "must be a table")
@@ -436,6 +458,7 @@ def parse_rig(text: str, source: str = "<rig>") -> RigConfig:
         ramp=ramp,
         heartbeat=hb,
         poll_period_s=poll,
+        verify=verify,
         simulation=dict(sim),
         raw_toml=text,
     )

@@ -14,7 +14,7 @@ import numpy as np
 from rich.console import Console
 
 from shockdyno import __version__
-from shockdyno.errors import ConfigError, RecordingError
+from shockdyno.errors import ConfigError, RecordingError, RigFault
 from shockdyno.model.spec import default_spec_path, load_spec
 from shockdyno.outputs import check_output
 from shockdyno.run.plan import SweepPlan, parse_clicks, parse_frequencies
@@ -257,9 +257,15 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 console.print(endpoint)
             rig, spec_used = sim.rig_config(), str(default_spec_path())
         meta = _metadata(args, rig, spec_used)
-        record_sweep(rig, plan, args.output, metadata=meta, overwrite=args.force,
-                     resume=args.resume, console=console)  # fmt: skip
+        result = record_sweep(rig, plan, args.output, metadata=meta, overwrite=args.force,
+                              resume=args.resume, console=console)  # fmt: skip
     console.print(f"recording: {args.output}", soft_wrap=True)
+    if result is not None and result.degraded:
+        listed = ", ".join(str(m.index) for m in result.degraded)
+        raise RigFault(
+            f"{len(result.degraded)} tests degraded (tests {listed}; see `shockdyno info`): "
+            "they are not complete; --resume runs them again"
+        )
     return 0
 
 

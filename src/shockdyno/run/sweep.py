@@ -28,6 +28,7 @@ class _Outcome(Protocol):
     measured_end_s: float | None
     dropped_frames: int
     corrupt_frames: int
+    stop_sweep: bool
 
 
 class Session(Protocol):
@@ -70,6 +71,7 @@ class View(Protocol):
 class SweepResult:
     completed: list[TestMeta] = field(default_factory=list)
     aborted: list[TestMeta] = field(default_factory=list)
+    degraded: list[TestMeta] = field(default_factory=list)  # ran, but not as planned or lossy
     stopped_reason: str = ""
 
 
@@ -159,10 +161,14 @@ def run_sweep(
         )
         writer.end_test(final)
         view.end_test(final)
+        if outcome.status == "degraded" and not outcome.stop_sweep:
+            log(f"test {meta.index} degraded: {outcome.reason}")
+            result.degraded.append(final)
+            continue
         if outcome.status != "complete":
-            result.aborted.append(final)
+            (result.degraded if outcome.status == "degraded" else result.aborted).append(final)
             result.stopped_reason = outcome.reason
-            raise RigFault(f"test {meta.index} aborted: {outcome.reason}; sweep stopped")
+            raise RigFault(f"test {meta.index} {outcome.status}: {outcome.reason}; sweep stopped")
         result.completed.append(final)
     return result
 

@@ -135,6 +135,11 @@ class DaqConfig:
     frozen_timeout_s: float = 0.5  # wall time without a valid frame before the DAQ counts as frozen
     max_gap_s: float = 0.05  # a longer run of lost frames leaves the limits unwatched: stop
     max_frame_loss: float = 0.01  # a test losing a larger fraction of its frames is degraded
+    # The sensors' ranges (LVDT absolute, load cell, thermometer): a reading outside cannot
+    # be real. Defaults from the limits: stroke centre ± 4 travel, ± 4 force limit.
+    position_range_m: tuple[float, float] = (-math.inf, math.inf)
+    force_range_n: tuple[float, float] = (-math.inf, math.inf)
+    temperature_range_c: tuple[float, float] = (-40.0, 200.0)
 
 
 @dataclass(frozen=True)
@@ -355,6 +360,15 @@ def _transport(r: _Reader) -> ModbusTransport:
     return t
 
 
+def _range(t: _Reader, key: str, default: tuple[float, float]) -> tuple[float, float]:
+    value = t.raw(key, list(default))
+    ok = isinstance(value, list) and len(value) == 2
+    ok = ok and all(isinstance(v, int | float) and not isinstance(v, bool) for v in value)
+    if not ok or not (math.isfinite(value[0]) and math.isfinite(value[1]) and value[0] < value[1]):
+        raise t.fail(key, f"must be [LOW, HIGH] with LOW < HIGH, got {value!r}")
+    return float(value[0]), float(value[1])
+
+
 def parse_rig(text: str, source: str = "<rig>") -> RigConfig:
     """Build a validated RigConfig from TOML text."""
     try:
@@ -398,7 +412,6 @@ def parse_rig(text: str, source: str = "<rig>") -> RigConfig:
     )
     if not 0 <= daq.max_frame_loss < 1:
         raise daq_t.fail("max_frame_loss", "must be 0-1 (a fraction of the test's frames)")
-    daq_t.check_unknown()
     bits_per_s = daq.sample_rate_hz * 18 * 10  # 18-byte frames, 10 bits per byte on the wire
     if not daq.url.startswith(("socket://", "loop://")) and bits_per_s > daq.baudrate:
         raise daq_t.fail(
@@ -418,6 +431,15 @@ def parse_rig(text: str, source: str = "<rig>") -> RigConfig:
     lim_t.check_unknown()
     if not 0 <= limits.trip_margin < 1:
         raise lim_t.fail("trip_margin", "must be 0-1")
+    daq = replace(
+        daq,
+        position_range_m=_range(
+            daq_t, "position_range_m", (centre - 4 * limits.travel_m, centre + 4 * limits.travel_m)
+        ),
+        force_range_n=_range(daq_t, "force_range_n", (-4 * limits.force_n, 4 * limits.force_n)),
+        temperature_range_c=_range(daq_t, "temperature_range_c", (-40.0, 200.0)),
+    )
+    daq_t.check_unknown()
 
     ramp_t = top.table("ramp", required=False)
     ramp = RampConfig(

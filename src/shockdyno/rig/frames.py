@@ -120,6 +120,23 @@ _EMPTY = RawFrames(
 )
 
 
+@dataclass(frozen=True)
+class Plausible:
+    """What a frame may hold and still be believed, beyond its CRC.
+
+    CRC-16 lets about 1 in 65 536 damaged frames through; at high byte error rates that is
+    a frame every few seconds. A sensor cannot report beyond its range (it saturates and
+    sets its over-range bit), so a reading outside it is damage. A sequence number that
+    jumps by more than `max_seq_jump` is believed only when the frame after it continues
+    from it: a damaged counter would otherwise shift the time base for good.
+    """
+
+    load: tuple[int, int] = (-(2**31), 2**31 - 1)  # counts, inclusive
+    lvdt: tuple[int, int] = (-(2**31), 2**31 - 1)
+    temp: tuple[int, int] = (-(2**15), 2**15 - 1)
+    max_seq_jump: int = 1000
+
+
 class FrameDecoder:
     """Incremental decoder: feed it any chunks of bytes, get checked frames back.
 
@@ -129,7 +146,9 @@ class FrameDecoder:
     Skipped bytes that hold no missing frame (inserted garbage) count as `garbage_bytes`.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, plausible: Plausible | None = None) -> None:
+        self.plausible = plausible or Plausible()
+        self.rejected_frames = 0  # passed the CRC, failed a plausibility check
         self._tail = b""
         self._skipped = 0  # bytes skipped since the last good frame
         self._last_raw: int | None = None
@@ -160,8 +179,12 @@ class FrameDecoder:
             good = cand[crc16_rows(rows[:, _BODY]) == crc]
         else:
             good = cand
-        starts = self._non_overlapping(good)
-        if starts.size:
+        starts = self._believable_values(arr, self._non_overlapping(good))
+        starts, held = self._believable_sequence(arr, starts)
+        if held is not None:  # judged with the next bytes, by the frame that follows it
+            consumed = int(starts[-1]) + FRAME_LEN if starts.size else 0
+            keep_from = held
+        elif starts.size:
             consumed = int(starts[-1]) + FRAME_LEN
             keep_from = max(consumed, n - (FRAME_LEN - 1))
         else:
@@ -204,6 +227,58 @@ class FrameDecoder:
             frames["temp"].astype(np.int16),
             frames["status"].astype(np.uint16),
         )
+
+    def _believable_values(
+        self, arr: NDArray[np.uint8], starts: NDArray[np.intp]
+    ) -> NDArray[np.intp]:
+        if not starts.size:
+            return starts
+        rows = arr[starts[:, None] + np.arange(FRAME_LEN)].reshape(-1).view(FRAME_DTYPE)
+        p = self.plausible
+        ok = np.ones(starts.size, bool)
+        for name, (lo, hi) in (("load", p.load), ("lvdt", p.lvdt), ("temp", p.temp)):
+            ok &= (rows[name] >= lo) & (rows[name] <= hi)
+        if ok.all():
+            return starts
+        self.rejected_frames += int((~ok).sum())
+        return starts[ok]
+
+    def _believable_sequence(
+        self, arr: NDArray[np.uint8], starts: NDArray[np.intp]
+    ) -> tuple[NDArray[np.intp], int | None]:
+        """Drop a frame whose counter jumps unless the next frame continues from it (and not
+        from the frame before it); hold back a last frame that jumps (returned as the offset
+        to keep), since nothing confirms it yet."""
+        if not starts.size:
+            return starts, None
+        raw = arr[starts[:, None] + np.array([2, 3])].astype(np.int64)
+        seq = raw[:, 0] | (raw[:, 1] << 8)
+        # The very first frame starts the clock: it is its own predecessor's successor.
+        first = (int(seq[0]) - 1) % 65536 if self._last_raw is None else self._last_raw
+        jump = self.plausible.max_seq_jump
+
+        def step(a: int, b: int) -> int:
+            return ((b - a - 1) % 65536) + 1
+
+        steps = (np.diff(seq, prepend=first) - 1) % 65536 + 1
+        if not (steps > jump).any():
+            return starts, None
+        kept = list(range(starts.size))
+        pos, prev = 0, first
+        while pos < len(kept):
+            k = kept[pos]
+            if step(prev, int(seq[k])) > jump:
+                if pos + 1 == len(kept):
+                    kept.pop(pos)
+                    return starts[kept], int(starts[k])
+                nxt = int(seq[kept[pos + 1]])
+                if step(int(seq[k]), nxt) > jump or step(prev, nxt) <= jump:
+                    kept.pop(pos)
+                    self.rejected_frames += 1
+                    continue
+            prev = int(seq[k])
+            pos += 1
+        return starts[kept], None
 
     @staticmethod
     def _non_overlapping(good: NDArray[np.intp]) -> NDArray[np.intp]:

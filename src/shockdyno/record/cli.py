@@ -48,6 +48,18 @@ def register(subparsers: Any) -> None:
     p.add_argument("manifest", type=Path, metavar="MANIFEST.csv")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="REC.mcap")
     p.add_argument("--force", action="store_true", help="overwrite an existing output")
+    p.add_argument(
+        "--allow-outside-files",
+        action="store_true",
+        help="let the manifest name data files outside its own folder",
+    )
+    p.add_argument(
+        "--max-file-mb",
+        type=float,
+        default=1024.0,
+        metavar="MB",
+        help="refuse a manifest or data file larger than this (default 1024)",
+    )
     d = ImportOptions()
     g = p.add_argument_group("data columns and units (defaults: the exchange format)")
     g.add_argument("--time-column", default=d.time_column, metavar="NAME")
@@ -140,7 +152,11 @@ def _import(args: argparse.Namespace) -> int:
         gas_clicks=args.gas_clicks,
         delimiter="\t" if args.delimiter in ("\\t", "tab") else args.delimiter,
         metadata=_meta_pairs(args.meta),
+        allow_outside=args.allow_outside_files,
+        max_file_bytes=int(args.max_file_mb * 1e6),
     )
+    if args.manifest.exists() and args.output.exists() and args.output.samefile(args.manifest):
+        raise RecordingError(f"-o {args.output} is the manifest; refusing to overwrite it")
     tests = import_csv(args.manifest, args.output, opts, force=args.force)
     print(f"imported {len(tests)} tests from {args.manifest} into {args.output}")
     return 0

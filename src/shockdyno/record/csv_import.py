@@ -11,6 +11,8 @@ import csv
 import io
 import json
 import math
+import os
+import sys
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
 from datetime import datetime
@@ -22,6 +24,14 @@ from numpy.typing import NDArray
 from shockdyno.errors import RecordingError
 from shockdyno.record.atomic import atomic_file
 from shockdyno.record.layout import part_paths
+from shockdyno.record.plausible import (
+    MAX_AMPLITUDE_M,
+    MAX_CLICKS,
+    MAX_FREQUENCY_HZ,
+    MAX_SAMPLE_RATE_HZ,
+    check_samples,
+    check_setting,
+)
 from shockdyno.record.types import TestMeta
 from shockdyno.record.writer import RecordingWriter
 from shockdyno.rig.types import SampleBlock
@@ -64,6 +74,8 @@ class ImportOptions:
     gas_clicks: int = 0  # when the manifest has no gas_clicks column
     delimiter: str = ","
     metadata: dict[str, str] = field(default_factory=dict)
+    allow_outside: bool = False  # data files may lie outside the manifest's folder
+    max_file_bytes: int = 1 << 30  # a larger data file is refused before it is read
 
     def check(self) -> None:
         for name, value, allowed in (
@@ -92,17 +104,38 @@ class ImportedTest:
     block: SampleBlock
 
 
+def _read_bounded(path: Path, max_bytes: int) -> str:
+    """A regular file's text, refused (not read) when larger than max_bytes: a device such as
+    /dev/zero or a mistaken multi-gigabyte file must not exhaust memory."""
+    try:
+        with path.open("rb") as fh:
+            if not os.path.isfile(path):
+                raise RecordingError(f"{path}: not a regular file")
+            size = os.fstat(fh.fileno()).st_size
+            if size > max_bytes:
+                raise RecordingError(
+                    f"{path}: {size / 1e6:.0f} MB is more than the {max_bytes / 1e6:.0f} MB "
+                    "allowed for one file (--max-file-mb)"
+                )
+            data = fh.read(max_bytes + 1)
+    except FileNotFoundError:
+        raise RecordingError(f"{path}: no such file") from None
+    except OSError as exc:
+        raise RecordingError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if len(data) > max_bytes:
+        raise RecordingError(f"{path}: grew beyond {max_bytes / 1e6:.0f} MB while being read")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise RecordingError(f"{path}: cannot read: {exc}") from None
+
+
 class _Table:
     """A CSV file's header and rows, with the line number of each row (for error messages)."""
 
-    def __init__(self, path: Path, delimiter: str) -> None:
+    def __init__(self, path: Path, delimiter: str, max_bytes: int = 1 << 30) -> None:
         self.path = path
-        try:
-            text = path.read_text(encoding="utf-8-sig")
-        except FileNotFoundError:
-            raise RecordingError(f"{path}: no such file") from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise RecordingError(f"{path}: cannot read: {exc}") from exc
+        text = _read_bounded(path, max_bytes)
         reader = csv.reader(io.StringIO(text), delimiter=delimiter)
         header = next(reader, None)
         if header is None or not any(h.strip() for h in header):
@@ -195,7 +228,7 @@ def read_data_csv(path: Path, opts: ImportOptions) -> tuple[SampleBlock, str]:
 
     seq is the sample index: imported data has no DAQ counter.
     """
-    table = _Table(path, opts.delimiter)
+    table = _Table(path, opts.delimiter, opts.max_file_bytes)
     if not table.rows:
         raise RecordingError(f"{path}:2: no data rows")
     t_col = table.column(opts.time_column)
@@ -209,8 +242,9 @@ def read_data_csv(path: Path, opts: ImportOptions) -> tuple[SampleBlock, str]:
     if bad.size:
         i = int(bad[0]) + 1
         raise RecordingError(f"{table.where(i, t_col)}: time does not increase")
-    x = table.numbers(x_col) * LENGTH_UNITS[opts.displacement_unit]
-    force = table.numbers(f_col) * FORCE_UNITS[opts.force_unit]
+    with np.errstate(over="ignore"):  # an overflow to inf is refused by check_samples
+        x = table.numbers(x_col) * LENGTH_UNITS[opts.displacement_unit]
+        force = table.numbers(f_col) * FORCE_UNITS[opts.force_unit]
     # Only power-of-ten unit changes keep a fixed number of decimal places meaningful
     shifts = [
         ("time_s", t_col, {"s": 0, "ms": 3}.get(t_unit)),
@@ -230,6 +264,8 @@ def read_data_csv(path: Path, opts: ImportOptions) -> tuple[SampleBlock, str]:
         d = table.decimals.get(col)
         if d is not None and shift is not None:
             places.append(f"{name}={max(0, d + shift)}")
+    for warning in check_samples(str(path), x, force, temp):
+        print(f"warning: {warning}", file=sys.stderr)
     n = t.size
     block = SampleBlock(np.arange(n, dtype=np.int64), t, x, force, temp, np.zeros(n, np.uint16))
     return block, ",".join(places)
@@ -257,7 +293,7 @@ def _float_cell(table: _Table, i: int, col: int, *, positive: bool = False) -> f
 
 def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
     opts.check()
-    table = _Table(manifest, opts.delimiter)
+    table = _Table(manifest, opts.delimiter, opts.max_file_bytes)
     cols = {name: table.column(name) for name in MANIFEST_REQUIRED}
     for name in MANIFEST_KNOWN:
         if name in table.header:
@@ -280,6 +316,15 @@ def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
                 raise RecordingError(f"{table.where(i, cols[name])}: {value} must not be negative")
         freq = _float_cell(table, i, cols["frequency_hz"], positive=True)
         amp = _float_cell(table, i, cols["amplitude_m"])
+        settings: tuple[tuple[str, float, float], ...] = (
+            ("clicks", clicks, MAX_CLICKS),
+            ("gas_clicks", gas, MAX_CLICKS),
+            ("frequency_hz", freq, MAX_FREQUENCY_HZ),
+            ("amplitude_m", amp, MAX_AMPLITUDE_M),
+        )
+        for name, setting, limit in settings:
+            where = table.where(i, cols[name]) if name in cols else f"{manifest} (--gas-clicks)"
+            check_setting(where, name, setting, limit)
         motion = cell("motion") or opts.motion or "sine"
         if motion not in MOTIONS:
             raise RecordingError(
@@ -290,7 +335,7 @@ def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
             raise RecordingError(
                 f"{table.where(i, cols['status'])}: {status!r} is not complete or aborted"
             )
-        path = manifest.parent / file_name
+        path = _data_path(manifest, file_name, opts.allow_outside, table.where(i, cols["file"]))
         block, places = read_data_csv(path, opts)
         if cell("sample_rate_hz"):
             rate = _float_cell(table, i, cols["sample_rate_hz"], positive=True)
@@ -300,6 +345,15 @@ def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
             rate = float(f"{1.0 / float(np.median(np.diff(block.t_s))):.6g}")
         else:
             raise RecordingError(f"{path}: one sample; give the sample rate (--sample-rate-hz)")
+        check_setting(str(path), "sample rate (Hz)", rate, MAX_SAMPLE_RATE_HZ)
+        if motion == "sine" and amp > 0 and len(block):
+            peak = float(np.max(np.abs(block.displacement_m - np.median(block.displacement_m))))
+            if peak > 100 * amp or peak < amp / 100:
+                print(
+                    f"warning: {path}: data swings ±{peak:.3g} m, the manifest says "
+                    f"amplitude_m {amp:g} (a unit mix-up?)",
+                    file=sys.stderr,
+                )
         window = [
             _float_cell(table, i, cols[name]) if cell(name) else None
             for name in ("measured_start_s", "measured_end_s")
@@ -336,6 +390,21 @@ def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
     return tests
 
 
+def _data_path(manifest: Path, name: str, allow_outside: bool, where: str) -> Path:
+    """A manifest's data file; it must lie under the manifest's folder unless allowed."""
+    path = manifest.parent / name
+    if allow_outside:
+        return path
+    folder = manifest.parent.resolve()
+    resolved = path.resolve()
+    if Path(name).is_absolute() or not resolved.is_relative_to(folder):
+        raise RecordingError(
+            f"{where}: {name!r} lies outside the manifest's folder {folder} "
+            "(--allow-outside-files to read it)"
+        )
+    return path
+
+
 def import_csv(
     manifest: Path, output: Path, opts: ImportOptions, *, force: bool = False
 ) -> list[TestMeta]:
@@ -346,6 +415,9 @@ def import_csv(
     if output.exists() and not force:
         raise RecordingError(f"{output} exists (use --force to overwrite it)")
     tests = read_manifest(manifest, opts)
+    for source in [manifest, *(manifest.parent / t.meta.extra[SOURCE_KEY] for t in tests)]:
+        if output.exists() and output.samefile(source):
+            raise RecordingError(f"-o {output} is an input of the import; refusing to overwrite it")
     options = {k: v for k, v in asdict(opts).items() if k != "metadata"}
     metadata = {
         "source": "csv import",

@@ -97,3 +97,21 @@ def test_kill_9_keeps_every_event_before_it_and_the_watchdog_disables(sim_rig_fa
     assert kinds[:4] == ["connect", "enable", "centre", "adjust"]
     assert kinds.count("start") == 2 and "complete" in kinds
     assert [m.status for m in rec.tests] == ["complete"]
+
+
+def test_an_output_that_cannot_be_created_is_refused_before_the_ram_moves(
+    sim_rig_factory, tmp_path, capsys
+):
+    from shockdyno.cli import main
+
+    sim = sim_rig_factory(speed=4.0)
+    probe = Probe(sim)
+    try:
+        parked = probe.status()
+        code = main(["sweep", "--rig", str(rig_file_for(sim, tmp_path)), "-o", "/proc/x.mcap"])
+        after = probe.status()
+    finally:
+        probe.close()
+    assert code == 2 and "cannot create files in /proc" in capsys.readouterr().err
+    assert parked is not None and after is not None and not after.enabled
+    assert after.position_m == pytest.approx(parked.position_m, abs=1e-5)  # never moved

@@ -131,7 +131,7 @@ def run_fit(args: argparse.Namespace) -> int:
     inputs = [*set_paths(Path(args.recording)), *([args.spec] if args.spec else [])]
     out = check_output(args.json, force=args.force, inputs=inputs)
     load_spec(args.spec)  # a bad spec fails now, not after reading the recording
-    tests = open_recording(args.recording).load_all()
+    tests = open_recording(args.recording).require_recording().load_all()
     check_fit_input(tests, args.recording)
     console = Console(stderr=True)
     with Progress(

@@ -119,7 +119,7 @@ def _info(args: argparse.Namespace) -> int:
     inputs = set_paths(args.recording)
     if args.json is not None:
         check_output(args.json, force=args.force, inputs=inputs)
-    doc = summarise(open_recording(args.recording))
+    doc = summarise(open_recording(args.recording).require_recording())
     if not is_stdout(args.json):
         print(format_text(doc))
     if args.json is not None:

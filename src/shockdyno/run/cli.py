@@ -148,8 +148,9 @@ def record_sweep(
     if resume:
         if not output.exists():
             raise RecordingError(f"nothing to resume: {output} does not exist")
-        previous = open_recording(output)
+        previous = open_recording(output).require_recording()
         _check_resume_matches(previous.tests, plan, output)
+        _check_same_damper(previous.metadata, metadata, output)
         done = previous.completed_keys()
         first_index = len(previous.tests)
         console.print(
@@ -226,6 +227,16 @@ def _check_resume_matches(tests: list[Any], plan: SweepPlan, output: Path) -> No
             )
 
 
+def _check_same_damper(before: dict[str, str], now: dict[str, str], output: Path) -> None:
+    """One recording set holds one damper, measured by one operator."""
+    for key, flag in (("damper_id", "--damper-id"), ("operator", "--operator")):
+        if before.get(key, "") != now.get(key, ""):
+            raise ConfigError(
+                f"{output} was recorded with {key} {before.get(key, '')!r}; resuming with "
+                f"{flag} {now.get(key, '')!r} would mix two in one set (give the same {flag})"
+            )
+
+
 def _metadata(args: argparse.Namespace, rig: RigConfig, spec: str) -> dict[str, str]:
     return {
         "damper_id": getattr(args, "damper_id", "") or "",
@@ -276,7 +287,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
     if args.speed < 0:
         raise ConfigError("--speed must be >= 0")
-    rec = open_recording(args.recording)
+    rec = open_recording(args.recording).require_recording()
     console = Console()
     if rec.truncated:
         console.print("[yellow]recording was cut off; replaying every complete test[/]")

@@ -565,6 +565,7 @@ class RigSession:
         """Controlled stop, ramp to centre, disable. Every step is tried; none may raise."""
         self._event("stop", f"controlled stop: {reason}")
         steps: list[tuple[str, Callable[[], None]]] = [
+            ("watchdog", self._restore_watchdog),
             ("stop", self._stop_motion),
             ("reset", self._reset_fault),
             ("centre", lambda: self._move_to_centre(check=False)),
@@ -577,6 +578,11 @@ class RigSession:
                 if name == "stop":
                     break  # a drive that will not stop must not be asked to move
         self._disable(reason)
+
+    def _restore_watchdog(self) -> None:
+        """If another master lengthened the watchdog, a host that dies mid-stop must still
+        leave the drive to stop itself in the rig file's time."""
+        self._act().write({"heartbeat_timeout_ms": round(self.rig.heartbeat.timeout_s * 1000)})
 
     def _stop_motion(self) -> None:
         act = self._act()

@@ -58,3 +58,20 @@ def test_a_real_restart_of_the_counter_is_believed_when_the_next_frame_continues
     out = dec.feed(frames(np.arange(30_000, 30_010)))
     assert out.seq[0] == 30_000 and np.all(np.diff(out.seq) == 1)
     assert dec.rejected_frames == 0 and dec.dropped_frames == 30_000 - 10
+
+
+def test_a_counter_damaged_by_a_few_counts_is_caught_too():
+    dec = FrameDecoder(Plausible())
+    seq = np.arange(500, 540)
+    bad = seq.copy()
+    bad[10] += 100  # ahead by 100: a plain gap of 100 if believed, then the time base jumps
+    out = dec.feed(frames(bad))
+    assert out.seq.tolist() == [s for i, s in enumerate(seq.tolist()) if i != 10]
+    assert dec.rejected_frames == 1
+
+
+def test_a_small_real_gap_is_believed():
+    dec = FrameDecoder(Plausible())
+    seq = np.concatenate([np.arange(0, 10), np.arange(14, 30)])
+    out = dec.feed(frames(seq))
+    assert out.seq.tolist() == seq.tolist() and dec.dropped_frames == 4

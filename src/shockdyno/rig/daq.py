@@ -58,9 +58,6 @@ def plausible_counts(config: DaqConfig) -> Plausible:
         temp=_counts(
             config.temperature_range_c, cal.temperature_c_per_count, cal.temperature_offset_c, 16
         ),
-        # A real gap longer than this stops the test anyway (daq.max_gap_s); one second of
-        # frames leaves room for a reconnect, which the frame after it then confirms.
-        max_seq_jump=max(1000, int(config.sample_rate_hz)),
     )
 
 

@@ -27,6 +27,7 @@ SYNC = b"\xa5\x5a"
 FRAME_LEN = 18
 _BODY = slice(2, 16)  # bytes covered by the CRC
 
+LOOKAHEAD = 3  # frames after a gap that judge whether its counter is believed
 STATUS_MOTION = 1 << 0  # the drive's "motion active" output, wired to a DAQ digital input
 STATUS_LOAD_OVERRANGE = 1 << 1
 STATUS_LVDT_OVERRANGE = 1 << 2
@@ -126,15 +127,15 @@ class Plausible:
 
     CRC-16 lets about 1 in 65 536 damaged frames through; at high byte error rates that is
     a frame every few seconds. A sensor cannot report beyond its range (it saturates and
-    sets its over-range bit), so a reading outside it is damage. A sequence number that
-    jumps by more than `max_seq_jump` is believed only when the frame after it continues
-    from it: a damaged counter would otherwise shift the time base for good.
+    sets its over-range bit), so a reading outside it is damage. A frame whose sequence
+    number does not follow on from its neighbours is out of order: believed, a damaged
+    counter would shift the time base for the rest of the stream.
     """
 
     load: tuple[int, int] = (-(2**31), 2**31 - 1)  # counts, inclusive
     lvdt: tuple[int, int] = (-(2**31), 2**31 - 1)
     temp: tuple[int, int] = (-(2**15), 2**15 - 1)
-    max_seq_jump: int = 1000
+    check_sequence: bool = True
 
 
 class FrameDecoder:
@@ -246,39 +247,44 @@ class FrameDecoder:
     def _believable_sequence(
         self, arr: NDArray[np.uint8], starts: NDArray[np.intp]
     ) -> tuple[NDArray[np.intp], int | None]:
-        """Drop a frame whose counter jumps unless the next frame continues from it (and not
-        from the frame before it); hold back a last frame that jumps (returned as the offset
-        to keep), since nothing confirms it yet."""
-        if not starts.size:
+        """Drop a frame whose counter does not follow on: when the frames after it are closer
+        to the frame before it than to it, it is out of order (a damaged counter, even one off
+        by a few counts). A last frame after a gap is held back (returned as the offset to
+        keep from) until the next read can judge it."""
+        if not starts.size or not self.plausible.check_sequence:
             return starts, None
         raw = arr[starts[:, None] + np.array([2, 3])].astype(np.int64)
         seq = raw[:, 0] | (raw[:, 1] << 8)
         # The very first frame starts the clock: it is its own predecessor's successor.
         first = (int(seq[0]) - 1) % 65536 if self._last_raw is None else self._last_raw
-        jump = self.plausible.max_seq_jump
+        steps = (np.diff(seq, prepend=first) - 1) % 65536 + 1
+        odd = np.flatnonzero(steps != 1)
+        if not odd.size:
+            return starts, None
 
         def step(a: int, b: int) -> int:
             return ((b - a - 1) % 65536) + 1
 
-        steps = (np.diff(seq, prepend=first) - 1) % 65536 + 1
-        if not (steps > jump).any():
-            return starts, None
-        kept = list(range(starts.size))
-        pos, prev = 0, first
-        while pos < len(kept):
-            k = kept[pos]
-            if step(prev, int(seq[k])) > jump:
-                if pos + 1 == len(kept):
-                    kept.pop(pos)
-                    return starts[kept], int(starts[k])
-                nxt = int(seq[kept[pos + 1]])
-                if step(int(seq[k]), nxt) > jump or step(prev, nxt) <= jump:
-                    kept.pop(pos)
-                    self.rejected_frames += 1
-                    continue
-            prev = int(seq[k])
-            pos += 1
-        return starts[kept], None
+        keep = np.ones(starts.size, bool)
+        for k in odd.tolist():
+            j = k - 1
+            while j >= 0 and not keep[j]:
+                j -= 1
+            prev = int(seq[j]) if j >= 0 else first
+            gap = step(prev, int(seq[k]))
+            if gap == 1:
+                continue
+            after = [int(v) for v in seq[k + 1 : k + 1 + LOOKAHEAD]]
+            if not after:
+                keep[k] = False
+                return starts[keep], int(starts[k])
+            # Believe k when most of the frames after it continue from it rather than from
+            # the frame before it (two damaged counters in a row must not vouch for each other).
+            votes = sum(step(int(seq[k]), f) < step(prev, f) for f in after)
+            if 2 * votes <= len(after):
+                keep[k] = False
+                self.rejected_frames += 1
+        return starts[keep], None
 
     @staticmethod
     def _non_overlapping(good: NDArray[np.intp]) -> NDArray[np.intp]:

@@ -119,7 +119,7 @@ def table_byte_errors(quick: bool) -> None:
     rig = load_rig(SIM)
     full = plausible_counts(rig.daq)
     crc_only = Plausible(check_sequence=False)  # the decoder before this campaign's checks
-    n = 100_000 if quick else 400_000
+    n = 100_000 if quick else 200_000
     print(f"\n1. byte errors: {n} frames per rate, each byte replaced with probability p")
     head = (
         f"{'p':>7} {'damaged':>8} {'rejected':>8} {'checks':>7} "

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from shockdyno.cli import main
@@ -89,3 +90,29 @@ def test_the_output_may_not_be_the_manifest(capsys, tmp_path):
     code, err = run_import(capsys, m, m, "--force")
     assert code == 2 and "refusing to overwrite" in err
     assert m.read_text() == before
+
+
+def test_reading_a_csv_peaks_within_3x_the_file(tmp_path):
+    """Parsing is what used to cost ~20x; writing adds only the writer's fixed 1 MiB chunk."""
+    import tracemalloc
+
+    from shockdyno.record.csv_import import ImportOptions, read_manifest
+
+    n = 30_000  # ~0.9 MB: tracemalloc slows every allocation
+    t = np.arange(n) / 1000.0
+    x = 0.03 * np.sin(2 * np.pi * t)
+    f = 1500.0 * np.cos(2 * np.pi * t)
+    lines = "".join(f"{a:.3f},{b:.6f},{c:.2f},40.00\n" for a, b, c in zip(t, x, f, strict=True))
+    data = tmp_path / "a.csv"
+    data.write_text("time_s,displacement_m,force_N,temperature_C\n" + lines)
+    del lines
+    size = data.stat().st_size
+    m = manifest(tmp_path)
+    tracemalloc.start()
+    try:
+        tests = read_manifest(m, ImportOptions())
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert len(tests[0].block) == n
+    assert peak <= 3 * size, f"peak {peak / 1e6:.2f} MB for a {size / 1e6:.2f} MB file"

@@ -119,7 +119,7 @@ def table_byte_errors(quick: bool) -> None:
     rig = load_rig(SIM)
     full = plausible_counts(rig.daq)
     crc_only = Plausible(check_sequence=False)  # the decoder before this campaign's checks
-    n = 100_000 if quick else 200_000
+    n = 50_000 if quick else 100_000
     print(f"\n1. byte errors: {n} frames per rate, each byte replaced with probability p")
     head = (
         f"{'p':>7} {'damaged':>8} {'rejected':>8} {'checks':>7} "
@@ -217,7 +217,8 @@ def describe(out: Path) -> str:
     except RecordingError as exc:
         return f"unreadable: {exc}"
     status = [m.status[0] for m in rec.tests] + ["i"] * len(rec.interrupted)
-    kinds = {k for _, k, _ in rec.events}
+    starts = [i for i, (_, k, _) in enumerate(rec.events) if k == "start"]
+    kinds = {k for _, k, _ in rec.events[starts[-1] if starts else 0 :]}  # after the last start
     safe = "+".join(k for k in ("stop", "centre", "disable") if k in kinds) or "-"
     reason = next((m.extra.get("reason", "") for m in rec.tests if m.status != "complete"), "")
     cut = "cut" if rec.truncated else "closed"
@@ -316,8 +317,10 @@ def table_sessions(quick: bool) -> None:
         case(name, action, **kw)
     print(
         "tests: c complete, a aborted, d degraded, i interrupted (begun, cut by the kill); "
-        "events: safety events in the file; kill -9 leaves the stop to the drive's watchdog "
-        "(heartbeat.timeout_s = 1.0 s in rigs/sim.toml)"
+        "events: safety events in the file; teardown: stop/centre/disable events after the "
+        "last start; kill -9 leaves the stop to the drive's watchdog (heartbeat.timeout_s = "
+        "1.0 s in rigs/sim.toml, host time). Ramps run on DAQ time, 4x faster than at 1x; "
+        "garble is counted, not a stop: its times are the sweep's normal end"
     )
 
 

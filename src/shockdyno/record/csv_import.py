@@ -440,9 +440,9 @@ def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
                 f"{table.where(i, cols['motion'])}: {motion!r} is not one of {', '.join(MOTIONS)}"
             )
         status = cell("status") or "complete"
-        if status not in ("complete", "aborted"):
+        if status not in ("complete", "aborted", "degraded"):  # export writes all three
             raise RecordingError(
-                f"{table.where(i, cols['status'])}: {status!r} is not complete or aborted"
+                f"{table.where(i, cols['status'])}: {status!r} is not complete, aborted or degraded"
             )
         path = _data_path(manifest, file_name, opts.allow_outside, table.where(i, cols["file"]))
         block, places = read_data_csv(path, opts)

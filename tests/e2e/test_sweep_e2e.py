@@ -188,7 +188,7 @@ def test_ctrl_c_stops_safely_and_keeps_what_was_recorded(tmp_path):
     for meta in rec.tests:
         assert meta.status in ("complete", "aborted")
         if meta.status == "aborted":
-            assert "Ctrl-C" in meta.extra.get("reason", "")
+            assert "Ctrl-C" in (meta.abort_reason or "")
             assert any("Ctrl-C" in e[2] for e in rec.events)
 
 

@@ -85,13 +85,13 @@ def test_final_meta_wins_and_aborted_tests_are_listed(tmp_path: Path) -> None:
         w.begin_test(m0)
         w.write_samples(block(0, 300))
         w.write_event(0.299, "safety", "force limit 5000 N exceeded")
-        w.end_test(replace(m0, status="aborted", extra={"reason": "force limit"}))
+        w.end_test(replace(m0, status="aborted", abort_reason="force limit"))
         w.begin_test(m1)
         w.write_samples(block(400, 300))
         w.end_test(replace(m1, cycle_start_s=(0.4, 0.5, 0.6)))
     rec = open_recording(path)
     assert [m.status for m in rec.tests] == ["aborted", "complete"]
-    assert rec.tests[0].extra == {"reason": "force limit"}
+    assert rec.tests[0].abort_reason == "force limit"
     assert rec.tests[1].cycle_start_s == (0.4, 0.5, 0.6)
     assert rec.completed_keys() == {(1, 2, 1.0)}
     assert rec.events == [(0.299, "safety", "force limit 5000 N exceeded")]
@@ -223,3 +223,24 @@ def test_ctrl_c_inside_a_write_waits_until_the_record_is_whole(tmp_path: Path) -
     rec = open_recording(path)
     assert rec.events == [(0.5, "prompt", "set clicks to 3")]
     assert [m.status for m in rec.tests] == ["aborted"] and rec.load(0).t.size == 10
+
+
+def test_typed_fields_are_read_from_an_older_recordings_extra(tmp_path: Path) -> None:
+    """Before the typed fields, the abort reason, start temperature and a second dropped-
+    frame count were strings in `extra`: such a recording reads into the typed fields."""
+    path = tmp_path / "old.mcap"
+    old = replace(
+        meta(0, 0),
+        status="aborted",
+        dropped_frames=None,
+        extra={"reason": "force limit", "start_temperature_c": "41.50", "dropped_frames": "3"},
+    )
+    with RecordingWriter(path, metadata={}) as w:
+        w.begin_test(old)
+        w.write_samples(block(0, 300))
+        w.end_test(old)
+    got = open_recording(path).tests[0]
+    assert got.abort_reason == "force limit"
+    assert got.start_temperature_c == 41.5
+    assert got.dropped_frames == 3
+    assert got.extra == {}

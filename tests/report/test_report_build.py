@@ -284,8 +284,8 @@ def test_dropped_frames_counted_from_gaps_and_velocity_still_right() -> None:
     assert s.peak_compression_velocity_m_s == pytest.approx(v_peak, rel=2e-3)
     assert s.peak_rebound_velocity_m_s == pytest.approx(-v_peak, rel=2e-3)
     # The largest count known wins: a count stored with the recording over the gaps ...
-    stored = replace(gappy, meta=replace(gappy.meta, extra={"dropped_frames": "11"}))
+    stored = replace(gappy, meta=replace(gappy.meta, dropped_frames=11))
     assert summarise(stored).dropped_frames == 11
     # ... and the gaps win over a stored count that missed some:
-    low = replace(gappy, meta=replace(gappy.meta, extra={"dropped_frames": "2"}))
+    low = replace(gappy, meta=replace(gappy.meta, dropped_frames=2))
     assert summarise(low).dropped_frames == 8

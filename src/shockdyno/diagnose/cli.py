@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -60,20 +59,6 @@ def _candidates(text: str) -> tuple[str, ...]:
     return names
 
 
-def _check_output(out: str, inputs: list[str], force: bool) -> Path | None:
-    if out == "-":
-        return None
-    path = Path(out)
-    for i in inputs:
-        if Path(i).exists() and path.exists() and path.resolve() == Path(i).resolve():
-            raise ConfigError(f"--json {out} is one of the inputs; refusing to write over it")
-    if path.exists() and not force:
-        raise ConfigError(f"--json {out} exists (use --force to overwrite)")
-    if not path.parent.is_dir():
-        raise ConfigError(f"--json: directory {path.parent} does not exist")
-    return path
-
-
 def _summary(doc: dict[str, Any]) -> Any:
     from rich.table import Table
 
@@ -105,18 +90,23 @@ def run_diagnose(args: argparse.Namespace) -> int:
     from shockdyno.diagnose.verdict import to_json
     from shockdyno.fit.result import FitResult
     from shockdyno.model import load_spec
+    from shockdyno.outputs import check_output, write_output
     from shockdyno.record import open_recording
-    from shockdyno.record.atomic import write_text_atomic
+    from shockdyno.record.layout import set_paths
 
-    inputs = [args.recording, *([args.fit] if args.fit else [])]
-    out = _check_output(args.json, inputs, args.force)
+    inputs = [
+        *set_paths(Path(args.recording)),
+        *([args.fit] if args.fit else []),
+        *([args.spec] if args.spec else []),
+    ]
+    out = check_output(args.json, force=args.force, inputs=inputs)
     if not 0 < args.alpha < 1:
         raise ConfigError(f"--alpha must be between 0 and 1, got {args.alpha}")
     settings = Settings(alpha=args.alpha, seed=args.seed, candidates=_candidates(args.terms))
     fit = FitResult.load(args.fit) if args.fit else None
     if fit is None:
         load_spec(args.spec)  # a bad spec fails before reading the recording
-    tests = open_recording(args.recording).load_all()
+    tests = open_recording(args.recording).require_recording().load_all()
     if not tests:
         raise ConfigError(f"{args.recording}: no tests to diagnose")
     console = Console(stderr=True)
@@ -136,10 +126,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
         d = diagnose(tests, fit, settings, progress, spec_path=args.spec)
     doc = to_json(d)
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
-    if out is None:
-        sys.stdout.write(text)
-    else:
-        write_text_atomic(out, text)
+    write_output(args.json, text, force=args.force, inputs=inputs)
     shown = Console(stderr=out is None)
     m = doc["mismatch"]
     shown.print(

@@ -4,12 +4,22 @@ from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import io
+import json
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
-from shockdyno.errors import ConfigError
+import numpy as np
+
+from shockdyno.errors import FitError
+from shockdyno.outputs import check_output, write_output
+
+# Beyond these a recording is not of a damper on a dyno (a unit mix-up or a corrupt file).
+MAX_DISPLACEMENT_M = 1.0
+MAX_FORCE_N = 1e6
 
 
 def register(sub: Any) -> None:
@@ -24,7 +34,10 @@ def register(sub: Any) -> None:
         ),
     )
     p.add_argument("recording", metavar="REC.mcap", help="recording to fit")
-    p.add_argument("--json", required=True, metavar="FIT.json", help="where to write the result")
+    p.add_argument(
+        "--json", required=True, metavar="FIT.json", help="where to write the result (- for stdout)"
+    )
+    p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
     p.add_argument(
         "--report",
         metavar="DIR",
@@ -118,25 +131,56 @@ def _clicks_table(result: Any) -> Any:
     return table
 
 
+def check_fit_input(tests: list[Any], source: str) -> None:
+    """Refuse a recording whose samples a fit cannot use (non-finite or absurd values)."""
+    for test in tests:
+        for name, values in (("time", test.t), ("displacement", test.x), ("force", test.force)):
+            if values.size == 0:
+                continue
+            finite = np.isfinite(values)
+            if not finite.all():
+                raise FitError(
+                    f"{source}: test {test.meta.index} has {int((~finite).sum())} non-finite "
+                    f"{name} values; nothing written"
+                )
+        peak_x, peak_f = _peak(test.x), _peak(test.force)
+        if peak_x > MAX_DISPLACEMENT_M or peak_f > MAX_FORCE_N:
+            raise FitError(
+                f"{source}: test {test.meta.index} is beyond any damper dyno "
+                f"(|x| up to {peak_x:.3g} m, |F| up to {peak_f:.3g} N); nothing written"
+            )
+
+
+def _peak(values: Any) -> float:
+    return float(np.max(np.abs(values))) if values.size else 0.0
+
+
+def result_json(result: Any) -> str:
+    try:
+        return json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"
+    except (TypeError, ValueError) as exc:
+        raise FitError(
+            f"the fit result cannot be written as JSON ({exc}); nothing written"
+        ) from None
+
+
 def run_fit(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from shockdyno.fit.sweep import fit_sweep
-    from shockdyno.fit.validate import table4_table
-
-    out = Path(args.json)
-    if not out.parent.is_dir():
-        raise ConfigError(f"--json: directory {out.parent} does not exist")
-    if out.is_dir():
-        raise ConfigError(f"--json: {out} is a directory")
     from shockdyno.fit.terms import parse_terms
+    from shockdyno.fit.validate import table4_table
     from shockdyno.model import load_spec
     from shockdyno.record import open_recording
+    from shockdyno.record.layout import set_paths
 
+    inputs = [*set_paths(Path(args.recording)), *([args.spec] if args.spec else [])]
+    out = check_output(args.json, force=args.force, inputs=inputs)
     load_spec(args.spec)  # a bad spec or term list fails now, not after reading
     selection = parse_terms(args.terms)
-    tests = open_recording(args.recording).load_all()
+    tests = open_recording(args.recording).require_recording().load_all()
+    check_fit_input(tests, args.recording)
     console = Console(stderr=True)
     with Progress(
         TextColumn("[bold]fit[/] {task.description}"),
@@ -159,21 +203,26 @@ def run_fit(args: argparse.Namespace) -> int:
             progress=progress,
             terms=selection,
         )
-    result.save(out)
-    Console().print(globals_table(result))
+    text = result_json(result)  # a result that cannot be written fails before anything is
+    # With --json -, stdout carries only the JSON; the human summary goes to stderr.
+    human = Console(stderr=out is None)
+    human.print(globals_table(result))
     if result.terms:
-        Console().print(terms_table(result.terms))
-    Console().print(_clicks_table(result))
-    Console().print(table4_table(result))
+        human.print(terms_table(result.terms))
+    human.print(_clicks_table(result))
+    human.print(table4_table(result))
+    write_output(args.json, text, force=args.force, inputs=inputs)
     info = result.info
     ident = sum(c.identifiable_bc + c.identifiable_bt for c in result.clicks)
-    print(
+    say = functools.partial(print, file=sys.stderr if out is None else sys.stdout)
+    say(
         f"fitted {len(result.clicks)} click settings from {info['n_tests']} tests in "
         f"{info['wall_s']:.1f} s ({info['model_evaluations']} model evaluations); "
-        f"{ident} of {2 * len(result.clicks)} areas identifiable; wrote {out}"
+        f"{ident} of {2 * len(result.clicks)} areas identifiable; "
+        f"wrote {'stdout' if out is None else out}"
     )
     for note in info.get("skipped", []):
-        print(f"skipped {note}")
+        say(f"skipped {note}")
     if args.report:
         from shockdyno.fit.plots import fit_figures
         from shockdyno.fit.validate import table4_rows
@@ -183,11 +232,11 @@ def run_fit(args: argparse.Namespace) -> int:
         report.mkdir(parents=True, exist_ok=True)
         figures = fit_figures(result, tests, report)
         for title, path in figures:
-            print(f"figure: {title}: {path}")
+            say(f"figure: {title}: {path}")
         header, rows = table4_rows(result)
-        text = io.StringIO()
-        csv.writer(text, lineterminator="\n").writerows([header, *rows])
+        buf = io.StringIO()
+        csv.writer(buf, lineterminator="\n").writerows([header, *rows])
         table = report / "table4.csv"
-        write_text_atomic(table, text.getvalue())
-        print(f"table: Table 4 analogue: {table}")
+        write_text_atomic(table, buf.getvalue())
+        say(f"table: Table 4 analogue: {table}")
     return 0

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
 from shockdyno.errors import RecordingError
+from shockdyno.outputs import check_output, is_stdout, write_output
 from shockdyno.record.csv_export import export_csv
 from shockdyno.record.csv_import import (
     FORCE_UNITS,
@@ -20,6 +20,7 @@ from shockdyno.record.csv_import import (
     import_csv,
 )
 from shockdyno.record.info import format_text, summarise
+from shockdyno.record.layout import set_paths
 from shockdyno.record.reader import open_recording
 
 
@@ -36,6 +37,7 @@ def register(subparsers: Any) -> None:
         metavar="PATH",
         help="also write the summary as JSON (- for stdout only)",
     )
+    p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
     p.set_defaults(func=_info)
 
     p = subparsers.add_parser(
@@ -46,6 +48,18 @@ def register(subparsers: Any) -> None:
     p.add_argument("manifest", type=Path, metavar="MANIFEST.csv")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="REC.mcap")
     p.add_argument("--force", action="store_true", help="overwrite an existing output")
+    p.add_argument(
+        "--allow-outside-files",
+        action="store_true",
+        help="let the manifest name data files outside its own folder",
+    )
+    p.add_argument(
+        "--max-file-mb",
+        type=float,
+        default=1024.0,
+        metavar="MB",
+        help="refuse a manifest or data file larger than this (default 1024)",
+    )
     d = ImportOptions()
     g = p.add_argument_group("data columns and units (defaults: the exchange format)")
     g.add_argument("--time-column", default=d.time_column, metavar="NAME")
@@ -102,18 +116,14 @@ def register(subparsers: Any) -> None:
 
 
 def _info(args: argparse.Namespace) -> int:
-    doc = summarise(open_recording(args.recording))
-    if args.json is None or str(args.json) != "-":
+    inputs = set_paths(args.recording)
+    if args.json is not None:
+        check_output(args.json, force=args.force, inputs=inputs)
+    doc = summarise(open_recording(args.recording).require_recording())
+    if not is_stdout(args.json):
         print(format_text(doc))
     if args.json is not None:
-        text = json.dumps(doc, indent=2)
-        if str(args.json) == "-":
-            sys.stdout.write(text + "\n")
-        else:
-            try:
-                args.json.write_text(text + "\n")
-            except OSError as exc:
-                raise RecordingError(f"cannot write {args.json}: {exc.strerror}") from exc
+        write_output(args.json, json.dumps(doc, indent=2) + "\n", force=args.force, inputs=inputs)
     return 0
 
 
@@ -142,7 +152,11 @@ def _import(args: argparse.Namespace) -> int:
         gas_clicks=args.gas_clicks,
         delimiter="\t" if args.delimiter in ("\\t", "tab") else args.delimiter,
         metadata=_meta_pairs(args.meta),
+        allow_outside=args.allow_outside_files,
+        max_file_bytes=int(args.max_file_mb * 1e6),
     )
+    if args.manifest.exists() and args.output.exists() and args.output.samefile(args.manifest):
+        raise RecordingError(f"-o {args.output} is the manifest; refusing to overwrite it")
     tests = import_csv(args.manifest, args.output, opts, force=args.force)
     print(f"imported {len(tests)} tests from {args.manifest} into {args.output}")
     return 0

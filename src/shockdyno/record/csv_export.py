@@ -68,6 +68,9 @@ def _write_manifest(path: Path, tests: list[TestMeta], names: list[str]) -> None
     header += ["sample_rate_hz", "motion", "status", "warmup_cycles", "measured_cycles"]
     if window:
         header += ["measured_start_s", "measured_end_s"]
+    gas = any(m.gas_pressure_pa is not None for m in tests)
+    reasons = any(m.abort_reason for m in tests)
+    header += ["gas_pressure_pa"] * gas + ["abort_reason"] * reasons
     header += extras
     with open(path, "w", encoding="utf-8", newline="") as out:
         w = csv.writer(out, lineterminator="\n")
@@ -78,6 +81,10 @@ def _write_manifest(path: Path, tests: list[TestMeta], names: list[str]) -> None
             row += [str(m.warmup_cycles), str(m.measured_cycles)]
             if window:
                 row += [_num(m.measured_start_s), _num(m.measured_end_s)]
+            if gas:
+                row.append(_num(m.gas_pressure_pa))
+            if reasons:
+                row.append(m.abort_reason or "")
             row += [m.extra.get(k, "") for k in extras]
             w.writerow(row)
 

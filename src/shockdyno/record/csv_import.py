@@ -8,13 +8,16 @@ Errors name the file, the line and the column.
 from __future__ import annotations
 
 import csv
-import io
 import json
 import math
+import stat
+import sys
+from array import array
 from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
 from datetime import datetime
 from pathlib import Path
+from typing import IO, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,6 +25,14 @@ from numpy.typing import NDArray
 from shockdyno.errors import RecordingError
 from shockdyno.record.atomic import atomic_file
 from shockdyno.record.layout import part_paths
+from shockdyno.record.plausible import (
+    MAX_AMPLITUDE_M,
+    MAX_CLICKS,
+    MAX_FREQUENCY_HZ,
+    MAX_SAMPLE_RATE_HZ,
+    check_samples,
+    check_setting,
+)
 from shockdyno.record.types import TestMeta
 from shockdyno.record.writer import RecordingWriter
 from shockdyno.rig.types import SampleBlock
@@ -44,6 +55,8 @@ MANIFEST_KNOWN = (
     "measured_start_s",
     "measured_end_s",
     "status",
+    "gas_pressure_pa",
+    "abort_reason",
 )
 SOURCE_KEY = "csv_file"  # TestMeta.extra key: the data file a test was imported from
 DECIMALS_KEY = "csv_decimals"  # TestMeta.extra key: "time_s=3,force_N=2": fixed decimal places
@@ -64,6 +77,8 @@ class ImportOptions:
     gas_clicks: int = 0  # when the manifest has no gas_clicks column
     delimiter: str = ","
     metadata: dict[str, str] = field(default_factory=dict)
+    allow_outside: bool = False  # data files may lie outside the manifest's folder
+    max_file_bytes: int = 1 << 30  # a larger data file is refused before it is read
 
     def check(self) -> None:
         for name, value, allowed in (
@@ -92,39 +107,149 @@ class ImportedTest:
     block: SampleBlock
 
 
-class _Table:
-    """A CSV file's header and rows, with the line number of each row (for error messages)."""
+def _check_file(path: Path, max_bytes: int) -> int:
+    """Refuse, before reading, anything but a regular file of at most max_bytes: a device
+    such as /dev/zero or a mistaken multi-gigabyte file must not exhaust memory."""
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        raise RecordingError(f"{path}: no such file") from None
+    except OSError as exc:
+        raise RecordingError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise RecordingError(f"{path}: not a regular file")
+    if st.st_size > max_bytes:
+        raise RecordingError(
+            f"{path}: {st.st_size / 1e6:.0f} MB is more than the {max_bytes / 1e6:.0f} MB "
+            "allowed for one file (--max-file-mb)"
+        )
+    return st.st_size
 
-    def __init__(self, path: Path, delimiter: str) -> None:
+
+def _bounded_lines(fh: IO[str], path: Path, max_chars: int) -> Iterator[str]:
+    """The file's lines as read (never the whole text at once: peak memory stays with the
+    converted columns), refused if the file grows past its bound while being read."""
+    seen = 0
+    for line in fh:
+        seen += len(line)
+        if seen > max_chars:
+            raise RecordingError(f"{path}: grew beyond {max_chars / 1e6:.0f} MB while being read")
+        yield line
+
+
+def _places(v: str) -> int:
+    """Decimal places written in a number cell (-1: exponent notation)."""
+    if "e" in v or "E" in v:
+        return -1
+    dot = v.find(".")
+    return 0 if dot < 0 else len(v) - dot - 1
+
+
+class _Table:
+    """A CSV file's header and rows, with the line number of each row (for error messages).
+
+    With `columns` (name -> "number", "number_or_empty", "time", "time_iso"), only those
+    columns are kept, converted while reading (a data file: numbers in arrays of 8 bytes per
+    cell instead of Python strings of ~55, so peak memory stays near 3x the file). Without
+    it every row is kept as strings (the manifest).
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        delimiter: str,
+        max_bytes: int = 1 << 30,
+        columns: dict[str, str] | None = None,
+    ) -> None:
         self.path = path
+        _check_file(path, max_bytes)
         try:
-            text = path.read_text(encoding="utf-8-sig")
-        except FileNotFoundError:
-            raise RecordingError(f"{path}: no such file") from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise RecordingError(f"{path}: cannot read: {exc}") from exc
-        reader = csv.reader(io.StringIO(text), delimiter=delimiter)
+            with path.open(encoding="utf-8-sig", newline="") as fh:
+                self._read(fh, delimiter, max_bytes, columns)
+        except UnicodeDecodeError as exc:
+            raise RecordingError(f"{path}: cannot read: {exc}") from None
+        except OSError as exc:
+            raise RecordingError(f"{path}: cannot read: {exc.strerror or exc}") from None
+
+    def _read(
+        self, fh: IO[str], delimiter: str, max_bytes: int, columns: dict[str, str] | None
+    ) -> None:
+        path = self.path
+        reader = csv.reader(_bounded_lines(fh, path, max_bytes), delimiter=delimiter)
         header = next(reader, None)
         if header is None or not any(h.strip() for h in header):
             raise RecordingError(f"{path}:1: empty file, expected a header line")
         self.header = [h.strip() for h in header]
         self.rows: list[list[str]] = []
-        self.lines: list[int] = []
+        self.lines: list[int] | array[int] = []
         # Decimal places of a numeric column when every cell has the same (export keeps them)
         self.decimals: dict[int, int | None] = {}
+        self.values: dict[int, NDArray[np.float64]] = {}
+        self.texts: dict[int, list[str]] = {}
+        self.count = 0
+        wanted = {self.column(name): kind for name, kind in (columns or {}).items()}
         try:
-            for row in reader:
-                if not any(c.strip() for c in row):
-                    continue
-                if len(row) != len(self.header):
-                    raise RecordingError(
-                        f"{path}:{reader.line_num}: {len(row)} fields, "
-                        f"the header has {len(self.header)}"
-                    )
-                self.rows.append(row)
-                self.lines.append(reader.line_num)
+            if columns is None:
+                self._keep_rows(reader)
+            else:
+                self._convert(reader, wanted)
         except csv.Error as exc:
             raise RecordingError(f"{path}:{reader.line_num}: {exc}") from exc
+
+    def _check_width(self, row: list[str], line: int) -> bool:
+        if not any(c.strip() for c in row):
+            return False
+        if len(row) != len(self.header):
+            raise RecordingError(
+                f"{self.path}:{line}: {len(row)} fields, the header has {len(self.header)}"
+            )
+        return True
+
+    def _keep_rows(self, reader: Any) -> None:
+        lines: list[int] = []
+        for row in reader:
+            if self._check_width(row, reader.line_num):
+                self.rows.append(row)
+                lines.append(reader.line_num)
+        self.lines = lines
+        self.count = len(self.rows)
+
+    def _convert(self, reader: Any, wanted: dict[int, str]) -> None:
+        lines = array("i")
+        nums = {c: array("d") for c, k in wanted.items() if k != "time_iso"}
+        texts: dict[int, list[str]] = {c: [] for c, k in wanted.items() if k == "time_iso"}
+        places: dict[int, set[int]] = {c: set() for c in nums}
+        for row in reader:
+            if not self._check_width(row, reader.line_num):
+                continue
+            lines.append(reader.line_num)
+            for c, out in nums.items():
+                v = row[c].strip()
+                if v == "" and wanted[c] == "number_or_empty":
+                    out.append(math.nan)
+                    continue
+                try:
+                    x = float(v)
+                except ValueError:
+                    raise RecordingError(
+                        f"{self._at(reader.line_num, c)}: {v!r} is not a number"
+                    ) from None
+                if not math.isfinite(x):
+                    raise RecordingError(
+                        f"{self._at(reader.line_num, c)}: {v!r} is not a finite number"
+                    )
+                out.append(x)
+                if len(places[c]) < 2:
+                    places[c].add(_places(v))
+            for c, strings in texts.items():
+                strings.append(row[c].strip())
+        self.lines = lines
+        self.count = len(lines)
+        for c, out in nums.items():
+            self.values[c] = np.frombuffer(out, np.float64) if len(out) else np.zeros(0)
+            p = places[c]
+            self.decimals[c] = p.pop() if len(p) == 1 and -1 not in p else None
+        self.texts = texts
 
     def column(self, name: str) -> int:
         try:
@@ -133,46 +258,49 @@ class _Table:
             have = ", ".join(self.header)
             raise RecordingError(f"{self.path}:1: no column {name!r} (columns: {have})") from None
 
+    def _at(self, line: int, col: int) -> str:
+        return f"{self.path}:{line}: column {self.header[col]!r}"
+
     def where(self, row: int, col: int) -> str:
-        return f"{self.path}:{self.lines[row]}: column {self.header[col]!r}"
+        return self._at(int(self.lines[row]), col)
 
     def cells(self, col: int) -> Iterator[tuple[int, str]]:
+        if col in self.texts:
+            yield from enumerate(self.texts[col])
+            return
         for i, row in enumerate(self.rows):
             yield i, row[col].strip()
 
-    def numbers(self, col: int, *, allow_empty: bool = False) -> NDArray[np.float64]:
-        out = np.empty(len(self.rows))
-        places: set[int] = set()
-        for i, v in self.cells(col):
-            if allow_empty and v == "":
-                out[i] = math.nan
-                continue
-            try:
-                x = float(v)
-            except ValueError:
-                raise RecordingError(f"{self.where(i, col)}: {v!r} is not a number") from None
-            if not math.isfinite(x):
-                raise RecordingError(f"{self.where(i, col)}: {v!r} is not a finite number")
-            out[i] = x
-            if "e" in v or "E" in v:
-                places.add(-1)
-            else:
-                dot = v.find(".")
-                places.add(0 if dot < 0 else len(v) - dot - 1)
-        self.decimals[col] = places.pop() if len(places) == 1 and -1 not in places else None
-        return out
+    def numbers(self, col: int) -> NDArray[np.float64]:
+        return self.values[col]
+
+
+def _peek(path: Path, delimiter: str, column: str) -> tuple[list[str], str]:
+    """The header and the first data cell of a column (to tell numbers from date-times),
+    reading only the start of a file already checked to be a bounded regular file."""
+    try:
+        with path.open(encoding="utf-8-sig", newline="") as fh:
+            reader = csv.reader(fh, delimiter=delimiter)
+            header = [h.strip() for h in next(reader, [])]
+            for row in reader:
+                if any(c.strip() for c in row):
+                    col = header.index(column) if column in header else len(row)
+                    return header, row[col].strip() if col < len(row) else ""
+            return header, ""
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return [], ""  # the full read reports the problem properly
+
+
+def _scaled(values: NDArray[np.float64], factor: float) -> NDArray[np.float64]:
+    """Unit conversion in place (the array is this import's own): no copy per column."""
+    if factor != 1.0:
+        values *= factor
+    return values
 
 
 def _times(table: _Table, col: int, unit: str) -> tuple[NDArray[np.float64], str]:
-    if unit == "auto":
-        first = table.rows[0][col].strip() if table.rows else ""
-        try:
-            float(first)
-            unit = "s"
-        except ValueError:
-            unit = "iso"
     if unit in ("s", "ms"):
-        return table.numbers(col) * (1e-3 if unit == "ms" else 1.0), unit
+        return _scaled(table.numbers(col), 1e-3 if unit == "ms" else 1.0), unit
     stamps: list[datetime] = []
     for i, v in table.cells(col):
         try:
@@ -195,22 +323,39 @@ def read_data_csv(path: Path, opts: ImportOptions) -> tuple[SampleBlock, str]:
 
     seq is the sample index: imported data has no DAQ counter.
     """
-    table = _Table(path, opts.delimiter)
-    if not table.rows:
+    _check_file(path, opts.max_file_bytes)
+    header, first = _peek(path, opts.delimiter, opts.time_column)
+    unit = opts.time_unit
+    if unit == "auto":
+        try:
+            float(first)
+            unit = "s"
+        except ValueError:
+            unit = "iso"
+    temp_name = opts.temperature_column
+    if temp_name is None and "temperature_C" in header:
+        temp_name = "temperature_C"
+    columns = {
+        opts.time_column: "time_iso" if unit == "iso" else "number",
+        opts.displacement_column: "number",
+        opts.force_column: "number",
+    }
+    if temp_name is not None:
+        columns[temp_name] = "number_or_empty"
+    table = _Table(path, opts.delimiter, opts.max_file_bytes, columns)
+    if not table.count:
         raise RecordingError(f"{path}:2: no data rows")
     t_col = table.column(opts.time_column)
     x_col = table.column(opts.displacement_column)
     f_col = table.column(opts.force_column)
-    temp_name = opts.temperature_column
-    if temp_name is None and "temperature_C" in table.header:
-        temp_name = "temperature_C"
-    t, t_unit = _times(table, t_col, opts.time_unit)
+    t, t_unit = _times(table, t_col, unit)
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
         i = int(bad[0]) + 1
         raise RecordingError(f"{table.where(i, t_col)}: time does not increase")
-    x = table.numbers(x_col) * LENGTH_UNITS[opts.displacement_unit]
-    force = table.numbers(f_col) * FORCE_UNITS[opts.force_unit]
+    with np.errstate(over="ignore"):  # an overflow to inf is refused by check_samples
+        x = _scaled(table.numbers(x_col), LENGTH_UNITS[opts.displacement_unit])
+        force = _scaled(table.numbers(f_col), FORCE_UNITS[opts.force_unit])
     # Only power-of-ten unit changes keep a fixed number of decimal places meaningful
     shifts = [
         ("time_s", t_col, {"s": 0, "ms": 3}.get(t_unit)),
@@ -221,7 +366,7 @@ def read_data_csv(path: Path, opts: ImportOptions) -> tuple[SampleBlock, str]:
         temp = np.full(t.size, math.nan)
     else:
         temp_col = table.column(temp_name)
-        temp = table.numbers(temp_col, allow_empty=True)
+        temp = table.numbers(temp_col)
         if opts.temperature_unit == "F":
             temp = (temp - 32.0) * (5.0 / 9.0)
         shifts.append(("temperature_C", temp_col, 0 if opts.temperature_unit == "C" else None))
@@ -230,6 +375,8 @@ def read_data_csv(path: Path, opts: ImportOptions) -> tuple[SampleBlock, str]:
         d = table.decimals.get(col)
         if d is not None and shift is not None:
             places.append(f"{name}={max(0, d + shift)}")
+    for warning in check_samples(str(path), x, force, temp):
+        print(f"warning: {warning}", file=sys.stderr)
     n = t.size
     block = SampleBlock(np.arange(n, dtype=np.int64), t, x, force, temp, np.zeros(n, np.uint16))
     return block, ",".join(places)
@@ -257,7 +404,7 @@ def _float_cell(table: _Table, i: int, col: int, *, positive: bool = False) -> f
 
 def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
     opts.check()
-    table = _Table(manifest, opts.delimiter)
+    table = _Table(manifest, opts.delimiter, opts.max_file_bytes)
     cols = {name: table.column(name) for name in MANIFEST_REQUIRED}
     for name in MANIFEST_KNOWN:
         if name in table.header:
@@ -280,17 +427,26 @@ def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
                 raise RecordingError(f"{table.where(i, cols[name])}: {value} must not be negative")
         freq = _float_cell(table, i, cols["frequency_hz"], positive=True)
         amp = _float_cell(table, i, cols["amplitude_m"])
+        settings: tuple[tuple[str, float, float], ...] = (
+            ("clicks", clicks, MAX_CLICKS),
+            ("gas_clicks", gas, MAX_CLICKS),
+            ("frequency_hz", freq, MAX_FREQUENCY_HZ),
+            ("amplitude_m", amp, MAX_AMPLITUDE_M),
+        )
+        for name, setting, limit in settings:
+            where = table.where(i, cols[name]) if name in cols else f"{manifest} (--gas-clicks)"
+            check_setting(where, name, setting, limit)
         motion = cell("motion") or opts.motion or "sine"
         if motion not in MOTIONS:
             raise RecordingError(
                 f"{table.where(i, cols['motion'])}: {motion!r} is not one of {', '.join(MOTIONS)}"
             )
         status = cell("status") or "complete"
-        if status not in ("complete", "aborted"):
+        if status not in ("complete", "aborted", "degraded"):  # export writes all three
             raise RecordingError(
-                f"{table.where(i, cols['status'])}: {status!r} is not complete or aborted"
+                f"{table.where(i, cols['status'])}: {status!r} is not complete, aborted or degraded"
             )
-        path = manifest.parent / file_name
+        path = _data_path(manifest, file_name, opts.allow_outside, table.where(i, cols["file"]))
         block, places = read_data_csv(path, opts)
         if cell("sample_rate_hz"):
             rate = _float_cell(table, i, cols["sample_rate_hz"], positive=True)
@@ -300,6 +456,16 @@ def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
             rate = float(f"{1.0 / float(np.median(np.diff(block.t_s))):.6g}")
         else:
             raise RecordingError(f"{path}: one sample; give the sample rate (--sample-rate-hz)")
+        check_setting(str(path), "sample rate (Hz)", rate, MAX_SAMPLE_RATE_HZ)
+        if motion == "sine" and amp > 0 and len(block):
+            top, bottom = float(block.displacement_m.max()), float(block.displacement_m.min())
+            peak = (top - bottom) / 2
+            if peak > 100 * amp or peak < amp / 100:
+                print(
+                    f"warning: {path}: data swings ±{peak:.3g} m, the manifest says "
+                    f"amplitude_m {amp:g} (a unit mix-up?)",
+                    file=sys.stderr,
+                )
         window = [
             _float_cell(table, i, cols[name]) if cell(name) else None
             for name in ("measured_start_s", "measured_end_s")
@@ -331,9 +497,30 @@ def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
             status=status,
             extra=extra,
             dropped_frames=0,
+            gas_pressure_pa=(
+                _float_cell(table, i, cols["gas_pressure_pa"], positive=True)
+                if cell("gas_pressure_pa")
+                else None
+            ),
+            abort_reason=cell("abort_reason") or None,
         )
         tests.append(ImportedTest(meta, block))
     return tests
+
+
+def _data_path(manifest: Path, name: str, allow_outside: bool, where: str) -> Path:
+    """A manifest's data file; it must lie under the manifest's folder unless allowed."""
+    path = manifest.parent / name
+    if allow_outside:
+        return path
+    folder = manifest.parent.resolve()
+    resolved = path.resolve()
+    if Path(name).is_absolute() or not resolved.is_relative_to(folder):
+        raise RecordingError(
+            f"{where}: {name!r} lies outside the manifest's folder {folder} "
+            "(--allow-outside-files to read it)"
+        )
+    return path
 
 
 def import_csv(
@@ -346,6 +533,9 @@ def import_csv(
     if output.exists() and not force:
         raise RecordingError(f"{output} exists (use --force to overwrite it)")
     tests = read_manifest(manifest, opts)
+    for source in [manifest, *(manifest.parent / t.meta.extra[SOURCE_KEY] for t in tests)]:
+        if output.exists() and output.samefile(source):
+            raise RecordingError(f"-o {output} is an input of the import; refusing to overwrite it")
     options = {k: v for k, v in asdict(opts).items() if k != "metadata"}
     metadata = {
         "source": "csv import",

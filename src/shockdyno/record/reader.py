@@ -84,6 +84,18 @@ class Recording:
             self.events.extend(part.events)
             self.actuator.extend(part.actuator)
 
+    def require_recording(self) -> Recording:
+        """Refuse (one RecordingError line) a file that holds no shockdyno recording at all:
+        empty, or an MCAP file some other program wrote. A cut-off recording passes."""
+        if all(p.size_bytes == 0 for p in self.parts):
+            raise RecordingError(f"{self.path}: empty file (0 bytes), not a recording")
+        if not self.metadata.get("format_version") and not (self.tests or self.interrupted):
+            raise RecordingError(
+                f"{self.path}: an MCAP file, but not a shockdyno recording "
+                "(no shockdyno metadata and no tests)"
+            )
+        return self
+
     def _key(self, index: int | TestMeta) -> tuple[int, int]:
         if isinstance(index, TestMeta):
             for metas, keys in (

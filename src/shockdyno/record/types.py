@@ -26,7 +26,9 @@ class TestMeta:
     # Start and end time (s, on the recording's time base) of the measured cycles:
     measured_start_s: float | None = None
     measured_end_s: float | None = None
-    status: str = "complete"  # "complete" | "aborted" (stopped early: safety, Ctrl-C, fault)
+    # "complete" | "aborted" (stopped early: safety, Ctrl-C, fault) | "degraded" (ran to the
+    # end, but its measured motion missed the plan or it lost too many frames: not complete)
+    status: str = "complete"
     extra: dict[str, str] = field(default_factory=dict)
     # Optional, added with the MCAP recording (older code need not set them):
     cycle_start_s: tuple[float, ...] = ()  # start of each cycle (warm-up and measured), s

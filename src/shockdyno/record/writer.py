@@ -37,29 +37,32 @@ _COMPRESSION = {
 }
 
 
+_GUARDED = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 P = ParamSpec("P")
 R = TypeVar("R")
 
 
 def _whole_records(method: Callable[P, R]) -> Callable[P, R]:
-    """Hold Ctrl-C until the call returns: a KeyboardInterrupt that lands half-way through an
-    MCAP record would tear it and cost its whole chunk. The interrupt is re-raised after."""
+    """Hold Ctrl-C, SIGTERM and SIGHUP until the call returns: an exception that lands
+    half-way through an MCAP record would tear it and cost its whole chunk. A signal caught
+    meanwhile goes to its own handler after the call (which may raise)."""
 
     @functools.wraps(method)
     def guarded(*args: P.args, **kwargs: P.kwargs) -> R:
-        if (
-            threading.current_thread() is not threading.main_thread()
-            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
-        ):
+        if threading.current_thread() is not threading.main_thread():
             return method(*args, **kwargs)
+        handlers = {sig: signal.getsignal(sig) for sig in _GUARDED}
+        live = {sig: h for sig, h in handlers.items() if callable(h)}
         caught: list[int] = []
-        previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+        for sig in live:
+            signal.signal(sig, lambda signum, frame: caught.append(signum))
         try:
             result = method(*args, **kwargs)
         finally:
-            signal.signal(signal.SIGINT, previous)
-        if caught:
-            raise KeyboardInterrupt
+            for sig, h in live.items():
+                signal.signal(sig, h)
+        for signum in caught:
+            live[signal.Signals(signum)](signum, None)
         return result
 
     return guarded
@@ -252,9 +255,12 @@ class RecordingWriter:
 
     @_whole_records
     def write_event(self, t_s: float, kind: str, message: str) -> None:
+        """Record an event; when this returns it is on disk (a kill -9 after it keeps it)."""
         self._check_open()
         obj = {"t_s": float(t_s), "test": self._test_field, "kind": kind, "message": message}
         self._emit_json(self._ch_event, t_s, obj)
+        self._flush_samples()
+        self._sync()
 
     @_whole_records
     def end_test(self, meta: TestMeta) -> None:
@@ -283,8 +289,8 @@ class RecordingWriter:
         try:
             if self._open is not None:
                 begun = self._open
-                extra = {**begun.extra, "abort_reason": "recording closed during the test"}
-                self.end_test(replace(begun, status="aborted", extra=extra))
+                why = "recording closed during the test"
+                self.end_test(replace(begun, status="aborted", abort_reason=why))
             self._flush_samples()
             self._mcap.finish()  # type: ignore[no-untyped-call]
             self._sync()

@@ -106,17 +106,15 @@ def summarise(test: TestData, dropped_frames: int | None = None) -> TestSummary:
     """Headline numbers of ``test`` (see the module docstring for the definitions).
 
     Dropped frames: the largest of the counts known: ``dropped_frames`` (what the live
-    view counted), ``meta.dropped_frames`` and ``meta.extra["dropped_frames"]`` (stored
-    with the recording) and the gaps in the time base (t comes from the DAQ's sequence
+    view counted), ``meta.dropped_frames`` (stored with the recording; an older
+    recording's ``extra`` count is read into it) and the gaps in the time base (t comes
+    from the DAQ's sequence
     counter, so a gap is a lost frame). Each source can miss a lost frame (gaps do not show
     frames lost after the last one received) but none invents one.
     """
     meta = test.meta
     counts = [dropped_from_time(test.t, meta.sample_rate_hz)]
     counts += [int(k) for k in (dropped_frames, meta.dropped_frames) if k is not None]
-    stored = meta.extra.get("dropped_frames", "").strip()
-    if stored.isdigit():
-        counts.append(int(stored))
     dropped = max(counts)
     m = test.measured()
     nan = float("nan")

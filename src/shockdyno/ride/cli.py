@@ -5,14 +5,15 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from collections.abc import Callable
-from pathlib import Path
 from typing import TypeVar
 
 from shockdyno.errors import ConfigError
 from shockdyno.fit.result import FitResult
 from shockdyno.model.quarter_car import QuarterCar
 from shockdyno.model.road import DEFAULT_BAND_RAD_M
+from shockdyno.outputs import check_output, write_output
 from shockdyno.ride.study import RideConfig, RideResult, run_study
 
 T = TypeVar("T")
@@ -46,7 +47,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument("--clicks", default="5,10,15", help="rod clicks, comma-separated")
     p.add_argument("--roads", default="A,B,C,D,E", help="ISO 8608 classes A-H, comma-separated")
     p.add_argument("--speeds-kmh", default="20,60,80,120", help="speeds, km/h, comma-separated")
-    p.add_argument("--json", required=True, help="write the result here (docs/ride.md)")
+    p.add_argument(
+        "--json", required=True, help="write the result here (docs/ride.md; - for stdout)"
+    )
+    p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
     p.add_argument("--report", help="directory for figures, Table 7 and the PSD CSV")
     p.add_argument(
         "--model",
@@ -134,26 +138,26 @@ def summary(result: RideResult) -> str:
 
 def handle(args: argparse.Namespace) -> int:
     config = config_from_args(args)
+    inputs = [args.fit] if args.fit else []
+    out = check_output(args.json, force=args.force, inputs=inputs)
     fit = None
     if config.linear_damper_ns_m is None:
         if not args.fit:
             raise ConfigError("--fit FIT.json is required (or --linear-damper-ns-m C)")
         fit = FitResult.load(args.fit)
-    out = Path(args.json)
-    if out.is_dir():
-        raise ConfigError(f"--json names a directory: {out}")
-    if not out.parent.exists():
-        raise ConfigError(f"directory of --json does not exist: {out.parent}")
     result = run_study(config, fit, args.fit)
     try:
-        out.write_text(json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n")
-    except OSError as exc:
-        raise ConfigError(f"cannot write {out}: {exc.strerror}") from None
-    print(summary(result))
-    print(f"wrote {out}")
+        text = json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"
+    except ValueError as exc:
+        raise ConfigError(f"the ride result cannot be written as JSON ({exc})") from None
+    write_output(args.json, text, force=args.force, inputs=inputs)
+    # With --json -, stdout carries only the JSON; the human summary goes to stderr.
+    human = sys.stderr if out is None else sys.stdout
+    print(summary(result), file=human)
+    print(f"wrote {'stdout' if out is None else out}", file=human)
     if args.report:
         from shockdyno.ride.plots import write_report
 
         files = write_report(result, args.report)
-        print(f"wrote {len(files)} report files to {args.report}")
+        print(f"wrote {len(files)} report files to {args.report}", file=human)
     return 0

@@ -10,7 +10,7 @@ from __future__ import annotations
 import logging
 import threading
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
@@ -36,6 +36,7 @@ class ActuatorStatus:
     position_m: float
     force_n: float | None
     cycle_count: int | None
+    setpoints: dict[str, float] = field(default_factory=dict)  # read back with the status
 
     @property
     def enabled(self) -> bool:
@@ -149,13 +150,22 @@ class ModbusActuator:
             word |= 1 << bits[c]
         self.write({"control_word": word})
 
-    def status(self) -> ActuatorStatus:
-        values = decode_span(
-            self.map,
-            self._status_span[0],
-            self.read_words(*self._status_span),
-            self._status_names,
-        )
+    def status(self, setpoints: Iterable[str] = ()) -> ActuatorStatus:
+        """The drive's status, and the named setpoints as the drive holds them now (in the same
+        read when the registers span at most 125 words, else in a second read)."""
+        wanted = [n for n in setpoints if n in self.map]
+        names = self._status_names + wanted
+        lo, count = span_of(self.map, names)
+        if count <= 125:
+            values = decode_span(self.map, lo, self.read_words(lo, count), names)
+        else:
+            values = decode_span(
+                self.map,
+                self._status_span[0],
+                self.read_words(*self._status_span),
+                self._status_names,
+            )
+            values.update(self.read(wanted) if wanted else {})
         word = int(values["status_word"])
         bits = {k: bool(word >> b & 1) for k, b in self.map.status_bits.items()}
         code = int(values["fault_code"])
@@ -167,6 +177,7 @@ class ModbusActuator:
             position_m=float(values["position_actual"]),
             force_n=float(values["force_actual"]) if "force_actual" in values else None,
             cycle_count=int(values["cycle_count"]) if "cycle_count" in values else None,
+            setpoints={n: float(values[n]) for n in wanted},
         )
 
     def beat(self) -> None:

@@ -134,6 +134,12 @@ class DaqConfig:
     calibration: Calibration
     frozen_timeout_s: float = 0.5  # wall time without a valid frame before the DAQ counts as frozen
     max_gap_s: float = 0.05  # a longer run of lost frames leaves the limits unwatched: stop
+    max_frame_loss: float = 0.01  # a test losing a larger fraction of its frames is degraded
+    # The sensors' ranges (LVDT absolute, load cell, thermometer): a reading outside cannot
+    # be real. Defaults from the limits: stroke centre ± 4 travel, ± 4 force limit.
+    position_range_m: tuple[float, float] = (-math.inf, math.inf)
+    force_range_n: tuple[float, float] = (-math.inf, math.inf)
+    temperature_range_c: tuple[float, float] = (-40.0, 200.0)
 
 
 @dataclass(frozen=True)
@@ -155,6 +161,15 @@ class RampConfig:
 
 
 @dataclass(frozen=True)
+class VerifyConfig:
+    """How closely a finished test's measured motion must match its plan to be complete."""
+
+    frequency_tolerance: float = 0.01  # relative
+    amplitude_tolerance: float = 0.05  # relative
+    centre_tolerance_m: float = 0.001
+
+
+@dataclass(frozen=True)
 class HeartbeatConfig:
     period_s: float = 0.1
     timeout_s: float = 0.5
@@ -173,6 +188,7 @@ class RigConfig:
     ramp: RampConfig
     heartbeat: HeartbeatConfig
     poll_period_s: float = 0.02
+    verify: VerifyConfig = field(default_factory=VerifyConfig)
     simulation: dict[str, Any] = field(default_factory=dict)  # [simulation]: sim-rig only
     raw_toml: str = ""
 
@@ -344,6 +360,15 @@ def _transport(r: _Reader) -> ModbusTransport:
     return t
 
 
+def _range(t: _Reader, key: str, default: tuple[float, float]) -> tuple[float, float]:
+    value = t.raw(key, list(default))
+    ok = isinstance(value, list) and len(value) == 2
+    ok = ok and all(isinstance(v, int | float) and not isinstance(v, bool) for v in value)
+    if not ok or not (math.isfinite(value[0]) and math.isfinite(value[1]) and value[0] < value[1]):
+        raise t.fail(key, f"must be [LOW, HIGH] with LOW < HIGH, got {value!r}")
+    return float(value[0]), float(value[1])
+
+
 def parse_rig(text: str, source: str = "<rig>") -> RigConfig:
     """Build a validated RigConfig from TOML text."""
     try:
@@ -383,8 +408,10 @@ def parse_rig(text: str, source: str = "<rig>") -> RigConfig:
         calibration=cal,
         frozen_timeout_s=daq_t.num("frozen_timeout_s", 0.5),
         max_gap_s=daq_t.num("max_gap_s", 0.05),
+        max_frame_loss=daq_t.num("max_frame_loss", 0.01, positive=False),
     )
-    daq_t.check_unknown()
+    if not 0 <= daq.max_frame_loss < 1:
+        raise daq_t.fail("max_frame_loss", "must be 0-1 (a fraction of the test's frames)")
     bits_per_s = daq.sample_rate_hz * 18 * 10  # 18-byte frames, 10 bits per byte on the wire
     if not daq.url.startswith(("socket://", "loop://")) and bits_per_s > daq.baudrate:
         raise daq_t.fail(
@@ -404,6 +431,15 @@ def parse_rig(text: str, source: str = "<rig>") -> RigConfig:
     lim_t.check_unknown()
     if not 0 <= limits.trip_margin < 1:
         raise lim_t.fail("trip_margin", "must be 0-1")
+    daq = replace(
+        daq,
+        position_range_m=_range(
+            daq_t, "position_range_m", (centre - 4 * limits.travel_m, centre + 4 * limits.travel_m)
+        ),
+        force_range_n=_range(daq_t, "force_range_n", (-4 * limits.force_n, 4 * limits.force_n)),
+        temperature_range_c=_range(daq_t, "temperature_range_c", (-40.0, 200.0)),
+    )
+    daq_t.check_unknown()
 
     ramp_t = top.table("ramp", required=False)
     ramp = RampConfig(
@@ -419,6 +455,14 @@ def parse_rig(text: str, source: str = "<rig>") -> RigConfig:
         raise hb_t.fail("timeout_s", "must be at least twice period_s")
     if hb.timeout_s * 1000 > 65535:
         raise hb_t.fail("timeout_s", "must be below 65.5 s (a uint16 of milliseconds)")
+
+    ver_t = top.table("verify", required=False)
+    verify = VerifyConfig(
+        frequency_tolerance=ver_t.num("frequency_tolerance", 0.01),
+        amplitude_tolerance=ver_t.num("amplitude_tolerance", 0.05),
+        centre_tolerance_m=ver_t.num("centre_tolerance_m", 0.001),
+    )
+    ver_t.check_unknown()
 
     sim = top.raw("simulation", {})
     if not isinstance(sim, dict):
@@ -436,6 +480,7 @@ def parse_rig(text: str, source: str = "<rig>") -> RigConfig:
         ramp=ramp,
         heartbeat=hb,
         poll_period_s=poll,
+        verify=verify,
         simulation=dict(sim),
         raw_toml=text,
     )

@@ -14,7 +14,7 @@ import serial
 
 from shockdyno.errors import RigFault
 from shockdyno.rig.config import Calibration, DaqConfig
-from shockdyno.rig.frames import FrameDecoder, RawFrames
+from shockdyno.rig.frames import FrameDecoder, Plausible, RawFrames
 from shockdyno.rig.types import SampleBlock
 
 READ_WAIT_S = 0.005  # a read returns what arrived within this time
@@ -40,6 +40,27 @@ def calibrate(
     )
 
 
+def _counts(lo_hi: tuple[float, float], gain: float, offset: float, bits: int) -> tuple[int, int]:
+    """A range in SI as inclusive raw counts (clipped to the field's width)."""
+    a, b = sorted(((lo_hi[0] - offset) / gain, (lo_hi[1] - offset) / gain))
+    top = 2 ** (bits - 1)
+    lo = -top if not np.isfinite(a) else max(-top, int(np.floor(a + 1e-6)))  # float noise
+    hi = top - 1 if not np.isfinite(b) else min(top - 1, int(np.ceil(b - 1e-6)))
+    return lo, hi
+
+
+def plausible_counts(config: DaqConfig) -> Plausible:
+    """The sensors' ranges from the rig file, in the counts the frames carry."""
+    cal = config.calibration
+    return Plausible(
+        load=_counts(config.force_range_n, cal.force_n_per_count, cal.force_offset_n, 32),
+        lvdt=_counts(config.position_range_m, cal.position_m_per_count, cal.position_offset_m, 32),
+        temp=_counts(
+            config.temperature_range_c, cal.temperature_c_per_count, cal.temperature_offset_c, 16
+        ),
+    )
+
+
 class SerialDaq:
     """Implements the `Daq` protocol over any pyserial URL."""
 
@@ -47,7 +68,7 @@ class SerialDaq:
         self.config = config
         self.sample_rate_hz = config.sample_rate_hz
         self._centre = stroke_centre_m
-        self._decoder = FrameDecoder()
+        self._decoder = FrameDecoder(plausible_counts(config))
         try:
             self._port = serial.serial_for_url(
                 config.url, baudrate=config.baudrate, timeout=READ_WAIT_S
@@ -63,6 +84,10 @@ class SerialDaq:
     @property
     def corrupt_frames(self) -> int:
         return self._decoder.corrupt_frames
+
+    @property
+    def rejected_frames(self) -> int:
+        return self._decoder.rejected_frames
 
     @property
     def garbage_bytes(self) -> int:

@@ -27,6 +27,7 @@ SYNC = b"\xa5\x5a"
 FRAME_LEN = 18
 _BODY = slice(2, 16)  # bytes covered by the CRC
 
+LOOKAHEAD = 3  # frames after a gap that judge whether its counter is believed
 STATUS_MOTION = 1 << 0  # the drive's "motion active" output, wired to a DAQ digital input
 STATUS_LOAD_OVERRANGE = 1 << 1
 STATUS_LVDT_OVERRANGE = 1 << 2
@@ -120,6 +121,23 @@ _EMPTY = RawFrames(
 )
 
 
+@dataclass(frozen=True)
+class Plausible:
+    """What a frame may hold and still be believed, beyond its CRC.
+
+    CRC-16 lets about 1 in 65 536 damaged frames through; at high byte error rates that is
+    a frame every few seconds. A sensor cannot report beyond its range (it saturates and
+    sets its over-range bit), so a reading outside it is damage. A frame whose sequence
+    number does not follow on from its neighbours is out of order: believed, a damaged
+    counter would shift the time base for the rest of the stream.
+    """
+
+    load: tuple[int, int] = (-(2**31), 2**31 - 1)  # counts, inclusive
+    lvdt: tuple[int, int] = (-(2**31), 2**31 - 1)
+    temp: tuple[int, int] = (-(2**15), 2**15 - 1)
+    check_sequence: bool = True
+
+
 class FrameDecoder:
     """Incremental decoder: feed it any chunks of bytes, get checked frames back.
 
@@ -129,7 +147,9 @@ class FrameDecoder:
     Skipped bytes that hold no missing frame (inserted garbage) count as `garbage_bytes`.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, plausible: Plausible | None = None) -> None:
+        self.plausible = plausible or Plausible()
+        self.rejected_frames = 0  # passed the CRC, failed a plausibility check
         self._tail = b""
         self._skipped = 0  # bytes skipped since the last good frame
         self._last_raw: int | None = None
@@ -160,8 +180,12 @@ class FrameDecoder:
             good = cand[crc16_rows(rows[:, _BODY]) == crc]
         else:
             good = cand
-        starts = self._non_overlapping(good)
-        if starts.size:
+        starts = self._believable_values(arr, self._non_overlapping(good))
+        starts, held = self._believable_sequence(arr, starts)
+        if held is not None:  # judged with the next bytes, by the frame that follows it
+            consumed = int(starts[-1]) + FRAME_LEN if starts.size else 0
+            keep_from = held
+        elif starts.size:
             consumed = int(starts[-1]) + FRAME_LEN
             keep_from = max(consumed, n - (FRAME_LEN - 1))
         else:
@@ -204,6 +228,63 @@ class FrameDecoder:
             frames["temp"].astype(np.int16),
             frames["status"].astype(np.uint16),
         )
+
+    def _believable_values(
+        self, arr: NDArray[np.uint8], starts: NDArray[np.intp]
+    ) -> NDArray[np.intp]:
+        if not starts.size:
+            return starts
+        rows = arr[starts[:, None] + np.arange(FRAME_LEN)].reshape(-1).view(FRAME_DTYPE)
+        p = self.plausible
+        ok = np.ones(starts.size, bool)
+        for name, (lo, hi) in (("load", p.load), ("lvdt", p.lvdt), ("temp", p.temp)):
+            ok &= (rows[name] >= lo) & (rows[name] <= hi)
+        if ok.all():
+            return starts
+        self.rejected_frames += int((~ok).sum())
+        return starts[ok]
+
+    def _believable_sequence(
+        self, arr: NDArray[np.uint8], starts: NDArray[np.intp]
+    ) -> tuple[NDArray[np.intp], int | None]:
+        """Drop a frame whose counter does not follow on: when the frames after it are closer
+        to the frame before it than to it, it is out of order (a damaged counter, even one off
+        by a few counts). A last frame after a gap is held back (returned as the offset to
+        keep from) until the next read can judge it."""
+        if not starts.size or not self.plausible.check_sequence:
+            return starts, None
+        raw = arr[starts[:, None] + np.array([2, 3])].astype(np.int64)
+        seq = raw[:, 0] | (raw[:, 1] << 8)
+        # The very first frame starts the clock: it is its own predecessor's successor.
+        first = (int(seq[0]) - 1) % 65536 if self._last_raw is None else self._last_raw
+        steps = (np.diff(seq, prepend=first) - 1) % 65536 + 1
+        odd = np.flatnonzero(steps != 1)
+        if not odd.size:
+            return starts, None
+
+        def step(a: int, b: int) -> int:
+            return ((b - a - 1) % 65536) + 1
+
+        keep = np.ones(starts.size, bool)
+        for k in odd.tolist():
+            j = k - 1
+            while j >= 0 and not keep[j]:
+                j -= 1
+            prev = int(seq[j]) if j >= 0 else first
+            gap = step(prev, int(seq[k]))
+            if gap == 1:
+                continue
+            after = [int(v) for v in seq[k + 1 : k + 1 + LOOKAHEAD]]
+            if not after:
+                keep[k] = False
+                return starts[keep], int(starts[k])
+            # Believe k when most of the frames after it continue from it rather than from
+            # the frame before it (two damaged counters in a row must not vouch for each other).
+            votes = sum(step(int(seq[k]), f) < step(prev, f) for f in after)
+            if 2 * votes <= len(after):
+                keep[k] = False
+                self.rejected_frames += 1
+        return starts[keep], None
 
     @staticmethod
     def _non_overlapping(good: NDArray[np.intp]) -> NDArray[np.intp]:

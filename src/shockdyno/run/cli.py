@@ -14,9 +14,11 @@ import numpy as np
 from rich.console import Console
 
 from shockdyno import __version__
-from shockdyno.errors import ConfigError, RecordingError
+from shockdyno.errors import ConfigError, RecordingError, RigFault
 from shockdyno.model.spec import default_spec_path, load_spec
+from shockdyno.outputs import check_output
 from shockdyno.run.plan import SweepPlan, parse_clicks, parse_frequencies
+from shockdyno.run.signals import stop_on_signals
 
 if TYPE_CHECKING:
     from shockdyno.rig.config import RigConfig
@@ -146,8 +148,9 @@ def record_sweep(
     if resume:
         if not output.exists():
             raise RecordingError(f"nothing to resume: {output} does not exist")
-        previous = open_recording(output)
+        previous = open_recording(output).require_recording()
         _check_resume_matches(previous.tests, plan, output)
+        _check_same_damper(previous.metadata, metadata, output)
         done = previous.completed_keys()
         first_index = len(previous.tests)
         console.print(
@@ -167,7 +170,14 @@ def record_sweep(
             f"{rig.source}: the adjuster is set by an operator, who confirms each setting at a "
             "terminal; run the sweep from a terminal (stdin is not one)"
         )
-    output.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        output.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise RecordingError(
+            f"-o {output}: cannot create {output.parent} ({exc.strerror})"
+        ) from None
+    # The recording must be creatable before the ram moves (found by a probe file now).
+    check_output(output, force=True, flag="-o")
 
     view = LiveView(len(todo), console=console)
 
@@ -183,6 +193,7 @@ def record_sweep(
             output, metadata=metadata, rig_toml=rig.raw_toml, overwrite=overwrite, resume=resume
         ) as writer,
     ):
+        session.record_events(writer.write_event)
         try:
             return run_sweep(
                 session,
@@ -197,8 +208,7 @@ def record_sweep(
         finally:
             # Tear down before the recording closes, so the stop and its reason are in it.
             session.close(exit_reason(sys.exc_info()[1]))
-            for event in session.events:
-                writer.write_event(event.t_s, event.kind, event.message)
+            session.record_events(None)
 
 
 def _check_resume_matches(tests: list[Any], plan: SweepPlan, output: Path) -> None:
@@ -214,6 +224,16 @@ def _check_resume_matches(tests: list[Any], plan: SweepPlan, output: Path) -> No
                 f"{output} was recorded at {meta.amplitude_m * 1e3:g} mm, "
                 f"{meta.warmup_cycles} warm-up and {meta.measured_cycles} measured cycles; "
                 "--resume must use the same --amplitude-mm, --warmup-cycles and --cycles"
+            )
+
+
+def _check_same_damper(before: dict[str, str], now: dict[str, str], output: Path) -> None:
+    """One recording set holds one damper, measured by one operator."""
+    for key, flag in (("damper_id", "--damper-id"), ("operator", "--operator")):
+        if before.get(key, "") != now.get(key, ""):
+            raise ConfigError(
+                f"{output} was recorded with {key} {before.get(key, '')!r}; resuming with "
+                f"{flag} {now.get(key, '')!r} would mix two in one set (give the same {flag})"
             )
 
 
@@ -236,6 +256,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     rig = load_rig(args.rig)
     plan = _plan(args, *_click_ranges(load_spec()))
     with contextlib.ExitStack() as stack:
+        stack.enter_context(stop_on_signals())  # SIGTERM and SIGHUP stop like Ctrl-C
         spec_used = ""  # a real rig's damper is whatever is mounted
         if args.start_sim:
             from shockdyno.simrig import start_sim_rig
@@ -247,9 +268,15 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 console.print(endpoint)
             rig, spec_used = sim.rig_config(), str(default_spec_path())
         meta = _metadata(args, rig, spec_used)
-        record_sweep(rig, plan, args.output, metadata=meta, overwrite=args.force,
-                     resume=args.resume, console=console)  # fmt: skip
+        result = record_sweep(rig, plan, args.output, metadata=meta, overwrite=args.force,
+                              resume=args.resume, console=console)  # fmt: skip
     console.print(f"recording: {args.output}", soft_wrap=True)
+    if result is not None and result.degraded:
+        listed = ", ".join(str(m.index) for m in result.degraded)
+        raise RigFault(
+            f"{len(result.degraded)} tests degraded (tests {listed}; see `shockdyno info`): "
+            "they are not complete; --resume runs them again"
+        )
     return 0
 
 
@@ -260,7 +287,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
     if args.speed < 0:
         raise ConfigError("--speed must be >= 0")
-    rec = open_recording(args.recording)
+    rec = open_recording(args.recording).require_recording()
     console = Console()
     if rec.truncated:
         console.print("[yellow]recording was cut off; replaying every complete test[/]")
@@ -309,7 +336,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     rig = load_rig(repo_file("rigs/sim.toml"))
     console.rule("shockdyno demo: click sweep on the simulated rig")
     t0 = time.perf_counter()
-    with start_sim_rig(rig, speed=args.speed, seed=args.seed) as sim:
+    with stop_on_signals(), start_sim_rig(rig, speed=args.speed, seed=args.seed) as sim:
         for endpoint in sim.endpoints:
             console.print(endpoint)
         live_rig = sim.rig_config()

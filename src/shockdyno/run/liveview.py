@@ -258,7 +258,7 @@ class LiveView:
         """Close the running test with its final metadata; prints and returns its summary.
 
         The summary is :func:`summarise` of the samples received, so a dropped-frame count
-        stored in ``meta`` (``dropped_frames`` or ``extra["dropped_frames"]``) counts too.
+        stored in ``meta.dropped_frames`` counts too.
         """
         if self.current is None:
             raise RuntimeError("LiveView.end_test() before start_test()")

@@ -31,7 +31,9 @@ from shockdyno.rig.config import RigConfig
 from shockdyno.rig.daq import READ_SIZE, SerialDaq
 from shockdyno.rig.frames import FRAME_LEN, STATUS_MOTION
 from shockdyno.rig.types import SampleBlock
+from shockdyno.run import signals
 from shockdyno.run.safety import LimitMonitor, SafetyEvent, SafetyTrip
+from shockdyno.run.verify import frame_loss, measure_sine, plan_mismatch
 
 CENTRE_TOLERANCE_M = 0.001
 # A command's round trip takes wall time, which a fast simulated rig turns into seconds of
@@ -51,9 +53,13 @@ class SineOutcome:
     events: list[SafetyEvent] = field(default_factory=list)
     start_s: float | None = None  # DAQ time the profile started (motion output rose)
     end_s: float = math.nan  # DAQ time of the last sample of the run
+    # The motion measured did not match the plan: the drive is not doing what it is told,
+    # so the sweep must not go on (status is then "degraded").
+    stop_sweep: bool = False
 
 
 BlockSink = Callable[[SampleBlock], None]
+EventSink = Callable[[float, str, str], None]
 ActuatorSink = Callable[[float, dict[str, float | int | bool]], None]
 
 
@@ -90,9 +96,7 @@ def exit_reason(exc: BaseException | None) -> str:
     """Why a session ends, for its teardown event."""
     if exc is None:
         return "session ended"
-    if isinstance(exc, KeyboardInterrupt):
-        return "operator interrupt (Ctrl-C)"
-    return f"{type(exc).__name__}: {exc}"
+    return signals.describe(exc) or f"{type(exc).__name__}: {exc}"
 
 
 class RigSession:
@@ -124,12 +128,35 @@ class RigSession:
         self._last_poll_wall = -math.inf
         self._on_block: BlockSink | None = None
         self._on_actuator: ActuatorSink | None = None
+        self._on_event: EventSink | None = None
+        # Setpoints the host wrote, read back on every poll: another Modbus master changing
+        # one is a controlled stop, never a test that silently runs something else.
+        self._watched: dict[str, float] = {}
 
     # -- events ------------------------------------------------------------------------
-    def _event(self, kind: str, message: str) -> SafetyEvent:
-        ev = SafetyEvent(self._t, kind, message)
+    def record_events(self, sink: EventSink | None) -> None:
+        """Send every event so far, then each one as it happens, to `sink` (e.g. the
+        recording's write_event), so that a crash cannot lose the events before it."""
+        self._on_event = sink
+        for ev in self.events:
+            self._send(ev)
+
+    def _send(self, ev: SafetyEvent) -> None:
+        if self._on_event is None:
+            return
+        try:
+            self._on_event(ev.t_s, ev.kind, ev.message)
+        except Exception as exc:  # a full disk must not stop the stop sequence; keep it here
+            self._on_event = None
+            self.events.append(SafetyEvent(self._t, "record_failed", f"events not recorded: {exc}"))
+
+    def _record(self, ev: SafetyEvent) -> SafetyEvent:
         self.events.append(ev)
+        self._send(ev)
         return ev
+
+    def _event(self, kind: str, message: str) -> SafetyEvent:
+        return self._record(SafetyEvent(self._t, kind, message))
 
     @property
     def enabled(self) -> bool:
@@ -169,7 +196,16 @@ class RigSession:
         """Reset faults, enable, start the heartbeat, ramp to centre (re-arms after an abort)."""
         act = self._act()
         hb = self.rig.heartbeat
-        act.write({"heartbeat_timeout_ms": round(hb.timeout_s * 1000)})
+        watchdog_ms = round(hb.timeout_s * 1000)
+        act.write({"heartbeat_timeout_ms": watchdog_ms})
+        got = int(act.read(["heartbeat_timeout_ms"])["heartbeat_timeout_ms"])
+        if got == 0 or got > watchdog_ms:
+            raise RigFault(
+                f"drive watchdog reads {got} ms after writing {watchdog_ms} ms "
+                f"({self.rig.source} heartbeat.timeout_s): refusing to enable a drive whose "
+                "watchdog is off or longer than the rig file allows"
+            )
+        self._watched["heartbeat_timeout_ms"] = float(watchdog_ms)
         act.set_mode("hold")
         act.control("fault_reset", enable=False)
         st = act.status()
@@ -194,6 +230,7 @@ class RigSession:
             got = act.read(["rod_clicks", "gas_clicks"])
             if (int(got["rod_clicks"]), int(got["gas_clicks"])) != (rod_clicks, gas_clicks):
                 raise RigFault(f"adjuster did not reach {rod_clicks}/{gas_clicks} clicks: {got}")
+            self._watched.update(rod_clicks=float(rod_clicks), gas_clicks=float(gas_clicks))
             self._event("adjust", f"adjuster set to rod {rod_clicks}, gas {gas_clicks} clicks")
         else:
             self.prompt(
@@ -223,6 +260,7 @@ class RigSession:
         daq = self._daq()
         act = self._act()
         n_events = len(self.events)
+        stop_sweep = False
         dropped0, corrupt0 = daq.dropped_frames, daq.corrupt_frames
         ramp = self.rig.ramp.sine_ramp_cycles
         cycles = warmup_cycles + measured_cycles
@@ -230,21 +268,28 @@ class RigSession:
         t0: float | None = None
         m_start: float | None = None
         m_end: float | None = None
+        captured: list[SampleBlock] = []
+
+        def sink(block: SampleBlock) -> None:
+            captured.append(block)
+            on_block(block)
+
         try:
             try:
                 self._catch_up(check=True)  # the backlog since the last call is not this run's
                 dropped0, corrupt0 = daq.dropped_frames, daq.corrupt_frames
-                self._on_block, self._on_actuator = on_block, on_actuator
+                self._on_block, self._on_actuator = sink, on_actuator
                 act.set_mode("sine")
-                act.write(
-                    {
-                        "sine_amplitude": amplitude_m,
-                        "sine_frequency": frequency_hz,
-                        "sine_centre": self.rig.stroke_centre_m,
-                        "sine_cycles": cycles,
-                        "sine_ramp_cycles": ramp,
-                    }
-                )
+                sine = {
+                    "sine_amplitude": amplitude_m,
+                    "sine_frequency": frequency_hz,
+                    "sine_centre": self.rig.stroke_centre_m,
+                    "sine_cycles": float(cycles),
+                    "sine_ramp_cycles": float(ramp),
+                }
+                act.write(sine)
+                self._watched.update(sine)
+                self._check_setpoints(act.read(sine), "before the start")
                 self._emit_actuator(
                     {
                         "cmd_amplitude_m": amplitude_m,
@@ -269,10 +314,14 @@ class RigSession:
                 reason = f"{cycles + 2 * ramp} cycles done"
                 status = "complete"
                 self._event("complete", reason)
+                full_amplitude = t0 + ramp / frequency_hz  # warm-up and measured cycles
+                status, reason, stop_sweep = self._verify(
+                    captured, full_amplitude, m_end, amplitude_m, frequency_hz, dropped0, corrupt0
+                )
             except RigFault as exc:
                 ev = exc.event if isinstance(exc, SafetyTrip) else self._event("fault", str(exc))
                 if isinstance(exc, SafetyTrip):
-                    self.events.append(ev)
+                    self._record(ev)
                 status, reason = "aborted", ev.message
                 self._safe_stop(ev.message)
         finally:
@@ -287,7 +336,61 @@ class RigSession:
             events=self.events[n_events:],
             start_s=t0,
             end_s=self._t,
+            stop_sweep=stop_sweep,
         )
+
+    def _verify(
+        self,
+        blocks: list[SampleBlock],
+        m_start: float,
+        m_end: float,
+        amplitude_m: float,
+        frequency_hz: float,
+        dropped0: int,
+        corrupt0: int,
+    ) -> tuple[str, str, bool]:
+        """Judge a finished run by its own samples: (status, reason, stop the sweep)."""
+        run = SampleBlock.concat(blocks) if blocks else SampleBlock.empty()
+        measured = measure_sine(
+            run.t_s, run.displacement_m, (m_start, m_end), amplitude_m, frequency_hz
+        )
+        mismatch = plan_mismatch(measured, frequency_hz, amplitude_m, self.rig.verify)
+        if mismatch is not None:
+            ev = self._event("plan_mismatch", f"test does not match its plan: {mismatch}")
+            return "degraded", ev.message, True
+        daq = self._daq()
+        lost = daq.dropped_frames - dropped0 + daq.corrupt_frames - corrupt0
+        loss = frame_loss(lost, len(run) + lost)
+        limit = self.rig.daq.max_frame_loss
+        if loss > limit:
+            ev = self._event(
+                "degraded",
+                f"{lost} frames lost ({loss:.1%} of the test; daq.max_frame_loss {limit:.1%})",
+            )
+            return "degraded", ev.message, False
+        assert measured is not None
+        return (
+            "complete",
+            (
+                f"{frequency_hz:g} Hz run: measured {measured.frequency_hz:.4g} Hz, "
+                f"{measured.amplitude_m * 1e3:.4g} mm, centre {measured.centre_m * 1e3:+.2g} mm"
+            ),
+            False,
+        )
+
+    def _check_setpoints(self, got: dict[str, float], when: str) -> None:
+        """A setpoint the drive holds that differs from what the host wrote is a trip."""
+        for name, value in got.items():
+            want = self._watched.get(name)
+            if want is not None and not math.isclose(value, want, rel_tol=1e-6, abs_tol=1e-9):
+                raise SafetyTrip(
+                    SafetyEvent(
+                        self._t,
+                        "setpoint_changed",
+                        f"{name} reads {value:g} {when}, commanded {want:g}: "
+                        "another Modbus master wrote to the drive",
+                    )
+                )
 
     def _check_sine(self, a: float, f: float, warmup: int, measured: int) -> None:
         check_sine(self.rig, a, f, warmup, measured)
@@ -376,12 +479,14 @@ class RigSession:
             return None
         self._last_poll_wall = now
         try:
-            st = self._act().status()
+            st = self._act().status(self._watched)
         except RigFault as exc:
             if check:
                 raise SafetyTrip(SafetyEvent(self._t, "link_lost", str(exc))) from None
             raise
         self._emit_actuator(st.fields())
+        if check:
+            self._check_setpoints(st.setpoints, "at a status poll")
         if check and st.fault:
             raise SafetyTrip(
                 SafetyEvent(self._t, "actuator_fault", f"actuator fault: {st.fault_text}")
@@ -460,6 +565,7 @@ class RigSession:
         """Controlled stop, ramp to centre, disable. Every step is tried; none may raise."""
         self._event("stop", f"controlled stop: {reason}")
         steps: list[tuple[str, Callable[[], None]]] = [
+            ("watchdog", self._restore_watchdog),
             ("stop", self._stop_motion),
             ("reset", self._reset_fault),
             ("centre", lambda: self._move_to_centre(check=False)),
@@ -472,6 +578,11 @@ class RigSession:
                 if name == "stop":
                     break  # a drive that will not stop must not be asked to move
         self._disable(reason)
+
+    def _restore_watchdog(self) -> None:
+        """If another master lengthened the watchdog, a host that dies mid-stop must still
+        leave the drive to stop itself in the rig file's time."""
+        self._act().write({"heartbeat_timeout_ms": round(self.rig.heartbeat.timeout_s * 1000)})
 
     def _stop_motion(self) -> None:
         act = self._act()
@@ -534,6 +645,10 @@ class RigSession:
     def _teardown(self, reason: str) -> None:
         if self._closed:
             return
+        with signals.hold():  # a signal now waits until the ram is stopped and disabled
+            self._teardown_held(reason)
+
+    def _teardown_held(self, reason: str) -> None:
         self._event("exit", reason)
         self._on_block = self._on_actuator = None
         if self.actuator is not None and self.daq is not None and self._armed:
@@ -547,5 +662,5 @@ class RigSession:
                 try:
                     closer.close()
                 except Exception as exc:  # closing must not hide the original problem
-                    self.events.append(SafetyEvent(self._t, "close_failed", str(exc)))
+                    self._record(SafetyEvent(self._t, "close_failed", str(exc)))
         self._event("closed", "transports closed")

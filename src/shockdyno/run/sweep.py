@@ -16,7 +16,9 @@ from typing import Protocol
 from shockdyno.errors import RigFault
 from shockdyno.record.types import TestMeta
 from shockdyno.rig.types import SampleBlock
+from shockdyno.run import signals
 from shockdyno.run.plan import SweepPlan, SweepPoint
+from shockdyno.run.signals import Terminated
 
 
 class _Outcome(Protocol):
@@ -26,6 +28,7 @@ class _Outcome(Protocol):
     measured_end_s: float | None
     dropped_frames: int
     corrupt_frames: int
+    stop_sweep: bool
 
 
 class Session(Protocol):
@@ -68,6 +71,7 @@ class View(Protocol):
 class SweepResult:
     completed: list[TestMeta] = field(default_factory=list)
     aborted: list[TestMeta] = field(default_factory=list)
+    degraded: list[TestMeta] = field(default_factory=list)  # ran, but not as planned or lossy
     stopped_reason: str = ""
 
 
@@ -140,7 +144,7 @@ def run_sweep(
                 writer.write_actuator,  # type: ignore[arg-type]
             )
         except BaseException as exc:  # Ctrl-C or a rig fault mid-test: keep what was recorded
-            final = replace(meta, status="aborted", extra={**meta.extra, "reason": _why(exc)})
+            final = replace(meta, status="aborted", abort_reason=_why(exc))
             writer.write_event(last_t[0], "abort", f"test {meta.index} stopped: {_why(exc)}")
             writer.end_test(final)
             view.end_test(final)
@@ -153,14 +157,18 @@ def run_sweep(
             measured_end_s=outcome.measured_end_s,
             dropped_frames=outcome.dropped_frames,
             corrupt_frames=outcome.corrupt_frames,
-            extra={**meta.extra, "reason": outcome.reason} if outcome.reason else meta.extra,
+            abort_reason=outcome.reason or None,
         )
         writer.end_test(final)
         view.end_test(final)
+        if outcome.status == "degraded" and not outcome.stop_sweep:
+            log(f"test {meta.index} degraded: {outcome.reason}")
+            result.degraded.append(final)
+            continue
         if outcome.status != "complete":
-            result.aborted.append(final)
+            (result.degraded if outcome.status == "degraded" else result.aborted).append(final)
             result.stopped_reason = outcome.reason
-            raise RigFault(f"test {meta.index} aborted: {outcome.reason}; sweep stopped")
+            raise RigFault(f"test {meta.index} {outcome.status}: {outcome.reason}; sweep stopped")
         result.completed.append(final)
     return result
 
@@ -179,11 +187,13 @@ def _meta(
         measured_cycles=plan.measured_cycles,
         motion="sine",
         status="running",
-        extra={"start_temperature_c": f"{temp_c:.2f}"},
+        start_temperature_c=round(float(temp_c), 2),
     )
 
 
 def _why(exc: BaseException) -> str:
+    if isinstance(exc, Terminated):
+        return f"stopped by {signals.describe(exc)}"
     if isinstance(exc, KeyboardInterrupt):
         return "interrupted by the operator (Ctrl-C)"
     return str(exc) or type(exc).__name__

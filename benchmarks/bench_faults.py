@@ -1,0 +1,338 @@
+"""Fault campaign: what reaches the recording, and how fast the ram is safe, for every way a
+session can be hurt. Prints figures; asserts nothing.
+
+1. Byte errors: a stream of frames with each byte replaced at random with probability p,
+   decoded with the rig's checks (CRC, sensor ranges, sequence jumps) and with the CRC alone.
+2. Faults, signals, kill -9 and a second Modbus master, each against a real `shockdyno
+   sweep` child process and a simulated rig in this process. An independent Modbus client
+   (the probe) times the event to "stopped" (not running) and to "disabled"; then the
+   recording is read back.
+
+    .venv/bin/python benchmarks/bench_faults.py [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from shockdyno.errors import RecordingError, RigFault
+from shockdyno.record import open_recording
+from shockdyno.rig.actuator import ModbusActuator
+from shockdyno.rig.config import load_rig
+from shockdyno.rig.daq import plausible_counts
+from shockdyno.rig.frames import FRAME_DTYPE, FRAME_LEN, FrameDecoder, Plausible, encode_frames
+from shockdyno.simrig import start_sim_rig
+from shockdyno.simrig.faults import Fault
+
+REPO = Path(__file__).resolve().parents[1]
+SIM = REPO / "rigs" / "sim.toml"
+CLI = [sys.executable, "-m", "shockdyno.cli"]
+SPEED = 4.0
+
+
+# -- 1. byte errors ---------------------------------------------------------------------------
+
+
+def byte_errors(rate: float, n: int, plausible: Plausible) -> dict[str, int]:
+    """Frames whose load counts are their own index, so each delivered frame names its origin."""
+    rng = np.random.default_rng(int(rate * 1e6))
+    i = np.arange(n, dtype=np.int64)
+    lvdt = (75_000 + 30_000 * np.sin(2 * np.pi * i / 1000)).astype(np.int32)
+    truth = np.stack([i, lvdt, np.full(n, 2500), i % 2], axis=1)
+    data = bytearray(encode_frames(i, i.astype(np.int32), lvdt, truth[:, 2], truth[:, 3]))
+    hit = np.flatnonzero(rng.random(len(data)) < rate)
+    arr = np.frombuffer(data, np.uint8).copy()
+    arr[hit] = (arr[hit] + rng.integers(1, 256, hit.size)) & 0xFF  # always a different byte
+    damaged = np.unique(hit // FRAME_LEN).size
+    dec = FrameDecoder(plausible)
+    raw = arr.tobytes()
+    got = []
+    step = 1000 * FRAME_LEN
+    for lo in range(0, len(raw), step):
+        got.append(dec.feed(raw[lo : lo + step]))
+    seq = np.concatenate([g.seq for g in got])
+    rows = np.stack(
+        [
+            np.concatenate([g.load for g in got]).astype(np.int64),
+            np.concatenate([g.lvdt for g in got]),
+            np.concatenate([g.temp for g in got]),
+            np.concatenate([g.status for g in got]),
+        ],
+        axis=1,
+    )
+    origin = rows[:, 0]
+    valid = (origin >= 0) & (origin < n)
+    genuine = np.zeros(len(rows), bool)
+    genuine[valid] = np.all(rows[valid] == truth[origin[valid]], axis=1)
+    return {
+        "frames": n,
+        "damaged": damaged,
+        "rejected": n - len(rows),
+        "corrupt_accepted": int((~genuine).sum()),
+        "timebase_errors": int((genuine & (seq != origin)).sum()),
+        "checks_rejected": dec.rejected_frames,
+    }
+
+
+def forced_collisions(n: int, k: int, plausible: Plausible) -> tuple[int, int, int]:
+    """k frames with 2 body bytes damaged and the CRC recomputed: what a CRC collision
+    delivers. Returns (rejected by the checks, bad accepted, time-base errors)."""
+    rng = np.random.default_rng(7)
+    i = np.arange(n, dtype=np.int64)
+    lvdt = (75_000 + 30_000 * np.sin(2 * np.pi * i / 1000)).astype(np.int32)
+    temp = np.full(n, 2500)
+    frames = np.frombuffer(encode_frames(i, i.astype(np.int32), lvdt, temp, i % 2), np.uint8)
+    rows = frames.reshape(n, FRAME_LEN).copy()
+    hit = rng.choice(np.arange(10, n - 10), k, replace=False)
+    for f in hit:
+        for b in rng.choice(np.arange(2, 16), 2, replace=False):
+            rows[f, b] ^= rng.integers(1, 256)
+    seq = rows[hit, 2].astype(np.int64) | (rows[hit, 3].astype(np.int64) << 8)
+    fields = rows[hit].copy().reshape(-1).view(FRAME_DTYPE)
+    rows[hit] = np.frombuffer(
+        encode_frames(seq, fields["load"], fields["lvdt"], fields["temp"], fields["status"]),
+        np.uint8,
+    ).reshape(k, FRAME_LEN)
+    dec = FrameDecoder(plausible)
+    out = dec.feed(rows.tobytes())
+    origin = out.load.astype(np.int64)
+    valid = (origin >= 0) & (origin < n)
+    truth = np.stack([lvdt, temp, i % 2], axis=1)
+    got = np.stack([out.lvdt, out.temp, out.status], axis=1).astype(np.int64)
+    genuine = np.zeros(len(out), bool)
+    genuine[valid] = np.all(got[valid] == truth[origin[valid]], axis=1)
+    genuine[valid] &= np.isin(origin[valid], hit, invert=True)
+    return dec.rejected_frames, int((~genuine).sum()), int((genuine & (out.seq != origin)).sum())
+
+
+def table_byte_errors(quick: bool) -> None:
+    rig = load_rig(SIM)
+    full = plausible_counts(rig.daq)
+    crc_only = Plausible(check_sequence=False)  # the decoder before this campaign's checks
+    n = 50_000 if quick else 100_000
+    print(f"\n1. byte errors: {n} frames per rate, each byte replaced with probability p")
+    head = (
+        f"{'p':>7} {'damaged':>8} {'rejected':>8} {'checks':>7} "
+        f"{'bad accepted':>12} {'time-base':>9} | {'CRC only: bad':>13} {'time-base':>9}"
+    )
+    print(head)
+    for rate in (1e-4, 1e-3, 1e-2, 5e-2):
+        a = byte_errors(rate, n, full)
+        b = byte_errors(rate, n, crc_only)
+        print(
+            f"{rate:>7.0e} {a['damaged']:>8} {a['rejected']:>8} {a['checks_rejected']:>7} "
+            f"{a['corrupt_accepted']:>12} {a['timebase_errors']:>9} | "
+            f"{b['corrupt_accepted']:>13} {b['timebase_errors']:>9}"
+        )
+    print("(checks: frames that passed the CRC and were rejected by sensor range or counter jump)")
+    k = 2000
+    print(f"\n1b. {k} CRC collisions forced in {n} frames (2 body bytes damaged, CRC recomputed)")
+    print(f"{'decoder':<22} {'rejected':>8} {'bad accepted':>12} {'time-base errors':>16}")
+    for name, p in (("CRC + checks", full), ("CRC only", crc_only)):
+        rej, bad, tb = forced_collisions(n, k, p)
+        print(f"{name:<22} {rej:>8} {bad:>12} {tb:>16}")
+    print(
+        "(bad accepted: damage inside the sensors' ranges and in the right order cannot be "
+        "told from data; time-base errors: delivered frames whose time is wrong)"
+    )
+
+
+# -- 2. faults, signals, kills, tampering -----------------------------------------------------
+
+
+def rig_file(sim: Any, folder: Path) -> Path:
+    text = SIM.read_text().replace("port = 5020", f"port = {sim.modbus_port}")
+    text = text.replace("socket://127.0.0.1:5021", f"socket://127.0.0.1:{sim.serial_port}")
+    path = folder / "rig.toml"
+    path.write_text(text)
+    return path
+
+
+class Probe:
+    def __init__(self, sim: Any) -> None:
+        self.sim = sim
+        self.act = ModbusActuator(sim.rig_config())
+        self.act.connect()
+
+    def state(self, internal: bool) -> tuple[bool, bool] | None:
+        """(running, enabled); `internal` reads the sim itself (when Modbus is muted)."""
+        if internal:
+            d = self.sim.engine.drive
+            return self.sim.call(lambda: (d.running(self.sim.engine.now_s), d.enabled))
+        try:
+            st = self.act.status()
+        except RigFault:
+            return None
+        return st.running, st.enabled
+
+    def times(self, t0: float, internal: bool, limit_s: float = 8.0) -> tuple[float, float]:
+        stopped = disabled = float("nan")
+        while time.monotonic() - t0 < limit_s:
+            s = self.state(internal)
+            now = time.monotonic() - t0
+            if s is not None:
+                if not s[0] and stopped != stopped:
+                    stopped = now
+                if not s[1] and disabled != disabled:
+                    disabled = now
+                if stopped == stopped and disabled == disabled:
+                    break
+            time.sleep(0.005)
+        return stopped, disabled
+
+    def close(self) -> None:
+        self.act.close()
+
+
+def wait_running_test(out: Path, proc: subprocess.Popen[bytes], complete: int = 0) -> None:
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            raise RuntimeError("the sweep ended early")
+        try:
+            rec = open_recording(out)
+            n_complete = sum(m.status == "complete" for m in rec.tests)
+            started = sum(k == "start" for _, k, _ in rec.events)
+            if n_complete >= complete and rec.interrupted and started > n_complete:
+                return
+        except RecordingError:
+            pass
+        time.sleep(0.02)
+    raise RuntimeError("no test running")
+
+
+def describe(out: Path) -> str:
+    try:
+        rec = open_recording(out)
+    except RecordingError as exc:
+        return f"unreadable: {exc}"
+    status = [m.status[0] for m in rec.tests] + ["i"] * len(rec.interrupted)
+    starts = [i for i, (_, k, _) in enumerate(rec.events) if k == "start"]
+    kinds = {k for _, k, _ in rec.events[starts[-1] if starts else 0 :]}  # after the last start
+    safe = "+".join(k for k in ("stop", "centre", "disable") if k in kinds) or "-"
+    reason = next((m.extra.get("reason", "") for m in rec.tests if m.status != "complete"), "")
+    cut = "cut" if rec.truncated else "closed"
+    return f"{''.join(status) or '-':<5} {len(rec.events):>3} ev {safe:<19} {cut:<6} {reason[:60]}"
+
+
+Action = Callable[[Any, subprocess.Popen[bytes]], None]
+
+
+def case(name: str, action: Action, *, complete: int = 0, internal: bool = False) -> None:
+    with tempfile.TemporaryDirectory() as tmp, start_sim_rig(SIM, speed=SPEED, seed=1) as sim:
+        folder = Path(tmp)
+        out = folder / "rec.mcap"
+        cmd = [*CLI, "sweep", "--rig", str(rig_file(sim, folder)), "--clicks", "0,10,20",
+               "--freq", "1", "--cycles", "3", "--warmup-cycles", "1", "-o", str(out)]  # fmt: skip
+        proc = subprocess.Popen(cmd, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        probe = Probe(sim)
+        try:
+            wait_running_test(out, proc, complete)
+            time.sleep(0.3)
+            t0 = time.monotonic()
+            action(sim, proc)
+            stopped, disabled = probe.times(t0, internal)
+            code = proc.wait(timeout=30)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+            probe.close()
+        print(f"{name:<30} {stopped:>7.2f} {disabled:>8.2f} {code:>5}  {describe(out)}")
+
+
+def inject(fault: Fault) -> Action:
+    return lambda sim, proc: sim.inject(fault)
+
+
+def send(sig: int) -> Action:
+    return lambda sim, proc: proc.send_signal(sig)
+
+
+def double_ctrl_c(sim: Any, proc: subprocess.Popen[bytes]) -> None:
+    proc.send_signal(signal.SIGINT)
+    time.sleep(0.1)
+    proc.send_signal(signal.SIGINT)
+
+
+def rogue(values: dict[str, float], then_kill: bool = False) -> Action:
+    def act(sim: Any, proc: subprocess.Popen[bytes]) -> None:
+        other = ModbusActuator(sim.rig_config())
+        other.connect()
+        try:
+            other.write(values)
+        finally:
+            other.close()
+        if then_kill:
+            time.sleep(0.05)
+            proc.kill()
+
+    return act
+
+
+def table_sessions(quick: bool) -> None:
+    print(
+        f"\n2. sessions: `shockdyno sweep` child process, sim rig at {SPEED:g}x, "
+        "3 tests of 1 Hz x 3 cycles; seconds from the event (probe client)"
+    )
+    print(f"{'event':<30} {'stopped':>7} {'disabled':>8} {'exit':>5}  "
+          f"{'tests':<5} {'events':>6} {'teardown':<19} {'file':<6} reason")  # fmt: skip
+    cases: list[tuple[str, Action, dict[str, Any]]] = [
+        ("fault over_force", inject(Fault("over_force", duration_s=2.0)), {}),
+        ("fault actuator_fault", inject(Fault("actuator_fault")), {}),
+        ("fault freeze (DAQ)", inject(Fault("freeze")), {}),
+        ("fault daq_disconnect", inject(Fault("daq_disconnect")), {}),
+        ("fault drop 120 frames", inject(Fault("drop", count=120)), {}),
+        ("fault garble 25 frames", inject(Fault("garble", count=25)), {}),
+        (
+            "fault modbus_timeout 3 s",
+            inject(Fault("modbus_timeout", duration_s=3.0)),
+            {"internal": True},
+        ),
+        ("SIGINT", send(signal.SIGINT), {}),
+        ("SIGINT twice, 0.1 s apart", double_ctrl_c, {}),
+        ("SIGTERM", send(signal.SIGTERM), {}),
+        ("SIGHUP", send(signal.SIGHUP), {}),
+        ("kill -9 in test 1", send(signal.SIGKILL), {}),
+        ("kill -9 in test 2", send(signal.SIGKILL), {"complete": 1}),
+        ("kill -9 in test 3", send(signal.SIGKILL), {"complete": 2}),
+        ("2nd master: sine_frequency 3", rogue({"sine_frequency": 3.0}), {}),
+        ("2nd master: rod_clicks 21", rogue({"rod_clicks": 21}), {}),
+        ("2nd master: watchdog 65535 ms", rogue({"heartbeat_timeout_ms": 65535}), {}),
+        ("2nd master: watchdog, kill -9", rogue({"heartbeat_timeout_ms": 65535}, True), {}),
+    ]
+    if quick:
+        cases = cases[7:12]
+    for name, action, kw in cases:
+        case(name, action, **kw)
+    print(
+        "tests: c complete, a aborted, d degraded, i interrupted (begun, cut by the kill); "
+        "events: safety events in the file; teardown: stop/centre/disable events after the "
+        "last start; kill -9 leaves the stop to the drive's watchdog (heartbeat.timeout_s = "
+        "1.0 s in rigs/sim.toml, host time). Ramps run on DAQ time, 4x faster than at 1x; "
+        "garble is counted, not a stop: its times are the sweep's normal end"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--quick", action="store_true", help="fewer frames and cases")
+    args = parser.parse_args()
+    t0 = time.perf_counter()
+    table_byte_errors(args.quick)
+    table_sessions(args.quick)
+    print(f"\ncampaign took {time.perf_counter() - t0:.0f} s")
+
+
+if __name__ == "__main__":
+    main()

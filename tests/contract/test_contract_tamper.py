@@ -1,0 +1,96 @@
+"""Another Modbus master, a drive with no watchdog, a lossy DAQ: none may yield a test
+labelled with something it was not, and every stop ends centred and disabled."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from contract_helpers import Collector, settled_status
+
+from shockdyno.errors import RigFault
+from shockdyno.rig.actuator import ModbusActuator
+from shockdyno.run.session import RigSession
+from shockdyno.simrig.faults import Fault
+
+CENTRE_M = 0.001
+
+
+@pytest.mark.parametrize(
+    ("register", "value"),
+    [("sine_frequency", 3.0), ("rod_clicks", 21), ("heartbeat_timeout_ms", 65535)],
+)
+def test_a_setpoint_another_master_rewrites_is_a_controlled_stop(
+    sim_rig_factory, register, value
+) -> None:
+    sim = sim_rig_factory(speed=10.0)
+    rig = sim.rig_config()
+    rogue = ModbusActuator(rig)
+    rogue.connect()
+    rec = Collector()
+
+    def collect(block) -> None:
+        rec.block(block)
+        if len(rec.blocks) == 20:
+            rogue.write({register: value})
+
+    try:
+        with RigSession(rig) as session:
+            session.set_clicks(7, 0)
+            out = session.run_sine(0.03, 1.0, 1, 3, collect)
+    finally:
+        rogue.close()
+    assert out.status == "aborted"
+    assert register in out.reason and "another Modbus master" in out.reason
+    assert "setpoint_changed" in [e.kind for e in out.events]
+    st = settled_status(rig)
+    assert not st.enabled and not st.running
+    assert abs(st.position_m - rig.stroke_centre_m) < CENTRE_M
+    # The samples before the stop are the planned 1 Hz sine, not the rogue's 3 Hz one.
+    assert len(rec.all) < 6000
+
+
+def test_a_drive_whose_watchdog_stays_off_is_never_enabled(sim_rig_factory) -> None:
+    sim = sim_rig_factory(speed=10.0)
+    regs = sim.registers
+    original = regs._apply
+
+    def ignore_watchdog(name: str, value: float):  # type: ignore[no-untyped-def]
+        return None if name == "heartbeat_timeout_ms" else original(name, value)
+
+    def off() -> None:
+        regs._apply = ignore_watchdog
+        regs.engine.drive.heartbeat_timeout_ms = 0
+
+    sim.call(off)
+    with pytest.raises(RigFault, match="watchdog is off or longer"), RigSession(sim.rig_config()):
+        pass
+    st = settled_status(sim.rig_config())
+    assert not st.enabled and not st.running
+
+
+def test_a_test_losing_too_many_frames_is_degraded_not_complete(sim_rig_factory) -> None:
+    sim = sim_rig_factory(speed=10.0)
+    rec = Collector()
+
+    def collect(block) -> None:
+        rec.block(block)
+        if len(rec.blocks) in (10, 25, 40):  # 3 x 40 frames: each gap below daq.max_gap_s
+            sim.inject(Fault("drop", count=40))
+
+    with RigSession(sim.rig_config()) as session:
+        out = session.run_sine(0.03, 1.5, 1, 3, collect)
+    lost = int((np.diff(rec.all.seq) - 1).sum())
+    assert lost >= 80  # > 1 % of ~4700 frames
+    assert out.status == "degraded", out.reason
+    assert "daq.max_frame_loss" in out.reason and not out.stop_sweep
+
+
+def test_a_clean_test_is_complete_and_says_what_was_measured(sim_rig_factory) -> None:
+    sim = sim_rig_factory(speed=10.0)
+    with RigSession(sim.rig_config()) as session:
+        out = session.run_sine(0.02, 1.0, 1, 2, Collector().block)
+    assert out.status == "complete", out.reason
+    found = re.search(r"measured ([0-9.]+) Hz", out.reason)
+    assert found is not None and abs(float(found.group(1)) - 1.0) < 0.005

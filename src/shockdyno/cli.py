@@ -21,6 +21,7 @@ COMMAND_MODULES = [
     "shockdyno.record.cli",  # info, import, export
     "shockdyno.fit.cli",  # fit
     "shockdyno.ride.cli",  # ride
+    "shockdyno.report.cli",  # report
 ]
 
 

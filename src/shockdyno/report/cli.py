@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from shockdyno.errors import ConfigError
+from shockdyno.errors import ConfigError, RecordingError
 
 # Files the report writes under fixed names; an input among them would be overwritten.
 OWN_FILES = ("index.html", "click_chart.csv")
@@ -98,6 +98,9 @@ def run_report(args: argparse.Namespace) -> int:
         metadata = {"recording": str(args.recording), **rec.metadata}
         if rec.truncated:
             metadata["note"] = "the recording was cut off; every test it holds is shown"
+        if not tests and rec.truncated:
+            problem = next((p.problem for p in rec.parts if p.problem), "cut off")
+            raise RecordingError(f"{args.recording}: no test could be read ({problem})")
         if not tests:
             console.print(f"report: {args.recording} holds no tests; writing the page anyway")
         title = args.title or (

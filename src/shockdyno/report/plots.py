@@ -115,14 +115,28 @@ def click_loops(curves: Sequence[Curves], path: Path, gas_force_n: float | None 
     ax_x, ax_v = fig.subplots(1, 2)
     first = rows[0].test.meta
     fig.suptitle(f"clicks {first.clicks}, gas clicks {first.gas_clicks}", fontsize=11)
-    for c, colour in zip(rows, readable_colours(len(rows)), strict=True):
+    colours = readable_colours(len(rows))
+    # Fastest first, wide, underneath: on the F-v plot the slower tests retrace part of
+    # it, and drawn on top in thinner lines they stay visible.
+    order = sorted(range(len(rows)), key=lambda k: -rows[k].test.meta.frequency_hz)
+    for rank, k in enumerate(order):
+        c, colour = rows[k], colours[k]
         meta = c.test.meta
         style = "--" if c.aborted else "-"
         label = f"{meta.frequency_hz:g} Hz, {meta.amplitude_m * 1e3:g} mm{_status_suffix(c)}"
-        ax_x.plot(c.x_mm, c.force, style, color=colour, lw=1.0, label=label)
-        ax_v.plot(c.v, c.force, style, color=colour, lw=1.0)
+        width = 2.4 - 1.4 * rank / max(1, len(rows) - 1)
+        ax_x.plot(c.x_mm, c.force, style, color=colour, lw=width, label=label)
+        ax_v.plot(c.v, c.force, style, color=colour, lw=width)
     _label_loops(ax_x, ax_v, gas_force_n)
-    ax_x.legend(fontsize=8, loc="upper left")
+    handles, labels = ax_x.get_legend_handles_labels()
+    fig.legend(
+        handles[::-1],  # drawn fastest first; listed slowest first
+        labels[::-1],
+        loc="outside lower center",
+        ncol=min(len(rows), 4),
+        fontsize=8,
+        frameon=False,
+    )
     return _save(fig, path)
 
 

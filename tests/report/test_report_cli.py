@@ -91,7 +91,9 @@ def test_ride_section_flags_runs_and_explains_the_paper_gap(full_report: Path) -
     text = full_report.read_text(encoding="utf-8")
     table = next(t for t in page.tables if t[0][1][:2] == ["km/h", "damper"])
     rows = {cells[1]: (cls, cells[2:]) for cls, cells in table[1:]}
-    assert rows["5 clicks"][0] == "flag" and rows["5 clicks"][1][1].endswith(" TS")
+    assert rows["5 clicks"][1][1].endswith(" TS") and not rows["5 clicks"][1][0].endswith("S")
+    # Only the flagged cells are shaded, not their rows:
+    assert text.count('<td class="flag">') == 2
     assert rows["7 clicks"][1][1].endswith(" S") and not rows["7 clicks"][1][0].endswith("S")
     assert "2 of 4 runs are outside the model" in text
     assert "Interpolated from the fit" in text and "7 clicks" in text

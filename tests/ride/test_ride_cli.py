@@ -92,7 +92,7 @@ def test_flags_and_interpolated_clicks_reach_console_json_and_report(
     assert "10 clicks are interpolated from the fit's trend" in printed
     page = (report / "index.html").read_text(encoding="utf-8")
     assert "runs are outside the model" in page and "Interpolated from the fit" in page
-    assert " TS</td>" in page
+    assert '<td class="flag">' in page and " TS</td>" in page
 
 
 @pytest.mark.parametrize(

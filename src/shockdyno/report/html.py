@@ -21,6 +21,7 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: now
 th { background: #f2f2f2; font-weight: 600; }
 tr.aborted td, tr.flag td { background: #fde8e8; color: #8a1c1c; }
 tr.dim td { color: #777; }
+td.flag { background: #fde8e8; color: #8a1c1c; font-weight: 600; }
 figure { margin: 0.8em 0 1.6em; }
 figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
 figcaption { font-size: 0.9em; color: #555; }
@@ -129,6 +130,7 @@ class Page:
         rows: Sequence[Sequence[str]],
         row_classes: Sequence[str] | None = None,
         numeric: Sequence[bool] | None = None,
+        cell_classes: Sequence[Sequence[str]] | None = None,
     ) -> None:
         out = ['<div class="scroll"><table>', "<thead><tr>"]
         # str(): tables handed in by other stages may carry numbers, not only text.
@@ -138,11 +140,13 @@ class Page:
             cls = row_classes[i] if row_classes else ""
             out.append(f'<tr class="{escape(cls, quote=True)}">' if cls else "<tr>")
             for j, value in enumerate(row):
-                cell = str(value)
-                num = numeric is not None and j < len(numeric) and numeric[j]
-                out.append(
-                    f'<td class="num">{escape(cell)}</td>' if num else f"<td>{escape(cell)}</td>"
-                )
+                names = []
+                if numeric is not None and j < len(numeric) and numeric[j]:
+                    names.append("num")
+                if cell_classes is not None and j < len(cell_classes[i]) and cell_classes[i][j]:
+                    names.append(cell_classes[i][j])
+                attr = f' class="{escape(" ".join(names), quote=True)}"' if names else ""
+                out.append(f"<td{attr}>{escape(str(value))}</td>")
             out.append("</tr>")
         out.append("</tbody></table></div>")
         self.parts.append("".join(out))

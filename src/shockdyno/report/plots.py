@@ -134,7 +134,7 @@ def click_loops(curves: Sequence[Curves], path: Path, gas_force_n: float | None 
         labels[::-1],
         loc="outside lower center",
         ncol=min(len(rows), 4),
-        fontsize=8,
+        fontsize=9,
         frameon=False,
     )
     return _save(fig, path)

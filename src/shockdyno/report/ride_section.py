@@ -68,7 +68,7 @@ def _table7(page: Page, entries: list[dict[str, Any]]) -> None:
     rows, classes = [], []
     for speed, clicks in keys:
         row = [f"{_f(speed) or 0:g}", _label(clicks)]
-        flagged = False
+        marks = ["", ""]
         for road in roads:
             e = cell.get((speed, clicks, road))
             if e is None:
@@ -83,11 +83,11 @@ def _table7(page: Page, entries: list[dict[str, Any]]) -> None:
             flags = run_flags(e)
             if flags:
                 text += f" {flags}"
-                flagged = True
+            marks.append("flag" if flags else "")
             row.append(text)
         rows.append(row)
-        classes.append("flag" if flagged else "")
-    page.table(["km/h", "damper", *roads], rows, row_classes=classes)
+        classes.append(marks)
+    page.table(["km/h", "damper", *roads], rows, cell_classes=classes)
 
 
 def render_ride(page: Page, doc: Any) -> None:

@@ -153,15 +153,16 @@ def build_report(
         say("fit figures")
         _fit_section(page, fit, tests, out_dir)
 
-    for n, (heading, figures) in enumerate(extra_sections):
-        page.section(heading)
-        for m, (caption, png) in enumerate(figures):
-            page.figure(_link_extra(out_dir, png, 100 * n + m), caption)
-
     if diagnose is not None:
         render_diagnose(page, diagnose)
     if ride is not None:
         render_ride(page, ride)
+
+    # After the ride table: the ride page's figures follow the numbers they illustrate.
+    for n, (heading, figures) in enumerate(extra_sections):
+        page.section(heading)
+        for m, (caption, png) in enumerate(figures):
+            page.figure(_link_extra(out_dir, png, 100 * n + m), caption)
 
     if drawable:
         say("loops per click")

@@ -39,6 +39,13 @@ def _clicks(result: RideResult) -> list[int | None]:
     return list(dict.fromkeys(r.clicks for r in result.runs))
 
 
+def _grid(n: int) -> tuple[int, int]:
+    """Rows and columns for n panels: at most two side by side, so each stays readable
+    when the page is 800 px wide."""
+    cols = 1 if n == 1 else 2
+    return -(-n // cols), cols
+
+
 def plot_traces(result: RideResult, speed_kmh: float, path: Path) -> None:
     """Figs. 17-18: sprung-mass acceleration against time, one line per click setting."""
     road = _pick_road(result)
@@ -62,9 +69,10 @@ def plot_psd(result: RideResult, path: Path) -> None:
     """Fig. 19: Welch PSD of sprung-mass acceleration, 0-20 Hz, per speed on one road."""
     road = _pick_road(result)
     speeds = list(result.config.speeds_kmh)
-    fig = Figure(figsize=(5 * len(speeds), 4))
+    rows, cols = _grid(len(speeds))
+    fig = Figure(figsize=(5 * cols, 3.6 * rows))
     for k, v in enumerate(speeds):
-        ax = fig.add_subplot(1, len(speeds), k + 1)
+        ax = fig.add_subplot(rows, cols, k + 1)
         for c in _clicks(result):
             i = result.runs.index(Run(c, road, v))
             ax.plot(result.psd_hz, result.psd_m2_s4_hz[i], lw=0.9, label=_label(c))
@@ -84,9 +92,10 @@ def plot_rms_vs_speed(result: RideResult, path: Path) -> None:
     roads = list(result.config.roads)
     speeds = np.array(result.config.speeds_kmh)
     order = np.argsort(speeds)
-    fig = Figure(figsize=(4.5 * len(roads), 4))
+    rows, cols = _grid(len(roads))
+    fig = Figure(figsize=(5 * cols, 3.6 * rows))
     for k, road in enumerate(roads):
-        ax = fig.add_subplot(1, len(roads), k + 1)
+        ax = fig.add_subplot(rows, cols, k + 1)
         for c in _clicks(result):
             idx = [result.runs.index(Run(c, road, float(v))) for v in speeds[order]]
             line = ax.plot(speeds[order], result.rms_m_s2[idx], "o-", label=_label(c))

@@ -41,6 +41,13 @@ def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="session")
+def small_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One test: for checks of the command's behaviour, not of the figures."""
+    path = tmp_path_factory.mktemp("rec") / "one.mcap"
+    return write_recording(path, sweep_tests((7,), (1.5,)), {"damper_id": "one"})
+
+
+@pytest.fixture(scope="session")
 def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     d = tmp_path_factory.mktemp("inputs")
     fit = d / "fit.json"

@@ -203,7 +203,8 @@ def _click_chart_section(
         header, rows = clickchart.table_rows(chart, "model")
         page.subheading("Fitted model (N; mid-stroke, zero acceleration)")
         page.table(header, rows, numeric=[True] * len(header))
-    page.link("click_chart.csv", "click_chart.csv", ": the same numbers (and the model's) as CSV.")
+    also = " and the model's" if chart.model else ""
+    page.link("click_chart.csv", "click_chart.csv", f": the measured values{also} as CSV.")
 
 
 def _summary_section(page: Page, summaries: list[TestSummary]) -> None:

@@ -45,7 +45,8 @@ def check_output_dir(out: Path, inputs: list[Path], force: bool) -> None:
         raise ConfigError(f"{index} exists: use --force to replace it")
     own = {(out / name).resolve() for name in OWN_FILES}
     for path in inputs:
-        if path.resolve() in own or (path.suffix == ".png" and path.resolve().parent == out):
+        drawn = path.suffix == ".png" and path.resolve().parent == out.resolve()
+        if path.resolve() in own or drawn:
             raise ConfigError(f"the report would overwrite its input {path}")
 
 

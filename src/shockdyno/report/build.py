@@ -202,7 +202,10 @@ def _click_chart_section(
     if chart.model:
         header, rows = clickchart.table_rows(chart, "model")
         page.subheading("Fitted model (N; mid-stroke, zero acceleration)")
+        # A long sweep's second table of the same shape is opened on demand.
+        page.details(f"{len(rows)} click settings", opened=len(rows) <= OPEN_SUMMARY_MAX_ROWS)
         page.table(header, rows, numeric=[True] * len(header))
+        page.close_details()
     also = " and the model's" if chart.model else ""
     page.link("click_chart.csv", "click_chart.csv", f": the measured values{also} as CSV.")
 

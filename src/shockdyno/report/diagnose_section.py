@@ -179,8 +179,9 @@ def render_diagnose(page: Page, doc: Any) -> None:
     page.section(
         "Diagnosis",
         "Where the fitted model and the measurement disagree, which extra physics explains "
-        "it, and how much the error falls with it. E_t is the model's RMS force error as a "
-        "share of the measured force's spread (defined under Fit and validation).",
+        "it, and how much the error falls with it. E_t = ε_t / σ_F with ε_t² = ∫ (F_measured "
+        "− F_model)² dt and σ_F² = ∫ (F_measured − mean F)² dt: the model's RMS force error "
+        "as a share of the measured force's spread (0 is perfect).",
     )
     if not isinstance(doc, dict):
         page.paragraph("The diagnose file holds no object; nothing to show.", warn=True)

@@ -13,6 +13,7 @@ import os
 import select
 import shutil
 import subprocess
+import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -116,17 +117,20 @@ def open_page(chromium: str, page: Path, width: int = 800, screenshot: bool = Fa
     to_chrome_r, to_chrome_w = os.pipe()
     from_chrome_r, from_chrome_w = os.pipe()
 
-    def fds() -> None:  # in the child: the protocol's fixed descriptors 3 (in) and 4 (out)
-        os.dup2(to_chrome_r, 3)
-        os.dup2(from_chrome_w, 4)
-
     with tempfile.TemporaryDirectory(prefix="shockdyno-chromium-") as profile:
+        # The protocol's fixed descriptors 3 (in) and 4 (out) are set up in a small Python
+        # launcher rather than a preexec_fn, which is unsafe in a threaded process (and a
+        # shell's redirections cannot name descriptors above 9 everywhere).
+        launcher = (
+            "import os, sys; os.dup2(int(sys.argv[1]), 3); os.dup2(int(sys.argv[2]), 4); "
+            "os.execv(sys.argv[3], sys.argv[3:])"
+        )
         proc = subprocess.Popen(
-            [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+            [sys.executable, "-c", launcher, str(to_chrome_r), str(from_chrome_w),
+             chromium, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
              "--disable-extensions", "--hide-scrollbars", "--remote-debugging-pipe",
              f"--user-data-dir={profile}", "about:blank"],
-            pass_fds=(3, 4),
-            preexec_fn=fds,
+            pass_fds=(to_chrome_r, from_chrome_w),
             stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,

@@ -22,10 +22,9 @@ import math
 import shutil
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from shockdyno.errors import ConfigError
-from shockdyno.fit.result import FitResult
 from shockdyno.record.atomic import write_text_atomic
 from shockdyno.record.types import TestData
 from shockdyno.report import clickchart, plots
@@ -34,6 +33,9 @@ from shockdyno.report.diagnose_section import render_diagnose
 from shockdyno.report.html import SUMMARY_HEADER, SUMMARY_LEGEND, Page, summary_row
 from shockdyno.report.ride_section import render_ride
 from shockdyno.report.summary import TestSummary, summarise
+
+if TYPE_CHECKING:  # the fit package is imported only when a fit is drawn
+    from shockdyno.fit.result import FitResult
 
 Section = tuple[str, list[tuple[str, Path]]]
 Table = tuple[str, list[str], list[list[str]]]

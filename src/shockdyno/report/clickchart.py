@@ -24,15 +24,18 @@ import io
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from shockdyno.errors import FitError
-from shockdyno.fit.result import FitResult
 from shockdyno.model import DamperSpec, damper_force
 from shockdyno.record.types import TestData
 from shockdyno.report.summary import velocity
+
+if TYPE_CHECKING:  # only its methods are called: no import of the fit package at run time
+    from shockdyno.fit.result import FitResult
 
 FloatArray = NDArray[np.float64]
 

@@ -23,6 +23,7 @@ COMMAND_MODULES = [
     "shockdyno.fit.cli",  # fit
     "shockdyno.ride.cli",  # ride
     "shockdyno.diagnose.cli",  # diagnose
+    "shockdyno.report.cli",  # report
 ]
 
 

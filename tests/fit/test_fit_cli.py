@@ -67,6 +67,11 @@ def test_fit_command_writes_json_report_and_table(
     assert len(pngs) >= 3  # areas vs clicks, and overlays
     for p in pngs:
         assert p.read_bytes()[:8] == PNG_MAGIC and p.stat().st_size > 10_000
+    # One page with the fit on it, linking the figures beside it:
+    page = (report / "index.html").read_text(encoding="utf-8")
+    assert "Fit and validation" in page and "Click chart" in page
+    for p in pngs:
+        assert f'src="{p.name}"' in page
     rows = list(csv.reader((report / "table4.csv").read_text().splitlines()))
     assert rows[0][:2] == ["Frequency (Hz)", "Model"]
     assert [r[1] for r in rows[1:]] == ["Proposed", "Talbott", "Enhancement (%)"] * 3

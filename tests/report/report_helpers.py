@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 from functools import cache
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from shockdyno.model import damper_force, load_spec
 from shockdyno.model.spec import DamperSpec
+from shockdyno.record import RecordingWriter
 from shockdyno.record.types import TestData, TestMeta
+from shockdyno.rig.types import SampleBlock
 
 AMPLITUDE_M = 0.03
 RATE_HZ = 1000.0
@@ -62,3 +65,61 @@ def make_test(
         status=status,
     )
     return TestData(meta, t, x, force, temperature_at(t))
+
+
+def write_recording(path: Path, tests: list[TestData], metadata: dict[str, str]) -> Path:
+    """Write tests into an MCAP recording with the project's writer (seq from t)."""
+    with RecordingWriter(path, metadata=metadata, rig_toml='[rig]\nname = "test"\n') as w:
+        for test in tests:
+            seq = np.rint(test.t * RATE_HZ).astype(np.int64)
+            n = seq.size
+            temp = test.temperature if test.temperature is not None else np.full(n, np.nan)
+            w.begin_test(test.meta)
+            w.write_samples(SampleBlock(seq, seq / RATE_HZ, test.x, test.force, temp,
+                                        np.zeros(n, np.uint16)))  # fmt: skip
+            w.end_test(test.meta)
+    return path
+
+
+def sweep_tests(
+    clicks: tuple[int, ...] = (0, 10, 21), freqs: tuple[float, ...] = (1.0, 1.5)
+) -> list[TestData]:
+    """A small sweep on the model damper, tests one after the other in time."""
+    tests: list[TestData] = []
+    t0 = 0.0
+    for c in clicks:
+        for f in freqs:
+            test = make_test(len(tests), c, f, t0=t0)
+            tests.append(test)
+            t0 = float(test.t[-1]) + 1.0
+    return tests
+
+
+# What `shockdyno diagnose` will write (docs/diagnose.md, in progress elsewhere), by hand.
+DIAGNOSE_SAMPLE: dict[str, object] = {
+    "mismatch": {
+        "significant": True,
+        "p_value": 0.0003,
+        "noise_floor_n": 4.2,
+        "structured_share": 0.81,
+        "where": [
+            {"stroke": "rebound", "x_range_m": [-0.03, -0.01], "v_range_m_s": [-0.28, -0.12],
+             "frequencies_hz": [1.0, 1.5], "share": 0.64},
+            {"stroke": "compression", "x_range_m": [0.0, 0.03], "v_range_m_s": [0.0, 0.05],
+             "frequencies_hz": [1.5], "share": 0.17},
+        ],
+    },
+    "findings": [
+        {"physics": "compressibility", "claimed": True, "p_value": 0.0011, "heldout_gain": 0.37,
+         "parameters": {"bulk_modulus_pa": {"value": 1.2e9, "sd": 0.1e9, "unit": "Pa"}},
+         "ambiguous_with": ["sensor_lag"]},
+        {"physics": "thermal", "claimed": False, "p_value": 0.41, "heldout_gain": 0.01,
+         "parameters": {}, "ambiguous_with": []},
+    ],
+    "verdict": {"physics": ["compressibility"], "unexplained": ["rebound at 0.5 Hz"],
+                "text": "Oil compressibility explains most of the rebound mismatch."},
+    "tests": [
+        {"index": 0, "clicks": 0, "frequency_hz": 1.0, "E_t_before": 0.0625, "E_t_after": 0.0125},
+        {"index": 1, "clicks": 0, "frequency_hz": 1.5, "E_t_before": 0.08, "E_t_after": 0.02},
+    ],
+}  # fmt: skip

@@ -129,7 +129,7 @@ def test_every_link_resolves_to_a_valid_png_inside_the_report(report: Path) -> N
     assert page.images, "no figures"
     anchors = {link for link in page.links if link.startswith("#")}
     assert anchors and {a[1:] for a in anchors} <= page.ids
-    assert set(page.links) - anchors == set(page.images)
+    assert set(page.links) - anchors == set(page.images) | {"click_chart.csv"}
     for src in page.images:
         path = (out / src).resolve()
         assert path.is_relative_to(out.resolve()), src
@@ -138,6 +138,7 @@ def test_every_link_resolves_to_a_valid_png_inside_the_report(report: Path) -> N
     names = {Path(s).name for s in page.images}
     # One loop figure per click setting, one overlay per frequency of complete tests, peaks:
     assert names == {
+        "click_chart.png",
         "peaks.png",
         "overlay_1Hz.png",
         "overlay_1.5Hz.png",
@@ -146,7 +147,7 @@ def test_every_link_resolves_to_a_valid_png_inside_the_report(report: Path) -> N
         "loops_c21_g00.png",
     }
     # Nothing but the report's own files in the directory:
-    assert {p.name for p in out.iterdir()} == names | {"index.html"}
+    assert {p.name for p in out.iterdir()} == names | {"index.html", "click_chart.csv"}
     assert "<title>S46 sweep &lt;test&gt;</title>" in report.read_text(encoding="utf-8")
 
 
@@ -156,23 +157,23 @@ def test_table_shows_peaks_computed_independently(report: Path, sweep: list[Reco
     for (cls, row), test in zip(rows, sweep, strict=True):
         meta = test.meta
         assert row["clicks"] == str(meta.clicks)
-        assert float(row["frequency (Hz)"]) == pytest.approx(meta.frequency_hz)
-        assert float(row["amplitude (mm)"]) == pytest.approx(AMPLITUDE_M * 1e3)
+        assert float(row["f (Hz)"]) == pytest.approx(meta.frequency_hz)
+        assert float(row["A (mm)"]) == pytest.approx(AMPLITUDE_M * 1e3)
         assert meta.measured_start_s is not None and meta.measured_end_s is not None
         window = (test.t >= meta.measured_start_s) & (test.t <= meta.measured_end_s)
         f = test.force[window]
-        assert float(row["peak compression force (N)"]) == pytest.approx(f.max(), abs=0.051)
-        assert float(row["peak rebound force (N)"]) == pytest.approx(f.min(), abs=0.051)
+        assert float(row["F comp (N)"]) == pytest.approx(f.max(), abs=0.051)
+        assert float(row["F reb (N)"]) == pytest.approx(f.min(), abs=0.051)
         assert f.max() > 300 and f.min() < -300  # a damper, not zeros
         t_mid = test.t[window].mean()
-        assert float(row["temperature (°C)"]) == pytest.approx(temperature_at(t_mid), abs=0.051)
-        assert row["dropped frames"] == "0"
+        assert float(row["T (°C)"]) == pytest.approx(temperature_at(t_mid), abs=0.051)
+        assert row["dropped"] == "0"
         if meta.status == "complete":
             # Sine of amplitude A: peak velocity ±Aω exactly; the derivative filter is
             # within 0.1 % of it.
             v_peak = AMPLITUDE_M * 2 * np.pi * meta.frequency_hz
-            vc = float(row["peak compression velocity (m/s)"])
-            vr = float(row["peak rebound velocity (m/s)"])
+            vc = float(row["v comp (m/s)"])
+            vr = float(row["v reb (m/s)"])
             assert vc == pytest.approx(v_peak, rel=2e-3)
             assert vr == pytest.approx(-v_peak, rel=2e-3)
             assert cls == "" and row["status"] == "complete"
@@ -194,12 +195,8 @@ def test_table_values_are_those_of_summarise(report: Path, sweep: list[Recorded]
     rows = summary_table(parse(report))
     for (_, row), test in zip(rows, sweep, strict=True):
         s = summarise(test)
-        assert float(row["peak compression force (N)"]) == pytest.approx(
-            s.peak_compression_force_n, abs=0.051
-        )
-        assert float(row["peak rebound velocity (m/s)"]) == pytest.approx(
-            s.peak_rebound_velocity_m_s, abs=5.1e-5
-        )
+        assert float(row["F comp (N)"]) == pytest.approx(s.peak_compression_force_n, abs=0.051)
+        assert float(row["v reb (m/s)"]) == pytest.approx(s.peak_rebound_velocity_m_s, abs=5.1e-5)
         assert int(row["samples"]) == s.n_samples
 
 
@@ -265,7 +262,7 @@ def test_no_tests_gives_a_page_and_a_file_as_out_dir_is_refused(tmp_path: Path) 
     assert page.images == []
     ((cls, row),) = summary_table(page)
     assert cls == "aborted" and row["samples"] == "0"
-    assert row["peak compression force (N)"] == row["temperature (°C)"] == "–"
+    assert row["F comp (N)"] == row["T (°C)"] == "–"
     (tmp_path / "afile").write_text("")
     with pytest.raises(ConfigError, match="afile"):
         build_report([], tmp_path / "afile", title="x")

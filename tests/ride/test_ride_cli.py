@@ -7,10 +7,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from shockdyno.cli import main
 from shockdyno.fit.result import FitResult
+from shockdyno.model import default_spec_path
 
 FAST = ["--duration-s", "3", "--warmup-s", "1", "--dt-ms", "1"]
 
@@ -47,6 +49,50 @@ def test_ride_writes_the_documented_json_and_report(fit_file: Path, tmp_path: Pa
     assert {"fig19_psd.png", "fig20_rms_vs_speed.png", "table7.md", "psd.csv"} <= names
     assert (report / "fig17_traces_low_speed.png").stat().st_size > 10_000
     assert "5 clicks" in (report / "table7.md").read_text()
+    # The report is one page, with the figures and Table 7 on it:
+    page = (report / "index.html").read_text(encoding="utf-8")
+    assert "Table 7 analogue" in page and "fig19_psd.png" in page
+    # Every run is checked against the tyre and the travel, and listed when flagged:
+    flags = doc["flags"]
+    assert flags["travel_m"] == 0.05 and flags["interpolated_clicks"] == []
+    for e in doc["rms"]:
+        assert e["stroke_exceeds_travel"] == (e["max_abs_stroke_m"] > 0.05)
+        listed = {"clicks": e["clicks"], "road": e["road"], "speed_kmh": e["speed_kmh"]}
+        assert (listed in flags["stroke_exceeds_travel"]) == e["stroke_exceeds_travel"]
+        assert (listed in flags["tyre_leaves_road"]) == e["tyre_leaves_road"]
+
+
+def test_flags_and_interpolated_clicks_reach_console_json_and_report(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A fit of clicks 5 and 15 with a trend: 10 clicks comes from the trend. Road E at
+    # 120 km/h throws the wheel off the road and strokes the damper beyond 20 mm.
+    fit = FitResult.from_spec(default_spec_path(), (5, 15))
+    a = np.array([[c.clicks, c.a_bc_m2, c.a_bt_m2] for c in fit.clicks])
+    fit.trend = {name: {"coefficients": list(np.polyfit(a[:, 0], a[:, k], 1))}
+                 for k, name in ((1, "A_bc"), (2, "A_bt"))}  # fmt: skip
+    fit_path = tmp_path / "fit.json"
+    fit.save(fit_path)
+    out, report = tmp_path / "ride.json", tmp_path / "rep"
+    code = main(
+        ["ride", "--fit", str(fit_path), "--clicks", "10", "--roads", "A,E",
+         "--speeds-kmh", "120", "--travel-mm", "20", "--json", str(out),
+         "--report", str(report), "--no-step-check", *FAST]
+    )  # fmt: skip
+    assert code == 0
+    printed = capsys.readouterr().out
+    doc = json.loads(out.read_text())
+    runs = {e["road"]: e for e in doc["rms"]}
+    assert runs["E"]["tyre_leaves_road"] and runs["E"]["stroke_exceeds_travel"]
+    assert not runs["A"]["tyre_leaves_road"]
+    assert runs["A"]["stroke_exceeds_travel"] == (runs["A"]["max_abs_stroke_m"] > 0.02)
+    assert doc["flags"]["interpolated_clicks"] == [10]
+    assert "the tyre leaves the road in 1 of 2 runs" in printed
+    assert "exceeds its travel (±20 mm" in printed
+    assert "10 clicks are interpolated from the fit's trend" in printed
+    page = (report / "index.html").read_text(encoding="utf-8")
+    assert "runs are outside the model" in page and "Interpolated from the fit" in page
+    assert '<td class="flag">' in page and " TS</td>" in page
 
 
 @pytest.mark.parametrize(

@@ -2,10 +2,20 @@
 
 from __future__ import annotations
 
+import math
+from pathlib import Path
+
 import pytest
 
+from shockdyno.cli import main
 from shockdyno.errors import ConfigError
-from shockdyno.run.plan import SweepPlan, parse_clicks, parse_frequencies
+from shockdyno.run.plan import (
+    SweepPlan,
+    frequencies_for_velocities,
+    parse_clicks,
+    parse_frequencies,
+    parse_velocities_mm_s,
+)
 
 
 @pytest.mark.parametrize(
@@ -57,3 +67,41 @@ def test_plan_orders_clicks_outer_and_skips_done_points():
 def test_absurd_plans_are_refused(kwargs):
     with pytest.raises(ConfigError):
         SweepPlan(clicks=(0,), **kwargs)
+
+
+def test_frequencies_for_target_velocities_reach_them():
+    velocities = parse_velocities_mm_s("300, 25,50,100,200,50")
+    assert velocities == [0.025, 0.05, 0.1, 0.2, 0.3]
+    freqs = frequencies_for_velocities(velocities, 0.030)
+    for v, f in zip(velocities, freqs, strict=True):
+        assert 2 * math.pi * f * 0.030 == pytest.approx(v, rel=5e-5)
+    assert freqs[0] == pytest.approx(0.13263, abs=1e-5)  # 25 mm/s at 30 mm: 7.5 s a cycle
+
+
+@pytest.mark.parametrize("text", ["", "25,x", "0", "-25", "nan"])
+def test_bad_velocities_are_refused_in_one_line(text):
+    with pytest.raises(ConfigError) as exc:
+        parse_velocities_mm_s(text)
+    assert "\n" not in str(exc.value)
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--velocities-mm-s", "25,700"], "700 mm/s exceeds the rig's limit of 600 mm/s"),
+        (["--velocities-mm-s", "500", "--amplitude-mm", "0.5"], "above the 50 Hz"),
+        (["--velocities-mm-s", "25", "--freq", "1"], "not allowed with argument"),
+    ],
+)
+def test_sweep_by_velocity_beyond_the_rig_is_refused_before_anything_runs(
+    tmp_path, capsys, extra, message
+):
+    out = tmp_path / "never.mcap"
+    rig = Path(__file__).resolve().parents[2] / "rigs" / "sim.toml"
+    try:
+        code = main(["sweep", "--rig", str(rig), "--start-sim", "-o", str(out), *extra])
+    except SystemExit as exc:  # argparse's own usage error
+        code = int(str(exc.code))
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and message in err and "Traceback" not in err
+    assert not out.exists()

@@ -41,7 +41,8 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--report",
         metavar="DIR",
-        help="also write the figures (PNG) and the Table 4 analogue (table4.csv) here",
+        help="also write DIR/index.html: the report page with the fit (figures, Table 4, "
+        "click chart), and table4.csv beside it",
     )
     p.add_argument(
         "--optimizer",
@@ -224,15 +225,22 @@ def run_fit(args: argparse.Namespace) -> int:
     for note in info.get("skipped", []):
         say(f"skipped {note}")
     if args.report:
-        from shockdyno.fit.plots import fit_figures
         from shockdyno.fit.validate import table4_rows
         from shockdyno.record.atomic import write_text_atomic
+        from shockdyno.report.build import build_report
 
         report = Path(args.report)
-        report.mkdir(parents=True, exist_ok=True)
-        figures = fit_figures(result, tests, report)
-        for title, path in figures:
-            say(f"figure: {title}: {path}")
+        rec = open_recording(args.recording)
+        with console.status("fit: writing the report") as status:
+            index = build_report(
+                tests,
+                report,
+                title=f"{rec.metadata.get('damper_id') or Path(args.recording).stem}: fit report",
+                metadata={"recording": str(args.recording), **rec.metadata},
+                fit=result,
+                progress=lambda stage: status.update(f"fit report: {stage}"),
+            )
+        say(f"report: {index}")
         header, rows = table4_rows(result)
         buf = io.StringIO()
         csv.writer(buf, lineterminator="\n").writerows([header, *rows])

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from shockdyno.fit.result import FitResult
 from shockdyno.fit.validate import ModelForces, forces_for_tests
@@ -80,8 +81,8 @@ def _overlay_figure(mf: ModelForces, path: Path) -> str:
     fig = Figure(figsize=(11, 4.2))
     ax1, ax2 = fig.subplots(1, 2)
     for ax, xs, xlabel in (
-        (ax1, mf.test.x * 1e3, "displacement (mm)"),
-        (ax2, mf.v, "velocity (m/s)"),
+        (ax1, mf.test.x * 1e3, "displacement (mm, + compression)"),
+        (ax2, mf.v, "velocity (m/s, + compression)"),
     ):
         # Measured wide and pale underneath, so a model lying on it stays visible.
         ax.plot(xs, mf.test.force, color="C3", lw=3.0, alpha=0.45, label="measured")
@@ -89,6 +90,8 @@ def _overlay_figure(mf: ModelForces, path: Path) -> str:
         ax.plot(xs, mf.talbott, color="C2", lw=1.0, label="Talbott")
         ax.set_xlabel(xlabel)
         ax.set_ylabel("force (N)")
+        # Few ticks: labels such as "-0.075" must not run into each other.
+        ax.xaxis.set_major_locator(MaxNLocator(nbins=6))
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     fig.suptitle(title)

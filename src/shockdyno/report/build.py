@@ -1,33 +1,66 @@
-"""Assemble the sweep report: PNGs and one ``index.html`` in the output directory.
+"""Assemble the report: PNGs and CSV beside one ``index.html`` in the output directory.
 
 Files written (all inside ``out_dir``, fixed names, so a re-run overwrites its own files
 and touches nothing else):
 
 - ``index.html``
+- ``click_chart.png``, ``click_chart.csv``: force at standard velocities per click
 - ``peaks.png``: peak force vs peak velocity per click (complete tests)
 - ``overlay_<f>Hz.png``: every click at one frequency, coloured by clicks (complete tests)
-- ``loops_c<clicks>_g<gas>.png``: loops of one click setting, a row per test (all tests)
+- ``loops_c<clicks>_g<gas>.png``: one click setting's frequencies overlaid (all tests)
+- ``fit-*.png``: the fit's figures (with a fit)
 - ``extra/<n>_<name>``: copies of ``extra_sections`` PNGs that live outside ``out_dir``
+
+The page keeps its length in check for a 22-click sweep: the long parts (the summary
+table of a big sweep, the loops of each click) sit in collapsed ``<details>`` blocks,
+and images load lazily, so only what is opened is drawn by the browser.
 """
 
 from __future__ import annotations
 
 import math
 import shutil
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from shockdyno.errors import ConfigError
 from shockdyno.record.atomic import write_text_atomic
 from shockdyno.record.types import TestData
-from shockdyno.report import plots
-from shockdyno.report.html import SUMMARY_HEADER, Page, summary_row
+from shockdyno.report import clickchart, plots
+from shockdyno.report.clickplots import force_vs_clicks
+from shockdyno.report.diagnose_section import render_diagnose
+from shockdyno.report.html import SUMMARY_HEADER, SUMMARY_LEGEND, Page, summary_row
+from shockdyno.report.ride_section import render_ride
 from shockdyno.report.summary import TestSummary, summarise
+
+if TYPE_CHECKING:  # the fit package is imported only when a fit is drawn
+    from shockdyno.fit.result import FitResult
 
 Section = tuple[str, list[tuple[str, Path]]]
 Table = tuple[str, list[str], list[list[str]]]
 
 MIN_SAMPLES = 8  # fewer measured samples than this make no loop worth drawing
+OPEN_SUMMARY_MAX_ROWS = 12  # a longer summary table starts collapsed
+
+ERROR_MEASURES = [
+    (
+        "E_t (time)",
+        "ε_t / σ_F with ε_t² = ∫ (F_measured − F_model)² dt and σ_F² = ∫ (F_measured − mean F)² dt "
+        "over the measured cycles: the model's RMS force error as a share of the force's own "
+        "spread (dimensionless; 0 is perfect, 1 is no better than the mean force).",
+    ),
+    (
+        "E_x (displacement)",
+        "ε_x / σ_F with ε_x² = ∫ (F_measured − F_model)² |dx/dt| dt: the same error weighted "
+        "by stroke travelled, i.e. integrated over displacement (unit √(m/s), as in the paper).",
+    ),
+    (
+        "E_ẋ (velocity)",
+        "ε_ẋ / σ_F with ε_ẋ² = ∫ (F_measured − F_model)² |dẋ/dt| dt: weighted by the change of "
+        "velocity, i.e. integrated along the force-velocity curve (unit √(m/s²)).",
+    ),
+]
 
 
 def _freq_name(frequency_hz: float) -> str:
@@ -69,13 +102,25 @@ def build_report(
     metadata: dict[str, str] | None = None,
     extra_sections: Sequence[Section] = (),
     tables: Sequence[Table] = (),
+    fit: FitResult | None = None,
+    diagnose: dict[str, Any] | None = None,
+    ride: dict[str, Any] | None = None,
+    gas_force_n: float | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> Path:
-    """Write the report for ``tests`` into ``out_dir``; returns the path of index.html."""
+    """Write the report into ``out_dir``; returns the path of index.html.
+
+    Every part is optional: no tests (a ride-only page), no fit (measured click chart
+    only), ``diagnose`` and ``ride`` as the JSON documents of those commands.
+    ``gas_force_n``: the static gas force to mark on loops (taken from the fit if given).
+    """
+    say = progress or (lambda _: None)
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise ConfigError(f"report directory is a file: {out_dir}")
     out_dir.mkdir(parents=True, exist_ok=True)
 
+    say("summaries")
     summaries = [summarise(t) for t in tests]
     drawable = [
         plots.prepare(t, s)
@@ -83,64 +128,162 @@ def build_report(
         if s.n_samples >= MIN_SAMPLES
     ]
     complete = [c for c in drawable if not c.aborted and _finite(c.summary)]
+    if fit is not None and gas_force_n is None:
+        gas_force_n = clickchart.static_force_n(fit)
 
     page = Page(title)
     if metadata:
         page.section("Recording")
         page.table(["key", "value"], [[k, v] for k, v in metadata.items()])
 
-    page.section(
-        "Summary",
-        "Peaks over the measured cycles; forces > 0 resist compression, rebound values are "
-        "signed. Velocity from the Savitzky-Golay derivative of displacement. Temperature is "
-        "the mean over the measured cycles.",
-    )
-    n_aborted = sum(s.status != "complete" for s in summaries)
-    if n_aborted:
-        page.paragraph(f"{n_aborted} of {len(summaries)} tests did not complete (marked).")
-    page.table(
-        SUMMARY_HEADER,
-        [summary_row(s) for s in summaries],
-        row_classes=["" if s.status == "complete" else "aborted" for s in summaries],
-        numeric=[True] * (len(SUMMARY_HEADER) - 1) + [False],
-    )
+    if complete:
+        say("click chart")
+        _click_chart_section(page, [c.test for c in complete], fit, out_dir)
+
+    if tests:
+        _summary_section(page, summaries)
 
     for heading, header, rows in tables:
         page.section(heading)
         page.table(header, rows)
 
     if complete:
-        page.section("Peak force vs peak velocity")
-        page.figure(
-            plots.peak_curves([c.summary for c in complete], out_dir / "peaks.png").name,
-            "One curve per click through its test frequencies; complete tests only.",
-        )
-        page.section("Overlays across clicks")
-        by_freq: dict[float, list[plots.Curves]] = {}
-        for c in complete:
-            by_freq.setdefault(round(c.test.meta.frequency_hz, 6), []).append(c)
-        for f, group in sorted(by_freq.items()):
-            png = plots.frequency_overlay(group, f, out_dir / _freq_name(f))
-            page.figure(png.name, f"{f:g} Hz: every click, colour by clicks; complete tests.")
+        say("peak and overlay figures")
+        _peaks_and_overlays(page, complete, out_dir, gas_force_n)
 
+    if fit is not None:
+        say("fit figures")
+        _fit_section(page, fit, tests, out_dir)
+
+    if diagnose is not None:
+        render_diagnose(page, diagnose)
+    if ride is not None:
+        render_ride(page, ride)
+
+    # After the ride table: the ride page's figures follow the numbers they illustrate.
     for n, (heading, figures) in enumerate(extra_sections):
         page.section(heading)
         for m, (caption, png) in enumerate(figures):
             page.figure(_link_extra(out_dir, png, 100 * n + m), caption)
 
     if drawable:
-        page.section(
-            "Loops per click",
-            "Force-displacement and force-velocity over the measured cycles, a row per test; "
-            "aborted tests are drawn dashed in red and labelled.",
-        )
-        by_click: dict[tuple[int, int], list[plots.Curves]] = {}
-        for c in drawable:
-            by_click.setdefault((c.test.meta.clicks, c.test.meta.gas_clicks), []).append(c)
-        for (clicks, gas), group in sorted(by_click.items()):
-            png = plots.click_loops(group, out_dir / f"loops_c{clicks:02d}_g{gas:02d}.png")
-            page.figure(png.name, f"clicks {clicks}, gas clicks {gas}")
+        say("loops per click")
+        _loops_section(page, drawable, out_dir, gas_force_n)
 
     index = out_dir / "index.html"
     write_text_atomic(index, page.render())
     return index
+
+
+def _click_chart_section(
+    page: Page, tests: list[TestData], fit: FitResult | None, out_dir: Path
+) -> None:
+    chart = clickchart.click_chart(tests, fit)
+    page.section(
+        "Click chart",
+        "Force at standard velocities per click, compression (comp, velocity > 0) and rebound "
+        "(reb, velocity < 0), in N. Measured: the force of each test's force-velocity branch "
+        "where it passes the velocity (every crossing of the measured cycles averaged), then "
+        "averaged over the click's frequencies.",
+    )
+    page.figure(
+        force_vs_clicks(chart, out_dir / "click_chart.png").name,
+        "Force against clicks at each standard velocity: measured (solid; hollow markers "
+        "extrapolated)" + (", fitted model (dashed)" if chart.model_curve else "") + ".",
+    )
+    write_text_atomic(out_dir / "click_chart.csv", clickchart.to_csv(chart))
+    header, rows = clickchart.table_rows(chart, "measured")
+    page.subheading("Measured (N; velocity in mm/s)")
+    page.table(header, rows, numeric=[True] * len(header))
+    if chart.any_extrapolated:
+        page.paragraph(
+            "* extrapolated: no test of that click reaches the velocity; the value is a "
+            "straight line through the top 30 % of the fastest test's branch. Sweep by target "
+            "velocity (shockdyno sweep --velocities-mm-s) to measure it."
+        )
+    if chart.model:
+        header, rows = clickchart.table_rows(chart, "model")
+        page.subheading("Fitted model (N; mid-stroke, zero acceleration)")
+        # A long sweep's second table of the same shape is opened on demand.
+        page.details(f"{len(rows)} click settings", opened=len(rows) <= OPEN_SUMMARY_MAX_ROWS)
+        page.table(header, rows, numeric=[True] * len(header))
+        page.close_details()
+    also = " and the model's" if chart.model else ""
+    page.link("click_chart.csv", "click_chart.csv", f": the measured values{also} as CSV.")
+
+
+def _summary_section(page: Page, summaries: list[TestSummary]) -> None:
+    page.section("Summary", SUMMARY_LEGEND)
+    n_aborted = sum(s.status != "complete" for s in summaries)
+    if n_aborted:
+        page.paragraph(f"{n_aborted} of {len(summaries)} tests did not complete (marked).")
+    long = len(summaries) > OPEN_SUMMARY_MAX_ROWS
+    page.details(f"Summary table: {len(summaries)} tests", opened=not long)
+    page.table(
+        SUMMARY_HEADER,
+        [summary_row(s) for s in summaries],
+        row_classes=["" if s.status == "complete" else "aborted" for s in summaries],
+        numeric=[True] * (len(SUMMARY_HEADER) - 1) + [False],
+    )
+    page.close_details()
+
+
+def _peaks_and_overlays(
+    page: Page, complete: list[plots.Curves], out_dir: Path, gas_force_n: float | None
+) -> None:
+    page.section("Peak force vs peak velocity")
+    page.figure(
+        plots.peak_curves([c.summary for c in complete], out_dir / "peaks.png").name,
+        "One curve per click through its test frequencies; complete tests only.",
+    )
+    page.section("Overlays across clicks")
+    by_freq: dict[float, list[plots.Curves]] = {}
+    for c in complete:
+        by_freq.setdefault(round(c.test.meta.frequency_hz, 6), []).append(c)
+    for k, (f, group) in enumerate(sorted(by_freq.items())):
+        page.details(f"{f:g} Hz: every click", opened=k == 0)
+        png = plots.frequency_overlay(group, f, out_dir / _freq_name(f), gas_force_n)
+        page.figure(png.name, f"{f:g} Hz: every click, colour by clicks; complete tests.")
+    page.close_details()
+
+
+def _fit_section(page: Page, fit: FitResult, tests: list[TestData], out_dir: Path) -> None:
+    from shockdyno.fit.plots import fit_figures
+    from shockdyno.fit.validate import table4_rows
+
+    page.section(
+        "Fit and validation",
+        f"Damper model fitted to this recording ({len(fit.clicks)} click settings; base spec "
+        f"{fit.spec_path}). Errors of the proposed model and of Talbott's single-bleed model "
+        "per test frequency, averaged over clicks (the paper's Table 4):",
+    )
+    header, rows = table4_rows(fit)
+    if rows:
+        page.table(header, rows, numeric=[False, False, True, True, True])
+    page.definitions(ERROR_MEASURES)
+    for caption, png in fit_figures(fit, tests, out_dir):
+        page.figure(_link_extra(out_dir, png, 0), caption)
+
+
+def _loops_section(
+    page: Page, drawable: list[plots.Curves], out_dir: Path, gas_force_n: float | None
+) -> None:
+    page.section(
+        "Loops per click",
+        "Force-displacement and force-velocity over the measured cycles, one click's "
+        "frequencies overlaid; aborted tests dashed and labelled. Open a click to see it."
+        + (" Dotted: the static gas force." if gas_force_n is not None else ""),
+    )
+    by_click: dict[tuple[int, int], list[plots.Curves]] = {}
+    for c in drawable:
+        by_click.setdefault((c.test.meta.clicks, c.test.meta.gas_clicks), []).append(c)
+    for (clicks, gas), group in sorted(by_click.items()):
+        freqs = ", ".join(f"{c.test.meta.frequency_hz:g}" for c in group)
+        aborted = sum(c.aborted for c in group)
+        label = f"clicks {clicks}, gas clicks {gas}: {freqs} Hz"
+        if aborted:
+            label += f" ({aborted} not complete)"
+        page.details(label, opened=len(by_click) == 1)
+        png = plots.click_loops(group, out_dir / f"loops_c{clicks:02d}_g{gas:02d}.png", gas_force_n)
+        page.figure(png.name, f"clicks {clicks}, gas clicks {gas}")
+    page.close_details()

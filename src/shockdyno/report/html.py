@@ -10,34 +10,53 @@ from html import escape
 from shockdyno.report.summary import TestSummary
 
 CSS = """
-body { font-family: system-ui, sans-serif; margin: 1.5em auto; max-width: 1200px; color: #222; }
-h1 { margin-bottom: 0.2em; }
-table { border-collapse: collapse; margin: 0.6em 0 1.2em; font-size: 0.9em; }
-th, td { border: 1px solid #ccc; padding: 0.25em 0.55em; }
-td.num { text-align: right; font-variant-numeric: tabular-nums; }
-th { background: #f2f2f2; }
-tr.aborted td { background: #fde8e8; color: #8a1c1c; }
+body { font-family: system-ui, sans-serif; margin: 1.2em auto; max-width: 1200px;
+       padding: 0 1em; color: #222; line-height: 1.4; }
+h1 { margin-bottom: 0.2em; font-size: 1.6em; }
+h2 { margin-top: 1.6em; border-bottom: 1px solid #ddd; }
+.scroll { overflow-x: auto; max-width: 100%; }
+table { border-collapse: collapse; margin: 0.6em 0 1.2em; font-size: 0.85em; }
+th, td { border: 1px solid #ccc; padding: 0.2em 0.45em; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+th { background: #f2f2f2; font-weight: 600; }
+tr.aborted td, tr.flag td { background: #fde8e8; color: #8a1c1c; }
+tr.dim td { color: #777; }
+td.flag { background: #fde8e8; color: #8a1c1c; font-weight: 600; }
 figure { margin: 0.8em 0 1.6em; }
-figure img { max-width: 100%; border: 1px solid #ddd; }
+figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
 figcaption { font-size: 0.9em; color: #555; }
-nav a { margin-right: 1em; }
+nav a { margin-right: 1em; white-space: nowrap; }
+details { margin: 0.4em 0; }
+details > summary { cursor: pointer; font-weight: 600; padding: 0.2em 0; }
+dl.defs dt { font-weight: 600; margin-top: 0.4em; }
+dl.defs dd { margin-left: 1.5em; }
+p.warn { background: #fff4e0; border-left: 4px solid #c76b00; padding: 0.4em 0.7em; }
 """
 
+# Short headers, so the 13 columns fit an 800 px window; the section text says what
+# each one is.
 SUMMARY_HEADER = [
     "test",
     "clicks",
-    "gas clicks",
-    "frequency (Hz)",
-    "amplitude (mm)",
-    "peak compression force (N)",
-    "peak rebound force (N)",
-    "peak compression velocity (m/s)",
-    "peak rebound velocity (m/s)",
-    "temperature (°C)",
-    "dropped frames",
+    "gas",
+    "f (Hz)",
+    "A (mm)",
+    "F comp (N)",
+    "F reb (N)",
+    "v comp (m/s)",
+    "v reb (m/s)",
+    "T (°C)",
+    "dropped",
     "samples",
     "status",
 ]
+SUMMARY_LEGEND = (
+    "F comp / F reb: peak compression / rebound force over the measured cycles (forces > 0 "
+    "resist compression; rebound values are signed). v comp / v reb: peak compression / "
+    "rebound velocity, from the Savitzky-Golay derivative of displacement. T: mean "
+    "temperature over the measured cycles. dropped: frames lost over the whole test. "
+    "samples: samples in the measured window."
+)
 
 
 def _num(value: float | None, spec: str) -> str:
@@ -72,8 +91,10 @@ class Page:
     title: str
     parts: list[str] = field(default_factory=list)
     toc: list[tuple[str, str]] = field(default_factory=list)
+    _open_details: int = 0
 
     def section(self, heading: str, intro: str = "") -> None:
+        self.close_details()
         anchor = f"s{len(self.toc) + 1}"
         self.toc.append((anchor, heading))
         self.parts.append(f'<h2 id="{anchor}">{escape(heading)}</h2>')
@@ -82,6 +103,19 @@ class Page:
 
     def subheading(self, text: str) -> None:
         self.parts.append(f"<h3>{escape(text)}</h3>")
+
+    def details(self, summary: str, *, opened: bool = False) -> None:
+        """Start a collapsible block; it ends at the next details, section or the end."""
+        self.close_details()
+        self.parts.append(
+            f"<details{' open' if opened else ''}><summary>{escape(summary)}</summary>"
+        )
+        self._open_details = 1
+
+    def close_details(self) -> None:
+        if self._open_details:
+            self.parts.append("</details>")
+            self._open_details = 0
 
     def figure(self, href: str, caption: str) -> None:
         src = escape(href, quote=True)
@@ -96,8 +130,9 @@ class Page:
         rows: Sequence[Sequence[str]],
         row_classes: Sequence[str] | None = None,
         numeric: Sequence[bool] | None = None,
+        cell_classes: Sequence[Sequence[str]] | None = None,
     ) -> None:
-        out = ["<table>", "<thead><tr>"]
+        out = ['<div class="scroll"><table>', "<thead><tr>"]
         # str(): tables handed in by other stages may carry numbers, not only text.
         out += [f"<th>{escape(str(h))}</th>" for h in header]
         out.append("</tr></thead><tbody>")
@@ -105,24 +140,38 @@ class Page:
             cls = row_classes[i] if row_classes else ""
             out.append(f'<tr class="{escape(cls, quote=True)}">' if cls else "<tr>")
             for j, value in enumerate(row):
-                cell = str(value)
-                num = numeric is not None and j < len(numeric) and numeric[j]
-                out.append(
-                    f'<td class="num">{escape(cell)}</td>' if num else f"<td>{escape(cell)}</td>"
-                )
+                names = []
+                if numeric is not None and j < len(numeric) and numeric[j]:
+                    names.append("num")
+                if cell_classes is not None and j < len(cell_classes[i]) and cell_classes[i][j]:
+                    names.append(cell_classes[i][j])
+                attr = f' class="{escape(" ".join(names), quote=True)}"' if names else ""
+                out.append(f"<td{attr}>{escape(str(value))}</td>")
             out.append("</tr>")
-        out.append("</tbody></table>")
+        out.append("</tbody></table></div>")
         self.parts.append("".join(out))
 
-    def paragraph(self, text: str) -> None:
-        self.parts.append(f"<p>{escape(text)}</p>")
+    def paragraph(self, text: str, *, warn: bool = False) -> None:
+        cls = ' class="warn"' if warn else ""
+        self.parts.append(f"<p{cls}>{escape(text)}</p>")
+
+    def link(self, text: str, href: str, after: str = "") -> None:
+        """A paragraph with one link (to a file beside the page)."""
+        a = f'<a href="{escape(href, quote=True)}">{escape(text)}</a>'
+        self.parts.append(f"<p>{a}{escape(after)}</p>")
+
+    def definitions(self, items: Sequence[tuple[str, str]]) -> None:
+        body = "".join(f"<dt>{escape(t)}</dt><dd>{escape(d)}</dd>" for t, d in items)
+        self.parts.append(f'<dl class="defs">{body}</dl>')
 
     def render(self) -> str:
+        self.close_details()
         nav = " ".join(f'<a href="#{a}">{escape(h)}</a>' for a, h in self.toc)
         body = "\n".join(self.parts)
         return (
             "<!DOCTYPE html>\n"
             '<html lang="en"><head><meta charset="utf-8">'
+            '<meta name="viewport" content="width=device-width, initial-scale=1">'
             f"<title>{escape(self.title)}</title><style>{CSS}</style></head>\n"
             f"<body><h1>{escape(self.title)}</h1>\n<nav>{nav}</nav>\n{body}\n</body></html>\n"
         )

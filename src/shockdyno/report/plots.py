@@ -15,7 +15,7 @@ import numpy as np
 from matplotlib import colormaps
 from matplotlib.axes import Axes
 from matplotlib.cm import ScalarMappable
-from matplotlib.colors import Normalize
+from matplotlib.colors import Colormap, ListedColormap, Normalize
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 from numpy.typing import NDArray
@@ -29,7 +29,19 @@ DPI = 100
 # A line drawn a few hundred pixels wide gains nothing from more points than this, and
 # Agg's time grows with the vertex count.
 MAX_POINTS = 1500
-CMAP = "viridis"
+# viridis without its last 15 %: the pale yellow end is unreadable on a white page.
+CMAP: Colormap = ListedColormap(colormaps["viridis"](np.linspace(0.0, 0.85, 256)), "viridis_dark")
+# Distinct colours that read on white (tab10 without its olive and grey).
+PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf")
+VELOCITY_LABEL = "velocity v (m/s, + compression)"
+DISPLACEMENT_LABEL = "displacement x (mm, + compression)"
+
+
+def readable_colours(n: int) -> list[str | tuple[float, float, float, float]]:
+    """n colours that are told apart and read on white: the palette, else the colormap."""
+    if n <= len(PALETTE):
+        return list(PALETTE[:n])
+    return [CMAP(float(k)) for k in np.linspace(0.0, 1.0, n)]
 
 
 @dataclass(frozen=True)
@@ -59,41 +71,72 @@ def _save(fig: Figure, path: Path) -> Path:
     return path
 
 
-def _label_loops(ax_x: Axes, ax_v: Axes) -> None:
-    ax_x.set_xlabel("displacement x (mm, + compression)")
+def _ticks(ax: Axes) -> None:
+    # Few enough ticks that labels like "-1500" never touch, whatever the panel width.
+    ax.xaxis.set_major_locator(MaxNLocator(nbins=6))
+    ax.yaxis.set_major_locator(MaxNLocator(nbins=7))
+
+
+def _label_loops(ax_x: Axes, ax_v: Axes, gas_force_n: float | None = None) -> None:
+    ax_x.set_xlabel(DISPLACEMENT_LABEL)
     ax_x.set_ylabel("force F (N)")
-    ax_v.set_xlabel("velocity v (m/s)")
+    ax_v.set_xlabel(VELOCITY_LABEL)
     ax_v.set_ylabel("force F (N)")
     for ax in (ax_x, ax_v):
         ax.grid(True, alpha=0.3)
         ax.axhline(0.0, color="0.6", lw=0.6)
         ax.axvline(0.0, color="0.6", lw=0.6)
+        _ticks(ax)
+        if gas_force_n is not None and math.isfinite(gas_force_n):
+            ax.axhline(gas_force_n, color="0.25", lw=0.9, ls=":")
+    if gas_force_n is not None and math.isfinite(gas_force_n):
+        ax_v.annotate(
+            f"static gas force {gas_force_n:.0f} N",
+            xy=(0.02, gas_force_n),
+            xycoords=("axes fraction", "data"),
+            xytext=(0, 3),
+            textcoords="offset points",
+            fontsize=8,
+            color="0.25",
+        )
 
 
 def _status_suffix(c: Curves) -> str:
     return f" ({c.test.meta.status.upper()})" if c.aborted else ""
 
 
-def click_loops(curves: Sequence[Curves], path: Path) -> Path:
-    """Force-displacement and force-velocity loops of one click setting, a row per test."""
+def click_loops(curves: Sequence[Curves], path: Path, gas_force_n: float | None = None) -> Path:
+    """One click setting: its frequencies overlaid on one F-x and one F-v plot.
+
+    A colour per frequency; an aborted test is dashed and labelled in the legend.
+    """
     rows = sorted(curves, key=lambda c: (c.test.meta.frequency_hz, c.test.meta.index))
-    fig = Figure(figsize=(9.0, 2.6 * len(rows) + 0.6), layout="constrained")
-    axes = fig.subplots(len(rows), 2, squeeze=False)
+    fig = Figure(figsize=(10.0, 4.0), layout="constrained")
+    ax_x, ax_v = fig.subplots(1, 2)
     first = rows[0].test.meta
-    fig.suptitle(f"clicks {first.clicks}, gas clicks {first.gas_clicks}")
-    for (ax_x, ax_v), c in zip(axes, rows, strict=True):
+    fig.suptitle(f"clicks {first.clicks}, gas clicks {first.gas_clicks}", fontsize=11)
+    colours = readable_colours(len(rows))
+    # Fastest first, wide, underneath: on the F-v plot the slower tests retrace part of
+    # it, and drawn on top in thinner lines they stay visible.
+    order = sorted(range(len(rows)), key=lambda k: -rows[k].test.meta.frequency_hz)
+    for rank, k in enumerate(order):
+        c, colour = rows[k], colours[k]
         meta = c.test.meta
         style = "--" if c.aborted else "-"
-        colour = "tab:red" if c.aborted else "tab:blue"
-        ax_x.plot(c.x_mm, c.force, style, color=colour, lw=0.9)
-        ax_v.plot(c.v, c.force, style, color=colour, lw=0.9)
-        ax_x.set_title(
-            f"test {meta.index}: {meta.frequency_hz:g} Hz, {meta.amplitude_m * 1e3:g} mm"
-            f"{_status_suffix(c)}",
-            fontsize=10,
-        )
-        ax_v.set_title(f"force-velocity{_status_suffix(c)}", fontsize=10)
-        _label_loops(ax_x, ax_v)
+        label = f"{meta.frequency_hz:g} Hz, {meta.amplitude_m * 1e3:g} mm{_status_suffix(c)}"
+        width = 2.4 - 1.4 * rank / max(1, len(rows) - 1)
+        ax_x.plot(c.x_mm, c.force, style, color=colour, lw=width, label=label)
+        ax_v.plot(c.v, c.force, style, color=colour, lw=width)
+    _label_loops(ax_x, ax_v, gas_force_n)
+    handles, labels = ax_x.get_legend_handles_labels()
+    fig.legend(
+        handles[::-1],  # drawn fastest first; listed slowest first
+        labels[::-1],
+        loc="outside lower center",
+        ncol=min(len(rows), 4),
+        fontsize=9,
+        frameon=False,
+    )
     return _save(fig, path)
 
 
@@ -105,22 +148,24 @@ def _click_norm(clicks: Sequence[int]) -> Normalize:
 
 
 def _click_colorbar(fig: Figure, norm: Normalize, axes: list[Axes]) -> None:
-    bar = fig.colorbar(ScalarMappable(norm=norm, cmap=colormaps[CMAP]), ax=axes, label="clicks")
+    bar = fig.colorbar(ScalarMappable(norm=norm, cmap=CMAP), ax=axes, label="clicks")
     bar.locator = MaxNLocator(integer=True)
     bar.update_ticks()
 
 
-def frequency_overlay(curves: Sequence[Curves], frequency_hz: float, path: Path) -> Path:
+def frequency_overlay(
+    curves: Sequence[Curves], frequency_hz: float, path: Path, gas_force_n: float | None = None
+) -> Path:
     """Loops of every click at one frequency, coloured by clicks."""
     norm = _click_norm([c.test.meta.clicks for c in curves])
-    cmap = colormaps[CMAP]
+    cmap = CMAP
     fig = Figure(figsize=(11.0, 4.4), layout="constrained")
     ax_x, ax_v = fig.subplots(1, 2)
     for c in sorted(curves, key=lambda c: c.test.meta.clicks):
         colour = cmap(norm(c.test.meta.clicks))
         ax_x.plot(c.x_mm, c.force, color=colour, lw=0.8)
         ax_v.plot(c.v, c.force, color=colour, lw=0.8)
-    _label_loops(ax_x, ax_v)
+    _label_loops(ax_x, ax_v, gas_force_n)
     gas = sorted({c.test.meta.gas_clicks for c in curves})
     fig.suptitle(f"{frequency_hz:g} Hz, every click (gas clicks {', '.join(map(str, gas))})")
     _click_colorbar(fig, norm, [ax_x, ax_v])
@@ -133,7 +178,7 @@ def peak_curves(summaries: Sequence[TestSummary], path: Path) -> Path:
     Compression peaks sit in the upper right, rebound peaks (signed) in the lower left.
     """
     norm = _click_norm([s.clicks for s in summaries])
-    cmap = colormaps[CMAP]
+    cmap = CMAP
     fig = Figure(figsize=(8.0, 5.6), layout="constrained")
     ax = fig.subplots()
     by_click: dict[tuple[int, int], list[TestSummary]] = {}
@@ -156,7 +201,8 @@ def peak_curves(summaries: Sequence[TestSummary], path: Path) -> Path:
     ax.axhline(0.0, color="0.6", lw=0.6)
     ax.axvline(0.0, color="0.6", lw=0.6)
     ax.grid(True, alpha=0.3)
-    ax.set_xlabel("peak velocity (m/s; + compression, - rebound)")
+    _ticks(ax)
+    ax.set_xlabel("peak velocity (m/s, + compression, − rebound)")
     ax.set_ylabel("peak force (N)")
     title = "peak force vs peak velocity per click"
     if len(gas_values) > 1:

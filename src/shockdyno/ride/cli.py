@@ -7,6 +7,7 @@ import json
 import math
 import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import TypeVar
 
 from shockdyno.errors import ConfigError
@@ -51,7 +52,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--json", required=True, help="write the result here (docs/ride.md; - for stdout)"
     )
     p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
-    p.add_argument("--report", help="directory for figures, Table 7 and the PSD CSV")
+    p.add_argument(
+        "--report",
+        metavar="DIR",
+        help="write DIR/index.html with the figures, Table 7 (also table7.md) and the PSD CSV",
+    )
     p.add_argument(
         "--model",
         choices=("proposed", "talbott"),
@@ -78,6 +83,13 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument("--unsprung-mass-kg", type=float, default=car.unsprung_mass_kg)
     p.add_argument("--spring-n-per-m", type=float, default=car.spring_n_m)
     p.add_argument("--tyre-n-per-m", type=float, default=car.tyre_n_m)
+    p.add_argument(
+        "--travel-mm",
+        type=float,
+        default=50.0,
+        help="damper travel either side of static ride height; longer strokes are flagged "
+        "(default 50)",
+    )
     p.add_argument(
         "--no-step-check",
         action="store_true",
@@ -109,6 +121,7 @@ def config_from_args(args: argparse.Namespace) -> RideConfig:
         linear_damper_ns_m=args.linear_damper_ns_m,
         model=args.model,
         step_check=not args.no_step_check,
+        travel_m=args.travel_mm * 1e-3,
     )
 
 
@@ -136,6 +149,41 @@ def summary(result: RideResult) -> str:
     return "\n".join(lines)
 
 
+def _runs(flagged: list[dict[str, object]]) -> str:
+    shown = [
+        f"{'linear' if r['clicks'] is None else str(r['clicks']) + ' clicks'} "
+        f"{r['road']} {r['speed_kmh']:g} km/h"
+        for r in flagged[:4]
+    ]
+    more = f" and {len(flagged) - 4} more" if len(flagged) > 4 else ""
+    return ", ".join(shown) + more
+
+
+def warnings(result: RideResult) -> list[str]:
+    """Lines for the console: runs outside the model's validity, interpolated clicks."""
+    flags = result.flags()
+    out = []
+    n = len(result.runs)
+    tyre, stroke = flags["tyre_leaves_road"], flags["stroke_exceeds_travel"]
+    if tyre:
+        out.append(
+            f"warning: the tyre leaves the road in {len(tyre)} of {n} runs (the linear tyre "
+            f"is pulled; outside the model's validity): {_runs(tyre)}"
+        )
+    if stroke:
+        out.append(
+            f"warning: the damper stroke exceeds its travel (±{result.config.travel_m * 1e3:g} "
+            f"mm, --travel-mm) in {len(stroke)} of {n} runs: {_runs(stroke)}"
+        )
+    if flags["interpolated_clicks"]:
+        clicks = ", ".join(map(str, flags["interpolated_clicks"]))
+        out.append(
+            f"note: bleed areas at {clicks} clicks are interpolated from the fit's trend "
+            "(no test at that setting)"
+        )
+    return out
+
+
 def handle(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     inputs = [args.fit] if args.fit else []
@@ -154,10 +202,12 @@ def handle(args: argparse.Namespace) -> int:
     # With --json -, stdout carries only the JSON; the human summary goes to stderr.
     human = sys.stderr if out is None else sys.stdout
     print(summary(result), file=human)
+    for line in warnings(result):
+        print(line, file=human)
     print(f"wrote {'stdout' if out is None else out}", file=human)
     if args.report:
         from shockdyno.ride.plots import write_report
 
         files = write_report(result, args.report)
-        print(f"wrote {len(files)} report files to {args.report}", file=human)
+        print(f"report: {Path(args.report) / 'index.html'} ({len(files)} files)", file=human)
     return 0

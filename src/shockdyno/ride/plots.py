@@ -14,6 +14,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from shockdyno.errors import ConfigError
+from shockdyno.record.atomic import write_text_atomic
+from shockdyno.report.ride_section import FLAG_LEGEND, PAPER_EXPLANATION, paper_ratios
 from shockdyno.ride.study import RideResult, Run, paper_rms
 
 TRACE_WINDOW_S = 10.0
@@ -35,6 +37,13 @@ def _pick_road(result: RideResult) -> str:
 
 def _clicks(result: RideResult) -> list[int | None]:
     return list(dict.fromkeys(r.clicks for r in result.runs))
+
+
+def _grid(n: int) -> tuple[int, int]:
+    """Rows and columns for n panels: at most two side by side, so each stays readable
+    when the page is 800 px wide."""
+    cols = 1 if n == 1 else 2
+    return -(-n // cols), cols
 
 
 def plot_traces(result: RideResult, speed_kmh: float, path: Path) -> None:
@@ -60,9 +69,10 @@ def plot_psd(result: RideResult, path: Path) -> None:
     """Fig. 19: Welch PSD of sprung-mass acceleration, 0-20 Hz, per speed on one road."""
     road = _pick_road(result)
     speeds = list(result.config.speeds_kmh)
-    fig = Figure(figsize=(5 * len(speeds), 4))
+    rows, cols = _grid(len(speeds))
+    fig = Figure(figsize=(5 * cols, 3.6 * rows))
     for k, v in enumerate(speeds):
-        ax = fig.add_subplot(1, len(speeds), k + 1)
+        ax = fig.add_subplot(rows, cols, k + 1)
         for c in _clicks(result):
             i = result.runs.index(Run(c, road, v))
             ax.plot(result.psd_hz, result.psd_m2_s4_hz[i], lw=0.9, label=_label(c))
@@ -82,9 +92,10 @@ def plot_rms_vs_speed(result: RideResult, path: Path) -> None:
     roads = list(result.config.roads)
     speeds = np.array(result.config.speeds_kmh)
     order = np.argsort(speeds)
-    fig = Figure(figsize=(4.5 * len(roads), 4))
+    rows, cols = _grid(len(roads))
+    fig = Figure(figsize=(5 * cols, 3.6 * rows))
     for k, road in enumerate(roads):
-        ax = fig.add_subplot(1, len(roads), k + 1)
+        ax = fig.add_subplot(rows, cols, k + 1)
         for c in _clicks(result):
             idx = [result.runs.index(Run(c, road, float(v))) for v in speeds[order]]
             line = ax.plot(speeds[order], result.rms_m_s2[idx], "o-", label=_label(c))
@@ -109,6 +120,7 @@ def table7_markdown(result: RideResult) -> str:
         head,
         "|" + "---|" * (len(roads) + 2),
     ]
+    tyre, stroke = result.tyre_leaves_road(), result.stroke_exceeds_travel()
     for v in result.config.speeds_kmh:
         for c in _clicks(result):
             cells = []
@@ -118,8 +130,18 @@ def table7_markdown(result: RideResult) -> str:
                 paper = paper_rms(c, road, v)
                 if paper is not None:
                     cell += f" / {paper:.3f}"
-                cells.append(cell)
+                flags = ("T" if tyre[i] else "") + ("S" if stroke[i] else "")
+                cells.append(cell + (f" {flags}" if flags else ""))
             lines.append(f"| {v:g} | {_label(c)} | " + " | ".join(cells) + " |")
+    if tyre.any() or stroke.any():
+        lines += ["", FLAG_LEGEND.replace("its travel", f"±{result.config.travel_m * 1e3:g} mm")]
+    ratios = paper_ratios(result.to_json()["rms"])
+    if ratios:
+        lines += [
+            "",
+            f"Ours are {min(ratios):.1f}-{max(ratios):.1f}× the paper's (median "
+            f"{float(np.median(ratios)):.1f}×). {PAPER_EXPLANATION}",
+        ]
     return "\n".join(lines) + "\n"
 
 
@@ -141,7 +163,8 @@ def write_psd_csv(result: RideResult, path: Path) -> None:
 
 
 def write_report(result: RideResult, directory: str | Path) -> list[Path]:
-    """Write figures, Table 7 and the PSD as CSV into directory; return the files."""
+    """Write index.html with the figures and Table 7 (flags, the paper comparison), and
+    beside it the figures, table7.md and the PSD as CSV; return the files."""
     out = Path(directory)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -157,7 +180,22 @@ def write_report(result: RideResult, directory: str | Path) -> list[Path]:
         files.append(out / name)
     plot_psd(result, out / "fig19_psd.png")
     plot_rms_vs_speed(result, out / "fig20_rms_vs_speed.png")
-    (out / "table7.md").write_text(table7_markdown(result))
+    write_text_atomic(out / "table7.md", table7_markdown(result))
     write_psd_csv(result, out / "psd.csv")
     files += [out / n for n in ("fig19_psd.png", "fig20_rms_vs_speed.png", "table7.md", "psd.csv")]
-    return files
+    from shockdyno.report.build import build_report
+
+    captions = [
+        f"Sprung-mass acceleration, {speeds[0]:g} km/h (Fig. 17 analogue)",
+        f"Sprung-mass acceleration, {speeds[-1]:g} km/h (Fig. 18 analogue)",
+        "PSD of sprung-mass acceleration (Fig. 19 analogue)",
+        "RMS against speed, dashed Wk-weighted (Fig. 20 analogue)",
+    ]
+    index = build_report(
+        [],
+        out,
+        title="shockdyno ride study",
+        ride=result.to_json(),
+        extra_sections=[("Ride figures", list(zip(captions, files[:4], strict=True)))],
+    )
+    return [index, *files]

@@ -95,6 +95,9 @@ class RideConfig:
     linear_damper_ns_m: float | None = None
     model: str = "proposed"  # or "talbott": one fitted bleed area for both strokes
     step_check: bool = True
+    # The damper's travel either side of static ride height: the spec does not give the
+    # stroke, so runs beyond this are flagged, not stopped (no bump stops are modelled).
+    travel_m: float = 0.05
     check_duration_s: float = 4.0
     psd_max_hz: float = 20.0
     psd_segment_s: float = 8.192
@@ -132,6 +135,8 @@ class RideConfig:
             math.isfinite(self.linear_damper_ns_m) and self.linear_damper_ns_m >= 0
         ):
             raise ConfigError(f"linear damper rate must be >= 0, got {self.linear_damper_ns_m}")
+        if not (math.isfinite(self.travel_m) and self.travel_m > 0):
+            raise ConfigError(f"damper travel must be > 0, got {self.travel_m * 1e3:g} mm")
         if self.model not in ("proposed", "talbott"):
             raise ConfigError(f"model must be 'proposed' or 'talbott', got {self.model!r}")
         if not (0 < self.psd_max_hz < 0.5 / self.dt_s):
@@ -175,11 +180,51 @@ class RideResult:
         """The ISO 2631-1 Wk-weighted RMS of that run."""
         return float(self.rms_wk_m_s2[self.run_index(clicks, road, speed_kmh)])
 
+    def tyre_leaves_road(self) -> NDArray[np.bool_]:
+        """Per run: the linear tyre's force would pull (it carries more than the car's
+        weight in tension, i.e. the wheel would lift off the road)."""
+        car = self.config.car
+        lift = (car.sprung_mass_kg + car.unsprung_mass_kg) * GRAVITY_M_S2
+        return np.asarray(
+            np.max(self.trajectory.tyre_deflection_m, axis=1) * car.tyre_n_m > lift, dtype=bool
+        )
+
+    def stroke_exceeds_travel(self) -> NDArray[np.bool_]:
+        """Per run: the damper stroke goes beyond ±travel_m of static ride height."""
+        peak = np.max(np.abs(self.trajectory.stroke_m), axis=1)
+        return np.asarray(peak > self.config.travel_m, dtype=bool)
+
+    def interpolated_clicks(self) -> list[int]:
+        """Click settings whose bleed areas come from the fit's trend, not a fitted click."""
+        return [
+            int(s["clicks"])
+            for s in self.damper_info.get("settings", [])
+            if s.get("source") == "trend"
+        ]
+
+    def flags(self) -> dict[str, Any]:
+        """Runs outside the model's validity, for the console, the JSON and the report."""
+        tyre, stroke = self.tyre_leaves_road(), self.stroke_exceeds_travel()
+
+        def listed(mask: NDArray[np.bool_]) -> list[dict[str, Any]]:
+            return [
+                {"clicks": r.clicks, "road": r.road, "speed_kmh": r.speed_kmh}
+                for r, m in zip(self.runs, mask, strict=True)
+                if m
+            ]
+
+        return {
+            "travel_m": self.config.travel_m,
+            "tyre_leaves_road": listed(tyre),
+            "stroke_exceeds_travel": listed(stroke),
+            "interpolated_clicks": self.interpolated_clicks(),
+        }
+
     def to_json(self) -> dict[str, Any]:
         cfg = self.config
         car = asdict(cfg.car)
-        lift = (cfg.car.sprung_mass_kg + cfg.car.unsprung_mass_kg) * GRAVITY_M_S2
         traj = self.trajectory
+        tyre, stroke = self.tyre_leaves_road(), self.stroke_exceeds_travel()
         entries = []
         for i, run in enumerate(self.runs):
             road = self.roads[(run.road, run.speed_kmh)]
@@ -196,9 +241,8 @@ class RideResult:
                     "max_abs_stroke_velocity_m_s": float(
                         np.max(np.abs(traj.stroke_velocity_m_s[i]))
                     ),
-                    "tyre_leaves_road": bool(
-                        np.max(traj.tyre_deflection_m[i]) * cfg.car.tyre_n_m > lift
-                    ),
+                    "tyre_leaves_road": bool(tyre[i]),
+                    "stroke_exceeds_travel": bool(stroke[i]),
                 }
             )
         speeds = sorted(set(cfg.speeds_kmh))
@@ -240,6 +284,7 @@ class RideResult:
                 "max_hz": cfg.psd_max_hz,
             },
             "rms": entries,
+            "flags": self.flags(),
             "wall_time_s": self.wall_time_s,
         }
 

@@ -17,7 +17,13 @@ from shockdyno import __version__
 from shockdyno.errors import ConfigError, RecordingError, RigFault
 from shockdyno.model.spec import default_spec_path, load_spec
 from shockdyno.outputs import check_output
-from shockdyno.run.plan import SweepPlan, parse_clicks, parse_frequencies
+from shockdyno.run.plan import (
+    SweepPlan,
+    frequencies_for_velocities,
+    parse_clicks,
+    parse_frequencies,
+    parse_velocities_mm_s,
+)
 from shockdyno.run.signals import stop_on_signals
 
 if TYPE_CHECKING:
@@ -75,7 +81,14 @@ def register(sub: Any) -> None:
     )
     s.add_argument("--rig", type=Path, required=True, help="rig file, e.g. rigs/sim.toml")
     s.add_argument("--clicks", default="0-21", help="e.g. 0-21, 0,3,6 or 0-21:3 (default 0-21)")
-    s.add_argument("--freq", default="0.5,1,1.5", help="Hz, comma-separated (default 0.5,1,1.5)")
+    by = s.add_mutually_exclusive_group()
+    by.add_argument("--freq", default="0.5,1,1.5", help="Hz, comma-separated (default 0.5,1,1.5)")
+    by.add_argument(
+        "--velocities-mm-s",
+        metavar="V,...",
+        help="plan by target peak velocity instead of --freq, e.g. 25,50,100,200,300: each "
+        "frequency is v / (2π A) at --amplitude-mm, refused beyond the rig file's limits",
+    )
     s.add_argument("--amplitude-mm", type=_positive_float, default=30.0, help="default 30")
     s.add_argument("--gas-clicks", type=int, default=0)
     s.add_argument("--warmup-cycles", type=int, default=2)
@@ -107,13 +120,43 @@ def register(sub: Any) -> None:
     r.set_defaults(func=cmd_replay)
 
 
-def _plan(args: argparse.Namespace, max_clicks: int, max_gas_clicks: int) -> SweepPlan:
+def _frequencies(args: argparse.Namespace, rig: RigConfig | None) -> list[float]:
+    """--freq as given, or the frequencies that reach --velocities-mm-s at the amplitude."""
+    text = getattr(args, "velocities_mm_s", None)
+    if not text:
+        return parse_frequencies(getattr(args, "freq", "0.5,1,1.5"))
+    amplitude_m = getattr(args, "amplitude_mm", 30.0) / 1e3
+    velocities = parse_velocities_mm_s(text)
+    if rig is not None:
+        limit = rig.limits.velocity_m_s
+        too_fast = [v for v in velocities if v > limit]
+        if too_fast:
+            raise ConfigError(
+                f"--velocities-mm-s: {too_fast[0] * 1e3:g} mm/s exceeds the rig's limit of "
+                f"{limit * 1e3:g} mm/s ({rig.source} limits.velocity_m_s)"
+            )
+    freqs = frequencies_for_velocities(velocities, amplitude_m)
+    if rig is not None:
+        f_max = rig.daq.sample_rate_hz / 20
+        for v, f in zip(velocities, freqs, strict=True):
+            if f > f_max:
+                raise ConfigError(
+                    f"--velocities-mm-s: {v * 1e3:g} mm/s at {amplitude_m * 1e3:g} mm needs "
+                    f"{f:g} Hz, above the {f_max:g} Hz the DAQ's {rig.daq.sample_rate_hz:g} Hz "
+                    "allows (20 samples per cycle); use a larger --amplitude-mm"
+                )
+    return freqs
+
+
+def _plan(
+    args: argparse.Namespace, max_clicks: int, max_gas_clicks: int, rig: RigConfig | None = None
+) -> SweepPlan:
     gas = getattr(args, "gas_clicks", 0)
     if not 0 <= gas <= max_gas_clicks:
         raise ConfigError(f"gas-bottle clicks must be 0-{max_gas_clicks}, got {gas}")
     return SweepPlan(
         clicks=tuple(parse_clicks(args.clicks, max_clicks)),
-        frequencies_hz=tuple(parse_frequencies(getattr(args, "freq", "0.5,1,1.5"))),
+        frequencies_hz=tuple(_frequencies(args, rig)),
         amplitude_m=getattr(args, "amplitude_mm", 30.0) / 1e3,
         gas_clicks=gas,
         warmup_cycles=getattr(args, "warmup_cycles", 2),
@@ -254,7 +297,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     console = Console()
     rig = load_rig(args.rig)
-    plan = _plan(args, *_click_ranges(load_spec()))
+    plan = _plan(args, *_click_ranges(load_spec()), rig)
     with contextlib.ExitStack() as stack:
         stack.enter_context(stop_on_signals())  # SIGTERM and SIGHUP stop like Ctrl-C
         spec_used = ""  # a real rig's damper is whatever is mounted
@@ -345,31 +388,33 @@ def cmd_demo(args: argparse.Namespace) -> int:
         record_sweep(live_rig, plan, rec_path, metadata=meta, overwrite=True, console=console)
     console.print(f"sweep recorded in {time.perf_counter() - t0:.1f} s: {rec_path}", soft_wrap=True)
     tests = open_recording(rec_path).load_all()
-    sections: list[tuple[str, list[tuple[str, Path]]]] = []
-    tables: list[tuple[str, list[str], list[list[str]]]] = []
-    if not args.no_fit:
-        sections, tables = _demo_fit(tests, spec_path, report_dir, out, args.seed, console)
-    index = build_report(
-        tests,
-        report_dir,
-        title="shockdyno demo: simulated Öhlins S46 click sweep",
-        metadata=meta,
-        extra_sections=sections,
-        tables=tables,
-    )
+    fit = None if args.no_fit else _demo_fit(tests, spec_path, out, args.seed, console)
+    with console.status("report") as status:
+        index = build_report(
+            tests,
+            report_dir,
+            title="shockdyno demo: simulated Öhlins S46 click sweep",
+            metadata=meta,
+            fit=fit,
+            gas_force_n=None if fit is not None else _static_force(spec),
+            progress=lambda stage: status.update(f"report: {stage}"),
+        )
     console.rule("done")
     console.print(f"recording: {rec_path}", soft_wrap=True)  # paths stay whole for copy-paste
     console.print(f"report:    {index}", soft_wrap=True)
     return 0
 
 
-def _demo_fit(
-    tests: list[Any], spec_path: Path, report_dir: Path, out: Path, seed: int, console: Console
-) -> tuple[list[tuple[str, list[tuple[str, Path]]]], list[tuple[str, list[str], list[list[str]]]]]:
+def _static_force(spec: Any) -> float:
+    from shockdyno.report.clickchart import spec_static_force_n
+
+    return spec_static_force_n(spec)
+
+
+def _demo_fit(tests: list[Any], spec_path: Path, out: Path, seed: int, console: Console) -> Any:
     from rich.table import Table
 
     from shockdyno.fit import fit_sweep
-    from shockdyno.fit.plots import fit_figures
     from shockdyno.fit.validate import table4_rows
 
     console.rule("fit: globals, bleed areas per click, trend, validation")
@@ -385,6 +430,4 @@ def _demo_fit(
     for row in rows:
         table.add_row(*row)
     Console(width=max(console.width, 100)).print(table)
-    report_dir.mkdir(parents=True, exist_ok=True)
-    figures = fit_figures(result, tests, report_dir)
-    return [("Fit and validation", figures)], [(str(table.title), header, rows)]
+    return result

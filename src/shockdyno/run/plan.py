@@ -47,6 +47,28 @@ def parse_frequencies(text: str) -> list[float]:
     return freqs
 
 
+def parse_velocities_mm_s(text: str) -> list[float]:
+    """'25,50,100,200,300' (mm/s) -> peak velocities in m/s, sorted, without duplicates."""
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise ConfigError(f"bad velocities {text!r}: use e.g. 25,50,100,200,300 (mm/s)") from None
+    if not values or any(not math.isfinite(v) or v <= 0 for v in values):
+        raise ConfigError(f"velocities must be > 0 mm/s, got {text!r}")
+    return sorted({v / 1e3 for v in values})
+
+
+def frequencies_for_velocities(velocities_m_s: list[float], amplitude_m: float) -> list[float]:
+    """The sine frequency that reaches each peak velocity at this amplitude: v = 2πfA.
+
+    Rounded to 5 significant digits (a peak velocity off by at most 0.005 %), so that
+    frequencies read back from a recording and file names stay short.
+    """
+    if not (math.isfinite(amplitude_m) and amplitude_m > 0):
+        raise ConfigError(f"amplitude must be > 0, got {amplitude_m * 1e3:g} mm")
+    return [float(f"{v / (2 * math.pi * amplitude_m):.5g}") for v in velocities_m_s]
+
+
 @dataclass(frozen=True)
 class SweepPoint:
     clicks: int

@@ -1,0 +1,127 @@
+"""`shockdyno report REC.mcap [--fit FIT.json] [--diagnose DIAG.json] [--ride RIDE.json] -o DIR`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from shockdyno.errors import ConfigError, RecordingError
+
+# Files the report writes under fixed names; an input among them would be overwritten.
+OWN_FILES = ("index.html", "click_chart.csv")
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "report",
+        help="one HTML page for a recording: click chart, loops, and fit/diagnose/ride if given",
+        description=(
+            "Write DIR/index.html (PNGs and click_chart.csv beside it; works offline) for any "
+            "recording: real, imported or simulated. Sections for the fit, the diagnosis and "
+            "the ride study appear when their JSON is given. Documented in docs/report.md."
+        ),
+    )
+    p.add_argument("recording", metavar="REC.mcap", help="recording to report")
+    p.add_argument("--fit", metavar="FIT.json", help="fit result of this recording (shockdyno fit)")
+    p.add_argument("--diagnose", metavar="DIAG.json", help="result of shockdyno diagnose")
+    p.add_argument("--ride", metavar="RIDE.json", help="result of shockdyno ride")
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="report directory")
+    p.add_argument("--title", help="page title (default: from the recording's metadata)")
+    p.add_argument(
+        "--force", action="store_true", help="replace an existing DIR/index.html (default: refuse)"
+    )
+    p.set_defaults(func=run_report)
+
+
+def check_output_dir(out: Path, inputs: list[Path], force: bool) -> None:
+    """Refuse a DIR that is a file, an existing report without --force, or one that would
+    overwrite an input."""
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"-o {out}: is a file, not a directory")
+    index = out / "index.html"
+    if index.is_file() and index.stat().st_size > 0 and not force:
+        raise ConfigError(f"{index} exists: use --force to replace it")
+    own = {(out / name).resolve() for name in OWN_FILES}
+    for path in inputs:
+        drawn = path.suffix == ".png" and path.resolve().parent == out.resolve()
+        if path.resolve() in own or drawn:
+            raise ConfigError(f"the report would overwrite its input {path}")
+
+
+def load_json(path: str, flag: str) -> Any:
+    p = Path(path)
+    try:
+        return json.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError(f"{flag}: {p} not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{flag}: cannot read {p}: {exc}") from None
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"{flag}: {p} is not JSON ({exc.msg}, line {exc.lineno})") from None
+
+
+def _gas_force(metadata: dict[str, str]) -> float | None:
+    """Static gas force of the damper spec a simulated recording names, if readable."""
+    from shockdyno.model import load_spec
+    from shockdyno.report.clickchart import spec_static_force_n
+
+    spec = metadata.get("damper_spec", "")
+    if not spec or not Path(spec).is_file():
+        return None
+    try:
+        return spec_static_force_n(load_spec(spec))
+    except ConfigError:
+        return None
+
+
+def run_report(args: argparse.Namespace) -> int:
+    from rich.console import Console
+
+    from shockdyno.fit.result import FitResult
+    from shockdyno.record import open_recording
+    from shockdyno.report.build import build_report
+
+    out = Path(args.output)
+    inputs = [Path(p) for p in (args.recording, args.fit, args.diagnose, args.ride) if p]
+    check_output_dir(out, inputs, args.force)
+    fit = FitResult.load(args.fit) if args.fit else None
+    diagnose = load_json(args.diagnose, "--diagnose") if args.diagnose else None
+    ride = load_json(args.ride, "--ride") if args.ride else None
+    if ride is not None and not isinstance(ride, dict):
+        raise ConfigError(f"--ride: {args.ride} is not a ride result (no JSON object)")
+
+    console = Console(stderr=True)
+    with console.status("report: reading the recording") as status:
+        rec = open_recording(args.recording)
+        tests = rec.load_all() + [rec.load(m) for m in rec.interrupted]
+        metadata = {"recording": str(args.recording), **rec.metadata}
+        if rec.truncated:
+            metadata["note"] = "the recording was cut off; every test it holds is shown"
+        if not tests and rec.truncated:
+            problem = next((p.problem for p in rec.parts if p.problem), "cut off")
+            raise RecordingError(f"{args.recording}: no test could be read ({problem})")
+        if not tests:
+            console.print(f"report: {args.recording} holds no tests; writing the page anyway")
+        title = args.title or (
+            f"{rec.metadata.get('damper_id') or Path(args.recording).stem}: dyno report"
+        )
+        gas = None if fit is not None else _gas_force(rec.metadata)
+
+        def progress(stage: str) -> None:
+            status.update(f"report: {stage}")
+
+        index = build_report(
+            tests,
+            out,
+            title=title,
+            metadata=metadata,
+            fit=fit,
+            diagnose=diagnose,
+            ride=ride,
+            gas_force_n=gas,
+            progress=progress,
+        )
+    print(f"report: {index}")
+    return 0

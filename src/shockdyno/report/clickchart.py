@@ -1,0 +1,231 @@
+"""Click charts: force at standard velocities per click, measured and modelled.
+
+This is the view dampers are tuned with: for each adjuster setting, the force at 25, 50,
+100, 150, 200 and 300 mm/s in compression and in rebound.
+
+**Measured.** A test's velocity passes each standard velocity twice per cycle in each
+direction (speeding up and slowing down, at different strokes). The force is read at
+every such crossing of the measured cycles (linear interpolation between the two samples
+that straddle it) and averaged: the branch of that direction at that velocity, not the
+peak. A click's value averages the tests (frequencies) whose branch reaches the velocity.
+When none does, the value is extrapolated from the test that gets closest, by a straight
+line through the top 30 % of its branch, and flagged ``extrapolated``.
+
+**Model.** ``damper_force`` of the fitted spec (``FitResult.spec()``) with the click's
+areas (``FitResult.areas``) at mid-stroke (x = 0) and zero acceleration: the damper's
+steady characteristic. It differs from the measured value by what the branch average
+carries and the characteristic does not (gas spring over the stroke, inertia, hysteresis).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from shockdyno.errors import FitError
+from shockdyno.model import DamperSpec, damper_force
+from shockdyno.record.types import TestData
+from shockdyno.report.summary import velocity
+
+if TYPE_CHECKING:  # only its methods are called: no import of the fit package at run time
+    from shockdyno.fit.result import FitResult
+
+FloatArray = NDArray[np.float64]
+
+STANDARD_VELOCITIES_M_S = (0.025, 0.05, 0.1, 0.15, 0.2, 0.3)
+EXTRAPOLATION_SPAN = 0.3  # share of the branch's top speed the straight line is fitted over
+MIN_BRANCH_SAMPLES = 5
+
+Setting = tuple[int, int]  # (clicks, gas clicks)
+
+
+@dataclass(frozen=True)
+class Reading:
+    """A force at one signed velocity (+ compression) for one click setting."""
+
+    force_n: float
+    extrapolated: bool = False
+    n_tests: int = 0  # tests whose branch reaches the velocity (0 when extrapolated)
+
+
+@dataclass(frozen=True)
+class ClickChart:
+    velocities_m_s: tuple[float, ...]  # signed: rebound negative, compression positive
+    settings: list[Setting]
+    measured: dict[Setting, dict[float, Reading]]
+    model: dict[Setting, dict[float, float]]  # empty without a fit
+    model_curve: dict[int, dict[float, float]]  # every click of the fit's range (trend)
+
+    @property
+    def any_extrapolated(self) -> bool:
+        return any(r.extrapolated for row in self.measured.values() for r in row.values())
+
+
+def signed_velocities(speeds: Sequence[float] = STANDARD_VELOCITIES_M_S) -> tuple[float, ...]:
+    """Rebound (fastest first) then compression (slowest first)."""
+    return tuple([-s for s in sorted(speeds, reverse=True)] + sorted(speeds))
+
+
+def branch_force(v: FloatArray, force: FloatArray, target_m_s: float) -> Reading:
+    """The force of one test's branch at a signed velocity (module docstring)."""
+    sign = 1.0 if target_m_s > 0 else -1.0
+    speed = sign * v  # > 0 on this direction's branch
+    ok = np.isfinite(speed) & np.isfinite(force)
+    speed, f = speed[ok], force[ok]
+    on_branch = speed > 0
+    if np.count_nonzero(on_branch) < MIN_BRANCH_SAMPLES:
+        return Reading(math.nan)
+    s = speed - abs(target_m_s)
+    # A crossing between samples i and i+1, in either direction of travel.
+    i = np.flatnonzero((s[:-1] <= 0) & (s[1:] > 0) | (s[:-1] > 0) & (s[1:] <= 0))
+    if i.size:
+        w = s[i] / (s[i] - s[i + 1])
+        return Reading(float(np.mean(f[i] + w * (f[i + 1] - f[i]))), False, 1)
+    top = float(np.max(speed))
+    near = on_branch & (speed >= (1 - EXTRAPOLATION_SPAN) * top)
+    if np.count_nonzero(near) < MIN_BRANCH_SAMPLES or np.ptp(speed[near]) <= 0:
+        return Reading(math.nan)
+    slope, intercept = np.polyfit(speed[near], f[near], 1)
+    return Reading(float(intercept + slope * abs(target_m_s)), True, 0)
+
+
+def _test_readings(test: TestData, targets: Sequence[float]) -> tuple[dict[float, Reading], float]:
+    m = test.measured()
+    v = velocity(m.t, m.x)
+    top = float(np.nanmax(np.abs(v))) if v.size and np.any(np.isfinite(v)) else 0.0
+    return {t: branch_force(v, m.force, t) for t in targets}, top
+
+
+def measured_chart(
+    tests: Sequence[TestData], targets: Sequence[float]
+) -> dict[Setting, dict[float, Reading]]:
+    """Per click setting and signed velocity: the mean over tests that reach it, else the
+    extrapolation of the test closest to it. Complete tests only."""
+    per_setting: dict[Setting, list[tuple[dict[float, Reading], float]]] = {}
+    for test in tests:
+        if test.meta.status != "complete" or test.t.size < 3 * MIN_BRANCH_SAMPLES:
+            continue
+        key = (test.meta.clicks, test.meta.gas_clicks)
+        per_setting.setdefault(key, []).append(_test_readings(test, targets))
+    out: dict[Setting, dict[float, Reading]] = {}
+    for key, readings in sorted(per_setting.items()):
+        row: dict[float, Reading] = {}
+        for t in targets:
+            inside = [r[t].force_n for r, _ in readings if not r[t].extrapolated]
+            inside = [f for f in inside if math.isfinite(f)]
+            if inside:
+                row[t] = Reading(float(np.mean(inside)), False, len(inside))
+                continue
+            # The test with the fastest branch in this direction is the shortest reach.
+            outside = [r[t] for r, _ in sorted(readings, key=lambda p: -p[1])]
+            row[t] = next((r for r in outside if math.isfinite(r.force_n)), Reading(math.nan))
+        out[key] = row
+    return out
+
+
+def model_forces(fit: FitResult, clicks: int, targets: Sequence[float]) -> dict[float, float]:
+    """The fitted model at mid-stroke, zero acceleration, at each signed velocity."""
+    a_bc, a_bt = fit.areas(clicks)
+    v = np.asarray(targets, dtype=float)
+    zeros = np.zeros_like(v)
+    force = damper_force(fit.spec(), zeros, v, zeros, a_bc, a_bt)
+    return {t: float(f) for t, f in zip(targets, force, strict=True)}
+
+
+def static_force_n(fit: FitResult) -> float:
+    """The model's force at rest at mid-stroke: the gas force on the rod."""
+    clicks = fit.clicks[0].clicks if fit.clicks else 0
+    a_bc, a_bt = fit.areas(clicks)
+    return float(np.asarray(damper_force(fit.spec(), 0.0, 0.0, 0.0, a_bc, a_bt)).reshape(-1)[0])
+
+
+def click_chart(
+    tests: Sequence[TestData],
+    fit: FitResult | None = None,
+    speeds_m_s: Sequence[float] = STANDARD_VELOCITIES_M_S,
+) -> ClickChart:
+    targets = signed_velocities(speeds_m_s)
+    measured = measured_chart(tests, targets)
+    model: dict[Setting, dict[float, float]] = {}
+    curve: dict[int, dict[float, float]] = {}
+    if fit is not None and fit.clicks:
+        for c in fit.clicks:
+            model[(c.clicks, c.gas_clicks)] = model_forces(fit, c.clicks, targets)
+        fitted = sorted({c.clicks for c in fit.clicks})
+        for n in range(fitted[0], fitted[-1] + 1):
+            try:
+                curve[n] = model_forces(fit, n, targets)
+            except FitError:  # no trend to interpolate between fitted clicks
+                continue
+    settings = sorted(set(measured) | set(model))
+    return ClickChart(targets, settings, measured, model, curve)
+
+
+def velocity_label(v_m_s: float) -> str:
+    word = "comp" if v_m_s > 0 else "reb"
+    return f"{word} {abs(v_m_s) * 1e3:g}"
+
+
+def table_rows(chart: ClickChart, source: str) -> tuple[list[str], list[list[str]]]:
+    """(header, rows) for the page: one row per setting, forces in N; '*' = extrapolated."""
+    gas = len({g for _, g in chart.settings}) > 1
+    header = ["clicks", *(["gas"] if gas else []), *map(velocity_label, chart.velocities_m_s)]
+    rows = []
+    for key in chart.settings:
+        cells = [str(key[0]), *([str(key[1])] if gas else [])]
+        if source == "measured":
+            row = chart.measured.get(key)
+            if row is None:
+                continue
+            for t in chart.velocities_m_s:
+                r = row[t]
+                text = "–" if not math.isfinite(r.force_n) else f"{r.force_n:.0f}"
+                cells.append(text + ("*" if r.extrapolated and math.isfinite(r.force_n) else ""))
+        else:
+            mrow = chart.model.get(key)
+            if mrow is None:
+                continue
+            cells += [f"{mrow[t]:.0f}" for t in chart.velocities_m_s]
+        rows.append(cells)
+    return header, rows
+
+
+CSV_HEADER = [
+    "clicks",
+    "gas_clicks",
+    "velocity_m_s",
+    "source",
+    "force_n",
+    "extrapolated",
+    "n_tests",
+]
+
+
+def to_csv(chart: ClickChart) -> str:
+    """Long format, one row per setting, velocity and source (measured, model)."""
+    text = io.StringIO()
+    w = csv.writer(text, lineterminator="\n")
+    w.writerow(CSV_HEADER)
+    for key in chart.settings:
+        for t in chart.velocities_m_s:
+            r = chart.measured.get(key, {}).get(t)
+            if r is not None:
+                force = f"{r.force_n:.2f}" if math.isfinite(r.force_n) else ""
+                w.writerow([*key, f"{t:g}", "measured", force, int(r.extrapolated), r.n_tests])
+            mf = chart.model.get(key, {}).get(t)
+            if mf is not None:
+                w.writerow([*key, f"{t:g}", "model", f"{mf:.2f}", 0, ""])
+    return text.getvalue()
+
+
+def spec_static_force_n(spec: DamperSpec) -> float:
+    """A spec's force at rest at mid-stroke (its own bleed areas at 0 clicks)."""
+    a_bc, a_bt = spec.bleed_areas(0, 0)
+    return float(np.asarray(damper_force(spec, 0.0, 0.0, 0.0, a_bc, a_bt)).reshape(-1)[0])

@@ -1,0 +1,201 @@
+"""The report's diagnose section, rendered from the JSON of `shockdyno diagnose`.
+
+The diagnose command is younger than this page, so every key is read defensively: a
+missing or malformed part is skipped (and said so), never an error. Keys read:
+
+- ``mismatch``: {significant, p_value, noise_floor_n, structured_share,
+  where: [{stroke, x_range_m, v_range_m_s, frequencies_hz, share}]}
+- ``findings``: [{physics, claimed, p_value, heldout_gain,
+  parameters: {name: {value, sd, unit}}, ambiguous_with}]
+- ``verdict``: {physics: [...], unexplained: [...], text}
+- ``tests``: [{index, clicks, frequency_hz, E_t_before, E_t_after}]
+
+To show a new key, add a ``_render_<key>`` function and call it from ``render_diagnose``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from shockdyno.report.html import Page
+
+
+def _num(value: Any, spec: str = ".3g") -> str:
+    """A number as text; '–' for anything that is not a finite number."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return "–"
+    return format(value, spec) if math.isfinite(value) else "–"
+
+
+def _finite(value: Any) -> float | None:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return None
+    return float(value) if math.isfinite(value) else None
+
+
+def _text(value: Any) -> str:
+    if value is None:
+        return "–"
+    if isinstance(value, list | tuple):
+        return ", ".join(_text(v) for v in value) or "–"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float):
+        return _num(value)
+    return str(value)
+
+
+def _range(value: Any, scale: float, unit: str) -> str:
+    if isinstance(value, list | tuple) and len(value) == 2:
+        lo, hi = value
+        if all(isinstance(v, int | float) and not isinstance(v, bool) for v in (lo, hi)):
+            return f"{lo * scale:.3g} to {hi * scale:.3g} {unit}"
+    return "–"
+
+
+def _dicts(value: Any) -> list[dict[str, Any]]:
+    return [v for v in value if isinstance(v, dict)] if isinstance(value, list) else []
+
+
+def _render_verdict(page: Page, verdict: Any) -> bool:
+    if not isinstance(verdict, dict):
+        return False
+    text = verdict.get("text")
+    if isinstance(text, str) and text.strip():
+        page.paragraph(text.strip())
+    physics = verdict.get("physics")
+    unexplained = verdict.get("unexplained")
+    if physics is not None:
+        page.paragraph(f"Physics named: {_text(physics)}.")
+    if unexplained:
+        page.paragraph(f"Still unexplained: {_text(unexplained)}.", warn=True)
+    return True
+
+
+def _render_mismatch(page: Page, mismatch: Any) -> bool:
+    if not isinstance(mismatch, dict):
+        return False
+    significant = mismatch.get("significant")
+    head = "significance unknown"
+    if isinstance(significant, bool):
+        head = "significant" if significant else "not significant"
+    page.paragraph(
+        f"Mismatch between model and measurement: {head} "
+        f"(p = {_num(mismatch.get('p_value'))}; noise floor "
+        f"{_num(mismatch.get('noise_floor_n'))} N; structured share "
+        f"{_num(mismatch.get('structured_share'))})."
+    )
+    where = _dicts(mismatch.get("where"))
+    if where:
+        page.table(
+            ["stroke", "x range", "v range", "frequencies (Hz)", "share"],
+            [
+                [
+                    _text(w.get("stroke")),
+                    _range(w.get("x_range_m"), 1e3, "mm"),
+                    _range(w.get("v_range_m_s"), 1.0, "m/s"),
+                    _text(w.get("frequencies_hz")),
+                    _num(w.get("share")),
+                ]
+                for w in where
+            ],
+            numeric=[False, False, False, False, True],
+        )
+    return True
+
+
+def _parameters(value: Any) -> str:
+    if not isinstance(value, dict):
+        return "–"
+    out = []
+    for name, p in value.items():
+        if isinstance(p, dict):
+            unit = f" {p['unit']}" if isinstance(p.get("unit"), str) and p["unit"] else ""
+            out.append(f"{name} = {_num(p.get('value'), '.4g')} ± {_num(p.get('sd'), '.2g')}{unit}")
+        else:
+            out.append(f"{name} = {_text(p)}")
+    return "; ".join(out) or "–"
+
+
+def _render_findings(page: Page, findings: Any) -> bool:
+    rows = _dicts(findings)
+    if not rows:
+        return False
+    page.subheading("Findings: candidate physics")
+    page.table(
+        ["physics", "claimed", "p", "held-out gain", "parameters (± 1σ)", "ambiguous with"],
+        [
+            [
+                _text(f.get("physics")),
+                _text(f.get("claimed")),
+                _num(f.get("p_value")),
+                _num(f.get("heldout_gain")),
+                _parameters(f.get("parameters")),
+                _text(f.get("ambiguous_with")),
+            ]
+            for f in rows
+        ],
+        row_classes=["" if f.get("claimed") is True else "dim" for f in rows],
+        numeric=[False, False, True, True, False, False],
+    )
+    return True
+
+
+def _render_tests(page: Page, tests: Any) -> bool:
+    rows = _dicts(tests)
+    if not rows:
+        return False
+    page.subheading("E_t per test, before and after the named physics")
+    body = []
+    for t in rows:
+        before, after = t.get("E_t_before"), t.get("E_t_after")
+        change = "–"
+        b, a = _finite(before), _finite(after)
+        if b is not None and a is not None and b > 0:
+            change = f"{100 * (a - b) / b:+.1f} %"
+        body.append(
+            [
+                _text(t.get("index")),
+                _text(t.get("clicks")),
+                _num(t.get("frequency_hz"), "g"),
+                _num(before, ".4g"),
+                _num(after, ".4g"),
+                change,
+            ]
+        )
+    page.details(f"E_t of {len(rows)} tests", opened=len(rows) <= 12)
+    page.table(
+        ["test", "clicks", "f (Hz)", "E_t before", "E_t after", "change"],
+        body,
+        numeric=[True] * 6,
+    )
+    page.close_details()
+    return True
+
+
+def render_diagnose(page: Page, doc: Any) -> None:
+    """Append the diagnose section for ``doc`` (the parsed diagnose JSON)."""
+    page.section(
+        "Diagnosis",
+        "Where the fitted model and the measurement disagree, which extra physics explains "
+        "it, and how much the error falls with it. E_t = ε_t / σ_F with ε_t² = ∫ (F_measured "
+        "− F_model)² dt and σ_F² = ∫ (F_measured − mean F)² dt: the model's RMS force error "
+        "as a share of the measured force's spread (0 is perfect).",
+    )
+    if not isinstance(doc, dict):
+        page.paragraph("The diagnose file holds no object; nothing to show.", warn=True)
+        return
+    shown = [
+        _render_verdict(page, doc.get("verdict")),
+        _render_mismatch(page, doc.get("mismatch")),
+        _render_findings(page, doc.get("findings")),
+        _render_tests(page, doc.get("tests")),
+    ]
+    missing = [
+        k
+        for k, ok in zip(("verdict", "mismatch", "findings", "tests"), shown, strict=True)
+        if not ok
+    ]
+    if missing:
+        page.paragraph(f"Not in the diagnose file: {', '.join(missing)}.")

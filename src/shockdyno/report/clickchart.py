@@ -11,9 +11,10 @@ peak. A click's value averages the tests (frequencies) whose branch reaches the 
 When none does, the value is extrapolated from the test that gets closest, by a straight
 line through the top 30 % of its branch, and flagged ``extrapolated``.
 
-**Model.** ``damper_force`` of the fitted spec (``FitResult.spec()``) with the click's
-areas (``FitResult.areas``) at mid-stroke (x = 0) and zero acceleration: the damper's
-steady characteristic. It differs from the measured value by what the branch average
+**Model.** The fitted model (``FitResult.model()``, as a car carries it: its damper
+terms, no sensor terms, lags at their steady state) with the click's areas
+(``FitResult.areas``) at mid-stroke (x = 0) and zero acceleration: the damper's steady
+characteristic. It differs from the measured value by what the branch average
 carries and the characteristic does not (gas spring over the stroke, inertia, hysteresis).
 """
 
@@ -31,6 +32,7 @@ from numpy.typing import NDArray
 
 from shockdyno.errors import FitError
 from shockdyno.model import DamperSpec, damper_force
+from shockdyno.model.quarter_car import quasi_static_force
 from shockdyno.record.types import TestData
 from shockdyno.report.summary import velocity
 
@@ -135,7 +137,7 @@ def model_forces(fit: FitResult, clicks: int, targets: Sequence[float]) -> dict[
     a_bc, a_bt = fit.areas(clicks)
     v = np.asarray(targets, dtype=float)
     zeros = np.zeros_like(v)
-    force = damper_force(fit.spec(), zeros, v, zeros, a_bc, a_bt)
+    force = quasi_static_force(fit.model().vehicle(), zeros, v, zeros, a_bc, a_bt)
     return {t: float(f) for t, f in zip(targets, force, strict=True)}
 
 
@@ -143,7 +145,8 @@ def static_force_n(fit: FitResult) -> float:
     """The model's force at rest at mid-stroke: the gas force on the rod."""
     clicks = fit.clicks[0].clicks if fit.clicks else 0
     a_bc, a_bt = fit.areas(clicks)
-    return float(np.asarray(damper_force(fit.spec(), 0.0, 0.0, 0.0, a_bc, a_bt)).reshape(-1)[0])
+    car = fit.model().vehicle()
+    return float(np.asarray(quasi_static_force(car, 0.0, 0.0, 0.0, a_bc, a_bt)).reshape(-1)[0])
 
 
 def click_chart(

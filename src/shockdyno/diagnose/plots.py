@@ -58,44 +58,42 @@ def residual_maps(d: Diagnosis, path: Path) -> Path:
 
 
 def loops(d: Diagnosis, path: Path, n_tests: int = 3) -> Path:
-    """The tests with the most structure: measured loop, baseline and augmented model."""
+    """The tests with the most structure: measured loop, baseline and augmented model,
+    with the F–v loop also zoomed near reversal (where most missing physics shows)."""
     data = d.data
     binned = data.binned(d.baseline.residual)
     energy = [float(np.mean(b.mean**2)) for b in binned]
     pick = sorted(np.argsort(energy)[-n_tests:][::-1].tolist())
-    fig = Figure(figsize=(11, 3.4 * len(pick)), layout="constrained")
-    axes = np.atleast_2d(fig.subplots(len(pick), 2))
+    fig = Figure(figsize=(13, 3.4 * len(pick)), layout="constrained")
+    axes = np.atleast_2d(fig.subplots(len(pick), 3))
     for row, i in enumerate(pick):
         p = data.prepared[i]
         m = p.data.meta
         inputs = prepared_inputs([p], full_rate=True)
-        step = max(1, p.data.t.size // 3000)
-        for label, fitted, style in (
-            ("paper's model", d.baseline, dict(color="#d62728", lw=1.2, ls="--")),
-            ("with the claimed physics", d.final, dict(color="#2ca02c", lw=1.2)),
+        step = max(1, p.data.t.size // 4000)
+        v, x_mm, f_meas = p.v[::step], p.data.x[::step] * 1e3, p.data.force[::step]
+        near = np.abs(v) < 0.25 * float(np.max(np.abs(v)))
+        for ax, xs, sel in ((axes[row, 0], v, slice(None)), (axes[row, 1], v, near)):
+            ax.plot(xs[sel], f_meas[sel], ".", ms=1.5, color="0.35", label="measured")
+        axes[row, 2].plot(x_mm, f_meas, ".", ms=1.5, color="0.35", label="measured")
+        for label, fitted, colour, ls in (
+            ("paper's model", d.baseline, "#d62728", "--"),
+            ("with the claimed physics", d.final, "#2ca02c", "-"),
         ):
             a_bc, a_bt = fitted.areas[(m.clicks, m.gas_clicks)]
-            f = fitted.model.force(inputs, a_bc, a_bt)
-            axes[row, 0].plot(p.v[::step], f[::step], label=label, **style)
-            axes[row, 1].plot(p.data.x[::step] * 1e3, f[::step], label=label, **style)
-        axes[row, 0].plot(
-            p.v[::step], p.data.force[::step], color="0.2", lw=0.6, label="measured", zorder=0
-        )
-        axes[row, 1].plot(
-            p.data.x[::step] * 1e3,
-            p.data.force[::step],
-            color="0.2",
-            lw=0.6,
-            label="measured",
-            zorder=0,
-        )
-        axes[row, 0].set_title(f"test {m.index}: {m.clicks} clicks, {m.frequency_hz:g} Hz (F–v)")
-        axes[row, 1].set_title(f"test {m.index}: F–x")
-        axes[row, 0].set_xlabel("velocity (m/s, + compression)")
-        axes[row, 1].set_xlabel("displacement (mm, + compression)")
+            f = fitted.model.force(inputs, a_bc, a_bt)[::step]
+            axes[row, 0].plot(v, f, ls, color=colour, lw=1.1, label=label)
+            axes[row, 1].plot(v[near], f[near], ".", color=colour, ms=1.5, label=label)
+            axes[row, 2].plot(x_mm, f, ls, color=colour, lw=1.1, label=label)
+        axes[row, 0].set_title(f"test {m.index}: {m.clicks} clicks, {m.frequency_hz:g} Hz: F–v")
+        axes[row, 1].set_title("F–v near reversal")
+        axes[row, 2].set_title("F–x")
+        for ax in axes[row, :2]:
+            ax.set_xlabel("velocity (m/s, + compression)")
+        axes[row, 2].set_xlabel("displacement (mm, + compression)")
         for ax in axes[row]:
             ax.set_ylabel("force (N)")
             ax.grid(alpha=0.3)
-    axes[0, 0].legend(loc="best", fontsize=8)
+    axes[0, 0].legend(loc="best", fontsize=8, markerscale=4)
     fig.savefig(path, dpi=DPI, format="png")
     return path

@@ -72,6 +72,34 @@ def _clicks_table(result: Any) -> Any:
     return table
 
 
+def _num(value: Any, scale: float = 1.0) -> str:
+    return (
+        f"{value * scale:.4g}" if isinstance(value, int | float) and math.isfinite(value) else "?"
+    )
+
+
+def _globals_table(result: Any) -> Any:
+    """The calibrated globals (result.globals) beside the spec's values, and the force channel's
+    delay; every key of result.globals is shown, whatever parameters the fit calibrates."""
+    from rich.table import Table
+
+    cal = result.info.get("calibration", {})
+    nominal, sd = cal.get("globals_nominal", {}), cal.get("globals_sd", {})
+    table = Table(title="Calibrated globals (SI units, as named; ±1σ)")
+    for name in ("parameter", "fitted", "±1σ", "spec", "change"):
+        table.add_column(name, justify="left" if name == "parameter" else "right")
+    for key, value in result.globals.items():
+        base = nominal.get(key)
+        change = "?"
+        if isinstance(base, int | float) and base != 0 and math.isfinite(base):
+            change = f"{100 * (value / base - 1):+.1f}%"
+        table.add_row(key, _num(value), _num(sd.get(key)), _num(base), change)
+    if "force_delay_s" in cal:
+        delay, delay_sd = cal["force_delay_s"], cal.get("force_delay_sd_s")
+        table.add_row("force delay, ms", _num(delay, 1e3), _num(delay_sd, 1e3), "0", "")
+    return table
+
+
 def run_fit(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
@@ -107,6 +135,7 @@ def run_fit(args: argparse.Namespace) -> int:
             tests, spec_path=args.spec, optimizer=args.optimizer, seed=args.seed, progress=progress
         )
     result.save(out)
+    Console().print(_globals_table(result))
     Console().print(_clicks_table(result))
     Console().print(table4_table(result))
     info = result.info

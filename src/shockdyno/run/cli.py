@@ -15,8 +15,8 @@ from rich.console import Console
 
 from shockdyno import __version__
 from shockdyno.errors import ConfigError, RecordingError
-from shockdyno.model.spec import default_spec_path, load_spec
 from shockdyno.lists import parse_clicks, parse_frequencies
+from shockdyno.model.spec import default_spec_path, load_spec
 from shockdyno.run.plan import SweepPlan
 
 if TYPE_CHECKING:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 from dataclasses import replace
 from pathlib import Path
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 from rec_helpers import block, meta
 
+from shockdyno import progress as progress_module
 from shockdyno.cli import main
 from shockdyno.record import RecordingWriter, open_recording
 
@@ -92,3 +94,29 @@ def test_format_1_recordings_read_as_before(tmp_path: Path) -> None:
         a, b = old.samples(i), new.samples(i)
         for name in ("seq", "t_s", "displacement_m", "force_n", "temperature_c", "status"):
             assert np.array_equal(getattr(a, name), getattr(b, name)), name
+
+
+def test_import_reports_progress_per_file_and_test_in_plain_lines(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # As if the files were large: plain lines start after 2 s; each look at the clock is 3 s on
+    ticks = itertools.count()
+    monkeypatch.setattr(progress_module, "monotonic", lambda: 3.0 * next(ticks))
+    out = tmp_path / "example.mcap"
+    assert main(["import", str(EXAMPLES / "csv" / "manifest.csv"), "-o", str(out)]) == 0
+    captured = capsys.readouterr()
+    assert captured.err.splitlines() == [
+        "import: read s46_c00_1hz.csv",
+        "import: read s46_c21_1hz.csv",
+        "import: write test 1/2",
+        "import: write test 2/2",
+    ]
+    assert "import:" not in captured.out and "\x1b[" not in captured.err
+
+
+def test_a_quick_import_prints_only_its_result(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "example.mcap"
+    assert main(["import", str(EXAMPLES / "csv" / "manifest.csv"), "-o", str(out)]) == 0
+    assert capsys.readouterr().err == ""

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno.errors import RecordingError
+from shockdyno.progress import StageProgress
 from shockdyno.record.csv_export import export_csv
 from shockdyno.record.csv_import import (
     FORCE_UNITS,
@@ -143,7 +144,8 @@ def _import(args: argparse.Namespace) -> int:
         delimiter="\t" if args.delimiter in ("\\t", "tab") else args.delimiter,
         metadata=_meta_pairs(args.meta),
     )
-    tests = import_csv(args.manifest, args.output, opts, force=args.force)
+    with StageProgress("import", plain_after_s=2.0) as progress:
+        tests = import_csv(args.manifest, args.output, opts, force=args.force, progress=progress)
     print(f"imported {len(tests)} tests from {args.manifest} into {args.output}")
     return 0
 

@@ -11,7 +11,7 @@ import csv
 import io
 import json
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field
 from datetime import datetime
 from pathlib import Path
@@ -255,7 +255,11 @@ def _float_cell(table: _Table, i: int, col: int, *, positive: bool = False) -> f
     return x
 
 
-def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
+def read_manifest(
+    manifest: Path,
+    opts: ImportOptions,
+    progress: Callable[[str, float], None] | None = None,
+) -> list[ImportedTest]:
     opts.check()
     table = _Table(manifest, opts.delimiter)
     cols = {name: table.column(name) for name in MANIFEST_REQUIRED}
@@ -271,6 +275,8 @@ def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
             return row[cols[name]].strip() if name in cols else ""
 
         file_name = cell("file")
+        if progress is not None:
+            progress(f"read {file_name}", 0.5 * i / len(table.rows))
         if not file_name:
             raise RecordingError(f"{table.where(i, cols['file'])}: no file name")
         clicks = _int_cell(table, i, cols["clicks"])
@@ -337,15 +343,22 @@ def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
 
 
 def import_csv(
-    manifest: Path, output: Path, opts: ImportOptions, *, force: bool = False
+    manifest: Path,
+    output: Path,
+    opts: ImportOptions,
+    *,
+    force: bool = False,
+    progress: Callable[[str, float], None] | None = None,
 ) -> list[TestMeta]:
-    """Read MANIFEST and its data files and write one recording at `output`."""
+    """Read MANIFEST and its data files and write one recording at `output`.
+
+    `progress(stage, fraction)` is told of each file read (first half) and test written."""
     stale = part_paths(output)
     if stale and not force:
         raise RecordingError(f"{stale[0]} exists (use --force to replace the recording set)")
     if output.exists() and not force:
         raise RecordingError(f"{output} exists (use --force to overwrite it)")
-    tests = read_manifest(manifest, opts)
+    tests = read_manifest(manifest, opts, progress)
     options = {k: v for k, v in asdict(opts).items() if k != "metadata"}
     metadata = {
         "source": "csv import",
@@ -355,7 +368,9 @@ def import_csv(
     }
     with atomic_file(output, force) as tmp:
         with RecordingWriter(tmp, metadata=metadata, overwrite=True) as writer:
-            for test in tests:
+            for i, test in enumerate(tests):
+                if progress is not None:
+                    progress(f"write test {i + 1}/{len(tests)}", 0.5 + 0.5 * i / len(tests))
                 writer.begin_test(test.meta)
                 writer.write_samples(test.block)
                 writer.end_test(test.meta)

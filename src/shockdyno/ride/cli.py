@@ -13,6 +13,7 @@ from shockdyno.fit.result import FitResult
 from shockdyno.lists import parse_floats, parse_ints, parse_letters
 from shockdyno.model.quarter_car import QuarterCar
 from shockdyno.model.road import DEFAULT_BAND_RAD_M
+from shockdyno.progress import StageProgress
 from shockdyno.ride.study import RideConfig, RideResult, run_study
 
 T = TypeVar("T")
@@ -130,7 +131,8 @@ def handle(args: argparse.Namespace) -> int:
         raise ConfigError(f"--json names a directory: {out}")
     if not out.parent.exists():
         raise ConfigError(f"directory of --json does not exist: {out.parent}")
-    result = run_study(config, fit, args.fit)
+    with StageProgress("ride") as progress:
+        result = run_study(config, fit, args.fit, progress=progress)
     try:
         out.write_text(json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n")
     except OSError as exc:

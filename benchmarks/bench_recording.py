@@ -303,6 +303,7 @@ def main() -> None:
         ("+ plot msg/sample, no index", lambda p: write_plot_channel(p, sweep, False), None, 1),
     ]
     rows = []
+    kept: dict[int, Path] = {}
     with tempfile.TemporaryDirectory() as tmp:
         for k, (name, write, read, reps) in enumerate(candidates):
             path = Path(tmp) / f"c{k}.mcap"
@@ -314,8 +315,18 @@ def main() -> None:
                 assert isinstance(tests, list) and len(tests) == len(raw)
                 got_f = np.concatenate([d["force_n"] for d in tests])
                 assert np.array_equal(got_f, truth_f), name  # every candidate is lossless
-            path.unlink()
+            if k in (3, 4):
+                kept[k] = path  # format 1 and 2: read again head to head below
+            else:
+                path.unlink()
             rows.append((name, n_samples / t_write, size / n_samples, t_read))
+        # The machine is shared: read the two formats alternately, 7 times each, best of each,
+        # so a burst of load elsewhere cannot favour one of them.
+        h2h = {3: float("inf"), 4: float("inf")}
+        for _ in range(7):
+            for k in h2h:
+                t_read, _ = best_of(1, partial(read_cdr, kept[k]))
+                h2h[k] = min(h2h[k], t_read)
     base = rows[0]
     print(
         f"{'encoding':30} {'write samples/s':>16} {'x base':>7} {'bytes/sample':>13} "
@@ -325,13 +336,17 @@ def main() -> None:
         read = f"{rd:13.3f} {base[3] / rd:9.1f}" if math.isfinite(rd) else f"{'-':>13} {'-':>9}"
         print(f"{name:30} {wr:16,.0f} {wr / base[1]:7.1f} {bps:13.2f} {bps / base[2]:7.2f} {read}")
     old, new = rows[3], rows[4]
+    print(
+        f"head to head, alternating reads: format 1 {h2h[3]:.3f} s, format 2 {h2h[4]:.3f} s "
+        f"({h2h[4] / h2h[3]:.2f}x)"
+    )
     plot_idx, plot_noidx = rows[7][2], rows[8][2]
-    read_ok = "meets" if new[3] < 1.0 else "MISSES"
+    read_ok = "meets" if h2h[4] < 1.0 else "MISSES"
     size_ok = "meets" if new[2] <= 1.5 * old[2] else "MISSES"
-    print(f"format 2 reads the full sweep in {new[3]:.3f} s: {read_ok} the < 1 s aim")
+    print(f"format 2 reads the full sweep in {h2h[4]:.3f} s: {read_ok} the < 1 s aim")
     print(
         f"format 2 / format 1: size {new[2] / old[2]:.2f}x ({size_ok} the <= 1.5x aim), "
-        f"read time {new[3] / old[3]:.2f}x, write rate {new[1] / old[1]:.2f}x"
+        f"read time {h2h[4] / h2h[3]:.2f}x, write rate {new[1] / old[1]:.2f}x"
     )
     print(
         f"format 2 + a message per sample would be {(new[2] + plot_idx) / old[2]:.2f}x format 1 "

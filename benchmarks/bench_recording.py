@@ -296,11 +296,11 @@ def main() -> None:
         ("json/block of 50", lambda p: write_json(p, sweep, True), lambda p: read_json(p, True), 1),
         ("cdr/block of 50, zstd", lambda p: write_cdr(p, sweep, BLOCK, "zstd"), read_cdr, 3),
         (f"format 1: {cdr}", lambda p: write_format1(p, sweep), read_cdr, 3),
-        (f"format 2: {cdr} (chosen)", lambda p: write_cdr(p, sweep, 1000, "zstd"), read_cdr, 3),
+        ("format 2 (chosen), zstd", lambda p: write_cdr(p, sweep, 1000, "zstd"), read_cdr, 3),
         ("format 2, cdr/1000, lz4", lambda p: write_cdr(p, sweep, 1000, "lz4"), read_cdr, 3),
         ("format 2, uncompressed", lambda p: write_cdr(p, sweep, 1000, "none"), read_cdr, 3),
-        ("+ plot msg/sample, indexed", lambda p: write_plot_channel(p, sweep, True), None, 1),
-        ("+ plot msg/sample, no index", lambda p: write_plot_channel(p, sweep, False), None, 1),
+        ("msg/sample alone, indexed", lambda p: write_plot_channel(p, sweep, True), None, 1),
+        ("msg/sample alone, no index", lambda p: write_plot_channel(p, sweep, False), None, 1),
     ]
     rows = []
     kept: dict[int, Path] = {}

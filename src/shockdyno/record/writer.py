@@ -25,8 +25,10 @@ from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, ParamSpec, TypeVar
 
+import numpy as np
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import CompressionType, Writer
+from numpy.typing import NDArray
 
 from shockdyno import __version__
 from shockdyno.errors import RecordingError
@@ -156,7 +158,8 @@ class RecordingWriter:
         self._gaps = 0
         self._count = 0
         self._closed = False
-        self._vel_tail: SampleBlock | None = None  # last samples before the next message
+        # (t, x) of the last samples written in this test: context for the next velocity
+        self._vel_tail: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
         self._origin_ns: int | None = None
         if wall_clock_origin_ns is not None:
             self._set_origin(int(wall_clock_origin_ns), "given by the caller")
@@ -257,10 +260,12 @@ class RecordingWriter:
         test = self._test_serial if self._open is not None else s.NO_TEST
         # Velocity over the previous message's last samples too, so it is continuous across
         # messages; the tail is dropped at each test boundary.
-        tail = self._vel_tail
-        ctx = merged if tail is None else SampleBlock.concat([tail, merged])
-        velocity = s.display_velocity(ctx.t_s, ctx.displacement_m)[len(ctx) - len(merged) :]
-        self._vel_tail = merged.slice(max(0, len(merged) - 4), len(merged))
+        t, x = merged.t_s, merged.displacement_m
+        if self._vel_tail is not None:
+            t = np.concatenate((self._vel_tail[0], t))
+            x = np.concatenate((self._vel_tail[1], x))
+        velocity = s.display_velocity(t, x)[len(t) - len(merged) :]
+        self._vel_tail = (t[-4:], x[-4:])
         step = self._max_block
         for lo in range(0, len(merged), step):
             part = merged.slice(lo, lo + step) if len(merged) > step else merged

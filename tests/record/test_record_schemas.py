@@ -138,3 +138,26 @@ def test_every_channel_is_schemad_and_decodable_without_shockdyno(tmp_path: Path
         # (one-sided at the ends of a test, continuous across messages)
         want_v = 0.03 * 2 * np.pi * np.cos(2 * np.pi * truth.t_s) + 1e-6
         assert np.max(np.abs(got["velocity_m_s"] - want_v)) < 1e-3  # 0.5 % of the peak
+
+
+def test_a_given_wall_clock_origin_places_every_message(tmp_path: Path) -> None:
+    """With the origin given (e.g. a DAQ with its own real-time clock), log_time is exactly
+    origin + t_s for samples and the test records alike; the reader reports the origin."""
+    from rec_helpers import meta
+
+    from shockdyno.record import RecordingWriter, open_recording
+
+    origin = 1_750_000_000_123_456_789
+    path = tmp_path / "r.mcap"
+    with RecordingWriter(path, metadata={}, wall_clock_origin_ns=origin) as w:
+        w.begin_test(meta(0, 0))
+        w.write_samples(block(5000, 1500))  # t_s from 5.0 s
+        w.end_test(meta(0, 0, status="complete"))
+    with open(path, "rb") as f:
+        times = [(c.topic, m.log_time) for _, c, m in make_reader(f).iter_messages()]
+    assert [t for topic, t in times if topic == "/dyno/samples"] == [
+        origin + 5_000_000_000,
+        origin + 6_000_000_000,
+    ]
+    assert times[-1] == ("/dyno/test", origin + 6_499_000_000)  # end record at the last sample
+    assert open_recording(path).parts[0].wall_clock_origin_ns == origin

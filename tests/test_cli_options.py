@@ -30,7 +30,7 @@ def test_every_command_help_shows_every_default() -> None:
         formatter = parser._get_formatter()
         for action in parser._actions:
             default = action.default
-            if not action.option_strings or default in (None, False, [], argparse.SUPPRESS):
+            if not action.option_strings or default in (None, False, [], "", argparse.SUPPRESS):
                 continue
             text = formatter._expand_help(action) if action.help is not None else ""
             if action.help is None:  # argparse shows no help line at all then

@@ -30,7 +30,8 @@ LOG_LEVELS = ("debug", "info", "warning", "error")
 
 class DefaultsHelpFormatter(argparse.HelpFormatter):
     """--help shows every option's default: "(default: X)" after the help text, unless the
-    text already says it or there is none to show (no default, a flag that is off)."""
+    text already says it or there is none to show (no default, a flag that is off, an empty
+    string or list)."""
 
     def _get_help_string(self, action: argparse.Action) -> str:
         text = action.help or ""
@@ -39,7 +40,7 @@ class DefaultsHelpFormatter(argparse.HelpFormatter):
             "default" in text.lower()
             or default is None
             or default is False
-            or default == []
+            or default in ([], "")
             or default is argparse.SUPPRESS
             or not action.option_strings
         ):

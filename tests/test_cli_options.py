@@ -37,7 +37,7 @@ def test_every_command_help_shows_every_default() -> None:
                 text = formatter._get_help_string(action) % {"default": default}
             assert "default" in text.lower(), f"{name} {action.option_strings}: {text!r}"
             checked += 1
-    assert checked >= 40  # the commands' defaulted options, not a loop over nothing
+    assert checked >= 30  # the commands' defaulted options, not a loop over nothing
 
 
 def test_help_states_the_speed_and_list_defaults() -> None:

@@ -119,7 +119,9 @@ def make_cases(quick: bool) -> list[Case]:
     for phys in PHYSICS:
         for lv in levels:
             for s in seeds:
-                cases.append(Case(f"{phys}#{lv + 1} s{s}", (phys,), s, [(phys, STRENGTHS[phys][lv])]))
+                cases.append(
+                    Case(f"{phys}#{lv + 1} s{s}", (phys,), s, [(phys, STRENGTHS[phys][lv])])
+                )
     if not quick:
         for a, b in PAIRS:
             for s in (1, 2):
@@ -176,9 +178,7 @@ def features(fit: Any, tests: list[Any]) -> tuple[list[np.ndarray], list[np.ndar
         m = p.data.meta
         a_bc, a_bt, _ = click_areas(fit, m.clicks, m.gas_clicks)
         evals.append((p, model.evaluate(prepared_inputs([p], full_rate=True), a_bc, a_bt)))
-    temps = [
-        p.data.temperature for p, _ in evals if p.data.temperature is not None
-    ]
+    temps = [p.data.temperature for p, _ in evals if p.data.temperature is not None]
     t_mean = float(np.nanmean(np.concatenate(temps))) if temps else math.nan
     hyd_peak = max(float(np.max(e.parts["hydraulic"])) for _, e in evals)
     mats, resid = [], []
@@ -323,7 +323,9 @@ def summary(rows: list[Row]) -> None:
     ok = [r for r in rows if not r.error]
     print(f"\n[1] confusion matrix: {len(ok)} recordings scored, {len(rows) - len(ok)} failed")
     sd, sb = score(rows, "claimed"), score(rows, "baseline")
-    print(f"    {'physics':16s} {'diagnose: P    R    F1  (tp fp fn)':36s} {'sindy: P    R    F1  (tp fp fn)':34s}  E_t before -> diag / sindy")
+    print(
+        f"    {'physics':16s} {'diagnose: P    R    F1  (tp fp fn)':36s} {'sindy: P    R    F1  (tp fp fn)':34s}  E_t before -> diag / sindy"
+    )
     for p in LIBRARY:
         mine = [r for r in ok if p in r.case.truth]
         eb = float(np.mean([r.e_before for r in mine])) if mine else math.nan

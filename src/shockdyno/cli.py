@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import logging
 import signal
 import sys
 from collections.abc import Sequence
@@ -27,12 +28,73 @@ COMMAND_MODULES = [
 ]
 
 
+LOG_LEVELS = ("debug", "info", "warning", "error")
+
+
+class DefaultsHelpFormatter(argparse.HelpFormatter):
+    """--help shows every option's default: "(default: X)" after the help text, unless the
+    text already says it or there is none to show (no default, a flag that is off, an empty
+    string or list)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        default = action.default
+        if (
+            "default" in text.lower()
+            or default is None
+            or default is False
+            or default in ([], "")
+            or default is argparse.SUPPRESS
+            or not action.option_strings
+        ):
+            return text
+        return f"{text} (default: %(default)s)" if text else "(default: %(default)s)"
+
+
+def _add_logging_options(parser: argparse.ArgumentParser, default: object) -> None:
+    group = parser.add_argument_group("logging")
+    group.add_argument(
+        "-v",
+        "--verbose",
+        dest="log_level",
+        action="store_const",
+        const="debug",
+        default=default,
+        help="same as --log-level debug: shows the Modbus traffic (pymodbus) on stderr",
+    )
+    group.add_argument(
+        "--log-level",
+        choices=LOG_LEVELS,
+        default=default,
+        help="log shockdyno and pymodbus to stderr at this level; default: warnings only",
+    )
+
+
+def configure_logging(level_name: str | None) -> None:
+    """Log to stderr at the level asked; without one, leave logging as the libraries set it."""
+    if level_name is None:
+        return
+    level = getattr(logging, level_name.upper())
+    # Other libraries (matplotlib, asyncio) stay at warnings: their debug output is not ours.
+    logging.basicConfig(
+        level=logging.WARNING,
+        stream=sys.stderr,
+        format="%(asctime)s %(name)s %(levelname)s %(message)s",
+    )
+    # The actuator driver quiets pymodbus (one RigFault line per failure is enough in normal
+    # use); an explicit level wins, so commissioning a drive can watch every request.
+    for name in ("shockdyno", "pymodbus"):
+        logging.getLogger(name).setLevel(level)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="shockdyno",
         description="Shock-absorber dyno controller, MCAP data logger and damper model.",
+        formatter_class=DefaultsHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"shockdyno {__version__}")
+    _add_logging_options(parser, None)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name in COMMAND_MODULES:
@@ -43,12 +105,17 @@ def build_parser() -> argparse.ArgumentParser:
                 raise
             continue
         module.register(sub)
+    for command in sub.choices.values():
+        command.formatter_class = DefaultsHelpFormatter
+        # SUPPRESS: an option given before the command is not reset by the command's default
+        _add_logging_options(command, argparse.SUPPRESS)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    configure_logging(args.log_level)
     try:
         code = args.func(args)
     except ShockdynoError as exc:

@@ -209,8 +209,8 @@ def test_oil_over_temperature_stops_the_test(sim_rig_factory, tmp_path) -> None:
     hot = tmp_path / "hot.toml"
     hot.write_text(
         '[scenario]\nname = "hot"\ndescription = "starts 0.3 K below the limit"\n'
-        '[[term]]\nkind = "thermal"\nambient_c = 89.7\nstart_c = 89.7\n'
-        "heat_capacity_j_k = 20.0\ncooling_w_k = 0.1\n"
+        '[[term]]\nkind = "thermal"\nreference_c = 89.7\n'
+        "heat_rate_k_s_m2 = 100.0\ncooling_time_s = 200.0\n"
     )
     sim = sim_rig_factory(scenario=hot, speed=10.0)
     with RigSession(sim.rig_config()) as session:

@@ -63,6 +63,14 @@ def test_fit_command_writes_json_report_and_table(
         assert c["A_bt_m2"] == pytest.approx(float(truth.bleed_areas(c["clicks"])[1]), rel=0.1)
     assert set(doc["globals"]) >= {"gas_pressure_pa", "friction_n"}
     assert "Enhancement (%)" in printed and "Talbott" in printed
+    # Every fitted global is printed with its value, and the force channel's delay in ms
+    assert "Calibrated globals" in printed
+    lines = printed.splitlines()
+    for key, value in doc["globals"].items():
+        row = next(ln for ln in lines if f" {key} " in ln)
+        assert f"{value:.4g}" in row, (key, row)
+    delay_ms = doc["info"]["calibration"]["force_delay_s"] * 1e3
+    assert f"{delay_ms:.4g}" in next(ln for ln in lines if "force delay, ms" in ln)
     pngs = sorted(report.glob("*.png"))
     assert len(pngs) >= 3  # areas vs clicks, and overlays
     for p in pngs:

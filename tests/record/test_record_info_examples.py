@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 from dataclasses import replace
 from pathlib import Path
@@ -10,10 +11,12 @@ import numpy as np
 import pytest
 from rec_helpers import block, meta
 
+from shockdyno import progress as progress_module
 from shockdyno.cli import main
 from shockdyno.record import RecordingWriter, open_recording
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "recordings" / "examples"
+FIXTURES = Path(__file__).resolve().parent / "fixtures"
 
 
 def test_info_json_of_a_resumed_set_with_faults(
@@ -72,3 +75,48 @@ def test_shipped_example_reimports_and_exports_byte_for_byte(tmp_path: Path) -> 
     assert main(["export", str(EXAMPLES / "example.mcap"), "--csv", str(tmp_path / "out")]) == 0
     for name in ("s46_c00_1hz.csv", "s46_c21_1hz.csv"):
         assert (tmp_path / "out" / name).read_bytes() == (EXAMPLES / "csv" / name).read_bytes()
+
+
+def test_format_1_recordings_read_as_before(tmp_path: Path) -> None:
+    """The fixture is example.mcap as shockdyno 0.1.0 wrote it (SampleBlock without velocity,
+    DAQ time as log_time): it reads to the same tests, samples and metadata as a fresh import."""
+    old = open_recording(FIXTURES / "format1_example.mcap")
+    assert old.metadata["format_version"] == "1"
+    assert old.parts[0].wall_clock_origin_ns is None and not old.truncated
+    assert old.parts[0].bad_messages == 0
+    fresh = tmp_path / "example.mcap"
+    assert main(["import", str(EXAMPLES / "csv" / "manifest.csv"), "-o", str(fresh)]) == 0
+    new = open_recording(fresh)
+    assert new.metadata["format_version"] == "2"
+    assert new.parts[0].wall_clock_origin_ns is not None
+    assert old.tests == new.tests
+    for i in range(len(new.tests)):
+        a, b = old.samples(i), new.samples(i)
+        for name in ("seq", "t_s", "displacement_m", "force_n", "temperature_c", "status"):
+            assert np.array_equal(getattr(a, name), getattr(b, name)), name
+
+
+def test_import_reports_progress_per_file_and_test_in_plain_lines(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # As if the files were large: plain lines start after 2 s; each look at the clock is 3 s on
+    ticks = itertools.count()
+    monkeypatch.setattr(progress_module, "monotonic", lambda: 3.0 * next(ticks))
+    out = tmp_path / "example.mcap"
+    assert main(["import", str(EXAMPLES / "csv" / "manifest.csv"), "-o", str(out)]) == 0
+    captured = capsys.readouterr()
+    assert captured.err.splitlines() == [
+        "import: read s46_c00_1hz.csv",
+        "import: read s46_c21_1hz.csv",
+        "import: write test 1/2",
+        "import: write test 2/2",
+    ]
+    assert "import:" not in captured.out and "\x1b[" not in captured.err
+
+
+def test_a_quick_import_prints_only_its_result(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "example.mcap"
+    assert main(["import", str(EXAMPLES / "csv" / "manifest.csv"), "-o", str(out)]) == 0
+    assert capsys.readouterr().err == ""

@@ -26,7 +26,7 @@ def test_samples_metadata_events_round_trip(tmp_path: Path) -> None:
     assert not rec.truncated
     assert rec.metadata["damper_id"] == "S46-0042"
     assert rec.metadata["notes"] == "new shims, ä ok"
-    assert rec.metadata["format_version"] == "1"
+    assert rec.metadata["format_version"] == "2"
     assert rec.rig_toml == '[rig]\nname = "sim"\n'
     assert [(m.index, m.clicks, m.frequency_hz) for m in rec.tests] == TESTS
     assert rec.completed_keys() == {(c, 2, f) for _, c, f in TESTS}

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import struct
+import time
 from pathlib import Path
 from typing import Any
 
@@ -86,8 +87,14 @@ def check_json(schema: dict[str, Any], obj: dict[str, Any]) -> None:
 
 def test_every_channel_is_schemad_and_decodable_without_shockdyno(tmp_path: Path) -> None:
     path = tmp_path / "r.mcap"
+    before = time.time_ns()
     write_small(path)
+    after = time.time_ns()
     with open(path, "rb") as f:
+        metadata = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+        origin = int(metadata["shockdyno.clock"]["wall_clock_origin_ns"])
+        assert before <= origin <= after  # the first sample has t_s = 0
+        f.seek(0)
         reader = make_reader(f)
         summary = reader.get_summary()
         assert summary is not None
@@ -106,14 +113,16 @@ def test_every_channel_is_schemad_and_decodable_without_shockdyno(tmp_path: Path
             if schema.encoding == "ros2msg":
                 msg = decode_cdr(schema.data.decode(), message.data)
                 samples.setdefault(msg["test"], []).append(msg)
-                assert message.log_time == round(msg["t_s"][0] * 1e9)  # DAQ time, not host time
+                # Wall-clock time on Foxglove's timeline, DAQ time in the payload
+                assert message.log_time == message.publish_time
+                assert message.log_time == origin + round(msg["t_s"][0] * 1e9)
             else:
                 check_json(json.loads(schema.data), json.loads(message.data))
         attachments = list(reader.iter_attachments())
         assert [a.name for a in attachments] == ["rig.toml"]
         assert attachments[0].media_type == "application/toml"
-        (meta,) = list(reader.iter_metadata())
-        assert meta.metadata["operator"] == "ana"
+        assert metadata["shockdyno.recording"]["operator"] == "ana"
+        assert metadata["shockdyno.recording"]["format_version"] == "2"
     assert seen["/dyno/test"] == 6 and seen["/dyno/events"] == 3 and seen["/dyno/actuator"] == 3
     for k in range(3):
         truth = block(seq_range(k)[0], SAMPLES_PER_TEST)
@@ -125,3 +134,30 @@ def test_every_channel_is_schemad_and_decodable_without_shockdyno(tmp_path: Path
         assert np.array_equal(got["seq"], truth.seq)
         assert np.array_equal(got["force_n"], truth.force_n)
         assert np.array_equal(got["status"], truth.status)
+        # velocity_m_s is dx/dt for display: the sine's derivative, to DAQ-plot accuracy
+        # (one-sided at the ends of a test, continuous across messages)
+        want_v = 0.03 * 2 * np.pi * np.cos(2 * np.pi * truth.t_s) + 1e-6
+        assert np.max(np.abs(got["velocity_m_s"] - want_v)) < 1e-3  # 0.5 % of the peak
+
+
+def test_a_given_wall_clock_origin_places_every_message(tmp_path: Path) -> None:
+    """With the origin given (e.g. a DAQ with its own real-time clock), log_time is exactly
+    origin + t_s for samples and the test records alike; the reader reports the origin."""
+    from rec_helpers import meta
+
+    from shockdyno.record import RecordingWriter, open_recording
+
+    origin = 1_750_000_000_123_456_789
+    path = tmp_path / "r.mcap"
+    with RecordingWriter(path, metadata={}, wall_clock_origin_ns=origin) as w:
+        w.begin_test(meta(0, 0))
+        w.write_samples(block(5000, 1500))  # t_s from 5.0 s
+        w.end_test(meta(0, 0, status="complete"))
+    with open(path, "rb") as f:
+        times = [(c.topic, m.log_time) for _, c, m in make_reader(f).iter_messages()]
+    assert [t for topic, t in times if topic == "/dyno/samples"] == [
+        origin + 5_000_000_000,
+        origin + 6_000_000_000,
+    ]
+    assert times[-1] == ("/dyno/test", origin + 6_499_000_000)  # end record at the last sample
+    assert open_recording(path).parts[0].wall_clock_origin_ns == origin

@@ -136,3 +136,7 @@ def test_installed_command_runs_the_linear_check(tmp_path: Path) -> None:
     doc = json.loads(out.read_text())
     assert doc["damper"] == {"kind": "linear", "c_ns_m": 2000.0}
     assert doc["rms"][0]["clicks"] is None and doc["step_check"] is None
+    # Progress off a terminal: one plain line per stage on stderr, stdout keeps the result
+    stages = [ln for ln in proc.stderr.splitlines() if ln.startswith("ride: ")]
+    assert stages == ["ride: integrate 1 runs x 3000 steps", "ride: RMS, Wk RMS and spectra"]
+    assert "\x1b[" not in proc.stderr and "ride: " not in proc.stdout

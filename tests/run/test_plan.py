@@ -9,13 +9,8 @@ import pytest
 
 from shockdyno.cli import main
 from shockdyno.errors import ConfigError
-from shockdyno.run.plan import (
-    SweepPlan,
-    frequencies_for_velocities,
-    parse_clicks,
-    parse_frequencies,
-    parse_velocities_mm_s,
-)
+from shockdyno.lists import parse_clicks, parse_floats, parse_frequencies, parse_letters
+from shockdyno.run.plan import SweepPlan, frequencies_for_velocities, parse_velocities_mm_s
 
 
 @pytest.mark.parametrize(
@@ -26,13 +21,17 @@ from shockdyno.run.plan import (
         ("5,10,15", [5, 10, 15]),
         ("0-2,10,20-21", [0, 1, 2, 10, 20, 21]),
         ("3,3,1", [1, 3]),
+        ("0-4,10,15-21:2", [0, 1, 2, 3, 4, 10, 15, 17, 19, 21]),
+        (" 0 - 21 : 7 ".replace(" ", ""), [0, 7, 14, 21]),
     ],
 )
 def test_parse_clicks(text, expected):
     assert parse_clicks(text) == expected
 
 
-@pytest.mark.parametrize("text", ["", "a-b", "5-2", "0-22", "0-21:0", "-1"])
+@pytest.mark.parametrize(
+    "text", ["", "a-b", "5-2", "0-22", "0-21:0", "-1", "1.5", "0,,3", "0-21:x"]
+)
 def test_bad_clicks_are_refused_in_one_line(text):
     with pytest.raises(ConfigError) as exc:
         parse_clicks(text)
@@ -41,9 +40,20 @@ def test_bad_clicks_are_refused_in_one_line(text):
 
 def test_parse_frequencies():
     assert parse_frequencies("0.5,1,1.5") == [0.5, 1.0, 1.5]
-    for bad in ("", "x", "0", "-1", "nan", "1e9"):
-        with pytest.raises(ConfigError):
+    assert parse_frequencies("0.5-2:0.5") == [0.5, 1.0, 1.5, 2.0]
+    assert parse_frequencies("0.1-0.3:0.1,5") == [0.1, 0.2, 0.3, 5.0]  # no 0.30000000000000004
+    for bad in ("", "x", "0", "-1", "nan", "1e9", "0.5-2", "2-1:0.5", "1-2:0"):
+        with pytest.raises(ConfigError) as exc:
             parse_frequencies(bad)
+        assert "\n" not in str(exc.value) and "--freq" in str(exc.value)
+
+
+def test_every_list_flag_names_itself_in_its_error():
+    with pytest.raises(ConfigError, match=r"^--speeds-kmh: cannot read 'fast'"):
+        parse_floats("20,fast", "--speeds-kmh")
+    assert parse_letters("A-C,e", "--roads") == ["A", "B", "C", "E"]
+    with pytest.raises(ConfigError, match="--roads"):
+        parse_letters("C-A", "--roads")
 
 
 def test_plan_orders_clicks_outer_and_skips_done_points():

@@ -83,26 +83,6 @@ def terms_table(terms: dict[str, Any]) -> Any:
     return table
 
 
-def globals_table(result: Any) -> Any:
-    from rich.table import Table
-
-    sd = result.info.get("calibration", {}).get("globals_sd", {})
-    nominal = result.info.get("calibration", {}).get("globals_nominal", {})
-    table = Table(title="Calibrated damper globals (±1σ)")
-    for name in ("parameter", "fitted", "±1σ", "spec"):
-        table.add_column(name, justify="left" if name == "parameter" else "right")
-    for key, value in result.globals.items():
-        s = sd.get(key)
-        nom = nominal.get(key)
-        table.add_row(
-            key,
-            f"{value:.4g}",
-            "" if s is None else f"{s:.2g}",
-            "" if nom is None else f"{nom:.4g}",
-        )
-    return table
-
-
 def _mm2(value: float, sd: float) -> str:
     """Area in mm² with its 1-σ uncertainty in percent (compact for narrow terminals)."""
     text = f"{value * 1e6:.4g}"
@@ -165,6 +145,34 @@ def result_json(result: Any) -> str:
         ) from None
 
 
+def _num(value: Any, scale: float = 1.0) -> str:
+    return (
+        f"{value * scale:.4g}" if isinstance(value, int | float) and math.isfinite(value) else "?"
+    )
+
+
+def _globals_table(result: Any) -> Any:
+    """The calibrated globals (result.globals) beside the spec's values, and the force channel's
+    delay; every key of result.globals is shown, whatever parameters the fit calibrates."""
+    from rich.table import Table
+
+    cal = result.info.get("calibration", {})
+    nominal, sd = cal.get("globals_nominal", {}), cal.get("globals_sd", {})
+    table = Table(title="Calibrated globals (SI units, as named; ±1σ)")
+    for name in ("parameter", "fitted", "±1σ", "spec", "change"):
+        table.add_column(name, justify="left" if name == "parameter" else "right")
+    for key, value in result.globals.items():
+        base = nominal.get(key)
+        change = "?"
+        if isinstance(base, int | float) and base != 0 and math.isfinite(base):
+            change = f"{100 * (value / base - 1):+.1f}%"
+        table.add_row(key, _num(value), _num(sd.get(key)), _num(base), change)
+    if "force_delay_s" in cal:
+        delay, delay_sd = cal["force_delay_s"], cal.get("force_delay_sd_s")
+        table.add_row("force delay, ms", _num(delay, 1e3), _num(delay_sd, 1e3), "0", "")
+    return table
+
+
 def run_fit(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
@@ -207,7 +215,7 @@ def run_fit(args: argparse.Namespace) -> int:
     text = result_json(result)  # a result that cannot be written fails before anything is
     # With --json -, stdout carries only the JSON; the human summary goes to stderr.
     human = Console(stderr=out is None)
-    human.print(globals_table(result))
+    human.print(_globals_table(result))
     if result.terms:
         human.print(terms_table(result.terms))
     human.print(_clicks_table(result))

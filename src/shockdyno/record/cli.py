@@ -9,6 +9,7 @@ from typing import Any
 
 from shockdyno.errors import RecordingError
 from shockdyno.outputs import check_output, is_stdout, write_output
+from shockdyno.progress import StageProgress
 from shockdyno.record.csv_export import export_csv
 from shockdyno.record.csv_import import (
     FORCE_UNITS,
@@ -157,7 +158,8 @@ def _import(args: argparse.Namespace) -> int:
     )
     if args.manifest.exists() and args.output.exists() and args.output.samefile(args.manifest):
         raise RecordingError(f"-o {args.output} is the manifest; refusing to overwrite it")
-    tests = import_csv(args.manifest, args.output, opts, force=args.force)
+    with StageProgress("import", plain_after_s=2.0) as progress:
+        tests = import_csv(args.manifest, args.output, opts, force=args.force, progress=progress)
     print(f"imported {len(tests)} tests from {args.manifest} into {args.output}")
     return 0
 

@@ -13,7 +13,7 @@ import math
 import stat
 import sys
 from array import array
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field
 from datetime import datetime
 from pathlib import Path
@@ -402,7 +402,11 @@ def _float_cell(table: _Table, i: int, col: int, *, positive: bool = False) -> f
     return x
 
 
-def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
+def read_manifest(
+    manifest: Path,
+    opts: ImportOptions,
+    progress: Callable[[str, float], None] | None = None,
+) -> list[ImportedTest]:
     opts.check()
     table = _Table(manifest, opts.delimiter, opts.max_file_bytes)
     cols = {name: table.column(name) for name in MANIFEST_REQUIRED}
@@ -418,6 +422,8 @@ def read_manifest(manifest: Path, opts: ImportOptions) -> list[ImportedTest]:
             return row[cols[name]].strip() if name in cols else ""
 
         file_name = cell("file")
+        if progress is not None:
+            progress(f"read {file_name}", 0.5 * i / len(table.rows))
         if not file_name:
             raise RecordingError(f"{table.where(i, cols['file'])}: no file name")
         clicks = _int_cell(table, i, cols["clicks"])
@@ -524,15 +530,22 @@ def _data_path(manifest: Path, name: str, allow_outside: bool, where: str) -> Pa
 
 
 def import_csv(
-    manifest: Path, output: Path, opts: ImportOptions, *, force: bool = False
+    manifest: Path,
+    output: Path,
+    opts: ImportOptions,
+    *,
+    force: bool = False,
+    progress: Callable[[str, float], None] | None = None,
 ) -> list[TestMeta]:
-    """Read MANIFEST and its data files and write one recording at `output`."""
+    """Read MANIFEST and its data files and write one recording at `output`.
+
+    `progress(stage, fraction)` is told of each file read (first half) and test written."""
     stale = part_paths(output)
     if stale and not force:
         raise RecordingError(f"{stale[0]} exists (use --force to replace the recording set)")
     if output.exists() and not force:
         raise RecordingError(f"{output} exists (use --force to overwrite it)")
-    tests = read_manifest(manifest, opts)
+    tests = read_manifest(manifest, opts, progress)
     for source in [manifest, *(manifest.parent / t.meta.extra[SOURCE_KEY] for t in tests)]:
         if output.exists() and output.samefile(source):
             raise RecordingError(f"-o {output} is an input of the import; refusing to overwrite it")
@@ -545,7 +558,9 @@ def import_csv(
     }
     with atomic_file(output, force) as tmp:
         with RecordingWriter(tmp, metadata=metadata, overwrite=True) as writer:
-            for test in tests:
+            for i, test in enumerate(tests):
+                if progress is not None:
+                    progress(f"write test {i + 1}/{len(tests)}", 0.5 + 0.5 * i / len(tests))
                 writer.begin_test(test.meta)
                 writer.write_samples(test.block)
                 writer.end_test(test.meta)

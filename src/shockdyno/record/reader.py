@@ -36,6 +36,9 @@ class PartInfo:
     bad_chunks: int = 0
     bad_messages: int = 0
     size_bytes: int = 0
+    # Wall-clock time (ns since the Unix epoch) of t_s = 0: log_time = origin + t_s. None in
+    # format 1 files, whose log_time is the DAQ time itself.
+    wall_clock_origin_ns: int | None = None
 
 
 @dataclass
@@ -206,13 +209,18 @@ def _take(part: _PartData, topics: dict[int, str], record: object) -> None:
         topics[record.id] = record.topic
     elif isinstance(record, Metadata) and record.name == s.METADATA_NAME:
         part.info.metadata = dict(record.metadata)
+    elif isinstance(record, Metadata) and record.name == s.CLOCK_METADATA_NAME:
+        try:
+            part.info.wall_clock_origin_ns = int(record.metadata["wall_clock_origin_ns"])
+        except (KeyError, ValueError):
+            part.info.problem = "bad shockdyno.clock metadata"
     elif isinstance(record, Attachment) and record.name == s.RIG_ATTACHMENT:
         part.rig_toml = record.data.decode("utf-8", errors="replace")
 
 
 def _message(part: _PartData, topic: str | None, data: bytes) -> None:
     if topic == s.TOPIC_SAMPLES:
-        test, _ = s.samples_header(data)
+        test, _, _ = s.samples_header(data)
         part.samples.setdefault(test, []).append(data)
         return
     if topic not in (s.TOPIC_TEST, s.TOPIC_EVENTS, s.TOPIC_ACTUATOR):

@@ -21,8 +21,9 @@ from shockdyno.errors import RecordingError
 from shockdyno.record.types import TestMeta
 from shockdyno.rig.types import SampleBlock
 
-FORMAT_VERSION = "1"
+FORMAT_VERSION = "2"  # 2: SampleBlock2 (velocity_m_s), wall-clock log_time
 METADATA_NAME = "shockdyno.recording"
+CLOCK_METADATA_NAME = "shockdyno.clock"  # wall_clock_origin_ns: log_time = origin + t_s
 RIG_ATTACHMENT = "rig.toml"
 
 TOPIC_SAMPLES = "/dyno/samples"
@@ -36,18 +37,23 @@ CHANNEL_IDS = {1: TOPIC_SAMPLES, 2: TOPIC_TEST, 3: TOPIC_ACTUATOR, 4: TOPIC_EVEN
 
 NO_TEST = 0xFFFFFFFF  # `test` field of samples written outside any test
 
-SAMPLES_SCHEMA_NAME = "shockdyno/msg/SampleBlock"
+SAMPLES_SCHEMA_NAME = "shockdyno/msg/SampleBlock2"
 SAMPLES_SCHEMA = """\
 # A block of consecutive DAQ samples in SI units (x > 0 compression, force > 0 resists it).
-# Message log_time is the time of the first sample on the DAQ counter's time base.
+# Message log_time is the first sample's wall-clock time: the recording's wall-clock origin
+# (metadata shockdyno.clock) + t_s. t_s, the DAQ counter's time, is the time base for analysis.
 uint32 test              # writer's test serial within this file (see /dyno/test); 4294967295: none
 int64[] seq              # DAQ sequence numbers, unwrapped; gaps are dropped frames
-float64[] t_s            # sample time, s (seq / sample rate; from the time column when imported)
+float64[] t_s            # sample time on the DAQ time base, s (from the time column when imported)
 float64[] displacement_m
 float64[] force_n
 float64[] temperature_c  # NaN when not measured
+float32[] velocity_m_s   # dx/dt for display (5-point central difference); analysis recomputes it
 uint16[] status          # DAQ status bits per sample
 """
+
+# Format 1 (shockdyno 0.1.0): the same block without velocity_m_s. Still read.
+SAMPLES_V1_SCHEMA_NAME = "shockdyno/msg/SampleBlock"
 
 _CDR_LE = b"\x00\x01\x00\x00"  # encapsulation header: plain CDR, little endian
 _HEAD = struct.Struct("<II")
@@ -55,8 +61,8 @@ _LEN_PAD = struct.Struct("<I4x")  # sequence length, then padding to the 8-byte-
 _LEN = struct.Struct("<I")
 
 
-def encode_samples(test: int, block: SampleBlock) -> bytes:
-    """CDR bytes of one SampleBlock message (layout: recordings/FORMAT.md)."""
+def encode_samples(test: int, block: SampleBlock, velocity_m_s: NDArray[np.floating]) -> bytes:
+    """CDR bytes of one SampleBlock2 message (layout: recordings/FORMAT.md)."""
     n = len(block)
     return b"".join(
         (
@@ -72,27 +78,35 @@ def encode_samples(test: int, block: SampleBlock) -> bytes:
             _LEN_PAD.pack(n),
             np.ascontiguousarray(block.temperature_c, "<f8").tobytes(),
             _LEN.pack(n),
+            np.ascontiguousarray(velocity_m_s, "<f4").tobytes(),
+            _LEN.pack(n),
             np.ascontiguousarray(block.status, "<u2").tobytes(),
         )
     )
 
 
-def samples_size(n: int) -> int:
-    return 48 + 42 * n
+def samples_size(n: int, version: int = 2) -> int:
+    return 52 + 46 * n if version == 2 else 48 + 42 * n
 
 
-def samples_header(data: bytes) -> tuple[int, int]:
-    """(test serial, sample count) of an encoded SampleBlock, checking its size."""
+def samples_header(data: bytes) -> tuple[int, int, int]:
+    """(test serial, sample count, layout version) of an encoded sample block.
+
+    The two layouts differ in size for every sample count, so the size alone tells them apart;
+    the reader needs no Schema record (which may sit in a damaged chunk).
+    """
     if len(data) < 48 or data[:2] != _CDR_LE[:2]:
         raise RecordingError("sample message is not little-endian CDR")
     test, n = _HEAD.unpack_from(data, 4)
-    if len(data) != samples_size(n):
-        raise RecordingError(f"sample message of {len(data)} bytes cannot hold {n} samples")
-    return test, n
+    for version in (2, 1):
+        if len(data) == samples_size(n, version):
+            return test, n, version
+    raise RecordingError(f"sample message of {len(data)} bytes cannot hold {n} samples")
 
 
-# Byte offset of each array in a message holding n samples: (name, dtype, a + b * n).
-_ARRAYS: tuple[tuple[str, str, int, int], ...] = (
+# Byte offset of each array in a message holding n samples: (name, dtype, a + b * n), per
+# layout version. Velocity is display-only and not read back (SampleBlock has no velocity).
+_ARRAYS_V1: tuple[tuple[str, str, int, int], ...] = (
     ("seq", "<i8", 12, 0),
     ("t_s", "<f8", 20, 8),
     ("displacement_m", "<f8", 28, 16),
@@ -100,16 +114,19 @@ _ARRAYS: tuple[tuple[str, str, int, int], ...] = (
     ("temperature_c", "<f8", 44, 32),
     ("status", "<u2", 48, 40),
 )
+_ARRAYS = {1: _ARRAYS_V1, 2: (*_ARRAYS_V1[:5], ("status", "<u2", 52, 44))}
 
 
 def decode_samples(payloads: list[bytes]) -> SampleBlock:
-    """Concatenate encoded SampleBlocks into one SampleBlock (copies once, no per-sample loop)."""
-    counts = [samples_header(p)[1] for p in payloads]
-    total = sum(counts)
-    out: dict[str, NDArray[Any]] = {name: np.empty(total, dtype) for name, dtype, _, _ in _ARRAYS}
+    """Concatenate encoded sample blocks into one SampleBlock (copies once, no per-sample loop)."""
+    headers = [samples_header(p) for p in payloads]
+    total = sum(n for _, n, _ in headers)
+    out: dict[str, NDArray[Any]] = {
+        name: np.empty(total, dtype) for name, dtype, _, _ in _ARRAYS_V1
+    }
     pos = 0
-    for data, n in zip(payloads, counts, strict=True):
-        for name, dtype, a, b in _ARRAYS:
+    for data, (_, n, version) in zip(payloads, headers, strict=True):
+        for name, dtype, a, b in _ARRAYS[version]:
             out[name][pos : pos + n] = np.frombuffer(data, dtype, n, a + b * n)
         pos += n
     return SampleBlock(
@@ -120,6 +137,27 @@ def decode_samples(payloads: list[bytes]) -> SampleBlock:
         temperature_c=out["temperature_c"].astype(np.float64, copy=False),
         status=out["status"].astype(np.uint16, copy=False),
     )
+
+
+def display_velocity(
+    t_s: NDArray[np.floating], x_m: NDArray[np.floating], k: int = 2
+) -> NDArray[np.float32]:
+    """dx/dt by central difference over +-k samples (+-1 and one-sided near the ends), float32.
+
+    A display quantity for Foxglove's F-v plots: wide enough to tame DAQ quantisation noise at
+    1 kHz, short enough to add no visible lag. Whatever the input (repeated times, huge values
+    from an import), the result is finite or NaN, never an error or a warning.
+    """
+    n = len(x_m)
+    v = np.full(n, np.nan)
+    with np.errstate(all="ignore"):
+        if n >= 2 and np.all(np.diff(t_s) > 0):
+            v = np.gradient(x_m, t_s)
+            if n > 2 * k:
+                v[k:-k] = (x_m[2 * k :] - x_m[: -2 * k]) / (t_s[2 * k :] - t_s[: -2 * k])
+        out = v.astype(np.float32)
+    out[~np.isfinite(out)] = np.nan
+    return out
 
 
 def _json_schema(title: str, properties: dict[str, Any], **more: Any) -> bytes:

@@ -4,6 +4,10 @@ Every `end_test` closes the current MCAP chunk, flushes it and fsyncs the file, 
 test survives kill -9 or power loss; only the test in progress is at risk. Small sample blocks
 are coalesced into messages of up to `max_block_samples` samples: fewer, larger messages write
 and decode faster (figures in recordings/FORMAT.md).
+
+Message log_time is wall-clock time (so Foxglove's timeline shows when the test ran) while the
+payloads keep the DAQ time base: log_time = wall-clock origin + t_s, the origin being the host
+clock at the first sample minus that sample's t_s, recorded as metadata `shockdyno.clock`.
 """
 
 from __future__ import annotations
@@ -14,14 +18,17 @@ import math
 import os
 import signal
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, ParamSpec, TypeVar
 
+import numpy as np
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import CompressionType, Writer
+from numpy.typing import NDArray
 
 from shockdyno import __version__
 from shockdyno.errors import RecordingError
@@ -69,10 +76,10 @@ def _whole_records(method: Callable[P, R]) -> Callable[P, R]:
 
 
 def _ns(t_s: float) -> int:
-    """MCAP log_time (ns, unsigned) of a time on the recording's time base."""
+    """Nanoseconds of a time on the DAQ time base."""
     if not math.isfinite(t_s):
         raise RecordingError(f"time {t_s!r} is not finite")
-    return max(0, round(t_s * 1e9))
+    return round(t_s * 1e9)
 
 
 class RecordingWriter:
@@ -94,6 +101,7 @@ class RecordingWriter:
         max_block_samples: int = 1000,
         compression: str = "zstd",
         chunk_size: int = 1 << 20,
+        wall_clock_origin_ns: int | None = None,
     ) -> None:
         base = Path(path)
         if compression not in _COMPRESSION:
@@ -153,6 +161,11 @@ class RecordingWriter:
         self._gaps = 0
         self._count = 0
         self._closed = False
+        # (t, x) of the last samples written in this test: context for the next velocity
+        self._vel_tail: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+        self._origin_ns: int | None = None
+        if wall_clock_origin_ns is not None:
+            self._set_origin(int(wall_clock_origin_ns), "given by the caller")
         self._sync()
 
     # -- channels and low-level writes --------------------------------------------------------
@@ -166,8 +179,15 @@ class RecordingWriter:
     def _json_channel(self, topic: str, name: str, schema: bytes) -> int:
         return self._channel(topic, name, SchemaEncoding.JSONSchema, schema, MessageEncoding.JSON)
 
+    def _set_origin(self, origin_ns: int, source: str) -> None:
+        self._origin_ns = origin_ns
+        clock = {"wall_clock_origin_ns": str(origin_ns), "source": source}
+        self._mcap.add_metadata(s.CLOCK_METADATA_NAME, clock)
+
     def _emit(self, channel: int, t_s: float, data: bytes) -> None:
-        log_time = _ns(t_s)
+        # Before the first sample fixes the origin (setup events), host time is the best guess.
+        log_time = time.time_ns() if self._origin_ns is None else self._origin_ns + _ns(t_s)
+        log_time = max(0, log_time)
         self._mcap.add_message(channel, log_time, data, log_time, self._seq)
         self._seq += 1
 
@@ -202,6 +222,7 @@ class RecordingWriter:
         if self._open is not None:
             raise RecordingError(f"test {self._open.index} is still open (call end_test first)")
         self._flush_samples()
+        self._vel_tail = None
         self._test_serial += 1
         self._open = meta
         self._last_seq = None
@@ -223,6 +244,10 @@ class RecordingWriter:
             self._gaps += block.frames_missing(self._last_seq)
             self._last_seq = int(block.seq[-1])
             self._count += n
+        if self._origin_ns is None:
+            self._set_origin(
+                time.time_ns() - _ns(float(block.t_s[0])), "host clock at the first sample"
+            )
         self._pending.append(block)
         self._pending_n += n
         self._last_t = float(block.t_s[-1])
@@ -236,10 +261,19 @@ class RecordingWriter:
         self._pending = []
         self._pending_n = 0
         test = self._test_serial if self._open is not None else s.NO_TEST
+        # Velocity over the previous message's last samples too, so it is continuous across
+        # messages; the tail is dropped at each test boundary.
+        t, x = merged.t_s, merged.displacement_m
+        if self._vel_tail is not None:
+            t = np.concatenate((self._vel_tail[0], t))
+            x = np.concatenate((self._vel_tail[1], x))
+        velocity = s.display_velocity(t, x)[len(t) - len(merged) :]
+        self._vel_tail = (t[-4:], x[-4:])
         step = self._max_block
         for lo in range(0, len(merged), step):
             part = merged.slice(lo, lo + step) if len(merged) > step else merged
-            self._emit(self._ch_samples, float(part.t_s[0]), s.encode_samples(test, part))
+            data = s.encode_samples(test, part, velocity[lo : lo + step])
+            self._emit(self._ch_samples, float(part.t_s[0]), data)
 
     @_whole_records
     def write_actuator(self, t_s: float, fields: dict[str, float | int | bool | str]) -> None:
@@ -279,6 +313,7 @@ class RecordingWriter:
         }
         self._emit_json(self._ch_test, self._last_t, {**record, **s.meta_to_json(meta)})
         self._open = None
+        self._vel_tail = None
         self._sync()
 
     @_whole_records

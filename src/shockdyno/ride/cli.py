@@ -6,32 +6,19 @@ import argparse
 import json
 import math
 import sys
-from collections.abc import Callable
 from pathlib import Path
 from typing import TypeVar
 
 from shockdyno.errors import ConfigError
 from shockdyno.fit.result import FitResult
+from shockdyno.lists import parse_floats, parse_ints, parse_letters
 from shockdyno.model.quarter_car import QuarterCar
 from shockdyno.model.road import DEFAULT_BAND_RAD_M
 from shockdyno.outputs import check_output, write_output
+from shockdyno.progress import StageProgress
 from shockdyno.ride.study import RideConfig, RideResult, run_study
 
 T = TypeVar("T")
-
-
-def _list(text: str, convert: Callable[[str], T], what: str) -> tuple[T, ...]:
-    items = [s.strip() for s in text.split(",") if s.strip()]
-    if not items:
-        raise ConfigError(f"{what}: empty list")
-    try:
-        return tuple(convert(s) for s in items)
-    except ValueError:
-        raise ConfigError(f"{what}: cannot read {text!r}") from None
-
-
-def _road_letter(s: str) -> str:
-    return s.upper()
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -45,9 +32,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         ),
     )
     p.add_argument("--fit", help="fit result JSON (from `shockdyno fit`)")
-    p.add_argument("--clicks", default="5,10,15", help="rod clicks, comma-separated")
-    p.add_argument("--roads", default="A,B,C,D,E", help="ISO 8608 classes A-H, comma-separated")
-    p.add_argument("--speeds-kmh", default="20,60,80,120", help="speeds, km/h, comma-separated")
+    p.add_argument("--clicks", default="5,10,15", help="rod clicks, e.g. 5,10,15 or 0-21:3")
+    p.add_argument("--roads", default="A,B,C,D,E", help="ISO 8608 classes, e.g. A-E or A,C,E")
+    p.add_argument("--speeds-kmh", default="20,60,80,120", help="km/h, e.g. 20,60 or 20-120:20")
     p.add_argument(
         "--json", required=True, help="write the result here (docs/ride.md; - for stdout)"
     )
@@ -99,16 +86,16 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def config_from_args(args: argparse.Namespace) -> RideConfig:
-    band = _list(args.band_rad_per_m, float, "--band-rad-per-m")
+    band = parse_floats(args.band_rad_per_m, "--band-rad-per-m")
     if len(band) != 2:
         raise ConfigError("--band-rad-per-m takes two numbers: Ω_min,Ω_max")
     for name in ("duration_s", "warmup_s", "dt_ms", "waviness"):
         if not math.isfinite(getattr(args, name)):
             raise ConfigError(f"--{name.replace('_', '-')} must be a finite number")
     return RideConfig(
-        clicks=_list(args.clicks, int, "--clicks"),
-        roads=_list(args.roads, _road_letter, "--roads"),
-        speeds_kmh=_list(args.speeds_kmh, float, "--speeds-kmh"),
+        clicks=tuple(parse_ints(args.clicks, "--clicks")),
+        roads=tuple(parse_letters(args.roads, "--roads")),
+        speeds_kmh=tuple(parse_floats(args.speeds_kmh, "--speeds-kmh")),
         car=QuarterCar(
             args.sprung_mass_kg, args.unsprung_mass_kg, args.spring_n_per_m, args.tyre_n_per_m
         ),
@@ -193,7 +180,8 @@ def handle(args: argparse.Namespace) -> int:
         if not args.fit:
             raise ConfigError("--fit FIT.json is required (or --linear-damper-ns-m C)")
         fit = FitResult.load(args.fit)
-    result = run_study(config, fit, args.fit)
+    with StageProgress("ride") as progress:
+        result = run_study(config, fit, args.fit, progress=progress)
     try:
         text = json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"
     except ValueError as exc:

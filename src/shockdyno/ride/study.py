@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from itertools import product
 from typing import Any
@@ -432,9 +433,16 @@ def _subset(damper: SuspensionDamper, pick: list[int]) -> SuspensionDamper:
 
 
 def run_study(
-    config: RideConfig, fit: FitResult | None = None, fit_path: str | None = None
+    config: RideConfig,
+    fit: FitResult | None = None,
+    fit_path: str | None = None,
+    progress: Callable[[str, float], None] | None = None,
 ) -> RideResult:
-    """Simulate the whole grid and compute the RMS, Wk RMS and PSD of every run."""
+    """Simulate the whole grid and compute the RMS, Wk RMS and PSD of every run.
+
+    `progress(stage, fraction)` hears of each stage; the runs integrate together (vectorised),
+    so the bar moves by stage, not by run."""
+    report = progress or (lambda stage, fraction: None)
     config.validate()
     config = _normalised(config)
     t0 = time.perf_counter()
@@ -457,6 +465,8 @@ def run_study(
             f"time step {config.dt_s * 1e3:g} ms exceeds RK4's stability limit "
             f"{stable * 1e3:.3g} ms for this damper (steepest slope {slope:.3g} N·s/m)"
         )
+    # The first report comes after every check, so bad input prints its one line alone
+    report(f"integrate {len(runs)} runs x {config.n_steps} steps", 0.0)
     traj, roads = _integrate(
         config, damper, runs, start_c, config.dt_s, config.duration_s, config.warmup_s
     )
@@ -467,12 +477,15 @@ def run_study(
                 | (np.max(np.abs(traj.stroke_velocity_m_s), axis=1) > damper.v_max_m_s)
             )
         )
+    report("RMS, Wk RMS and spectra", 0.8)
     acc = traj.sprung_accel_m_s2
     rms = np.sqrt(np.mean(acc**2, axis=1))
     rms_wk = weighted_rms(acc, config.dt_s)
     nper = min(round(config.psd_segment_s / config.dt_s), acc.shape[1])
     f, p = welch(acc, fs=1 / config.dt_s, nperseg=nper, axis=1)
     keep = f <= config.psd_max_hz
+    if config.step_check:
+        report("step check at dt and dt/2", 0.85)
     check = _step_check(config, damper, runs, start_c) if config.step_check else None
     return RideResult(
         config=config,

@@ -21,8 +21,14 @@ from shockdyno.rig.config import RigConfig
 from shockdyno.rig.registers import decode_span, encode, span_of
 
 # pymodbus logs every timeout with packet dumps on stderr; the driver reports each failure
-# itself as one RigFault line, so its log is kept quiet.
-logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+# itself as one RigFault line, so its log is kept quiet, unless a level was chosen already
+# (`shockdyno -v` shows the Modbus traffic when commissioning a drive).
+if logging.getLogger("pymodbus").level == logging.NOTSET:
+    logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+
+# Requests in register-map terms (name, value, words); with pymodbus's own frames this is what
+# `shockdyno -v` shows when commissioning a drive.
+log = logging.getLogger(__name__)
 
 STATUS_NAMES = ("status_word", "fault_code", "position_actual", "force_actual", "cycle_count")
 
@@ -119,6 +125,7 @@ class ModbusActuator:
                 raise RigFault(f"{self.rig.actuator.describe()}: {what} failed ({msg})") from None
         if rr.isError():
             raise RigFault(f"{self.rig.actuator.describe()}: {what} refused ({rr})")
+        log.debug("%s: %s", what, rr)
         return rr
 
     # -- registers ---------------------------------------------------------------------
@@ -131,13 +138,16 @@ class ModbusActuator:
     def read(self, names: Iterable[str]) -> dict[str, float]:
         names = list(names)
         lo, count = span_of(self.map, names)
-        return decode_span(self.map, lo, self.read_words(lo, count), names)
+        values = decode_span(self.map, lo, self.read_words(lo, count), names)
+        log.debug("read %s", values)
+        return values
 
     def write(self, values: Mapping[str, float]) -> None:
         for name, value in values.items():
             reg = self.map[name]
             words = encode(reg, value, self.map.word_order)
-            self._call(f"write {name}", self._client.write_registers, reg.address, words)
+            what = f"write {name} = {value:g} (words {words} at {reg.address})"
+            self._call(what, self._client.write_registers, reg.address, words)
 
     # -- drive functions ---------------------------------------------------------------
     def control(self, *commands: str, enable: bool | None = None) -> None:

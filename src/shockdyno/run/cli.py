@@ -15,15 +15,10 @@ from rich.console import Console
 
 from shockdyno import __version__
 from shockdyno.errors import ConfigError, RecordingError, RigFault
+from shockdyno.lists import parse_clicks, parse_frequencies
 from shockdyno.model.spec import default_spec_path, load_spec
 from shockdyno.outputs import check_output
-from shockdyno.run.plan import (
-    SweepPlan,
-    frequencies_for_velocities,
-    parse_clicks,
-    parse_frequencies,
-    parse_velocities_mm_s,
-)
+from shockdyno.run.plan import SweepPlan, frequencies_for_velocities, parse_velocities_mm_s
 from shockdyno.run.signals import stop_on_signals
 
 if TYPE_CHECKING:
@@ -48,6 +43,12 @@ def _positive_float(text: str) -> float:
     return value
 
 
+# --speed means one thing in every command (demo, sweep --start-sim, sim-rig, replay): how many
+# simulated or recorded seconds pass per wall-clock second. It must be > 0; replay's "as fast as
+# it can" is its own flag, --fast.
+SPEED_HELP = "x real time: simulated seconds per wall-clock second"
+
+
 def _band(text: str) -> tuple[float, float]:
     try:
         lo, hi = (float(v) for v in text.split(","))
@@ -63,11 +64,11 @@ def register(sub: Any) -> None:
         description="Start the simulated rig, sweep clicks 0,3,...,21 at 0.5/1/1.5 Hz and 30 mm "
         "faster than real time, record to MCAP, fit and validate the model, write the report.",
     )
-    d.add_argument("--out-dir", type=Path, default=Path("recordings"), help="default: recordings/")
-    d.add_argument("--clicks", default="0-21:3", help="default: 0-21:3 (0,3,...,21)")
-    d.add_argument("--speed", type=_positive_float, default=50.0, help="x real time (default 50)")
-    d.add_argument("--seed", type=int, default=0)
-    d.add_argument("--cycles", type=int, default=5, help="measured cycles per test (default 5)")
+    d.add_argument("--out-dir", type=Path, default=Path("recordings"), help="output directory")
+    d.add_argument("--clicks", default="0-21:3", help="click settings, e.g. 0-21:3 or 0,5,10")
+    d.add_argument("--speed", type=float, default=50.0, help=SPEED_HELP)
+    d.add_argument("--seed", type=int, default=0, help="simulated rig's noise seed")
+    d.add_argument("--cycles", type=int, default=5, help="measured cycles per test")
     d.add_argument("--no-fit", action="store_true", help="record and report only")
     d.add_argument("--table", action="store_true", help="only print the model's click table")
     d.set_defaults(func=cmd_demo)
@@ -80,18 +81,18 @@ def register(sub: Any) -> None:
         "recorded; --resume continues from the first untested point.",
     )
     s.add_argument("--rig", type=Path, required=True, help="rig file, e.g. rigs/sim.toml")
-    s.add_argument("--clicks", default="0-21", help="e.g. 0-21, 0,3,6 or 0-21:3 (default 0-21)")
+    s.add_argument("--clicks", default="0-21", help="click settings, e.g. 0-21:3 or 0,5,10")
     by = s.add_mutually_exclusive_group()
-    by.add_argument("--freq", default="0.5,1,1.5", help="Hz, comma-separated (default 0.5,1,1.5)")
+    by.add_argument("--freq", default="0.5,1,1.5", help="Hz, e.g. 0.5,1,1.5 or 0.5-2:0.5")
     by.add_argument(
         "--velocities-mm-s",
         metavar="V,...",
         help="plan by target peak velocity instead of --freq, e.g. 25,50,100,200,300: each "
         "frequency is v / (2π A) at --amplitude-mm, refused beyond the rig file's limits",
     )
-    s.add_argument("--amplitude-mm", type=_positive_float, default=30.0, help="default 30")
-    s.add_argument("--gas-clicks", type=int, default=0)
-    s.add_argument("--warmup-cycles", type=int, default=2)
+    s.add_argument("--amplitude-mm", type=_positive_float, default=30.0, help="sine amplitude")
+    s.add_argument("--gas-clicks", type=int, default=0, help="gas-bottle click setting")
+    s.add_argument("--warmup-cycles", type=int, default=2, help="cycles before the measured ones")
     s.add_argument("--cycles", type=int, default=5, help="measured cycles per test")
     s.add_argument("--temp-band-c", type=_band, help="wait until LOW <= T <= HIGH before each test")
     s.add_argument(
@@ -100,23 +101,23 @@ def register(sub: Any) -> None:
     s.add_argument("--resume", action="store_true", help="continue an interrupted sweep")
     s.add_argument("--force", action="store_true", help="overwrite an existing recording")
     s.add_argument("--damper-id", default="", help="stored in the recording's metadata")
-    s.add_argument("--operator", default="")
-    s.add_argument("--notes", default="")
+    s.add_argument("--operator", default="", help="stored in the recording's metadata")
+    s.add_argument("--notes", default="", help="stored in the recording's metadata")
     s.add_argument(
         "--start-sim",
         action="store_true",
         help="start the simulated rig in-process with this rig file (no separate sim-rig)",
     )
-    s.add_argument("--speed", type=_positive_float, default=1.0, help="with --start-sim")
+    s.add_argument("--speed", type=float, default=1.0, help=f"with --start-sim: {SPEED_HELP}")
     s.add_argument("--scenario", type=Path, help="with --start-sim: extra physics, sim/scenarios/")
     s.add_argument("--seed", type=int, default=0, help="with --start-sim")
     s.set_defaults(func=cmd_sweep)
 
     r = sub.add_parser("replay", help="play a recording through the live view")
     r.add_argument("recording", type=Path)
-    r.add_argument(
-        "--speed", type=float, default=1.0, help="x real time; 0 plays as fast as it can"
-    )
+    r.add_argument("--speed", type=float, default=1.0, help="x real time: recorded seconds per "
+                   "wall-clock second")  # fmt: skip
+    r.add_argument("--fast", action="store_true", help="play as fast as it can (no waiting)")
     r.set_defaults(func=cmd_replay)
 
 
@@ -328,8 +329,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from shockdyno.rig.types import SampleBlock
     from shockdyno.run.liveview import LiveView
 
-    if args.speed < 0:
-        raise ConfigError("--speed must be >= 0")
+    if not args.speed > 0:
+        raise ConfigError(f"--speed must be > 0, got {args.speed:g}; --fast plays without waiting")
     rec = open_recording(args.recording).require_recording()
     console = Console()
     if rec.truncated:
@@ -352,7 +353,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
                     status=np.zeros(n, dtype=np.uint16),
                 )
                 view.update(block)
-                if args.speed > 0 and n > 1:
+                if not args.fast and n > 1:
                     time.sleep(float(test.t[sl][-1] - test.t[sl][0]) / args.speed)
             view.end_test(meta)
     return 0

@@ -11,42 +11,6 @@ DEFAULT_FREQUENCIES_HZ = (0.5, 1.0, 1.5)  # paper, Table 3
 DEFAULT_AMPLITUDE_M = 0.030  # paper, Table 3 (the text's "0.03 mm" is a slip: see reference)
 
 
-def parse_clicks(text: str, max_clicks: int = 21) -> list[int]:
-    """'0-21', '0,3,6', '0-21:3' (every third) or a mix: '0-4,10,15-21:2'."""
-    out: list[int] = []
-    for part in text.split(","):
-        part = part.strip()
-        if not part:
-            continue
-        rng, _, step_text = part.partition(":")
-        try:
-            step = int(step_text) if step_text else 1
-            lo_text, dash, hi_text = rng.partition("-")
-            lo = int(lo_text)
-            hi = int(hi_text) if dash else lo
-        except ValueError:
-            raise ConfigError(f"bad clicks {text!r}: use e.g. 0-21, 0,3,6 or 0-21:3") from None
-        if step < 1 or lo > hi:
-            raise ConfigError(f"bad clicks range {part!r}")
-        out.extend(range(lo, hi + 1, step))
-    if not out:
-        raise ConfigError("no clicks given")
-    bad = [c for c in out if not 0 <= c <= max_clicks]
-    if bad:
-        raise ConfigError(f"clicks must be 0-{max_clicks}, got {bad[0]}")
-    return sorted(set(out))
-
-
-def parse_frequencies(text: str) -> list[float]:
-    try:
-        freqs = [float(f) for f in text.split(",") if f.strip()]
-    except ValueError:
-        raise ConfigError(f"bad frequencies {text!r}: use e.g. 0.5,1,1.5") from None
-    if not freqs or any(not math.isfinite(f) or f <= 0 or f > 50 for f in freqs):
-        raise ConfigError(f"frequencies must be in (0, 50] Hz, got {text!r}")
-    return freqs
-
-
 def parse_velocities_mm_s(text: str) -> list[float]:
     """'25,50,100,200,300' (mm/s) -> peak velocities in m/s, sorted, without duplicates."""
     try:

@@ -26,7 +26,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     p.add_argument("--spec", default=None, help="damper spec TOML (default sim/ohlins-s46.toml)")
     p.add_argument("--scenario", default=None, help="scenario name or file in sim/scenarios/")
-    p.add_argument("--speed", type=float, default=1.0, help="sim seconds per real second")
+    p.add_argument(
+        "--speed",
+        type=float,
+        default=1.0,
+        help="x real time: simulated seconds per wall-clock second",
+    )
     p.add_argument("--seed", type=int, default=0, help="noise seed (same seed, same bytes)")
     p.add_argument(
         "--serial", choices=("socket", "pty", "both"), default="socket", help="DAQ transport"

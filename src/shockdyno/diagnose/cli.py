@@ -21,7 +21,6 @@ def register(sub: Any) -> None:
             "held-out prediction agree, and refit with it. DIAG.json is documented in "
             "docs/diagnose.md."
         ),
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     p.add_argument("recording", metavar="REC.mcap", help="recording to diagnose")
     p.add_argument(

@@ -53,6 +53,7 @@ class SweepPlan:
     warmup_cycles: int = 2
     measured_cycles: int = 5
     temperature_band_c: tuple[float, float] | None = None
+    gas_pressure_pa: float | None = None  # the charge as set on the damper, absolute
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.amplitude_m) and self.amplitude_m > 0):
@@ -61,6 +62,9 @@ class SweepPlan:
             raise ConfigError("need warm-up cycles >= 0 and measured cycles >= 1")
         if self.temperature_band_c and self.temperature_band_c[0] >= self.temperature_band_c[1]:
             raise ConfigError("temperature band must be LOW,HIGH with LOW < HIGH")
+        gas = self.gas_pressure_pa
+        if gas is not None and not (math.isfinite(gas) and 1e5 <= gas <= 1e7):
+            raise ConfigError(f"gas pressure must be 1-100 bar absolute, got {gas / 1e5:g} bar")
 
     def points(self) -> list[SweepPoint]:
         """Clicks outer, frequency inner: the adjuster moves as rarely as possible."""

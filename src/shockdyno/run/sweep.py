@@ -188,6 +188,7 @@ def _meta(
         motion="sine",
         status="running",
         start_temperature_c=round(float(temp_c), 2),
+        gas_pressure_pa=plan.gas_pressure_pa,
     )
 
 

@@ -287,11 +287,17 @@ def test_sensor_lag_scenario_fits_as_the_difference_of_the_lags(
     """Load cell 2 ms, LVDT 1 ms: at 0.5-1.5 Hz both shift the loop by about their time
     constants, in opposite directions, so the sweep pins δ ≈ τ_F - τ_x = 1 ms, not the
     two lags apart (sensor_lag's docstring)."""
-    fit = fit_sweep(_record(tmp / "sensor-lag.mcap", "sensor-lag"))
+    tests = _record(tmp / "sensor-lag.mcap", "sensor-lag")
+    fit = fit_sweep(tests)
     delay, sd = _est(fit, "sensor_lag.delay_s")
     _note(f"sensor-lag scenario: delay {delay * 1e3:.4f} ± {sd * 1e3:.4f} ms (want 1 ms)")
     assert delay == pytest.approx(0.002 - 0.001, rel=0.10)
-    assert _e_t(fit) <= _clean_level(clean_fit)
+    # A delay is not a lag where the force turns in a few ms (the friction flip at
+    # reversal): the delay alone leaves some structure there; the lags named as well
+    # take the fit back to the clean level.
+    assert _e_t(fit) <= 2 * _clean_level(clean_fit)
+    full = fit_sweep(tests, terms="sensor_lag.load_cell_lag_s,sensor_lag.lvdt_lag_s")
+    assert _e_t(full) <= 1.05 * _clean_level(clean_fit)
 
 
 def test_thermal_gas_coupling_is_recovered_from_the_temperature_channel(

@@ -83,13 +83,13 @@ def _summary(doc: dict[str, Any]) -> Any:
 
 def run_diagnose(args: argparse.Namespace) -> int:
     from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from shockdyno.diagnose.engine import Settings, diagnose
     from shockdyno.diagnose.verdict import to_json
     from shockdyno.fit.result import FitResult
     from shockdyno.model import load_spec
     from shockdyno.outputs import check_output, write_output
+    from shockdyno.progress import StageProgress
     from shockdyno.record import open_recording
     from shockdyno.record.layout import set_paths
 
@@ -108,20 +108,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     tests = open_recording(args.recording).require_recording().load_all()
     if not tests:
         raise ConfigError(f"{args.recording}: no tests to diagnose")
-    console = Console(stderr=True)
-    with Progress(
-        TextColumn("[bold]diagnose[/] {task.description}"),
-        BarColumn(),
-        TextColumn("{task.percentage:>3.0f}%"),
-        TimeElapsedColumn(),
-        console=console,
-        transient=True,
-    ) as bar:
-        task = bar.add_task("prepare", total=1.0)
-
-        def progress(stage: str, fraction: float) -> None:
-            bar.update(task, description=stage, completed=fraction)
-
+    with StageProgress("diagnose") as progress:
         d = diagnose(tests, fit, settings, progress, spec_path=args.spec)
     doc = to_json(d)
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"

@@ -175,12 +175,12 @@ def _globals_table(result: Any) -> Any:
 
 def run_fit(args: argparse.Namespace) -> int:
     from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from shockdyno.fit.sweep import fit_sweep
     from shockdyno.fit.terms import parse_terms
     from shockdyno.fit.validate import table4_table
     from shockdyno.model import load_spec
+    from shockdyno.progress import StageProgress
     from shockdyno.record import open_recording
     from shockdyno.record.layout import set_paths
 
@@ -191,19 +191,7 @@ def run_fit(args: argparse.Namespace) -> int:
     tests = open_recording(args.recording).require_recording().load_all()
     check_fit_input(tests, args.recording)
     console = Console(stderr=True)
-    with Progress(
-        TextColumn("[bold]fit[/] {task.description}"),
-        BarColumn(),
-        TextColumn("{task.percentage:>3.0f}%"),
-        TimeElapsedColumn(),
-        console=console,
-        transient=True,
-    ) as bar:
-        task = bar.add_task("prepare", total=1.0)
-
-        def progress(stage: str, fraction: float) -> None:
-            bar.update(task, description=stage, completed=fraction)
-
+    with StageProgress("fit", console) as progress:
         result = fit_sweep(
             tests,
             spec_path=args.spec,

@@ -180,12 +180,12 @@ def features(fit: Any, tests: list[Any]) -> tuple[list[np.ndarray], list[np.ndar
         evals.append((p, model.evaluate(prepared_inputs([p], full_rate=True), a_bc, a_bt)))
     temps = [p.data.temperature for p, _ in evals if p.data.temperature is not None]
     t_mean = float(np.nanmean(np.concatenate(temps))) if temps else math.nan
-    hyd_peak = max(float(np.max(e.parts["hydraulic"])) for _, e in evals)
+    hyd_peak = max(float(np.max(e.components["hydraulic"])) for _, e in evals)
     mats, resid = [], []
     groups: list[str] = []
     for p, e in evals:
         d, v = p.data, p.v
-        hyd, gas, total = e.parts["hydraulic"], e.parts["gas"], e.force
+        hyd, gas, total = e.components["hydraulic"], e.components["gas"], e.force
         temp = d.temperature
         dtemp = (
             np.nan_to_num(temp - t_mean)
@@ -323,9 +323,8 @@ def summary(rows: list[Row]) -> None:
     ok = [r for r in rows if not r.error]
     print(f"\n[1] confusion matrix: {len(ok)} recordings scored, {len(rows) - len(ok)} failed")
     sd, sb = score(rows, "claimed"), score(rows, "baseline")
-    print(
-        f"    {'physics':16s} {'diagnose: P    R    F1  (tp fp fn)':36s} {'sindy: P    R    F1  (tp fp fn)':34s}  E_t before -> diag / sindy"
-    )
+    head = f"{'diagnose: P    R    F1  (tp fp fn)':36s} {'sindy: P    R    F1  (tp fp fn)':34s}"
+    print(f"    {'physics':16s} {head}  E_t before -> diag / sindy")
     for p in LIBRARY:
         mine = [r for r in ok if p in r.case.truth]
         eb = float(np.mean([r.e_before for r in mine])) if mine else math.nan
@@ -347,14 +346,15 @@ def summary(rows: list[Row]) -> None:
         f"{fmt(sb['clean']['fp_rate'])} (of {sd['clean']['n']:.0f}; aim <= {AIM_FP:.2f}); "
         f"E_t {fmt(eb, '.4f')} -> {fmt(ea, '.4f')}"
     )
+    exact_d = np.mean([set(r.claimed) == set(r.case.truth) for r in ok]) if ok else math.nan
+    exact_b = np.mean([set(r.baseline) == set(r.case.truth) for r in ok]) if ok else math.nan
     f1d = [sd[p]["f1"] for p in PHYSICS]
     f1b = [sb[p]["f1"] for p in PHYSICS]
     print(
         f"    scenario physics: min F1 diagnose {fmt(min(f1d))} (aim >= {AIM_F1}), sindy "
         f"{fmt(min(f1b))}; diagnose ahead of sindy on "
         f"{sum(a > b for a, b in zip(f1d, f1b, strict=True))}/{len(PHYSICS)} physics; "
-        f"exact-set accuracy diagnose {np.mean([set(r.claimed) == set(r.case.truth) for r in ok]):.2f}, "
-        f"sindy {np.mean([set(r.baseline) == set(r.case.truth) for r in ok]):.2f}"
+        f"exact-set accuracy diagnose {exact_d:.2f}, sindy {exact_b:.2f}"
     )
     walls = [r.wall_s for r in ok]
     fits = [r.fit_s for r in ok]
@@ -362,7 +362,7 @@ def summary(rows: list[Row]) -> None:
         print(
             f"    diagnose wall per 4-click sweep: median {np.median(walls):.1f} s, max "
             f"{max(walls):.1f} s; plain fit_sweep median {np.median(fits):.1f} s; ratio of "
-            f"medians {np.median(walls) / np.median(fits):.1f}x (inflated: parallel cases, "
+            f"medians {np.median(walls) / np.median(fits):.1f}x (inflated by parallel cases, "
             f"shared machine)"
         )
 
@@ -397,7 +397,7 @@ def speed(workdir: Path) -> None:
         f"{d['info']['wall_s']:.1f} s), claimed {d['verdict']['physics']}, E_t {eb:.4f} -> "
         f"{ea:.4f}; one plain fit_sweep {fit_s:.1f} s; ratio {wall / fit_s:.1f}x; ratio to the "
         f"{AIM_S:g} s aim {wall / AIM_S:.2f} (on {os.cpu_count()} cores, load average "
-        f"{os.getloadavg()[0]:.1f}: shared machine, timings inflated)"
+        f"{os.getloadavg()[0]:.1f}: shared machine, timings may be inflated)"
     )
 
 
@@ -414,7 +414,7 @@ def main() -> None:
     print(
         f"{len(cases)} recordings ({'quick' if args.quick else 'full'}), {args.jobs} in parallel; "
         f"sweeps {CLICKS} clicks x 0.5/1/1.5 Hz, 30 mm; cpus {os.cpu_count()}, load average "
-        f"{os.getloadavg()[0]:.1f} (shared machine: timings inflated)",
+        f"{os.getloadavg()[0]:.1f} (shared machine: timings may be inflated)",
         flush=True,
     )
     print(

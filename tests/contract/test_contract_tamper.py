@@ -94,3 +94,30 @@ def test_a_clean_test_is_complete_and_says_what_was_measured(sim_rig_factory) ->
     assert out.status == "complete", out.reason
     found = re.search(r"measured ([0-9.]+) Hz", out.reason)
     assert found is not None and abs(float(found.group(1)) - 1.0) < 0.005
+
+
+def test_a_single_master_drive_refuses_another_masters_writes(sim_rig_factory) -> None:
+    """With the simulated rig's one-master option (the set-up docs/rig.md recommends for
+    real drives) the rogue's write is answered 'device busy' and the test runs as planned."""
+    sim = sim_rig_factory(speed=10.0, single_master=True)
+    rig = sim.rig_config()
+    rogue = ModbusActuator(rig)
+    rogue.connect()
+    refused: list[str] = []
+
+    def collect(block) -> None:
+        if len(refused) == 0:
+            try:
+                rogue.write({"sine_frequency": 3.0})
+            except RigFault as exc:
+                refused.append(str(exc))
+
+    try:
+        with RigSession(rig) as session:
+            session.set_clicks(7, 0)
+            out = session.run_sine(0.03, 1.0, 1, 2, collect)
+        assert rogue.status().enabled is False  # reads stay open to everyone
+    finally:
+        rogue.close()
+    assert refused and out.status == "complete"
+    assert sim.modbus_server.refused >= 1

@@ -52,6 +52,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="inject a fault at sim time S: garble, drop (N frames), freeze, modbus_timeout, "
         "actuator_fault, over_force (N: duration s); repeatable",
     )
+    p.add_argument(
+        "--single-master",
+        action="store_true",
+        help="accept Modbus writes from one connection only (the first to write, until it "
+        "disconnects; others get 'device busy'): how a real drive should be set up",
+    )
     p.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
     p.set_defaults(func=run)
 
@@ -78,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
         modbus_port=modbus_port,
         serial_port=serial_port,
         modbus=args.modbus,
+        single_master=args.single_master,
     ) as sim:
         for line in sim.endpoints:
             print(line, flush=True)

@@ -32,6 +32,7 @@ from shockdyno.simrig.engine import CHUNK, SimEngine
 from shockdyno.simrig.faults import Fault
 from shockdyno.simrig.registers import DriveRegisters
 from shockdyno.simrig.scenario import Scenario, load_scenario
+from shockdyno.simrig.single_master import SingleMasterTcpServer
 
 # The server reports its own failures as one-line RigFaults; without a handler of its own,
 # pymodbus's error log would reach stderr through logging's last-resort handler as well.
@@ -84,6 +85,7 @@ class SimRig:
         serial_port: int = 0,
         modbus: str = "tcp",
         clock: Callable[[], float] = time.monotonic,
+        single_master: bool = False,
     ) -> None:
         if modbus not in ("tcp", "rtu"):
             raise ConfigError(f"modbus must be tcp or rtu, got {modbus!r}")
@@ -112,6 +114,7 @@ class SimRig:
         self.registers = DriveRegisters(self.engine, rig.registers, clock)
         self._serial_mode = serial
         self._modbus = modbus
+        self._single_master = single_master
         self._ports = (modbus_port, serial_port)
         self._mute_until = -1.0  # clock time until which Modbus goes unanswered (inf: for good)
         self._writers: list[asyncio.StreamWriter] = []
@@ -188,7 +191,9 @@ class SimRig:
         # RTU framing is served over a TCP socket (an RTU line behind a serial server):
         # the RTU driver reaches it as the pyserial URL socket://127.0.0.1:PORT.
         framer = FramerType.RTU if self._modbus == "rtu" else FramerType.SOCKET
-        server = ModbusTcpServer(device, address=("127.0.0.1", self._ports[0]), framer=framer)
+        cls = SingleMasterTcpServer if self._single_master else ModbusTcpServer
+        server = cls(device, address=("127.0.0.1", self._ports[0]), framer=framer)
+        self.modbus_server = server
         try:
             await server.serve_forever(background=True)
         except Exception:
@@ -388,6 +393,7 @@ def start_sim_rig(
     serial_port: int = 0,
     modbus: str = "tcp",
     clock: Callable[[], float] = time.monotonic,
+    single_master: bool = False,
 ) -> SimRig:
     """Start a simulated rig on 127.0.0.1 (ephemeral ports unless given) and return it."""
     cfg = rig if isinstance(rig, RigConfig) else load_rig(rig or default_rig_path())
@@ -404,4 +410,5 @@ def start_sim_rig(
         serial_port=serial_port,
         modbus=modbus,
         clock=clock,
+        single_master=single_master,
     ).start()

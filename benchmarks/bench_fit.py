@@ -75,7 +75,7 @@ def main() -> None:
                 ident += 1
                 worst_rel = max(worst_rel, abs(got / true - 1))
                 worst_z = max(worst_z, abs(got - true) / sd)
-    e_t = max(t["proposed"]["E_t"] for t in fit.tests)
+    e_t = max(t.proposed["E_t"] for t in fit.tests)
     print(
         f"    {ident}/44 areas identifiable; worst error {100 * worst_rel:.3f} % "
         f"= {worst_z:.2f} sigma; worst E_t {e_t:.4f}"
@@ -173,7 +173,7 @@ def main() -> None:
         if not e.fixed
     )
     print(
-        f"    {fitted}; worst E_t {max(t['proposed']['E_t'] for t in with_terms.tests):.4f} "
+        f"    {fitted}; worst E_t {max(t.proposed['E_t'] for t in with_terms.tests):.4f} "
         f"(plain {e_t:.4f})"
     )
 

@@ -106,7 +106,7 @@ def test_fit_of_a_simulated_sweep_recovers_the_true_bleed_areas(swept):
         assert c.a_bc_m2 == pytest.approx(true_bc, rel=0.10)
         assert c.a_bt_m2 == pytest.approx(true_bt, rel=0.10)
         assert abs(c.a_bc_m2 - true_bc) <= 3 * c.a_bc_sd_m2 + 1e-3 * true_bc
-    assert all(t["proposed"]["E_t"] <= 0.05 for t in result.tests)
+    assert all(t.proposed["E_t"] <= 0.05 for t in result.tests)
 
 
 def _sweep_cmd(out: Path, *extra: str) -> list[str]:

@@ -40,7 +40,7 @@ def test_globals_start_away_from_truth() -> None:
 def test_proposed_reaches_e_t_below_005_on_every_test(fit: FitResult) -> None:
     assert len(fit.tests) == len(CLICKS) * 3
     for t in fit.tests:
-        assert t["proposed"]["E_t"] <= 0.05, t
+        assert t.proposed["E_t"] <= 0.05, t
 
 
 def test_globals_are_recovered(fit: FitResult) -> None:
@@ -88,7 +88,7 @@ def test_table4_text_rows_match_the_numbers(fit: FitResult) -> None:
     assert header == ["Frequency (Hz)", "Model", "E_t", "E_x", "E_ẋ"]
     assert [r[1] for r in rows] == ["Proposed", "Talbott", "Enhancement (%)"] * 3
     assert rows[0][0] == "0.5 (4 tests)"
-    mean_e_t = np.mean([t["proposed"]["E_t"] for t in fit.tests if t["frequency_hz"] == 0.5])
+    mean_e_t = np.mean([t.proposed["E_t"] for t in fit.tests if t.frequency_hz == 0.5])
     assert float(rows[0][2]) == pytest.approx(mean_e_t, rel=1e-3)
 
 
@@ -96,10 +96,10 @@ def test_trend_follows_the_areas(fit: FitResult) -> None:
     truth = true_spec()
     for name, idx in (("A_bc", 0), ("A_bt", 1)):
         trend = fit.trend[name]
-        assert trend["clicks_used"] == [2, 6, 14]
-        for n in trend["clicks_used"]:
+        assert trend.clicks_used == (2, 6, 14)
+        for n in trend.clicks_used:
             # 3 points: a straight line, so only the shape's broad trend is expected
-            assert np.polyval(trend["coefficients"], n) == pytest.approx(
+            assert np.polyval(trend.coefficients, n) == pytest.approx(
                 float(truth.bleed_areas(n)[idx]), rel=0.35
             )
 
@@ -159,8 +159,8 @@ def test_imported_300hz_non_sinusoidal(with_temperature: bool) -> None:
     areas = {c: (float(truth.bleed_areas(c)[0]), float(truth.bleed_areas(c)[1])) for c in (4, 10)}
     fit = fit_sweep(_imported(areas, with_temperature))
     for t in fit.tests:
-        assert t["proposed"]["E_t"] <= 0.05
-        assert (t["temperature_mean_C"] is not None) == with_temperature
+        assert t.proposed["E_t"] <= 0.05
+        assert (t.temperature_mean_c is not None) == with_temperature
     for c in fit.clicks:
         assert c.a_bc_m2 == pytest.approx(areas[c.clicks][0], rel=0.10)
         assert c.a_bt_m2 == pytest.approx(areas[c.clicks][1], rel=0.10)
@@ -184,8 +184,8 @@ def test_nan_samples_are_dropped() -> None:
     force = d.force.copy()
     force[100:110] = math.nan
     fit = fit_sweep([TestData(d.meta, d.t, d.x, force)])
-    assert fit.tests[0]["n_samples"] == d.t.size  # resampled back onto the full grid
-    assert fit.tests[0]["proposed"]["E_t"] <= 0.05
+    assert fit.tests[0].n_samples == d.t.size  # resampled back onto the full grid
+    assert fit.tests[0].proposed["E_t"] <= 0.05
     assert load_spec().friction_n != fit.globals["friction_n"]
 
 
@@ -198,7 +198,7 @@ def test_channel_delay_is_calibrated() -> None:
     assert cal["force_delay_s"] == pytest.approx(1e-3, rel=0.05)
     assert abs(cal["force_delay_s"] - 1e-3) <= 4 * cal["force_delay_sd_s"] + 2e-5
     for t in fit.tests:
-        assert t["proposed"]["E_t"] <= 0.05
+        assert t.proposed["E_t"] <= 0.05
     for c in fit.clicks[1:]:
         assert c.a_bc_m2 == pytest.approx(float(truth.bleed_areas(c.clicks)[0]), rel=0.02)
         assert c.a_bt_m2 == pytest.approx(float(truth.bleed_areas(c.clicks)[1]), rel=0.02)
@@ -225,4 +225,4 @@ def test_two_gas_settings_are_separate_click_settings() -> None:
     for c in fit.clicks:
         true_bt = float(truth.bleed_areas(c.clicks, c.gas_clicks)[1])
         assert c.a_bt_m2 == pytest.approx(true_bt, rel=0.02)
-    assert fit.trend["A_bt"]["gas_clicks"] == 0 and fit.trend["A_bt"]["clicks_used"] == [3, 9]
+    assert fit.trend["A_bt"].gas_clicks == 0 and fit.trend["A_bt"].clicks_used == (3, 9)

@@ -76,7 +76,7 @@ def _note(text: str) -> None:
 
 
 def _e_t(fit: FitResult) -> float:
-    return max(t["proposed"]["E_t"] for t in fit.tests)
+    return max(t.proposed["E_t"] for t in fit.tests)
 
 
 def _est(fit: FitResult, qualified: str) -> tuple[float, float]:

@@ -7,14 +7,15 @@ import pytest
 
 from shockdyno.errors import FitError
 from shockdyno.fit.result import ClickFit, FitResult
+from shockdyno.fit.trend import AreaTrend
 from shockdyno.model.spec import default_spec_path
 
 
 def _result() -> FitResult:
     clicks = [ClickFit(c, 0, 1e-6 * (c + 1), 5e-7 * (c + 1), 8e-7 * (c + 1)) for c in (5, 15)]
     trend = {
-        "A_bc": {"coefficients": [1e-6, 1e-6]},  # A = 1e-6 (n + 1)
-        "A_bt": {"coefficients": [5e-7, 5e-7]},
+        "A_bc": AreaTrend.from_json({"coefficients": [1e-6, 1e-6]}),  # A = 1e-6 (n + 1)
+        "A_bt": AreaTrend.from_json({"coefficients": [5e-7, 5e-7]}),
     }
     return FitResult(str(default_spec_path()), {}, clicks, trend=trend)
 

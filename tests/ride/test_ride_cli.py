@@ -12,6 +12,7 @@ import pytest
 
 from shockdyno.cli import main
 from shockdyno.fit.result import FitResult
+from shockdyno.fit.trend import AreaTrend
 from shockdyno.model import default_spec_path
 
 FAST = ["--duration-s", "3", "--warmup-s", "1", "--dt-ms", "1"]
@@ -69,8 +70,10 @@ def test_flags_and_interpolated_clicks_reach_console_json_and_report(
     # 120 km/h throws the wheel off the road and strokes the damper beyond 20 mm.
     fit = FitResult.from_spec(default_spec_path(), (5, 15))
     a = np.array([[c.clicks, c.a_bc_m2, c.a_bt_m2] for c in fit.clicks])
-    fit.trend = {name: {"coefficients": list(np.polyfit(a[:, 0], a[:, k], 1))}
-                 for k, name in ((1, "A_bc"), (2, "A_bt"))}  # fmt: skip
+    fit.trend = {
+        name: AreaTrend(1, tuple(np.polyfit(a[:, 0], a[:, k], 1)), (5, 15), 0.0, 1.0, "line")
+        for k, name in ((1, "A_bc"), (2, "A_bt"))
+    }
     fit_path = tmp_path / "fit.json"
     fit.save(fit_path)
     out, report = tmp_path / "ride.json", tmp_path / "rep"

@@ -10,6 +10,7 @@ import pytest
 
 from shockdyno.errors import ConfigError, FitError
 from shockdyno.fit.result import FitResult
+from shockdyno.fit.trend import AreaTrend
 from shockdyno.model.quarter_car import QuarterCar, accel_transfer
 from shockdyno.ride.study import RideConfig, run_study
 
@@ -95,8 +96,8 @@ def test_clicks_the_fit_did_not_measure_come_from_its_trend(true_fit: FitResult)
     n = np.arange(0, 22)
     a_bc, a_bt = spec.bleed_areas(n)
     trend = {
-        "A_bc": {"coefficients": np.polyfit(n, a_bc, 4).tolist()},
-        "A_bt": {"coefficients": np.polyfit(n, a_bt, 4).tolist()},
+        "A_bc": AreaTrend.from_json({"coefficients": np.polyfit(n, a_bc, 4).tolist()}),
+        "A_bt": AreaTrend.from_json({"coefficients": np.polyfit(n, a_bt, 4).tolist()}),
     }
     fit = FitResult(true_fit.spec_path, {}, true_fit.clicks, trend=trend)
     config = RideConfig(

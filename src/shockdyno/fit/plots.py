@@ -56,14 +56,14 @@ def _areas_figure(result: FitResult, path: Path) -> None:
         ax.plot(clicks, talb, "x", color="C2", label="Talbott $A_b$")
         trend = result.trend.get(name)
         if trend is not None:
-            used = trend["clicks_used"]
+            used = trend.clicks_used
             n = np.linspace(min(used), max(used), 200)
             ax.plot(
                 n,
-                np.polyval(trend["coefficients"], n) * 1e6,
+                np.polyval(trend.coefficients, n) * 1e6,
                 "-",
                 color="C1",
-                label=f"trend, degree {trend['degree']} (R² {trend['r2']:.4f})",
+                label=f"trend, degree {trend.degree} (R² {trend.r2:.4f})",
             )
         ax.set_xlabel("rod clicks")
         ax.set_ylabel("bleed area (mm²)")

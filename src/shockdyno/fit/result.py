@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from shockdyno.errors import ConfigError, FitError
+from shockdyno.fit.trend import AreaTrend
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, load_spec
@@ -44,6 +45,55 @@ class ClickFit:
     bleed_share_bt: float = float("nan")
 
 
+@dataclass(frozen=True)
+class TestValidation:
+    """One test's validation: E_t, E_x, E_xd (and the mean absolute error, N) of the
+    proposed model and of Talbott's, on every measured sample (fit JSON `tests[]`)."""
+
+    __test__ = False  # not a pytest test class, despite the name
+
+    index: int
+    clicks: int
+    gas_clicks: int
+    frequency_hz: float
+    motion: str
+    n_samples: int
+    duration_s: float
+    temperature_mean_c: float | None
+    proposed: dict[str, float]
+    talbott: dict[str, float]
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "index": self.index,
+            "clicks": self.clicks,
+            "gas_clicks": self.gas_clicks,
+            "frequency_hz": self.frequency_hz,
+            "motion": self.motion,
+            "n_samples": self.n_samples,
+            "duration_s": self.duration_s,
+            "temperature_mean_C": self.temperature_mean_c,
+            "proposed": {k: _nan_to_none(v) for k, v in self.proposed.items()},
+            "talbott": {k: _nan_to_none(v) for k, v in self.talbott.items()},
+        }
+
+    @staticmethod
+    def from_json(d: dict[str, Any]) -> TestValidation:
+        temp = d.get("temperature_mean_C")
+        return TestValidation(
+            index=int(d["index"]),
+            clicks=int(d["clicks"]),
+            gas_clicks=int(d.get("gas_clicks", 0)),
+            frequency_hz=float(d["frequency_hz"]),
+            motion=str(d.get("motion", "sine")),
+            n_samples=int(d.get("n_samples", 0)),
+            duration_s=float(d.get("duration_s", 0.0)),
+            temperature_mean_c=None if temp is None else float(temp),
+            proposed={k: _none_to_nan(v) for k, v in dict(d.get("proposed", {})).items()},
+            talbott={k: _none_to_nan(v) for k, v in dict(d.get("talbott", {})).items()},
+        )
+
+
 def apply_overrides(spec: DamperSpec, overrides: dict[str, float]) -> DamperSpec:
     """A copy of spec with `field` or `valve.field` values replaced."""
     changes: dict[str, Any] = {}
@@ -66,8 +116,8 @@ class FitResult:
     spec_path: str
     globals: dict[str, float]
     clicks: list[ClickFit]
-    trend: dict[str, Any] = field(default_factory=dict)
-    tests: list[dict[str, Any]] = field(default_factory=list)
+    trend: dict[str, AreaTrend] = field(default_factory=dict)
+    tests: list[TestValidation] = field(default_factory=list)
     info: dict[str, Any] = field(default_factory=dict)
     # Fitted physics terms: {term: {local parameter: Estimate}} (docs/fit.md).
     terms: dict[str, dict[str, Estimate]] = field(default_factory=dict)
@@ -120,8 +170,8 @@ class FitResult:
                 "the trend is not extrapolated"
             )
         if model == "proposed" and "A_bc" in self.trend and "A_bt" in self.trend:
-            bc = float(np.polyval(self.trend["A_bc"]["coefficients"], clicks))
-            bt = float(np.polyval(self.trend["A_bt"]["coefficients"], clicks))
+            bc = self.trend["A_bc"].at(clicks)
+            bt = self.trend["A_bt"].at(clicks)
             return max(bc, 0.0), max(bt, 0.0)
         raise FitError(f"the fit has no result for {clicks} clicks")
 
@@ -152,8 +202,8 @@ class FitResult:
                 name: {k: est.to_json() for k, est in params.items()}
                 for name, params in self.terms.items()
             },
-            "trend": self.trend,
-            "tests": self.tests,
+            "trend": {name: t.to_json() for name, t in self.trend.items()},
+            "tests": [t.to_json() for t in self.tests],
             "info": self.info,
         }
 
@@ -189,8 +239,8 @@ class FitResult:
                 spec_path=str(doc["spec_path"]),
                 globals={k: float(v) for k, v in doc["globals"].items()},
                 clicks=clicks,
-                trend=dict(doc.get("trend", {})),
-                tests=list(doc.get("tests", [])),
+                trend={str(k): AreaTrend.from_json(v) for k, v in doc.get("trend", {}).items()},
+                tests=[TestValidation.from_json(t) for t in doc.get("tests", [])],
                 info=dict(doc.get("info", {})),
                 terms={
                     str(name): {

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -49,7 +49,7 @@ from shockdyno.fit.problem import (
 )
 from shockdyno.fit.result import ClickFit, FitResult
 from shockdyno.fit.terms import TermSelection, parse_terms
-from shockdyno.fit.trend import polynomial_trend
+from shockdyno.fit.trend import AreaTrend, polynomial_trend
 from shockdyno.fit.validate import table4, validate_tests
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Estimate
@@ -187,13 +187,13 @@ def click_fits(
     return clicks, obj_tal
 
 
-def area_trends(clicks: Sequence[ClickFit]) -> dict[str, Any]:
+def area_trends(clicks: Sequence[ClickFit]) -> dict[str, AreaTrend]:
     """Trend of the identifiable areas vs rod clicks, at the gas setting with most clicks."""
     gas_counts: dict[int, int] = {}
     for cf in clicks:
         gas_counts[cf.gas_clicks] = gas_counts.get(cf.gas_clicks, 0) + 1
     gas = min(gas_counts, key=lambda g: (-gas_counts[g], g))
-    trend: dict[str, Any] = {}
+    trend: dict[str, AreaTrend] = {}
     for name, attr, ok in (
         ("A_bc", "a_bc_m2", "identifiable_bc"),
         ("A_bt", "a_bt_m2", "identifiable_bt"),
@@ -201,7 +201,7 @@ def area_trends(clicks: Sequence[ClickFit]) -> dict[str, Any]:
         used = [cf for cf in clicks if getattr(cf, ok) and cf.gas_clicks == gas]
         t = polynomial_trend([cf.clicks for cf in used], [getattr(cf, attr) for cf in used])
         if t is not None:
-            trend[name] = {**t, "gas_clicks": gas}
+            trend[name] = replace(t, gas_clicks=gas)
     return trend
 
 
@@ -293,7 +293,7 @@ def fit_sweep(
         trend=trend,
         terms=estimates,
     )
-    result.tests = _json_safe(validate_tests(result.model(), result, pb.prepared))
+    result.tests = validate_tests(result.model(), result, pb.prepared)
     delay = estimates.get("sensor_lag", {}).get("delay_s")
     info: dict[str, Any] = {"ga": areas.ga_info} if areas.ga_info else {}
     info.update(

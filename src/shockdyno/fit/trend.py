@@ -12,6 +12,7 @@ which stops adding terms once they no longer pay for themselves.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -20,7 +21,7 @@ from numpy.typing import ArrayLike
 MAX_DEGREE = 4
 
 
-def polynomial_trend(clicks: ArrayLike, areas: ArrayLike) -> dict[str, Any] | None:
+def polynomial_trend(clicks: ArrayLike, areas: ArrayLike) -> AreaTrend | None:
     """{degree, coefficients (highest power first, for numpy.polyval), ...} or None."""
     n_arr = np.asarray(clicks, dtype=float)
     y = np.asarray(areas, dtype=float)
@@ -44,15 +45,55 @@ def polynomial_trend(clicks: ArrayLike, areas: ArrayLike) -> dict[str, Any] | No
     return _describe(best[1], n_arr, y, "AICc")
 
 
-def _describe(coef: np.ndarray, n: np.ndarray, y: np.ndarray, selection: str) -> dict[str, Any]:
+@dataclass(frozen=True)
+class AreaTrend:
+    """A bleed area against rod clicks: polynomial coefficients (highest power first)."""
+
+    degree: int
+    coefficients: tuple[float, ...]
+    clicks_used: tuple[int, ...]
+    rms_m2: float
+    r2: float
+    selection: str
+    gas_clicks: int = 0
+
+    def at(self, clicks: float) -> float:
+        return float(np.polyval(self.coefficients, clicks))
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "degree": self.degree,
+            "coefficients": list(self.coefficients),
+            "clicks_used": list(self.clicks_used),
+            "rms_m2": self.rms_m2,
+            "r2": self.r2,
+            "selection": self.selection,
+            "gas_clicks": self.gas_clicks,
+        }
+
+    @staticmethod
+    def from_json(d: dict[str, Any]) -> AreaTrend:
+        coef = tuple(float(c) for c in d["coefficients"])
+        return AreaTrend(
+            degree=int(d.get("degree", len(coef) - 1)),
+            coefficients=coef,
+            clicks_used=tuple(int(c) for c in d.get("clicks_used", ())),
+            rms_m2=float(d.get("rms_m2", float("nan"))),
+            r2=float(d.get("r2", float("nan"))),
+            selection=str(d.get("selection", "")),
+            gas_clicks=int(d.get("gas_clicks", 0)),
+        )
+
+
+def _describe(coef: np.ndarray, n: np.ndarray, y: np.ndarray, selection: str) -> AreaTrend:
     fit = np.polyval(coef, n)
     ss_tot = float(np.sum((y - y.mean()) ** 2))
     ss_res = float(np.sum((fit - y) ** 2))
-    return {
-        "degree": int(coef.size - 1),
-        "coefficients": [float(c) for c in coef],
-        "clicks_used": [round(float(c)) for c in n],
-        "rms_m2": math.sqrt(ss_res / n.size),
-        "r2": 1.0 - ss_res / ss_tot if ss_tot > 0 else 1.0,
-        "selection": selection,
-    }
+    return AreaTrend(
+        degree=int(coef.size - 1),
+        coefficients=tuple(float(c) for c in coef),
+        clicks_used=tuple(round(float(c)) for c in n),
+        rms_m2=math.sqrt(ss_res / n.size),
+        r2=1.0 - ss_res / ss_tot if ss_tot > 0 else 1.0,
+        selection=selection,
+    )

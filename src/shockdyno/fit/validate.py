@@ -19,7 +19,7 @@ from shockdyno.errors import FitError
 from shockdyno.fit.metrics import error_metrics
 from shockdyno.fit.prepare import PreparedTest, prepare_tests
 from shockdyno.fit.problem import prepared_inputs
-from shockdyno.fit.result import FitResult
+from shockdyno.fit.result import FitResult, TestValidation
 from shockdyno.model.composite import DamperModel
 from shockdyno.record.types import TestData
 
@@ -75,30 +75,35 @@ def forces_for_tests(result: FitResult, tests: Sequence[TestData]) -> list[Model
 
 def validate_tests(
     model: DamperModel, result: FitResult, prepared: Sequence[PreparedTest]
-) -> list[dict[str, Any]]:
+) -> list[TestValidation]:
     """The `tests[]` entries of the fit JSON."""
     rows = []
     for mf in model_forces(model, result, prepared):
         d, m = mf.test, mf.test.meta
-        entry: dict[str, Any] = {
-            "index": m.index,
-            "clicks": m.clicks,
-            "gas_clicks": m.gas_clicks,
-            "frequency_hz": m.frequency_hz,
-            "motion": m.motion,
-            "n_samples": int(d.t.size),
-            "duration_s": float(d.t[-1] - d.t[0]),
-            "temperature_mean_C": (
-                float(np.nanmean(d.temperature))
-                if d.temperature is not None and np.any(np.isfinite(d.temperature))
-                else None
-            ),
-        }
+        scores: dict[str, dict[str, float]] = {}
         for name, f_model in (("proposed", mf.proposed), ("talbott", mf.talbott)):
             e = error_metrics(d.t, d.x, d.force, f_model, v=mf.v, a=mf.a)
             e["mean_abs_error_n"] = float(np.mean(np.abs(f_model - d.force)))
-            entry[name] = e
-        rows.append(entry)
+            scores[name] = {k: float(v) for k, v in e.items()}
+        temp = (
+            float(np.nanmean(d.temperature))
+            if d.temperature is not None and np.any(np.isfinite(d.temperature))
+            else None
+        )
+        rows.append(
+            TestValidation(
+                index=m.index,
+                clicks=m.clicks,
+                gas_clicks=m.gas_clicks,
+                frequency_hz=m.frequency_hz,
+                motion=m.motion,
+                n_samples=int(d.t.size),
+                duration_s=float(d.t[-1] - d.t[0]),
+                temperature_mean_c=temp,
+                proposed=scores["proposed"],
+                talbott=scores["talbott"],
+            )
+        )
     return rows
 
 
@@ -124,14 +129,14 @@ class Table4Row:
 
 def table4(result: FitResult) -> list[Table4Row]:
     """Per frequency (rounded to 1 mHz), mean errors of both models and the enhancement %."""
-    groups: dict[float, list[dict[str, Any]]] = {}
+    groups: dict[float, list[TestValidation]] = {}
     for t in result.tests:
-        groups.setdefault(round(float(t["frequency_hz"]), 3), []).append(t)
+        groups.setdefault(round(t.frequency_hz, 3), []).append(t)
     rows = []
     for f in sorted(groups):
         ts = groups[f]
-        prop = {k: float(np.mean([t["proposed"][k] for t in ts])) for k in METRICS}
-        tal = {k: float(np.mean([t["talbott"][k] for t in ts])) for k in METRICS}
+        prop = {k: float(np.mean([t.proposed[k] for t in ts])) for k in METRICS}
+        tal = {k: float(np.mean([t.talbott[k] for t in ts])) for k in METRICS}
         enh = {
             k: (100.0 * (tal[k] - prop[k]) / tal[k] if tal[k] > 0 else math.nan) for k in METRICS
         }

@@ -108,7 +108,9 @@ def test_a_concealed_effect_is_named(diagnoses: dict[str, dict], name: str) -> N
         assert t["E_t_after"] <= t["E_t_before"] * 1.02
     mean_before = sum(t["E_t_before"] for t in d["tests"]) / len(d["tests"])
     mean_after = sum(t["E_t_after"] for t in d["tests"]) / len(d["tests"])
-    assert mean_after < 0.8 * mean_before
+    assert mean_after < mean_before
+    # E_t also counts the noise; the structure is what the physics explains: most of it.
+    assert d["verdict"]["remaining_rms_n"] < 0.5 * d["mismatch"]["structured_rms_n"]
 
 
 def test_the_recovered_parameters_are_the_simulated_ones(diagnoses: dict[str, dict]) -> None:  # type: ignore[type-arg]
@@ -124,8 +126,8 @@ def test_the_recovered_parameters_are_the_simulated_ones(diagnoses: dict[str, di
     )
     assert claimed("s-seal", "friction")["breakaway_n"]["value"] == pytest.approx(25.0, rel=0.2)
     lag = claimed("s-lag", "sensor_lag")
-    total = lag["delay_s"]["value"] + lag["load_cell_lag_s"]["value"]
-    assert total == pytest.approx(0.002 - 0.001, abs=0.0006)  # load cell lag less LVDT lag
+    shift = lag["delay_s"]["value"] + lag["load_cell_lag_s"]["value"] - lag["lvdt_lag_s"]["value"]
+    assert shift == pytest.approx(0.002 - 0.001, abs=0.0006)  # load cell lag less LVDT lag
 
 
 def test_a_faint_effect_is_not_claimed_or_claimed_small(diagnoses: dict[str, dict]) -> None:  # type: ignore[type-arg]

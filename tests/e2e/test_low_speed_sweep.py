@@ -27,7 +27,9 @@ def test_sweep_by_velocity_then_report(tmp_path: Path) -> None:
     assert res.returncode == 0, res.stderr
     tests = open_recording(rec).load_all()
     peaks = sorted(summarise(t).peak_compression_velocity_m_s for t in tests)
-    assert peaks == [pytest.approx(0.025, rel=0.02), pytest.approx(0.1, rel=0.02)]
+    # A peak is the largest of many noisy velocity samples, so it reads a little high; at
+    # 25 mm/s that was up to 3 % in runs on a loaded machine.
+    assert peaks == [pytest.approx(0.025, rel=0.05), pytest.approx(0.1, rel=0.03)]
 
     out = tmp_path / "report"
     res = subprocess.run([*CLI, "report", str(rec), "-o", str(out)], cwd=REPO,

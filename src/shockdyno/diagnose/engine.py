@@ -50,6 +50,7 @@ FloatArray = NDArray[np.float64]
 Progress = Callable[[str, float], None]
 
 OPEN_SET = "position_force"
+SAME_SHAPE = 0.8  # cosine above which two explained structures are one shape
 # What separates two candidates that explain the same shape of residual.
 SEPARATE_BY = {
     frozenset({"sensor_lag", "compressibility"}): (
@@ -165,9 +166,18 @@ def _e_t(data: Data, fitted: Fitted) -> list[float]:
 
 
 def why_not(
-    c: Candidate, scored: dict[str, tuple[float, str]], s: Settings, min_effect_n: float
+    c: Candidate,
+    scored: dict[str, tuple[float, str]],
+    s: Settings,
+    min_effect_n: float,
+    shapes: Sequence[tuple[str, FloatArray]] = (),
 ) -> str:
-    """Why a candidate is not claimable ("" when it is)."""
+    """Why a candidate is not claimable ("" when it is). `shapes`: what each claimed term
+    explained; a later term that explains the same shape again refines that physics (a
+    lag model's residual looks like more lag), it is not a second one."""
+    for name, shape in shapes:
+        if _cosine(c.explained, shape) > SAME_SHAPE:
+            return f"the same shape as {name}, already claimed"
     if c.p_value >= s.alpha:
         return f"p = {c.p_value:.3g} ≥ {s.alpha:g}"
     gain = scored.get(c.name, (math.nan, ""))[0]
@@ -233,6 +243,7 @@ def diagnose(
     force_peak = float(np.max(np.abs(data.prob.f)))
     findings: list[Finding] = []
     claimed: list[str] = []
+    shapes: list[tuple[str, FloatArray]] = []
     groups: list[dict[str, object]] = []
     if search is not data:
         base = refit(search, base.model, base.free, base, max_nfev=s.max_nfev)
@@ -274,10 +285,12 @@ def diagnose(
         mean_noise = float(np.sqrt(np.mean(np.concatenate([b.mean_var for b in binned]))))
         limit = max(s.min_effect_share * force_peak, 3 * mean_noise)
 
-        passing = [c for c in screened if not why_not(c, scored, s, limit)]
+        passing = [c for c in screened if not why_not(c, scored, s, limit, shapes)]
         named = [c for c in passing if c.name != OPEN_SET]
         pool = named or passing
-        best = max(pool, key=lambda c: scored[c.name][0]) if pool else None
+        # Of the claimable, the one the full refit says explains most (its LR): held-out
+        # gains of near-tied candidates come from short refits and are noisier.
+        best = max(pool, key=lambda c: c.lr) if pool else None
         for c in cands:
             gain, detail = scored.get(c.name, (math.nan, ""))
             amb: list[str] = []
@@ -301,7 +314,7 @@ def diagnose(
                     ambiguous_with=amb,
                     why_not=""
                     if c is best
-                    else (why_not(c, scored, s, limit) or "another term explained more"),
+                    else (why_not(c, scored, s, limit, shapes) or "another term explained more"),
                 )
             )
         if best is None:
@@ -314,6 +327,7 @@ def diagnose(
             pairs = [SEPARATE_BY.get(frozenset({best.name, a}), DEFAULT_SEPARATE) for a in alike]
             groups.append({"group": group, "separate_by": "; ".join(dict.fromkeys(pairs))})
         claimed.append(best.name)
+        shapes.append((best.name, best.explained))
         base = best.fitted
         base_means, binned = binned_means(search, base.residual)
         left = mismatch_test(binned, rng, s.n_boot)

@@ -267,3 +267,14 @@ def test_scenario_mistakes_are_config_errors(tmp_path: Path) -> None:
         load_scenario(bad)
     with pytest.raises(ConfigError, match="scenario not found: nope"):
         load_scenario("nope")
+
+
+def test_compressibility_says_when_its_fit_is_not_physics() -> None:
+    """Oil stiffer than any oil is a tiny lag standing in for something else (diagnose
+    does not claim it); mineral oil, with or without air, is physics."""
+    term = Compressibility()
+    stiff = {"air_fraction": 0.0002, "oil_compressibility_per_gpa": 0.1}
+    oil = {"air_fraction": 0.0, "oil_compressibility_per_gpa": 1 / 1.5}
+    aerated = {"air_fraction": 0.02, "oil_compressibility_per_gpa": 1 / 1.5}
+    assert "stiffer than any oil" in term.implausible(stiff, SPEC)
+    assert term.implausible(oil, SPEC) == "" and term.implausible(aerated, SPEC) == ""

@@ -178,6 +178,11 @@ def why_not(
     for name, shape in shapes:
         if _cosine(c.explained, shape) > SAME_SHAPE:
             return f"the same shape as {name}, already claimed"
+    term = c.fitted.model.term(c.name)
+    if term is not None:
+        odd = term.implausible(c.fitted.model.local_values(term), c.fitted.model.spec)
+        if odd:
+            return f"not physical: {odd}"
     if c.p_value >= s.alpha:
         return f"p = {c.p_value:.3g} ≥ {s.alpha:g}"
     gain = scored.get(c.name, (math.nan, ""))[0]

@@ -231,6 +231,11 @@ class Term:
         default-free ones, plus any held one without which the term cannot reach off."""
         return tuple(p.name for p in self.params() if p.free)
 
+    def implausible(self, p: Mapping[str, float], spec: DamperSpec) -> str:
+        """Why these fitted values are not physics ("" when they are): a term that fits
+        data only with impossible values stands in for something else."""
+        return ""
+
     def start_grid(self) -> list[dict[str, float]]:
         """Starting values worth trying before a fit (local names), where the term's
         effect can vanish at its nominal value (a threshold no sample reaches)."""

@@ -19,6 +19,9 @@ import numpy as np
 from shockdyno.model.composite import PRESSURE, FloatArray, Term, Work
 from shockdyno.model.filters import first_order_lag
 from shockdyno.model.params import Param
+from shockdyno.model.spec import DamperSpec
+
+MAX_BULK_MODULUS_PA = 2.5e9
 
 
 class Compressibility(Term):
@@ -56,6 +59,15 @@ class Compressibility(Term):
         # The oil alone lags (β = 1.5 GPa): only with its compressibility free too can the
         # term fall back to the paper's rigid oil.
         return ("air_fraction", "oil_compressibility_per_gpa")
+
+    def implausible(self, p: Mapping[str, float], spec: DamperSpec) -> str:
+        # Mineral oil is 1.5-2 GPa; oil with any air is softer. A fit that needs stiffer
+        # oil is using a tiny lag to stand in for something else (a sensor).
+        comp = (1 - p["air_fraction"]) * p["oil_compressibility_per_gpa"] * 1e-9
+        comp += p["air_fraction"] / spec.gas_pressure_pa
+        if comp > 0 and 1 / comp > MAX_BULK_MODULUS_PA:
+            return f"effective bulk modulus {1e-9 / comp:.3g} GPa: stiffer than any oil"
+        return ""
 
     def start_grid(self) -> list[dict[str, float]]:
         return [{"air_fraction": a} for a in (0.001, 0.01, 0.05)]

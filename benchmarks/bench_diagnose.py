@@ -26,8 +26,9 @@ cached in that temp dir.
    terms="none")`, measured - model force on every measured sample) over candidate
    features mapped to physics (see FEATURES below). Features and residual are scaled to
    unit RMS; STLSQ threshold 0.05 (a feature must carry >= 5 % of the residual's RMS),
-   ridge alpha 1e-3 per sample. A physics is claimed when its features' part of the fit,
-   <g_k, y_hat> / |r|^2, holds at least SHARE_LEVEL = 5 % of the residual's variance.
+   ridge alpha 1e-3 per sample. A physics is claimed when its features alone explain at
+   least SHARE_LEVEL = 5 % of the residual's variance (the rise of the residual sum of
+   squares when the regression is redone without them, over the residual's variance).
    Both scored side by side.
 3. Speed: a full 22 clicks x 3 frequencies sweep with one effect (friction, 25 N)
    diagnosed with the whole library: wall time, and the ratio to one plain `fit_sweep`
@@ -131,6 +132,18 @@ def make_cases(quick: bool) -> list[Case]:
     return cases
 
 
+def run_order(case: Case) -> tuple[int, int]:
+    """Seed 1's weakest and strongest first (the quick set), so a partial run covers every
+    physics."""
+    if not case.truth:
+        rank = 0
+    elif len(case.truth) > 1:
+        rank = 4
+    else:
+        rank = {"1": 1, "3": 2, "2": 3}[case.name.split("#")[1][0]]
+    return case.seed, rank
+
+
 def scenario_text(case: Case) -> str:
     lines = ['[scenario]\nname = "s"\n']
     for kind, params in case.terms:
@@ -145,17 +158,21 @@ def record(case: Case, workdir: Path, tag: str) -> Path:
     out = workdir / f"rec-{tag}.mcap"
     if out.exists():
         return out
-    cmd = [CLI, "sweep", "--rig", RIG, "--start-sim", "--speed", str(SPEED)]
-    cmd += ["--clicks", case.clicks, "--seed", str(case.seed), "-o", str(out)]
-    if case.terms:
-        sc = workdir / f"sc-{tag}.toml"
-        sc.write_text(scenario_text(case))
-        cmd += ["--scenario", str(sc)]
-    done = subprocess.run(cmd, capture_output=True, text=True, timeout=1800)
-    if done.returncode != 0 or not out.exists():
+    tail = ["?"]
+    # On a loaded machine the sim-rig at 200x can miss the drive's handshake ("the drive did
+    # not start the sine"): one retry at a quarter of the speed.
+    for speed in (SPEED, SPEED // 4):
+        cmd = [CLI, "sweep", "--rig", RIG, "--start-sim", "--speed", str(speed), "--force"]
+        cmd += ["--clicks", case.clicks, "--seed", str(case.seed), "-o", str(out)]
+        if case.terms:
+            sc = workdir / f"sc-{tag}.toml"
+            sc.write_text(scenario_text(case))
+            cmd += ["--scenario", str(sc)]
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=3600)
+        if done.returncode == 0 and out.exists():
+            return out
         tail = (done.stderr or done.stdout).strip().splitlines()[-1:] or ["?"]
-        raise RuntimeError(f"sweep failed ({done.returncode}): {tail[0]}")
-    return out
+    raise RuntimeError(f"sweep failed ({done.returncode}): {tail[0]}")
 
 
 # --- the sparse-regression baseline ----------------------------------------------------
@@ -215,6 +232,8 @@ def features(fit: Any, tests: list[Any]) -> tuple[list[np.ndarray], list[np.ndar
 
 def sindy_baseline(fit: Any, tests: list[Any]) -> tuple[list[str], dict[str, float], float]:
     """Claimed physics, each group's share of the residual variance, E_t with the correction."""
+    import warnings
+
     from pysindy.optimizers import STLSQ
 
     from shockdyno.fit.metrics import error_metrics
@@ -226,17 +245,29 @@ def sindy_baseline(fit: Any, tests: list[Any]) -> tuple[list[str], dict[str, flo
     scale = np.sqrt(np.mean(theta**2, axis=0))
     scale[scale == 0] = 1.0
     r_rms = float(np.sqrt(np.mean(r**2))) or 1.0
-    opt = STLSQ(threshold=STLSQ_THRESHOLD, alpha=STLSQ_ALPHA_PER_SAMPLE * r.size, max_iter=20)
-    opt.fit(theta / scale, (r / r_rms).reshape(-1, 1))
-    xi = np.asarray(opt.coef_).ravel() / scale * r_rms
-    y_hat = theta @ xi
-    rc = r - r.mean()
-    denom = float(rc @ rc) or 1.0
+    x = theta / scale
+    y = (r - r.mean()) / r_rms
+    sst = float(y @ y) or 1.0
+
+    def sparse_fit(keep: np.ndarray) -> tuple[np.ndarray, float]:
+        """STLSQ on the kept columns: coefficients (all columns) and residual sum of squares."""
+        opt = STLSQ(threshold=STLSQ_THRESHOLD, alpha=STLSQ_ALPHA_PER_SAMPLE * r.size, max_iter=20)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # "eliminated all coefficients": a valid answer
+            opt.fit(x[:, keep], y.reshape(-1, 1))
+        coef = np.zeros(x.shape[1])
+        coef[keep] = np.asarray(opt.coef_).ravel()
+        err = y - x @ coef
+        return coef, float(err @ err)
+
     gidx = np.array(groups)
+    coef, ssr = sparse_fit(np.ones(gidx.size, dtype=bool))
+    xi = coef / scale * r_rms
+    # A group's share: the residual variance it alone explains (refit without it, the other
+    # groups absorbing what they can), so two collinear groups cannot both claim by
+    # cancelling each other.
     shares = {
-        g: float((theta[:, gidx == g] @ xi[gidx == g]) @ (y_hat - y_hat.mean()) / denom)
-        for g in dict.fromkeys(groups)
-        if g != "offset"
+        g: (sparse_fit(gidx != g)[1] - ssr) / sst for g in dict.fromkeys(groups) if g != "offset"
     }
     claimed = sorted((g for g, s in shares.items() if s >= SHARE_LEVEL), key=lambda g: -shares[g])
     prepared, _ = prepare_tests(tests)
@@ -406,6 +437,7 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="1 seed, 2 strengths, no pairs")
     ap.add_argument("--jobs", type=int, default=2, help="cases run in parallel (default 2)")
     ap.add_argument("--no-speed", action="store_true", help="skip [3]")
+    ap.add_argument("--only-speed", action="store_true", help="only [3]")
     ap.add_argument("--keep", type=Path, help="keep the recordings in this directory")
     args = ap.parse_args()
     cases = make_cases(args.quick)
@@ -422,12 +454,20 @@ def main() -> None:
         f"claim at >= {SHARE_LEVEL:.0%} of the residual variance",
         flush=True,
     )
+    if args.only_speed:
+        try:
+            speed(workdir)
+        finally:
+            if args.keep is None:
+                shutil.rmtree(workdir, ignore_errors=True)
+        return
     t0 = time.perf_counter()
     rows: list[Row] = []
     try:
         with cf.ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
             futs = {
-                pool.submit(run_case, c, str(workdir), f"{i:03d}"): c for i, c in enumerate(cases)
+                pool.submit(run_case, c, str(workdir), f"{i:03d}"): c
+                for i, c in sorted(enumerate(cases), key=lambda ic: run_order(ic[1]))
             }
             for fut in cf.as_completed(futs):
                 try:

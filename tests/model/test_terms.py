@@ -278,3 +278,13 @@ def test_compressibility_says_when_its_fit_is_not_physics() -> None:
     aerated = {"air_fraction": 0.02, "oil_compressibility_per_gpa": 1 / 1.5}
     assert "stiffer than any oil" in term.implausible(stiff, SPEC)
     assert term.implausible(oil, SPEC) == "" and term.implausible(aerated, SPEC) == ""
+
+
+def test_friction_says_when_its_fit_is_not_physics() -> None:
+    term = make_term("friction")
+    real = {"breakaway_n": 25.0, "stribeck_velocity_m_s": 0.005, "viscous_n_s_m": 40.0}
+    patch = {"breakaway_n": 428.0, "stribeck_velocity_m_s": 0.0006, "viscous_n_s_m": 0.2}
+    assert term.implausible(real, SPEC) == ""
+    assert "inside the sign change" in term.implausible(patch, SPEC)
+    huge = {**real, "breakaway_n": 900.0}
+    assert "over 5x" in term.implausible(huge, SPEC)

@@ -16,6 +16,7 @@ import numpy as np
 
 from shockdyno.model.composite import FORCE, FloatArray, Term, Work
 from shockdyno.model.params import Param
+from shockdyno.model.spec import DamperSpec
 
 
 class Friction(Term):
@@ -38,6 +39,19 @@ class Friction(Term):
         ),
         Param("viscous_n_s_m", "N·s/m", 40.0, 0.0, 5000.0, 50.0, 0.0, doc="viscous seal drag"),
     )
+
+    def implausible(self, p: Mapping[str, float], spec: DamperSpec) -> str:
+        # A breakaway that decays within the sign change of the Coulomb term lives where
+        # the velocity estimate cannot resolve it (a fit patching the reversal); seals do
+        # not break away at many times their sliding friction.
+        if p["breakaway_n"] > 0 and p["stribeck_velocity_m_s"] < 1.5 * spec.friction_velocity_m_s:
+            return (
+                f"Stribeck velocity {1e3 * p['stribeck_velocity_m_s']:.2g} mm/s is inside the "
+                "sign change at reversal"
+            )
+        if p["breakaway_n"] > 5 * max(spec.friction_n, 20.0):
+            return f"breakaway {p['breakaway_n']:.3g} N is over 5x the sliding friction"
+        return ""
 
     def start_grid(self) -> list[dict[str, float]]:
         return [{"stribeck_velocity_m_s": v} for v in (0.002, 0.005, 0.015, 0.04)]

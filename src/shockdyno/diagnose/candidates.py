@@ -13,7 +13,7 @@ from shockdyno.diagnose.cycles import BinnedTest
 from shockdyno.diagnose.data import Data, time_halves
 from shockdyno.diagnose.fitting import Fitted, predict, refit
 from shockdyno.diagnose.stats import lr_bootstrap
-from shockdyno.fit.problem import DEFAULT_GLOBALS, global_params
+from shockdyno.fit.problem import DEFAULT_GLOBALS, global_params, nominal_value
 from shockdyno.fit.result import apply_overrides
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.terms import make_term
@@ -70,7 +70,7 @@ def binned_jacobian(data: Data, fitted: Fitted) -> tuple[FloatArray, int]:
     cols: list[FloatArray] = []
     for g in global_params(model.spec, DEFAULT_GLOBALS):
         h = 1e-4 * g.scale
-        value = _spec_value(model, g.key)
+        value = nominal_value(model.spec, g.key)
         moved = model.with_spec(apply_overrides(model.spec, {g.key: value + h}))
         cols.append((prob.force(moved, bc, bt) - f0) / h * g.scale)
     declared = dict(model.param_list())
@@ -93,12 +93,6 @@ def binned_jacobian(data: Data, fitted: Fitted) -> tuple[FloatArray, int]:
     area_cols[rows[ok], pid[ok]] = dr[ok] / h_area[pid[ok]] * AREA_SCALE
     stacked = np.column_stack([*cols, area_cols]) if cols else area_cols
     return data.bin_matrix(stacked), ng
-
-
-def _spec_value(model: DamperModel, key: str) -> float:
-    head, _, tail = key.partition(".")
-    obj = getattr(model.spec, head)
-    return float(getattr(obj, tail) if tail else obj)
 
 
 def binned_means(data: Data, residual: FloatArray) -> tuple[FloatArray, list[BinnedTest]]:

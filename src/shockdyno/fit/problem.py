@@ -142,8 +142,6 @@ class StackedProblem:
         pos = np.searchsorted(self.obj_in_full, np.arange(self.full_inputs.size), side="right") - 1
         self.full_to_obj: IntArray = np.maximum(pos, self.inputs.starts[seg]).astype(np.intp)
         self.full_rate = False
-        self.x_measured = self.inputs.x
-        self.a = self.inputs.a
         self.f = np.concatenate([p.data.force[p.obj] for p in tests])
         self.group: IntArray = np.concatenate(
             [np.full(p.obj.size, index[p.key], dtype=np.intp) for p in tests]

@@ -7,7 +7,8 @@ fit starts from the nominal spec and fits the globals, the areas and the term's 
 parameters. `pytest -s` prints the figures (true, fitted ± σ, E_t); where a parameter is
 not identifiable from such a sweep the test says so, with the figures seen, and asserts
 what is. Recordings differ a little from run to run (the sim-rig applies each Modbus
-command when it arrives), so the tolerances hold for any run, not one.
+command when it arrives), so the tolerances hold for any run, not one: the σ they use
+are checked against the scatter of many recordings by benchmarks/bench_recovery.py.
 """
 
 from __future__ import annotations
@@ -86,10 +87,35 @@ def _est(fit: FitResult, qualified: str) -> tuple[float, float]:
     return e.value, e.sd
 
 
+# How far the fit's σ understates the run-to-run scatter of a parameter, measured by
+# benchmarks/bench_recovery.py (spread over fresh-seed recordings / mean reported σ):
+# breakaway 1.62, load-cell lag 1.74, Stribeck velocity 1.29, air fraction 1.22 (10
+# recordings each), gas volume factor 1.41 (8); viscous drag 0.74, release pressure 0.94
+# and gas coupling 1.03 are honest. Likely cause: the covariance sees the load cell's
+# noise but not the LVDT's, which enters through the velocity that drives the model
+# (errors in the variables), and a lag or a breakaway is read from the few samples near
+# reversal where that matters most. "Within 3σ" is checked against 3 x this factor x the
+# reported σ: against the reported σ alone, breakaway and load-cell lag each left 3σ in
+# 1 of 10 recordings, which makes this file fail in roughly one run in five. The factors
+# are the measured ratios rounded up by about 10 % (a ratio from 10 runs is itself good
+# to about 25 %).
+UNDERSTATED = {
+    "friction.breakaway_n": 1.8,
+    "sensor_lag.load_cell_lag_s": 1.9,
+    "friction.stribeck_velocity_m_s": 1.4,
+    "compressibility.air_fraction": 1.35,
+    "gas_spring.volume_factor": 1.55,
+}
+
+
 def _recovered(fit: FitResult, qualified: str, truth: float, rel: float = 0.10) -> None:
     value, sd = _est(fit, qualified)
-    _note(f"{qualified}: true {truth:g}, fitted {value:.5g} ± {sd:.3g}, E_t {_e_t(fit):.4f}")
-    assert abs(value - truth) <= 3 * sd, (qualified, value, sd, truth)
+    scatter = UNDERSTATED.get(qualified, 1.0) * sd
+    _note(
+        f"{qualified}: true {truth:g}, fitted {value:.5g} ± {sd:.3g} "
+        f"(z {(value - truth) / scatter:+.2f} of the measured scatter), E_t {_e_t(fit):.4f}"
+    )
+    assert abs(value - truth) <= 3 * scatter, (qualified, value, sd, truth)
     assert value == pytest.approx(truth, rel=rel), (qualified, value, sd, truth)
 
 
@@ -146,7 +172,8 @@ def test_a_term_fitted_to_a_clean_recording_stays_off(
     for local, value in off.items():
         got, sd = _est(fit, f"{name}.{local}")
         _note(f"clean + {terms}: {local} = {got:.4g} ± {sd:.3g} (off {value:g})")
-        assert abs(got - value) <= 3 * sd + 1e-9 * max(abs(value), 1.0), (local, got, sd)
+        k = UNDERSTATED.get(f"{name}.{local}", 1.0)
+        assert abs(got - value) <= 3 * k * sd + 1e-9 * max(abs(value), 1.0), (local, got, sd)
     _note(f"clean + {terms}: E_t {_e_t(fit):.4f} (clean {_e_t(clean_fit):.4f})")
     assert _e_t(fit) <= _clean_level(clean_fit)
 
@@ -263,7 +290,8 @@ def test_a_recording_made_in_two_parts_gives_the_same_terms(
     a1, s1 = _est(one_go, "compressibility.air_fraction")
     a2, s2 = _est(parts, "compressibility.air_fraction")
     _note(f"resume: air_fraction one go {a1:.6g} ± {s1:.2g}, two parts {a2:.6g} ± {s2:.2g}")
-    assert abs(a1 - a2) <= 3 * math.hypot(s1, s2), (a1, s1, a2, s2)
+    k = UNDERSTATED["compressibility.air_fraction"]
+    assert abs(a1 - a2) <= 3 * k * math.hypot(s1, s2), (a1, s1, a2, s2)
     for c1, c2 in zip(one_go.clicks, parts.clicks, strict=True):
         for v1, d1, v2, d2 in (
             (c1.a_bc_m2, c1.a_bc_sd_m2, c2.a_bc_m2, c2.a_bc_sd_m2),

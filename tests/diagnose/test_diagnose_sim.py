@@ -39,12 +39,16 @@ SCENARIOS = {
         "[[term]]\nkind = 'compressibility'\nair_fraction = 0.0002\n"
         "oil_compressibility_per_gpa = 0.0\n"
     ),
+    # Binds in a narrow band only (7e5 Pa does nothing here, 9e5 overshoots it): a fixed
+    # start grid stepped over it and the diagnosis missed it.
+    "s-cav-low": "[[term]]\nkind = 'cavitation'\nrelease_pressure_pa = 8.5e5\n",
 }
 EXPECT = {
     "s-air": {"compressibility"},
     "s-seal": {"friction"},
     "s-lag": {"sensor_lag"},
     "s-cav": {"cavitation"},
+    "s-cav-low": {"cavitation"},
     "s-heat": {"thermal"},
     "s-two": {"friction", "compressibility"},
 }
@@ -123,6 +127,9 @@ def test_the_recovered_parameters_are_the_simulated_ones(diagnoses: dict[str, di
 
     assert claimed("s-cav", "cavitation")["release_pressure_pa"]["value"] == pytest.approx(
         9e5, rel=0.05
+    )
+    assert claimed("s-cav-low", "cavitation")["release_pressure_pa"]["value"] == pytest.approx(
+        8.5e5, rel=0.02
     )
     assert claimed("s-seal", "friction")["breakaway_n"]["value"] == pytest.approx(25.0, rel=0.2)
     lag = claimed("s-lag", "sensor_lag")

@@ -103,6 +103,30 @@ def test_cavitation_clamps_the_rebound_chamber_at_its_release_pressure() -> None
     np.testing.assert_allclose(ev.force[ok], plain.force[ok])  # untouched without cavitation
 
 
+def test_cavitation_starts_just_above_the_lowest_pressure_the_data_reach() -> None:
+    """The clamp does nothing below the lowest rebound-chamber pressure and overshoots
+    soon above it; a fixed grid stepped over that band (7e5 did nothing, 9e5 overshot,
+    on a sweep whose truth was 8.5e5). Given the model without the term on the data,
+    the grid has starts that bind, gently: a little above the lowest pressure."""
+    term = make_term("cavitation")
+    inputs = sine(f=1.5)
+    bc, bt = (float(a) for a in SPEC.bleed_areas(0, 0))  # the stiffest: down to ~8e5 Pa
+    seen = DamperModel(SPEC).evaluate(inputs, bc, bt)
+    lowest = float(np.min(seen.p_c - seen.dp))
+    span = float(np.median(seen.p_c)) - lowest
+    starts = [g["release_pressure_pa"] for g in term.start_grid(seen)]
+    assert [g["release_pressure_pa"] for g in term.start_grid()] == sorted(
+        set(starts) & {3e3, 1e5, 3e5, 5e5, 7e5, 9e5}
+    )
+    gentle = [p for p in starts if lowest < p <= lowest + 0.05 * span]
+    assert gentle
+    plain_peak = float(np.max(np.abs(seen.force)))
+    for p in gentle:
+        model = DamperModel(SPEC, (term,), {"cavitation.release_pressure_pa": p})
+        clamp = model.evaluate(inputs, bc, bt).components["cavitation"]
+        assert 0 < float(np.max(np.abs(clamp))) < 0.2 * plain_peak  # binds, not overshoots
+
+
 def test_friction_breakaway_and_coulomb_levels() -> None:
     v = np.array([0.003, 0.5, -0.5])
     z = np.zeros(3)

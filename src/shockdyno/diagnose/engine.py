@@ -185,7 +185,9 @@ def why_not(
             return f"not physical: {odd}"
     if c.p_value >= s.alpha:
         return f"p = {c.p_value:.3g} ≥ {s.alpha:g}"
-    gain = scored.get(c.name, (math.nan, ""))[0]
+    if c.name not in scored:
+        return f"not scored held out: {s.heldout_top} candidates explained more"
+    gain = scored[c.name][0]
     if not gain >= s.min_gain:
         return f"held-out gain {gain:.2g} < {s.min_gain:g}"
     if c.effect_peak_n < min_effect_n:

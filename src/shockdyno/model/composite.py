@@ -236,9 +236,10 @@ class Term:
         data only with impossible values stands in for something else."""
         return ""
 
-    def start_grid(self) -> list[dict[str, float]]:
+    def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
         """Starting values worth trying before a fit (local names), where the term's
-        effect can vanish at its nominal value (a threshold no sample reaches)."""
+        effect can vanish at its nominal value (a threshold no sample reaches). `seen`:
+        the model without the term on the data, for grids placed where the data are."""
         return [{}]
 
     def vehicle_values(self) -> dict[str, float]:

@@ -15,7 +15,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from shockdyno.model.composite import PRESSURE, FloatArray, Term, Work
+from shockdyno.model.composite import PRESSURE, Evaluation, FloatArray, Term, Work
 from shockdyno.model.params import Param
 
 
@@ -36,9 +36,20 @@ class Cavitation(Term):
         ),
     )
 
-    def start_grid(self) -> list[dict[str, float]]:
-        # Below the lowest pressure the data reach the clamp does nothing (no gradient).
-        return [{"release_pressure_pa": p} for p in (3e3, 1e5, 3e5, 5e5, 7e5, 9e5)]
+    def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
+        # Below the lowest pressure the data reach the clamp does nothing (no gradient),
+        # and a little above it the clamp already moves the force by hundreds of N: the
+        # band where it binds but does not overshoot is narrow (7e5 Pa did nothing and
+        # 9e5 overshot on a sweep whose truth was 8.5e5). So the starts sit just above
+        # the lowest rebound-chamber pressure the model without the clamp reaches.
+        fixed = [3e3, 1e5, 3e5, 5e5, 7e5, 9e5]
+        if seen is not None and seen.p_c.size:
+            lowest = float(np.min(seen.p_c - seen.dp))
+            span = float(np.median(seen.p_c)) - lowest
+            if math.isfinite(lowest) and span > 0:
+                fixed += [lowest + q * span for q in (0.01, 0.03, 0.06, 0.1, 0.2, 0.35)]
+        hi = 1.0e6  # the parameter's upper bound
+        return [{"release_pressure_pa": p} for p in sorted({min(p, hi) for p in fixed})]
 
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int

@@ -16,7 +16,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from shockdyno.model.composite import PRESSURE, FloatArray, Term, Work
+from shockdyno.model.composite import PRESSURE, Evaluation, FloatArray, Term, Work
 from shockdyno.model.filters import first_order_lag
 from shockdyno.model.params import Param
 from shockdyno.model.spec import DamperSpec
@@ -69,7 +69,7 @@ class Compressibility(Term):
             return f"effective bulk modulus {1e-9 / comp:.3g} GPa: stiffer than any oil"
         return ""
 
-    def start_grid(self) -> list[dict[str, float]]:
+    def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
         return [{"air_fraction": a} for a in (0.001, 0.01, 0.05)]
 
     def time_constants(self, w: Work, p: Mapping[str, float]) -> FloatArray:

@@ -14,7 +14,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from shockdyno.model.composite import FORCE, FloatArray, Term, Work
+from shockdyno.model.composite import FORCE, Evaluation, FloatArray, Term, Work
 from shockdyno.model.params import Param
 from shockdyno.model.spec import DamperSpec
 
@@ -53,7 +53,7 @@ class Friction(Term):
             return f"breakaway {p['breakaway_n']:.3g} N is over 5x the sliding friction"
         return ""
 
-    def start_grid(self) -> list[dict[str, float]]:
+    def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
         return [{"stribeck_velocity_m_s": v} for v in (0.002, 0.005, 0.015, 0.04)]
 
     def apply(

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from shockdyno.model.composite import CHAMBER, FloatArray, Term, Work
+from shockdyno.model.composite import CHAMBER, Evaluation, FloatArray, Term, Work
 from shockdyno.model.params import Param
 
 
@@ -26,7 +26,7 @@ class GasSpring(Term):
         Param("polytropic_index", "1", 1.0, 1.0, 1.67, 0.1, 1.0, free=False),
     )
 
-    def start_grid(self) -> list[dict[str, float]]:
+    def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
         return [{"volume_factor": f} for f in (0.5, 1.0, 2.0)]
 
     def apply(

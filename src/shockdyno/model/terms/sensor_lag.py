@@ -17,7 +17,7 @@ from collections.abc import Iterable, Mapping
 
 import numpy as np
 
-from shockdyno.model.composite import MOTION, SENSOR, FloatArray, Term, Work
+from shockdyno.model.composite import MOTION, SENSOR, Evaluation, FloatArray, Term, Work
 from shockdyno.model.filters import delayed, first_order_lag
 from shockdyno.model.params import Param
 
@@ -41,7 +41,7 @@ class SensorLag(Term):
         # the diagnosis tries both, the fit by default only the delay.
         return ("delay_s", "load_cell_lag_s", "lvdt_lag_s")
 
-    def start_grid(self) -> list[dict[str, float]]:
+    def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
         # A lag and a delay trade off near zero; start from a few lags so the refit
         # does not stall at the bound with the delay doing all the work.
         return [{"load_cell_lag_s": t} for t in (0.0, 0.001, 0.003, 0.008)]

@@ -302,6 +302,11 @@ def test_compressibility_says_when_its_fit_is_not_physics() -> None:
     aerated = {"air_fraction": 0.02, "oil_compressibility_per_gpa": 1 / 1.5}
     assert "stiffer than any oil" in term.implausible(stiff, SPEC)
     assert term.implausible(oil, SPEC) == "" and term.implausible(aerated, SPEC) == ""
+    # A 2 ms load-cell lag, fitted as compressibility by diagnose: 2.46 GPa in all.
+    lag = {"air_fraction": 0.000328, "oil_compressibility_per_gpa": 0.201}
+    assert "stiffer than any oil" in term.implausible(lag, SPEC)
+    stiffest_oil = {"air_fraction": 0.0, "oil_compressibility_per_gpa": 0.5}  # 2 GPa
+    assert term.implausible(stiffest_oil, SPEC) == ""
 
 
 def test_friction_says_when_its_fit_is_not_physics() -> None:

@@ -29,7 +29,9 @@ SCENARIOS = {
     "s-lag": (
         "[[term]]\nkind = 'sensor_lag'\nload_cell_lag_s = 0.002\n[sensors]\nlvdt_lag_s = 0.001\n"
     ),
-    "s-cav": "[[term]]\nkind = 'cavitation'\nrelease_pressure_pa = 9.0e5\n",
+    # The clamp binds here in a narrow band only (7e5 Pa does nothing, 9e5 overshoots
+    # 8.5e5's force): a fixed start grid stepped over it and the diagnosis missed it.
+    "s-cav": "[[term]]\nkind = 'cavitation'\nrelease_pressure_pa = 8.5e5\n",
     "s-heat": ("[[term]]\nkind = 'thermal'\nheat_rate_k_s_m2 = 20.0\ncooling_time_s = 300.0\n"),
     "s-two": (
         "[[term]]\nkind = 'friction'\nbreakaway_n = 25.0\n"
@@ -39,16 +41,12 @@ SCENARIOS = {
         "[[term]]\nkind = 'compressibility'\nair_fraction = 0.0002\n"
         "oil_compressibility_per_gpa = 0.0\n"
     ),
-    # Binds in a narrow band only (7e5 Pa does nothing here, 9e5 overshoots it): a fixed
-    # start grid stepped over it and the diagnosis missed it.
-    "s-cav-low": "[[term]]\nkind = 'cavitation'\nrelease_pressure_pa = 8.5e5\n",
 }
 EXPECT = {
     "s-air": {"compressibility"},
     "s-seal": {"friction"},
     "s-lag": {"sensor_lag"},
     "s-cav": {"cavitation"},
-    "s-cav-low": {"cavitation"},
     "s-heat": {"thermal"},
     "s-two": {"friction", "compressibility"},
 }
@@ -126,9 +124,6 @@ def test_the_recovered_parameters_are_the_simulated_ones(diagnoses: dict[str, di
         )
 
     assert claimed("s-cav", "cavitation")["release_pressure_pa"]["value"] == pytest.approx(
-        9e5, rel=0.05
-    )
-    assert claimed("s-cav-low", "cavitation")["release_pressure_pa"]["value"] == pytest.approx(
         8.5e5, rel=0.02
     )
     assert claimed("s-seal", "friction")["breakaway_n"]["value"] == pytest.approx(25.0, rel=0.2)

@@ -114,8 +114,8 @@ class Row:
     error: str = ""
 
 
-def make_cases(quick: bool) -> list[Case]:
-    seeds = (1,) if quick else (1, 2, 3)
+def make_cases(quick: bool, first_seed: int = 1) -> list[Case]:
+    seeds = tuple(range(first_seed, first_seed + (1 if quick else 3)))
     levels = (0, 2) if quick else (0, 1, 2)
     cases = [Case(f"clean s{s}", (), s, []) for s in seeds]
     for phys in PHYSICS:
@@ -126,7 +126,7 @@ def make_cases(quick: bool) -> list[Case]:
                 )
     if not quick:
         for a, b in PAIRS:
-            for s in (1, 2):
+            for s in seeds[:2]:
                 cases.append(
                     Case(f"{a}+{b} s{s}", (a, b), s, [(a, STRENGTHS[a][1]), (b, STRENGTHS[b][1])])
                 )
@@ -439,9 +439,15 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=2, help="cases run in parallel (default 2)")
     ap.add_argument("--no-speed", action="store_true", help="skip [3]")
     ap.add_argument("--only-speed", action="store_true", help="only [3]")
+    ap.add_argument(
+        "--first-seed",
+        type=int,
+        default=1,
+        help="seeds from this one (default 1): new seeds give recordings no rule was tuned on",
+    )
     ap.add_argument("--keep", type=Path, help="keep the recordings in this directory")
     args = ap.parse_args()
-    cases = make_cases(args.quick)
+    cases = make_cases(args.quick, args.first_seed)
     workdir = Path(tempfile.mkdtemp(prefix="bench-diag-")) if args.keep is None else args.keep
     workdir.mkdir(parents=True, exist_ok=True)
     print(

@@ -215,8 +215,14 @@ def test_ctrl_c_inside_a_write_waits_until_the_record_is_whole(tmp_path: Path) -
         mcap_add(*args, **kwargs)  # type: ignore[arg-type]
 
     w._mcap.add_message = interrupted_add  # type: ignore[method-assign]
-    with pytest.raises(KeyboardInterrupt):
-        w.write_event(0.5, "prompt", "set clicks to 3")
+    # Ctrl-C as Python sets it up in a terminal: a shell's background job (no job
+    # control) starts with SIGINT ignored, where there is nothing to test.
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            w.write_event(0.5, "prompt", "set clicks to 3")
+    finally:
+        signal.signal(signal.SIGINT, before)
     w._mcap.add_message = mcap_add  # type: ignore[method-assign]
     w.write_samples(block(0, 10))
     w.close()  # the open test is ended as aborted

@@ -120,7 +120,9 @@ def record(out: Path, case: Case, seed: int) -> tuple[list[TestData], Path | Non
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--case", action="append", help="only these cases (by name)")
+    ap.add_argument(
+        "--case", action="append", choices=[c.name for c in CASES], help="only these cases"
+    )
     args = ap.parse_args()
     cases = [c for c in CASES if not args.case or c.name in args.case]
     print(f"{args.seeds} recordings per case (seeds 101..), sweep {PLAN.clicks} x 0.5/1/1.5 Hz")

@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import argparse
 import concurrent.futures as cf
+import json
 import math
 import os
 import shutil
@@ -298,6 +299,8 @@ def run_case(case: Case, workdir: str, tag: str) -> Row:
         t1 = time.perf_counter()
         d = to_json(diagnose(tests))
         row.wall_s = time.perf_counter() - t1
+        # Beside the recording, so a kept run can be compared with a later diagnosis.
+        (Path(workdir) / f"diag-{tag}.json").write_text(json.dumps(d, indent=1))
         row.claimed = list(d["verdict"]["physics"])
         row.e_before = float(np.mean([t["E_t_before"] for t in d["tests"]]))
         row.e_after = float(np.mean([t["E_t_after"] for t in d["tests"]]))

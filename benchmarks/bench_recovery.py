@@ -24,15 +24,14 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+from rich.console import Console
 
 from shockdyno.fit import fit_sweep
 from shockdyno.model.spec import default_spec_path
-from shockdyno.record import RecordingWriter, open_recording
+from shockdyno.record import open_recording
 from shockdyno.record.types import TestData
-from shockdyno.run.liveview import LiveView
 from shockdyno.run.plan import SweepPlan
-from shockdyno.run.session import RigSession
-from shockdyno.run.sweep import run_sweep
+from shockdyno.run.recording import record_sweep
 from shockdyno.simrig import start_sim_rig
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -106,14 +105,8 @@ def record(out: Path, case: Case, seed: int) -> tuple[list[TestData], Path | Non
         scenario = out.with_suffix(".toml")
         scenario.write_text(f'[scenario]\nname = "s"\n{case.scenario}')
     with start_sim_rig(SIM_RIG, speed=50, seed=seed, scenario=scenario, spec_path=spec) as sim:
-        rig = sim.rig_config()
-        with (
-            RecordingWriter(out, metadata={"damper_id": "bench"}, rig_toml=rig.raw_toml) as writer,
-            LiveView(len(case.plan.remaining(set())), enabled=False) as view,
-            RigSession(rig) as session,
-        ):
-            run_sweep(session, case.plan, writer, view, sample_rate_hz=rig.sample_rate_hz,
-                      log=lambda _: None)  # fmt: skip
+        record_sweep(sim.rig_config(), case.plan, out, metadata={"damper_id": "bench"},
+                     console=Console(quiet=True))  # fmt: skip
     return open_recording(out).load_all(), spec
 
 

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from rich.console import Console
 
 from shockdyno.fit import FitResult, fit_sweep
 from shockdyno.fit.prepare import prepare_tests
@@ -26,13 +27,11 @@ from shockdyno.fit.problem import prepared_inputs
 from shockdyno.fit.synthetic import synthetic_sweep
 from shockdyno.model import load_spec
 from shockdyno.model.spec import default_spec_path
-from shockdyno.record import RecordingWriter, open_recording
+from shockdyno.record import open_recording
 from shockdyno.record.types import TestData
 from shockdyno.ride.study import RideConfig, run_study
-from shockdyno.run.liveview import LiveView
 from shockdyno.run.plan import SweepPlan
-from shockdyno.run.session import RigSession
-from shockdyno.run.sweep import run_sweep
+from shockdyno.run.recording import record_sweep
 from shockdyno.simrig import start_sim_rig
 
 REPO = Path(__file__).resolve().parents[2]
@@ -50,18 +49,9 @@ def _record(
     seed: int = 7,
 ) -> list[TestData]:
     """Record `plan` (what is not yet in `out` when resuming) on a fresh simulated rig."""
-    done = open_recording(out).completed_keys() if resume else set()
-    first = len(open_recording(out).tests) if resume else 0
     with start_sim_rig(SIM_RIG, speed=50, seed=seed, scenario=scenario, spec_path=spec_path) as sim:
-        rig = sim.rig_config()
-        with (
-            RecordingWriter(out, metadata={"damper_id": "terms"}, rig_toml=rig.raw_toml,
-                            resume=resume) as writer,
-            LiveView(len(plan.remaining(done)), enabled=False) as view,
-            RigSession(rig) as session,
-        ):  # fmt: skip
-            run_sweep(session, plan, writer, view, first_index=first, done=done,
-                      sample_rate_hz=rig.sample_rate_hz, log=lambda _: None)  # fmt: skip
+        record_sweep(sim.rig_config(), plan, out, metadata={"damper_id": "terms"}, resume=resume,
+                     console=Console(quiet=True))  # fmt: skip
     return open_recording(out).load_all()
 
 

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from shockdyno.diagnose.cycles import BinnedTest
 from shockdyno.diagnose.data import Data, time_halves
-from shockdyno.diagnose.fitting import Fitted, predict, refit
+from shockdyno.diagnose.fitting import Fitted, evaluate, predict, refit
 from shockdyno.diagnose.stats import lr_bootstrap
 from shockdyno.fit.problem import DEFAULT_GLOBALS, global_params, nominal_value
 from shockdyno.fit.result import apply_overrides
@@ -41,14 +41,10 @@ def default_free(name: str) -> tuple[str, ...]:
 def best_start(data: Data, model: DamperModel, name: str, base: Fitted) -> DamperModel:
     """The term's start (from its grid) with the least squared error, the rest held."""
     term = model.term(name)
-    if term is None:
-        return model
+    if term is None or len(term.start_grid()) < 2:
+        return model  # one start (or none): nothing to choose, and no need to look
+    grid = term.start_grid(evaluate(data, base))
     bc, bt = base.area_vectors(data)
-    prob = data.prob
-    seen = base.model.evaluate(prob.inputs, bc[prob.group], bt[prob.group])
-    grid = term.start_grid(seen)
-    if len(grid) < 2:
-        return model
     data.prob.set_model(model)
     best, best_sse = model, math.inf
     for start in grid:
@@ -200,11 +196,9 @@ def _acts_on(data: Data, cand: Candidate, share: float = 0.01) -> bool:
     model = cand.fitted.model
     if model.term(cand.name) is None or cand.effect_peak_n <= 0:
         return True
-    prob = data.prob
-    bc, bt = cand.fitted.area_vectors(data)
-    if not (np.all(np.isfinite(bc)) and np.all(np.isfinite(bt))):
+    ev = evaluate(data, cand.fitted)
+    if ev is None:
         return True
-    ev = model.evaluate(prob.inputs, bc[prob.group], bt[prob.group])
     own = ev.components.get(cand.name)
     if own is None:
         return True

@@ -18,7 +18,7 @@ from shockdyno.diagnose.data import Data
 from shockdyno.fit.areas import start_areas
 from shockdyno.fit.calibrate import calibrate
 from shockdyno.fit.problem import DEFAULT_GLOBALS, global_params
-from shockdyno.model.composite import DamperModel
+from shockdyno.model.composite import DamperModel, Evaluation
 
 FloatArray = NDArray[np.float64]
 
@@ -37,6 +37,16 @@ class Fitted:
         bc = np.array([self.areas.get(k, (np.nan, np.nan))[0] for k in keys])
         bt = np.array([self.areas.get(k, (np.nan, np.nan))[1] for k in keys])
         return bc, bt
+
+
+def evaluate(data: Data, fitted: Fitted) -> Evaluation | None:
+    """The fitted model on `data`'s objective samples with the fit's own areas (None
+    when the fit has no areas for some of these clicks)."""
+    bc, bt = fitted.area_vectors(data)
+    if not (np.all(np.isfinite(bc)) and np.all(np.isfinite(bt))):
+        return None
+    prob = data.prob
+    return fitted.model.evaluate(prob.inputs, bc[prob.group], bt[prob.group])
 
 
 def predict(data: Data, fitted: Fitted) -> Fitted:

@@ -48,7 +48,7 @@ class Cavitation(Term):
             span = float(np.median(seen.p_c)) - lowest
             if math.isfinite(lowest) and span > 0:
                 fixed += [lowest + q * span for q in (0.01, 0.03, 0.06, 0.1, 0.2, 0.35)]
-        hi = 1.0e6  # the parameter's upper bound
+        hi = self.PARAMS[0].hi
         return [{"release_pressure_pa": p} for p in sorted({min(p, hi) for p in fixed})]
 
     def apply(

@@ -1,0 +1,38 @@
+"""The claim rule's held-out bar: a first term removes part of the structure (two real
+effects share it), a term joining a claimed one must remove most of what it leaves (the
+claimed physics' own misfit is structure that any flexible term takes a share of)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from shockdyno.diagnose.candidates import Candidate
+from shockdyno.diagnose.engine import Settings, why_not
+from shockdyno.diagnose.fitting import Fitted
+from shockdyno.model.composite import DamperModel
+from shockdyno.model.spec import load_spec
+from shockdyno.model.terms import make_term
+
+
+def _friction(explained: np.ndarray) -> Candidate:
+    model = DamperModel(load_spec(None), (make_term("friction"),))
+    model = model.with_values({"friction.breakaway_n": 25.0})
+    fitted = Fitted(model, (), {}, {}, np.zeros(0), np.zeros(0))
+    return Candidate("friction", fitted, 1e4, 0.001, 5.0, 20.0, explained)
+
+
+def test_a_first_term_needs_part_of_the_held_out_structure_a_joining_one_most() -> None:
+    s = Settings()
+    shape = np.sin(np.linspace(0, 6, 80))
+    other = np.cos(np.linspace(0, 6, 80)) ** 3  # not the claimed term's shape
+    c = _friction(other)
+    for gain, alone, joining in ((0.3, True, False), (0.05, False, False), (0.96, True, True)):
+        scored = {"friction": (gain, "")}
+        assert (why_not(c, scored, s, 1.0) == "") is alone, gain
+        said = why_not(c, scored, s, 1.0, [("compressibility", shape)])
+        assert (said == "") is joining, (gain, said)
+        if not joining and gain >= s.min_gain:
+            assert "to join a claimed term" in said
+    # What explains the claimed term's shape again refines it, whatever its gain.
+    assert "same shape" in why_not(_friction(shape), {"friction": (0.99, "")}, s, 1.0,
+                                   [("compressibility", shape)])  # fmt: skip

@@ -4,10 +4,12 @@ nowhere the diagnosis can read; it must name them (and nothing on a clean record
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from shockdyno.diagnose.engine import Settings, diagnose
@@ -79,8 +81,21 @@ class Diagnoses(dict):  # type: ignore[type-arg]
 
     def __missing__(self, name: str) -> dict:  # type: ignore[type-arg]
         tests = open_recording(self.recordings[name]).load_all()
-        self[name] = to_json(diagnose(tests, settings=Settings(n_boot=499)))
+        diag = diagnose(tests, settings=Settings(n_boot=499))
+        self[name] = to_json(diag)
+        # Per test, the structure (RMS of the phase means) before and after, and the
+        # noise of a phase mean.
+        before = diag.data.binned(diag.baseline.residual)
+        after = diag.data.binned(diag.final.residual)
+        self[name]["_structure"] = [
+            (_rms(b.mean), _rms(a.mean), math.sqrt(float(np.mean(b.mean_var))))
+            for b, a in zip(before, after, strict=True)
+        ]
         return self[name]
+
+
+def _rms(values: np.ndarray) -> float:
+    return math.sqrt(float(np.mean(values**2)))
 
 
 @pytest.fixture(scope="module")
@@ -106,8 +121,13 @@ def test_a_concealed_effect_is_named(diagnoses: dict[str, dict], name: str) -> N
     d = diagnoses[name]
     assert d["mismatch"]["significant"]
     assert set(d["verdict"]["physics"]) == EXPECT[name], d["verdict"]["text"]
-    for t in d["tests"]:  # the refit with the named physics fits better, test by test
-        assert t["E_t_after"] <= t["E_t_before"] * 1.02
+    # Test by test, the structure the named physics explains falls (or stays at noise).
+    # Not E_t: on the stiffest click E_t is set by a few reversal samples where the
+    # closed bleed makes the force a step in a noisy velocity (400 N spikes at 1 kHz), so
+    # a bleed area of 1e-20 against 1e-8 m² moved it 1.37x while that test's structure
+    # fell 4.4 -> 0.7 N.
+    for before, after, noise in d["_structure"]:
+        assert after <= 1.1 * before + 3 * noise, (before, after, noise)
     mean_before = sum(t["E_t_before"] for t in d["tests"]) / len(d["tests"])
     mean_after = sum(t["E_t_after"] for t in d["tests"]) / len(d["tests"])
     assert mean_after < mean_before

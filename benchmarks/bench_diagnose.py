@@ -3,6 +3,9 @@ baseline, and how long does a full sweep take.
 
 Run: .venv/bin/python benchmarks/bench_diagnose.py           (full: 54 recordings, ~30-60 min)
      .venv/bin/python benchmarks/bench_diagnose.py --quick   (1 seed, 2 strengths, no pairs)
+     .venv/bin/python benchmarks/bench_diagnose.py --only-clean --clean 57 --no-speed
+         (60 clean recordings: 0 claims in 60 bounds the false-positive rate below 5 % at
+         95 % confidence; 3 bound it below 63 %)
 
 Every recording is a sim-rig sweep (`shockdyno sweep --start-sim`, 30 mm, 0.5/1/1.5 Hz,
 clicks 0, 7, 14, 21) with a scenario file written under a neutral name in a temp dir, so
@@ -115,10 +118,19 @@ class Row:
     error: str = ""
 
 
-def make_cases(quick: bool, first_seed: int = 1) -> list[Case]:
+def make_cases(
+    quick: bool, first_seed: int = 1, clean: int = 0, only_clean: bool = False
+) -> list[Case]:
     seeds = tuple(range(first_seed, first_seed + (1 if quick else 3)))
     levels = (0, 2) if quick else (0, 1, 2)
-    cases = [Case(f"clean s{s}", (), s, []) for s in seeds]
+    # Extra clean recordings (seeds from first_seed + 1000): 3 bound a false-positive
+    # rate only loosely.
+    extra = [
+        Case(f"clean s{s}", (), s, []) for s in range(first_seed + 1000, first_seed + 1000 + clean)
+    ]
+    cases = [Case(f"clean s{s}", (), s, []) for s in seeds] + extra
+    if only_clean:
+        return cases
     for phys in PHYSICS:
         for lv in levels:
             for s in seeds:
@@ -336,6 +348,17 @@ def score(rows: list[Row], attr: str) -> dict[str, dict[str, float]]:
     return out
 
 
+def fp_upper(k: int, n: int, level: float = 0.95) -> float:
+    """One-sided upper confidence bound of a rate seen k times in n (Clopper-Pearson)."""
+    if n == 0:
+        return math.nan
+    if k >= n:
+        return 1.0
+    from scipy.stats import beta
+
+    return float(beta.ppf(level, k + 1, n - k))
+
+
 def fmt(x: float, spec: str = ".2f") -> str:
     return "  —  " if not math.isfinite(x) else format(x, spec)
 
@@ -376,10 +399,13 @@ def summary(rows: list[Row]) -> None:
     clean = [r for r in ok if not r.case.truth]
     eb = float(np.mean([r.e_before for r in clean])) if clean else math.nan
     ea = float(np.mean([r.e_after for r in clean])) if clean else math.nan
+    n_clean = len(clean)
+    k_clean = sum(bool(r.claimed) for r in clean)
     print(
         f"    clean: false-positive rate diagnose {fmt(sd['clean']['fp_rate'])}, sindy "
         f"{fmt(sb['clean']['fp_rate'])} (of {sd['clean']['n']:.0f}; aim <= {AIM_FP:.2f}); "
-        f"E_t {fmt(eb, '.4f')} -> {fmt(ea, '.4f')}"
+        f"E_t {fmt(eb, '.4f')} -> {fmt(ea, '.4f')}; diagnose's 95 % upper bound "
+        f"{fmt(fp_upper(k_clean, n_clean))} (Clopper-Pearson, {k_clean} of {n_clean})"
     )
     exact_d = np.mean([set(r.claimed) == set(r.case.truth) for r in ok]) if ok else math.nan
     exact_b = np.mean([set(r.baseline) == set(r.case.truth) for r in ok]) if ok else math.nan
@@ -449,8 +475,14 @@ def main() -> None:
         help="seeds from this one (default 1): new seeds give recordings no rule was tuned on",
     )
     ap.add_argument("--keep", type=Path, help="keep the recordings in this directory")
+    ap.add_argument(
+        "--clean", type=int, default=0, metavar="N", help="N more clean recordings (default 0)"
+    )
+    ap.add_argument("--only-clean", action="store_true", help="only the clean recordings")
     args = ap.parse_args()
-    cases = make_cases(args.quick, args.first_seed)
+    if args.clean < 0:
+        ap.error("--clean: a count of recordings, 0 or more")
+    cases = make_cases(args.quick, args.first_seed, args.clean, args.only_clean)
     workdir = Path(tempfile.mkdtemp(prefix="bench-diag-")) if args.keep is None else args.keep
     workdir.mkdir(parents=True, exist_ok=True)
     print(

@@ -14,6 +14,7 @@ import pytest
 
 from shockdyno.diagnose.engine import Settings, diagnose
 from shockdyno.diagnose.verdict import to_json
+from shockdyno.fit.problem import prepared_inputs
 from shockdyno.record import open_recording
 
 REPO = Path(__file__).resolve().parents[2]
@@ -91,7 +92,21 @@ class Diagnoses(dict):  # type: ignore[type-arg]
             (_rms(b.mean), _rms(a.mean), math.sqrt(float(np.mean(b.mean_var))))
             for b, a in zip(before, after, strict=True)
         ]
+        # Per test, the squared error at the recording's rate away from reversal.
+        sse = []
+        for p in diag.data.prepared:
+            key = (p.data.meta.clicks, p.data.meta.gas_clicks)
+            moving = np.abs(p.v) >= REVERSAL_M_S
+            pair = []
+            for fit in (diag.baseline, diag.final):
+                f = fit.model.force(prepared_inputs([p], full_rate=True), *fit.areas[key])
+                pair.append(float(np.sum((p.data.force - f)[moving] ** 2)))
+            sse.append(tuple(pair))
+        self[name]["_sse_moving"] = sse
         return self[name]
+
+
+REVERSAL_M_S = 0.005  # |v| below this: the samples about a reversal
 
 
 def _rms(values: np.ndarray) -> float:
@@ -121,16 +136,18 @@ def test_a_concealed_effect_is_named(diagnoses: dict[str, dict], name: str) -> N
     d = diagnoses[name]
     assert d["mismatch"]["significant"]
     assert set(d["verdict"]["physics"]) == EXPECT[name], d["verdict"]["text"]
-    # Test by test, the structure the named physics explains falls (or stays at noise).
-    # Not E_t: on the stiffest click E_t is set by a few reversal samples where the
-    # closed bleed makes the force a step in a noisy velocity (400 N spikes at 1 kHz), so
-    # a bleed area of 1e-20 against 1e-8 m² moved it 1.37x while that test's structure
-    # fell 4.4 -> 0.7 N.
+    # Test by test, the structure the named physics explains falls (or stays at noise),
+    # and the error at 1 kHz away from reversal falls. Not E_t: on the closed-bleed
+    # click the refit may move the compression bleed from 1e-24 to 2e-8 m², which the
+    # 100 Hz objective barely sees but which sets the force at the one 1 kHz sample per
+    # reversal (337 N against 752 N measured): E_t rose 0.0086 -> 0.0151 on that test
+    # while its error away from reversal fell 67503 -> 39482 N² (docs/diagnose.md).
     for before, after, noise in d["_structure"]:
         assert after <= 1.1 * before + 3 * noise, (before, after, noise)
-    mean_before = sum(t["E_t_before"] for t in d["tests"]) / len(d["tests"])
-    mean_after = sum(t["E_t_after"] for t in d["tests"]) / len(d["tests"])
-    assert mean_after < mean_before
+    sse = d["_sse_moving"]
+    assert sum(a for _, a in sse) < sum(b for b, _ in sse)
+    for before, after in sse:
+        assert after <= 1.1 * before, (before, after)
     # E_t also counts the noise; the structure is what the physics explains: most of it.
     assert d["verdict"]["remaining_rms_n"] < 0.5 * d["mismatch"]["structured_rms_n"]
 

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from shockdyno.diagnose.engine import Settings, diagnose
+from shockdyno.diagnose.fitting import full_rate_force
 from shockdyno.diagnose.verdict import to_json
-from shockdyno.fit.problem import prepared_inputs
 from shockdyno.record import open_recording
 
 REPO = Path(__file__).resolve().parents[2]
@@ -95,13 +95,13 @@ class Diagnoses(dict):  # type: ignore[type-arg]
         # Per test, the squared error at the recording's rate away from reversal.
         sse = []
         for p in diag.data.prepared:
-            key = (p.data.meta.clicks, p.data.meta.gas_clicks)
             moving = np.abs(p.v) >= REVERSAL_M_S
-            pair = []
-            for fit in (diag.baseline, diag.final):
-                f = fit.model.force(prepared_inputs([p], full_rate=True), *fit.areas[key])
-                pair.append(float(np.sum((p.data.force - f)[moving] ** 2)))
-            sse.append(tuple(pair))
+            sse.append(
+                tuple(
+                    float(np.sum((p.data.force - full_rate_force(fit, p))[moving] ** 2))
+                    for fit in (diag.baseline, diag.final)
+                )
+            )
         self[name]["_sse_moving"] = sse
         return self[name]
 

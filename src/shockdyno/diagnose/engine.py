@@ -34,13 +34,12 @@ from shockdyno.diagnose.candidates import (
     try_candidate,
 )
 from shockdyno.diagnose.data import Data
-from shockdyno.diagnose.fitting import Fitted, refit
+from shockdyno.diagnose.fitting import Fitted, full_rate_force, refit
 from shockdyno.diagnose.locate import Location, locate
 from shockdyno.diagnose.stats import MismatchStat, mismatch_test, noise_draws
 from shockdyno.errors import FitError
 from shockdyno.fit.metrics import error_metrics
 from shockdyno.fit.prepare import prepare_tests
-from shockdyno.fit.problem import prepared_inputs
 from shockdyno.fit.result import FitResult
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.spec import load_spec
@@ -166,9 +165,7 @@ def _cosine(a: FloatArray, b: FloatArray) -> float:
 def _e_t(data: Data, fitted: Fitted) -> list[float]:
     out = []
     for p in data.prepared:
-        m = p.data.meta
-        a_bc, a_bt = fitted.areas[(m.clicks, m.gas_clicks)]
-        f = fitted.model.force(prepared_inputs([p], full_rate=True), a_bc, a_bt)
+        f = full_rate_force(fitted, p)
         out.append(error_metrics(p.data.t, p.data.x, p.data.force, f, v=p.v, a=p.a)["E_t"])
     return out
 

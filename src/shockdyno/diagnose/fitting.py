@@ -17,7 +17,8 @@ from numpy.typing import NDArray
 from shockdyno.diagnose.data import Data
 from shockdyno.fit.areas import start_areas
 from shockdyno.fit.calibrate import calibrate
-from shockdyno.fit.problem import DEFAULT_GLOBALS, global_params
+from shockdyno.fit.prepare import PreparedTest
+from shockdyno.fit.problem import DEFAULT_GLOBALS, global_params, prepared_inputs
 from shockdyno.model.composite import DamperModel, Evaluation
 
 FloatArray = NDArray[np.float64]
@@ -47,6 +48,13 @@ def evaluate(data: Data, fitted: Fitted) -> Evaluation | None:
         return None
     prob = data.prob
     return fitted.model.evaluate(prob.inputs, bc[prob.group], bt[prob.group])
+
+
+def full_rate_force(fitted: Fitted, p: PreparedTest) -> FloatArray:
+    """The fitted model's force on one test at the recording's own rate, with the areas
+    the fit gave that test's click."""
+    a_bc, a_bt = fitted.areas[(p.data.meta.clicks, p.data.meta.gas_clicks)]
+    return fitted.model.force(prepared_inputs([p], full_rate=True), a_bc, a_bt)
 
 
 def predict(data: Data, fitted: Fitted) -> Fitted:

@@ -13,8 +13,7 @@ from numpy.typing import NDArray
 
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.engine import Diagnosis
-from shockdyno.diagnose.fitting import Fitted
-from shockdyno.fit.problem import prepared_inputs
+from shockdyno.diagnose.fitting import Fitted, full_rate_force
 
 FloatArray = NDArray[np.float64]
 COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#e377c2")
@@ -69,7 +68,6 @@ def loops(d: Diagnosis, path: Path, n_tests: int = 3) -> Path:
     for row, i in enumerate(pick):
         p = data.prepared[i]
         m = p.data.meta
-        inputs = prepared_inputs([p], full_rate=True)
         step = max(1, p.data.t.size // 4000)
         v, x_mm, f_meas = p.v[::step], p.data.x[::step] * 1e3, p.data.force[::step]
         near = np.abs(v) < 0.25 * float(np.max(np.abs(v)))
@@ -80,8 +78,7 @@ def loops(d: Diagnosis, path: Path, n_tests: int = 3) -> Path:
             ("paper's model", d.baseline, "#d62728", "--"),
             ("with the claimed physics", d.final, "#2ca02c", "-"),
         ):
-            a_bc, a_bt = fitted.areas[(m.clicks, m.gas_clicks)]
-            f = fitted.model.force(inputs, a_bc, a_bt)[::step]
+            f = full_rate_force(fitted, p)[::step]
             axes[row, 0].plot(v, f, ls, color=colour, lw=1.1, label=label)
             axes[row, 1].plot(v[near], f[near], ".", color=colour, ms=1.5, label=label)
             axes[row, 2].plot(x_mm, f, ls, color=colour, lw=1.1, label=label)

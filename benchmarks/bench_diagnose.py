@@ -125,10 +125,8 @@ def make_cases(
     levels = (0, 2) if quick else (0, 1, 2)
     # Extra clean recordings (seeds from first_seed + 1000): 3 bound a false-positive
     # rate only loosely.
-    extra = [
-        Case(f"clean s{s}", (), s, []) for s in range(first_seed + 1000, first_seed + 1000 + clean)
-    ]
-    cases = [Case(f"clean s{s}", (), s, []) for s in seeds] + extra
+    extra = range(first_seed + 1000, first_seed + 1000 + clean)
+    cases = [Case(f"clean s{s}", (), s, []) for s in (*seeds, *extra)]
     if only_clean:
         return cases
     for phys in PHYSICS:
@@ -341,10 +339,8 @@ def score(rows: list[Row], attr: str) -> dict[str, dict[str, float]]:
         f1 = 2 * tp / (2 * tp + fp + fn) if tp + fp + fn else math.nan
         out[p] = {"tp": tp, "fp": fp, "fn": fn, "precision": prec, "recall": rec, "f1": f1}
     clean = [r for r in ok if not r.case.truth]
-    out["clean"] = {
-        "fp_rate": sum(bool(getattr(r, attr)) for r in clean) / len(clean) if clean else math.nan,
-        "n": len(clean),
-    }
+    k = sum(bool(getattr(r, attr)) for r in clean)
+    out["clean"] = {"fp_rate": k / len(clean) if clean else math.nan, "k": k, "n": len(clean)}
     return out
 
 
@@ -399,8 +395,7 @@ def summary(rows: list[Row]) -> None:
     clean = [r for r in ok if not r.case.truth]
     eb = float(np.mean([r.e_before for r in clean])) if clean else math.nan
     ea = float(np.mean([r.e_after for r in clean])) if clean else math.nan
-    n_clean = len(clean)
-    k_clean = sum(bool(r.claimed) for r in clean)
+    k_clean, n_clean = int(sd["clean"]["k"]), int(sd["clean"]["n"])
     print(
         f"    clean: false-positive rate diagnose {fmt(sd['clean']['fp_rate'])}, sindy "
         f"{fmt(sb['clean']['fp_rate'])} (of {sd['clean']['n']:.0f}; aim <= {AIM_FP:.2f}); "

@@ -20,7 +20,8 @@ from shockdyno.errors import ShockdynoError
 COMMAND_MODULES = [
     "shockdyno.run.cli",  # demo, sweep, replay
     "shockdyno.simrig.cli",  # sim-rig
-    "shockdyno.record.cli",  # info, import, export
+    "shockdyno.record.cli",  # info, import
+    "shockdyno.export_cli",  # export (a recording to CSV, a fit to damper tables)
     "shockdyno.fit.cli",  # fit
     "shockdyno.ride.cli",  # ride
     "shockdyno.diagnose.cli",  # diagnose

@@ -1,4 +1,4 @@
-"""Commands `info`, `import` and `export`."""
+"""Commands `info` and `import` (`export` is in shockdyno.export_cli)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,6 @@ from typing import Any
 from shockdyno.errors import RecordingError
 from shockdyno.outputs import check_output, is_stdout, write_output
 from shockdyno.progress import StageProgress
-from shockdyno.record.csv_export import export_csv
 from shockdyno.record.csv_import import (
     FORCE_UNITS,
     LENGTH_UNITS,
@@ -105,16 +104,6 @@ def register(subparsers: Any) -> None:
     )
     p.set_defaults(func=_import)
 
-    p = subparsers.add_parser(
-        "export",
-        help="export a recording to the CSV exchange format",
-        description="Write DIR/manifest.csv and one data CSV per test (docs/csv.md).",
-    )
-    p.add_argument("recording", type=Path, metavar="REC.mcap")
-    p.add_argument("--csv", type=Path, required=True, metavar="DIR")
-    p.add_argument("--force", action="store_true", help="write into a non-empty DIR")
-    p.set_defaults(func=_export)
-
 
 def _info(args: argparse.Namespace) -> int:
     inputs = set_paths(args.recording)
@@ -161,10 +150,4 @@ def _import(args: argparse.Namespace) -> int:
     with StageProgress("import", plain_after_s=2.0) as progress:
         tests = import_csv(args.manifest, args.output, opts, force=args.force, progress=progress)
     print(f"imported {len(tests)} tests from {args.manifest} into {args.output}")
-    return 0
-
-
-def _export(args: argparse.Namespace) -> int:
-    files = export_csv(args.recording, args.csv, force=args.force)
-    print(f"exported {len(files) - 1} tests to {args.csv} ({files[0].name} lists them)")
     return 0

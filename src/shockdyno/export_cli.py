@@ -1,0 +1,120 @@
+"""Command `export`: a recording to the CSV exchange format, or a fit to damper tables.
+
+It sits above record/ and ride/ (it reads a recording or a fit and writes what either
+exports), so neither package imports the other for it.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from shockdyno import __version__
+from shockdyno.errors import ConfigError
+from shockdyno.fit.result import FitResult
+from shockdyno.lists import parse_floats, parse_ints
+from shockdyno.outputs import check_output
+from shockdyno.record.csv_export import export_csv
+from shockdyno.ride.damper_table import UNITS, click_tables, write_tables
+
+MCAP_MAGIC = b"\x89MCAP"
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "export",
+        help="export a recording to CSV, or a fit to damper tables for vehicle simulation",
+        description=(
+            "REC.mcap --csv DIR: DIR/manifest.csv and one data CSV per test (docs/csv.md). "
+            "FIT.json --damper-table DIR: per click, the fitted damper's force-velocity table "
+            "as CSV and as a TeimOrbit damper property file (.dpr) (docs/ride.md)."
+        ),
+    )
+    p.add_argument("source", type=Path, metavar="REC.mcap|FIT.json")
+    what = p.add_mutually_exclusive_group(required=True)
+    what.add_argument("--csv", type=Path, metavar="DIR", help="a recording to the CSV exchange")
+    what.add_argument(
+        "--damper-table", type=Path, metavar="DIR", help="a fit to force-velocity tables"
+    )
+    p.add_argument(
+        "--clicks",
+        metavar="LIST",
+        help="--damper-table: click settings (default: the fitted ones; others by the trend)",
+    )
+    p.add_argument(
+        "--velocities-mm-s",
+        metavar="LIST",
+        help="--damper-table: speeds of the grid, both directions (default: 2.5 to 1000 mm/s)",
+    )
+    p.add_argument(
+        "--units",
+        choices=tuple(UNITS),
+        default="si",
+        help="--damper-table: mm/s and N, or in/s and lbf",
+    )
+    p.add_argument("--force", action="store_true", help="write over files already in DIR")
+    p.set_defaults(func=_export)
+
+
+def _export(args: argparse.Namespace) -> int:
+    if args.csv is not None:
+        for flag in ("clicks", "velocities_mm_s"):
+            if getattr(args, flag) is not None:
+                raise ConfigError(f"--{flag.replace('_', '-')} goes with --damper-table")
+        files = export_csv(args.source, args.csv, force=args.force)
+        print(f"exported {len(files) - 1} tests to {args.csv} ({files[0].name} lists them)")
+        return 0
+    return _damper_table(args)
+
+
+def _load_fit(path: Path) -> FitResult:
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(len(MCAP_MAGIC))
+    except FileNotFoundError:
+        raise ConfigError(f"fit file not found: {path}") from None
+    except OSError as exc:
+        raise ConfigError(f"cannot read {path} ({exc.strerror})") from None
+    if head == MCAP_MAGIC:
+        raise ConfigError(
+            f"{path} is an MCAP recording; --damper-table takes a fit JSON "
+            "(shockdyno fit REC.mcap --json FIT.json)"
+        )
+    return FitResult.load(path)
+
+
+def _damper_table(args: argparse.Namespace) -> int:
+    out: Path = args.damper_table
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--damper-table {out} is a file, not a directory")
+    fit = _load_fit(args.source)
+    clicks = None if args.clicks is None else parse_ints(args.clicks, "--clicks")
+    speeds: list[float] = []
+    if args.velocities_mm_s is not None:
+        speeds = [v * 1e-3 for v in parse_floats(args.velocities_mm_s, "--velocities-mm-s")]
+        if any(not 0 < abs(v) <= 20 for v in speeds):
+            raise ConfigError("--velocities-mm-s: speeds must be non-zero and at most 20000")
+    tables = click_tables(fit, clicks, speeds)
+    if out.is_dir():  # every target refused before anything is written
+        for t in tables:
+            for suffix in (".csv", ".dpr"):
+                check_output(
+                    out / f"clicks_{t.clicks:02d}{suffix}",
+                    force=args.force,
+                    inputs=[args.source],
+                    flag="--damper-table",
+                )
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--damper-table: cannot create {out} ({exc.strerror})") from None
+    spec_name = fit.spec().name
+    files = write_tables(tables, out, UNITS[args.units], spec_name, __version__)
+    trend = [t.clicks for t in tables if t.source == "trend"]
+    note = f" ({len(trend)} from the fit's trend)" if trend else ""
+    print(
+        f"wrote {len(files)} files to {out}: force-velocity tables (CSV) and damper property "
+        f"files (.dpr) for {len(tables)} click settings{note}, in {args.units} units"
+    )
+    return 0

@@ -1,0 +1,246 @@
+"""The fitted damper handed to vehicle simulation: force–velocity tables per click.
+
+The table is the damper as a car carries it (`DamperModel.vehicle`: sensor terms dropped,
+the oil at its reference temperature), evaluated quasi-statically at mid-stroke with no
+rod acceleration: the same function the ride study tabulates, so a vehicle model fed
+these tables and the ride study drive the same damper (docs/ride.md).
+
+Two files per click setting:
+
+- `clicks_NN.csv`: velocity, total force, and damping force (the total less the static
+  gas force at mid-stroke, which a vehicle model carries as a preload of the spring or
+  strut instead), in the project's sign convention (compression positive), SI or imperial.
+- `clicks_NN.dpr`: a TeimOrbit damper property file (`[MDI_HEADER]`, `[UNITS]`,
+  `[CURVE]` with `{ velocity force }` rows), the block layout of Adams Car's damper
+  property files. Its curve is the damping force with rebound (extension) positive,
+  the convention those files use; the static gas force is stated in its comments.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from shockdyno.errors import ConfigError, FitError
+from shockdyno.fit.result import FitResult
+from shockdyno.model.quarter_car import quasi_static_force
+from shockdyno.record.atomic import write_text_atomic
+
+FloatArray = NDArray[np.float64]
+
+M_PER_IN = 0.0254
+N_PER_LBF = 4.4482216152605
+
+# Dense where a damper's curve bends (bleed to valve knee), coarse at speed. m/s.
+DEFAULT_SPEEDS_M_S: tuple[float, ...] = (
+    0.0025,
+    0.005,
+    0.0075,
+    0.01,
+    0.015,
+    0.02,
+    0.025,
+    0.03,
+    0.04,
+    0.05,
+    0.0625,
+    0.075,
+    0.1,
+    0.125,
+    0.15,
+    0.2,
+    0.25,
+    0.3,
+    0.4,
+    0.5,
+    0.6,
+    0.8,
+    1.0,
+)
+
+
+@dataclass(frozen=True)
+class Units:
+    name: str
+    velocity: str
+    force: str
+    m_s_per_unit: float
+    n_per_unit: float
+    # TeimOrbit [UNITS] block words for this system
+    length_word: str
+    force_word: str
+
+
+SI = Units("si", "mm/s", "N", 1e-3, 1.0, "mm", "newton")
+IMPERIAL = Units("imperial", "in/s", "lbf", M_PER_IN, N_PER_LBF, "inch", "pound_force")
+UNITS = {"si": SI, "imperial": IMPERIAL}
+
+
+@dataclass(frozen=True)
+class ClickTable:
+    clicks: int
+    source: str  # "fit" or "trend"
+    a_bc_m2: float
+    a_bt_m2: float
+    velocity_m_s: FloatArray  # ascending, rebound (negative) to compression (positive)
+    force_n: FloatArray  # total quasi-static force, compression positive
+    gas_force_n: float  # the force at rest at mid-stroke
+
+    @property
+    def damping_force_n(self) -> FloatArray:
+        return self.force_n - self.gas_force_n
+
+
+def velocity_grid(speeds_m_s: Sequence[float] = DEFAULT_SPEEDS_M_S) -> FloatArray:
+    s = np.asarray(sorted({abs(float(v)) for v in speeds_m_s if v != 0}), dtype=float)
+    if s.size == 0 or not np.all(np.isfinite(s)):
+        raise ConfigError("the velocity grid needs at least one finite non-zero speed")
+    return np.concatenate([-s[::-1], [0.0], s])
+
+
+def click_tables(
+    fit: FitResult, clicks: Sequence[int] | None = None, speeds_m_s: Sequence[float] = ()
+) -> list[ClickTable]:
+    """A table per click setting: the fitted ones by default, any within their range by
+    the fit's trend when `clicks` names them."""
+    settings = [c.clicks for c in fit.clicks] if clicks is None else list(clicks)
+    if not settings:
+        raise ConfigError("the fit has no click settings to export")
+    fitted = {c.clicks for c in fit.clicks}
+    model = fit.model().vehicle()
+    v = velocity_grid(speeds_m_s or DEFAULT_SPEEDS_M_S)
+    zeros = np.zeros_like(v)
+    out = []
+    for n in dict.fromkeys(settings):
+        try:
+            a_bc, a_bt = fit.areas(n)
+        except FitError as exc:
+            raise ConfigError(f"--clicks {n}: {exc}") from None
+        if not (math.isfinite(a_bc + a_bt) and a_bc >= 0 and a_bt >= 0):
+            raise ConfigError(f"the fit's bleed areas at {n} clicks are not usable: {a_bc}, {a_bt}")
+        force = np.asarray(quasi_static_force(model, zeros, v, zeros, a_bc, a_bt), dtype=float)
+        if not np.all(np.isfinite(force)):
+            raise ConfigError(f"the fitted model gives a non-finite force at {n} clicks")
+        gas = float(force[v.size // 2])  # v == 0 at the centre of the grid
+        out.append(ClickTable(n, "fit" if n in fitted else "trend", a_bc, a_bt, v, force, gas))
+    return out
+
+
+def _g(x: float) -> str:
+    """Six significant digits: 0.1 % of a table value is three orders above that, and
+    no float noise such as 229.10000000000002 reaches the file."""
+    text = f"{x:.6g}"
+    return "0" if text in ("-0", "0") else text
+
+
+def table_csv(t: ClickTable, units: Units, spec_name: str) -> str:
+    v = t.velocity_m_s / units.m_s_per_unit
+    f = t.force_n / units.n_per_unit
+    d = t.damping_force_n / units.n_per_unit
+    u_v, u_f = units.velocity.replace("/", "_"), units.force
+    lines = [
+        f"# shockdyno damper table: {spec_name}, {t.clicks} clicks ({t.source}); "
+        "quasi-static force at mid-stroke, no rod acceleration",
+        "# sign: velocity > 0 compression (bump), force > 0 resists compression; "
+        f"damping force = force less the static gas force {_g(t.gas_force_n / units.n_per_unit)}"
+        f" {units.force}",
+        f"velocity_{u_v},force_{u_f},damping_force_{u_f}",
+    ]
+    lines += [f"{_g(a)},{_g(b)},{_g(c)}" for a, b, c in zip(v, f, d, strict=True)]
+    return "\n".join(lines) + "\n"
+
+
+def table_teimorbit(t: ClickTable, units: Units, spec_name: str, version: str) -> str:
+    # Extension (rebound) positive in the property file: flip both axes of ours.
+    v = -t.velocity_m_s[::-1] / units.m_s_per_unit
+    f = -t.damping_force_n[::-1] / units.n_per_unit
+    rows = "\n".join(f" {_g(a):>14} {_g(b):>14}" for a, b in zip(v, f, strict=True))
+    gas = _g(t.gas_force_n / units.n_per_unit)
+    return f"""$--------------------------------------------------------------------MDI_HEADER
+[MDI_HEADER]
+ FILE_TYPE     =  'dpr'
+ FILE_VERSION  =  4.0
+ FILE_FORMAT   =  'ASCII'
+(COMMENTS)
+{{comment_string}}
+'shockdyno {version}: {spec_name}, {t.clicks} clicks ({t.source})'
+'quasi-static damping force at mid-stroke; velocity > 0 extension (rebound)'
+'static gas force {gas} {units.force_word} pushing the rod out, not in this curve'
+'bleed areas A_bc {_g(t.a_bc_m2)} m^2, A_bt {_g(t.a_bt_m2)} m^2'
+$-------------------------------------------------------------------------UNITS
+[UNITS]
+ LENGTH  =  '{units.length_word}'
+ FORCE   =  '{units.force_word}'
+ ANGLE   =  'degrees'
+ MASS    =  'kg'
+ TIME    =  'second'
+$-------------------------------------------------------------------------CURVE
+[CURVE]
+{{ velocity  force }}
+{rows}
+"""
+
+
+_BLOCK = re.compile(r"^\s*\[(\w+)\]\s*$")
+_ASSIGN = re.compile(r"^\s*(\w+)\s*=\s*'?([^']*?)'?\s*$")
+
+
+@dataclass(frozen=True)
+class PropertyCurve:
+    """A damper property file read back: its units and curve, as written."""
+
+    units: dict[str, str]
+    velocity: FloatArray
+    force: FloatArray
+
+
+def read_teimorbit(text: str) -> PropertyCurve:
+    """Parse the blocks a damper property file has ([UNITS], [CURVE]); `$` lines are
+    comments, `{...}` lines headers, `(COMMENTS)` blocks free text."""
+    block = ""
+    units: dict[str, str] = {}
+    rows: list[tuple[float, float]] = []
+    for line in text.splitlines():
+        if not line.strip() or line.lstrip().startswith("$"):
+            continue
+        if m := _BLOCK.match(line):
+            block = m.group(1).upper()
+            continue
+        if block == "UNITS" and (m := _ASSIGN.match(line)):
+            units[m.group(1).upper()] = m.group(2)
+        elif block == "CURVE" and not line.lstrip().startswith("{"):
+            parts = line.split()
+            if len(parts) != 2:
+                raise ConfigError(
+                    f"damper property file: curve row {line.strip()!r} is not 2 numbers"
+                )
+            rows.append((float(parts[0]), float(parts[1])))
+    if not rows:
+        raise ConfigError("damper property file has no [CURVE] rows")
+    arr = np.asarray(rows, dtype=float)
+    return PropertyCurve(units, arr[:, 0], arr[:, 1])
+
+
+def write_tables(
+    tables: Sequence[ClickTable], out_dir: Path, units: Units, spec_name: str, version: str
+) -> list[Path]:
+    """Write every file into out_dir (which the caller has checked), each atomically."""
+    written = []
+    for t in tables:
+        stem = out_dir / f"clicks_{t.clicks:02d}"
+        for path, text in (
+            (stem.with_suffix(".csv"), table_csv(t, units, spec_name)),
+            (stem.with_suffix(".dpr"), table_teimorbit(t, units, spec_name, version)),
+        ):
+            try:
+                write_text_atomic(path, text)
+            except OSError as exc:
+                raise ConfigError(f"--damper-table: cannot write {path} ({exc.strerror})") from None
+            written.append(path)
+    return written

@@ -1,0 +1,128 @@
+"""`shockdyno export FIT.json --damper-table DIR`: files parsed back against the model."""
+
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from shockdyno.cli import main
+from shockdyno.fit.result import FitResult
+from shockdyno.model.params import Estimate
+from shockdyno.model.quarter_car import TabulatedDamper, quasi_static_force
+from shockdyno.ride.damper_table import M_PER_IN, N_PER_LBF, read_teimorbit
+
+REPO = Path(__file__).resolve().parents[2]
+SPEC = REPO / "sim" / "ohlins-s46.toml"
+
+
+@pytest.fixture
+def fit_json(tmp_path: Path) -> Path:
+    """The spec's own areas at three clicks, with seal friction as a fitted term (so the
+    vehicle model is not the bare paper model) and a delay the car must drop."""
+    fit = FitResult.from_spec(SPEC, [0, 10, 21])
+    fit.terms = {
+        "friction": {
+            "breakaway_n": Estimate(20.0, 1.0, "N"),
+            "stribeck_velocity_m_s": Estimate(0.006, 0.001, "m/s"),
+            "viscous_n_s_m": Estimate(60.0, 5.0, "N·s/m"),
+        },
+        "sensor_lag": {"delay_s": Estimate(0.004, 0.0002, "s")},
+    }
+    path = tmp_path / "fit.json"
+    fit.save(path)
+    return path
+
+
+def _model_force(fit_path: Path, clicks: int, v_m_s: np.ndarray) -> np.ndarray:
+    fit = FitResult.load(fit_path)
+    a_bc, a_bt = fit.areas(clicks)
+    z = np.zeros_like(v_m_s)
+    return np.asarray(quasi_static_force(fit.model().vehicle(), z, v_m_s, z, a_bc, a_bt))
+
+
+def _csv_rows(path: Path) -> tuple[list[str], np.ndarray]:
+    lines = [ln for ln in path.read_text().splitlines() if not ln.startswith("#")]
+    rows = list(csv.reader(io.StringIO("\n".join(lines))))
+    return rows[0], np.array(rows[1:], dtype=float)
+
+
+def test_property_file_and_csv_read_back_match_the_model(fit_json: Path, tmp_path: Path) -> None:
+    out = tmp_path / "tables"
+    assert main(["export", str(fit_json), "--damper-table", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == [
+        f"clicks_{c:02d}.{s}" for c in (0, 10, 21) for s in ("csv", "dpr")
+    ]
+    for clicks in (0, 10, 21):
+        curve = read_teimorbit((out / f"clicks_{clicks:02d}.dpr").read_text())
+        assert curve.units["LENGTH"] == "mm" and curve.units["FORCE"] == "newton"
+        assert np.all(np.diff(curve.velocity) > 0)
+        # The file's convention is extension positive: ours is compression positive.
+        v = -curve.velocity * 1e-3
+        total = _model_force(fit_json, clicks, v)
+        gas = float(_model_force(fit_json, clicks, np.zeros(1))[0])
+        damping = -(total - gas)
+        assert np.allclose(curve.force, damping, rtol=1e-3, atol=1e-3)
+        # A damper opposes motion: damping force has the sign of (extension) velocity.
+        moving = curve.velocity != 0
+        assert np.all(np.sign(curve.force[moving]) == np.sign(curve.velocity[moving]))
+        assert gas > 100  # the nitrogen charge pushes the rod out
+
+        header, rows = _csv_rows(out / f"clicks_{clicks:02d}.csv")
+        assert header == ["velocity_mm_s", "force_N", "damping_force_N"]
+        v_csv = rows[:, 0] * 1e-3
+        assert np.allclose(rows[:, 1], _model_force(fit_json, clicks, v_csv), rtol=1e-3)
+        assert np.allclose(rows[:, 1] - rows[:, 2], gas, rtol=1e-3)
+        assert "e-" not in (out / f"clicks_{clicks:02d}.csv").read_text().split("\n", 3)[3]
+
+
+def test_the_table_is_the_damper_the_ride_study_drives(fit_json: Path, tmp_path: Path) -> None:
+    out = tmp_path / "tables"
+    assert main(["export", str(fit_json), "--damper-table", str(out), "--clicks", "10"]) == 0
+    _, rows = _csv_rows(out / "clicks_10.csv")
+    fit = FitResult.load(fit_json)
+    ride = TabulatedDamper(fit.model(), [fit.areas(10)], [0])
+    at_mid = ride.force_at_rest_n + np.interp(rows[:, 0] * 1e-3, ride.v_grid, ride.h_table[0])
+    assert np.allclose(rows[:, 1], at_mid, rtol=2e-3, atol=2.0)
+
+
+def test_imperial_units_are_the_same_curve(fit_json: Path, tmp_path: Path) -> None:
+    si, imp = tmp_path / "si", tmp_path / "imp"
+    assert main(["export", str(fit_json), "--damper-table", str(si)]) == 0
+    assert main(["export", str(fit_json), "--damper-table", str(imp), "--units", "imperial"]) == 0
+    a = read_teimorbit((si / "clicks_21.dpr").read_text())
+    b = read_teimorbit((imp / "clicks_21.dpr").read_text())
+    assert b.units["LENGTH"] == "inch" and b.units["FORCE"] == "pound_force"
+    assert np.allclose(b.velocity * M_PER_IN * 1e3, a.velocity, rtol=1e-5)
+    assert np.allclose(b.force * N_PER_LBF, a.force, rtol=1e-5, atol=1e-4)
+    header, _ = _csv_rows(imp / "clicks_21.csv")
+    assert header == ["velocity_in_s", "force_lbf", "damping_force_lbf"]
+
+
+def test_trend_clicks_and_refusals(
+    fit_json: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "tables"
+    assert main(["export", str(fit_json), "--damper-table", str(out), "--clicks", "0"]) == 0
+    before = (out / "clicks_00.dpr").read_bytes()
+    capsys.readouterr()
+    # No overwrite without --force; nothing written by a refused call.
+    assert main(["export", str(fit_json), "--damper-table", str(out), "--clicks", "0"]) == 2
+    assert "exists" in capsys.readouterr().err
+    assert (out / "clicks_00.dpr").read_bytes() == before
+    # A click the fit has neither fitted nor a trend for.
+    assert main(["export", str(fit_json), "--damper-table", str(tmp_path / "x"), "--clicks", "5"])
+    err = capsys.readouterr().err
+    assert "5 clicks" in err and err.count("\n") == 1
+    # A recording given where a fit is expected: one line, nothing written.
+    rec = REPO / "recordings" / "examples" / "example.mcap"
+    assert main(["export", str(rec), "--damper-table", str(tmp_path / "y")]) == 2
+    err = capsys.readouterr().err
+    assert "MCAP recording" in err and err.count("\n") == 1
+    assert not (tmp_path / "y").exists()
+    # --clicks belongs to the damper table, not to the CSV exchange.
+    assert main(["export", str(rec), "--csv", str(tmp_path / "z"), "--clicks", "0"]) == 2
+    assert "goes with --damper-table" in capsys.readouterr().err

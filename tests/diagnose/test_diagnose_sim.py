@@ -40,6 +40,10 @@ SCENARIOS = {
         "[[term]]\nkind = 'friction'\nbreakaway_n = 25.0\n"
         "[[term]]\nkind = 'compressibility'\nair_fraction = 0.01\n"
     ),
+    "s-bump": (
+        "[[term]]\nkind = 'contact'\nbump_onset_m = 0.021\nbump_force_n = 200.0\n"
+        "topout_force_n = 0.0\n"
+    ),
     "s-faint": (
         "[[term]]\nkind = 'compressibility'\nair_fraction = 0.0002\n"
         "oil_compressibility_per_gpa = 0.0\n"
@@ -52,6 +56,7 @@ EXPECT = {
     "s-cav": {"cavitation"},
     "s-heat": {"thermal"},
     "s-two": {"friction", "compressibility"},
+    "s-bump": {"contact"},
 }
 
 
@@ -121,7 +126,8 @@ def diagnoses(recordings: dict[str, Path]) -> Diagnoses:
 def test_the_recordings_do_not_name_their_physics(recordings: dict[str, Path]) -> None:
     for name, path in recordings.items():
         blob = path.read_bytes()
-        for word in (b"compressibility", b"friction", b"sensor_lag", b"cavitation", b"thermal"):
+        words = (b"compressibility", b"friction", b"sensor_lag", b"cavitation", b"thermal")
+        for word in (*words, b"contact", b"bump"):
             assert word not in blob, (name, word)
 
 
@@ -164,6 +170,9 @@ def test_the_recovered_parameters_are_the_simulated_ones(diagnoses: dict[str, di
         8.5e5, rel=0.02
     )
     assert claimed("s-seal", "friction")["breakaway_n"]["value"] == pytest.approx(25.0, rel=0.2)
+    bump = claimed("s-bump", "contact")
+    assert bump["bump_onset_m"]["value"] == pytest.approx(0.021, abs=0.001)
+    assert bump["bump_force_n"]["value"] == pytest.approx(200.0, rel=0.1)
     lag = claimed("s-lag", "sensor_lag")
     shift = lag["delay_s"]["value"] + lag["load_cell_lag_s"]["value"] - lag["lvdt_lag_s"]["value"]
     assert shift == pytest.approx(0.002 - 0.001, abs=0.0006)  # load cell lag less LVDT lag

@@ -125,6 +125,11 @@ def clean_fit(clean: list[TestData]) -> FitResult:
     return fit_sweep(clean)  # the default terms: sensor_lag's delay, as before terms
 
 
+@pytest.fixture(scope="module")
+def plain_fit(clean: list[TestData]) -> FitResult:
+    return fit_sweep(clean, terms="none")  # the paper's model alone
+
+
 def _clean_level(clean_fit: FitResult) -> float:
     """E_t "about the clean level": the clean fit's worst E_t (≈ 0.005: the 2 N load-cell
     noise over the force's spread) plus 10 %."""
@@ -150,7 +155,11 @@ def test_clean_recording_fits_to_the_noise(clean_fit: FitResult) -> None:
     ],
 )
 def test_a_term_fitted_to_a_clean_recording_stays_off(
-    clean: list[TestData], clean_fit: FitResult, terms: str, off: dict[str, float]
+    clean: list[TestData],
+    clean_fit: FitResult,
+    plain_fit: FitResult,
+    terms: str,
+    off: dict[str, float],
 ) -> None:
     """Each parameter within 3σ of its off value. The issue asks 2σ, the 95 % band: with
     the 13 parameters checked here on a recording that differs from run to run (the
@@ -166,6 +175,7 @@ def test_a_term_fitted_to_a_clean_recording_stays_off(
         assert abs(got - value) <= 3 * k * sd + 1e-9 * max(abs(value), 1.0), (local, got, sd)
     _note(f"clean + {terms}: E_t {_e_t(fit):.4f} (clean {_e_t(clean_fit):.4f})")
     assert _e_t(fit) <= _clean_level(clean_fit)
+    _no_worse(fit, plain_fit)
 
 
 def _time_constant(fit: FitResult) -> float:
@@ -199,21 +209,36 @@ def test_compressibility_fitted_to_a_clean_recording_vanishes(
     assert _e_t(fit) <= _clean_level(clean_fit)
 
 
-def test_compressibility_with_the_oil_modulus_held_cannot_be_off(
-    clean: list[TestData], clean_fit: FitResult
+def test_compressibility_with_the_oil_modulus_held_is_no_worse_than_plain(
+    clean: list[TestData], plain_fit: FitResult
 ) -> None:
     """`--terms compressibility` frees the air fraction and holds the oil's own modulus at
     1.5 GPa: τ ≥ V c_oil / G = 3.3 ms however little air. The simulated rig's clean
-    damper has rigid oil (the paper's model), so this fit cannot reach it: the air
-    fraction goes to its bound 0 and E_t rises ~12x (0.005 -> 0.059). A real damper's oil
-    is not rigid; to test for compressibility on a damper whose loops show none, free the
-    modulus too (`compressibility.oil_compressibility_per_gpa`, the case above)."""
+    damper has rigid oil (the paper's model), which that start cannot reach: started
+    there alone, the air fraction went to its bound 0 and E_t rose ~12x (0.005 ->
+    0.059). The fit also starts from the plain fit with the term at off (held
+    parameters too), and keeps the lower residual: rigid oil, no air, E_t at the plain
+    fit's."""
     fit = fit_sweep(clean, terms="compressibility")
     alpha, sd = _est(fit, "compressibility.air_fraction")
-    _note(f"clean + compressibility: air_fraction {alpha:.3g} ± {sd:.3g}, E_t {_e_t(fit):.4f}")
-    assert alpha <= 2 * sd
-    assert fit.terms["compressibility"]["air_fraction"].at_bound
-    assert _e_t(fit) > 5 * _e_t(clean_fit)
+    c_oil = fit.terms["compressibility"]["oil_compressibility_per_gpa"]
+    _note(
+        f"clean + compressibility: air_fraction {alpha:.3g} ± {sd:.3g}, c_oil {c_oil.value:g} "
+        f"(held), start {fit.info['calibration']['start']}, E_t {_e_t(fit):.4f}"
+    )
+    assert fit.info["calibration"]["start"].startswith("plain fit")
+    assert c_oil.fixed and c_oil.value == 0.0
+    assert alpha <= 3 * sd + 1e-9
+    assert _e_t(fit) <= 1.02 * _e_t(plain_fit)
+    _no_worse(fit, plain_fit)
+
+
+def _no_worse(fit: FitResult, plain_fit: FitResult) -> None:
+    """A fit with terms ends no worse than the paper's model alone (the same objective
+    samples; a stateful term's off model runs at the full rate, hence the 0.1 %)."""
+    rms = fit.info["calibration"]["rms_residual_n"]
+    plain = plain_fit.info["calibration"]["rms_residual_n"]
+    assert rms <= 1.001 * plain, (rms, plain)
 
 
 def test_cavitation_on_a_recording_that_never_cavitates_is_not_measured(
@@ -372,6 +397,25 @@ def test_gas_spring_rate_is_recovered(tmp: Path, clean_fit: FitResult) -> None:
     _note(f"gas spring rate {rate:.5g} N/m (true {true_rate:.5g})")
     assert rate == pytest.approx(true_rate, rel=0.01)
     assert _e_t(fit) <= _clean_level(clean_fit)
+
+
+def test_contact_onset_and_force_are_recovered(tmp: Path, plain_fit: FitResult) -> None:
+    """A bump stop from 21 mm, 200 N 10 mm past it (n = 2), no top-out: the onset and the
+    force are recovered, the top-out stays off."""
+    body = (
+        "[[term]]\nkind = 'contact'\nbump_onset_m = 0.021\nbump_force_n = 200.0\n"
+        "topout_force_n = 0.0\n"
+    )
+    tests = _record(tmp / "bump.mcap", _scenario(tmp, "bump", body))
+    fit = fit_sweep(tests, terms="contact")
+    _recovered(fit, "contact.bump_onset_m", 0.021, rel=0.05)
+    _recovered(fit, "contact.bump_force_n", 200.0)
+    top, sd = _est(fit, "contact.topout_force_n")
+    _note(f"contact: topout_force_n {top:.3g} ± {sd:.3g} (off 0)")
+    # Either the top-out force is measured and near 0, or its onset left the stroke, no
+    # sample sees it, and it is reported off (a car must not inherit an unseen stop).
+    assert top == 0.0 if math.isinf(sd) else top <= 3 * sd + 1.0
+    assert _e_t(fit) <= 1.1 * _e_t(plain_fit) or _e_t(fit) <= 0.006
 
 
 def test_cavitation_release_pressure_is_recovered_where_the_rebound_chamber_cavitates(

@@ -271,6 +271,38 @@ def test_position_force_is_a_smooth_regularised_function_of_x() -> None:
     assert pen.size == 7 and np.all(pen[:6] > 0)  # curvature and mean are penalised
 
 
+def test_contact_is_a_hinge_with_a_power_law_past_each_onset() -> None:
+    values = {
+        "contact.bump_onset_m": 0.020,
+        "contact.bump_force_n": 300.0,
+        "contact.topout_onset_m": -0.025,
+        "contact.topout_force_n": 80.0,
+    }
+    model = DamperModel(SPEC, (make_term("contact"),), values)
+    x = np.array([-0.035, -0.030, -0.025, 0.0, 0.019, 0.020, 0.025, 0.030])
+    z = np.zeros_like(x)
+    ev = model.evaluate(ModelInputs.single(x, z, z), A_BC, A_BT)
+    # 10 mm past the onset: the stated force; 5 mm: a quarter of it (n = 2).
+    want = [-80.0, -20.0, 0.0, 0.0, 0.0, 0.0, 75.0, 300.0]
+    np.testing.assert_allclose(ev.components["contact"], want, atol=1e-9)
+    linear = model.with_values({"contact.exponent": 1.0})
+    ev = linear.evaluate(ModelInputs.single(x, z, z), A_BC, A_BT)
+    assert ev.components["contact"][6] == pytest.approx(150.0)
+    # An onset in the last 10 % of the stroke acts at reversal only: not placed.
+    term = make_term("contact")
+    stroke = 0.03 * np.sin(np.linspace(0, 2 * np.pi, 400))
+    local = {k.partition(".")[2]: v for k, v in values.items()} | {"exponent": 2.0}
+    assert term.unplaced(local, stroke) == ""
+    late = local | {"bump_onset_m": 0.0285}
+    assert "last 1.5 mm" in term.unplaced(late, stroke)
+    assert term.unplaced(late | {"bump_force_n": 0.0}, stroke) == ""  # that side is off
+    # Its start grid puts the onsets inside the stroke the data cover.
+    seen = DamperModel(SPEC).evaluate(ModelInputs.single(x, z, z), A_BC, A_BT)
+    grid = make_term("contact").start_grid(seen)
+    assert all(0 < g.get("bump_onset_m", 0.01) < 0.030 for g in grid)
+    assert all(-0.035 < g.get("topout_onset_m", -0.01) < 0 for g in grid)
+
+
 @pytest.mark.parametrize("path", sorted((REPO / "sim" / "scenarios").glob("*.toml")), ids=str)
 def test_every_scenario_file_loads(path: Path) -> None:
     sc = load_scenario(path)

@@ -9,7 +9,7 @@ residual sums that the likelihood-ratio test compares are the ones minimised.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,6 +32,7 @@ class Fitted:
     term_sd: dict[str, float]
     force: FloatArray  # on the data's objective samples
     residual: FloatArray
+    globals_sd: dict[str, float] = field(default_factory=dict)
 
     def area_vectors(self, data: Data) -> tuple[FloatArray, FloatArray]:
         keys = data.prob.keys
@@ -70,7 +71,15 @@ def predict(data: Data, fitted: Fitted) -> Fitted:
     data.prob.set_model(fitted.model)
     force = data.prob.force(fitted.model, bc, bt)
     areas = {k: (float(a), float(b)) for k, a, b in zip(data.prob.keys, bc, bt, strict=True)}
-    return Fitted(fitted.model, fitted.free, areas, fitted.term_sd, force, force - data.prob.f)
+    return Fitted(
+        fitted.model,
+        fitted.free,
+        areas,
+        fitted.term_sd,
+        force,
+        force - data.prob.f,
+        fitted.globals_sd,
+    )
 
 
 def refit(
@@ -103,4 +112,12 @@ def refit(
     prob.set_model(fitted_model)
     force = prob.force(fitted_model, cal.a_bc, cal.a_bt)
     areas = {k: (float(a), float(b)) for k, a, b in zip(prob.keys, cal.a_bc, cal.a_bt, strict=True)}
-    return Fitted(fitted_model, tuple(free), areas, dict(cal.term_sd), force, force - prob.f)
+    return Fitted(
+        fitted_model,
+        tuple(free),
+        areas,
+        dict(cal.term_sd),
+        force,
+        force - prob.f,
+        dict(cal.globals_sd),
+    )

@@ -6,8 +6,9 @@ import math
 from itertools import pairwise
 from typing import Any
 
-from shockdyno.diagnose.engine import Diagnosis, Finding
+from shockdyno.diagnose.engine import CalibrationRow, Diagnosis, Finding
 from shockdyno.diagnose.locate import Location
+from shockdyno.model.terms import LIBRARY
 
 
 def _v(f: Finding, name: str) -> float:
@@ -19,6 +20,29 @@ def _v(f: Finding, name: str) -> float:
 def _sd(f: Finding, name: str) -> str:
     sd = f.parameters.get(name, {}).get("sd")
     return f" ± {sd:.2g}" if isinstance(sd, int | float) and math.isfinite(sd) else ""
+
+
+def _moved(f: Finding, name: str) -> bool:
+    """Whether a parameter moved off its off value by more than 3σ (and than a rounding
+    of its scale): a term's text names only what the data moved."""
+    cls = LIBRARY.get(f.physics)
+    param = next((p for p in cls.PARAMS if p.name == name), None) if cls else None
+    value = _v(f, name)
+    if param is None or not math.isfinite(value) or f.parameters.get(name, {}).get("fixed"):
+        return False
+    sd = f.parameters.get(name, {}).get("sd")
+    noise = 3 * float(sd) if isinstance(sd, int | float) and math.isfinite(sd) else 0.0
+    return abs(value - param.off) > max(noise, 1e-3 * param.scale)
+
+
+def _sd_ms(f: Finding, name: str) -> str:
+    sd = f.parameters.get(name, {}).get("sd")
+    return f" ± {1e3 * sd:.2g}" if isinstance(sd, int | float) and math.isfinite(sd) else ""
+
+
+def _sd_pct(f: Finding, name: str) -> str:
+    sd = f.parameters.get(name, {}).get("sd")
+    return f" ± {100 * sd:.2g}" if isinstance(sd, int | float) and math.isfinite(sd) else ""
 
 
 def _signature(loc: Location) -> str:
@@ -62,22 +86,42 @@ def describe(f: Finding, spec_gas_pa: float) -> str:
         )
     if p == "sensor_lag":
         d, lag = _v(f, "delay_s"), _v(f, "load_cell_lag_s")
-        return (
-            f"sensor lag: force lags the motion by {1e3 * (d + lag):.3g} ms in all "
-            f"(pure delay {1e3 * d:.2g} ms, load-cell lag {1e3 * lag:.2g} ms)"
-        )
+        parts = [
+            f"{label} {1e3 * _v(f, key):.2g}{_sd_ms(f, key)} ms"
+            for key, label in (
+                ("delay_s", "pure delay"),
+                ("load_cell_lag_s", "load-cell lag"),
+                ("lvdt_lag_s", "LVDT lag"),
+            )
+            if _moved(f, key)
+        ]
+        detail = f" ({', '.join(parts)})" if parts else ""
+        return f"sensor lag: force lags the motion by {1e3 * (d + lag):.3g} ms in all{detail}"
     if p == "friction":
-        return (
-            f"seal friction: breakaway {_v(f, 'breakaway_n'):.3g}{_sd(f, 'breakaway_n')} N above "
-            f"Coulomb, Stribeck velocity {1e3 * _v(f, 'stribeck_velocity_m_s'):.2g} mm/s, "
-            f"viscous drag {_v(f, 'viscous_n_s_m'):.3g} N·s/m"
-        )
+        parts = []
+        if _moved(f, "breakaway_n"):
+            parts.append(
+                f"breakaway {_v(f, 'breakaway_n'):.3g}{_sd(f, 'breakaway_n')} N above Coulomb, "
+                f"falling over {1e3 * _v(f, 'stribeck_velocity_m_s'):.2g}"
+                f"{_sd_ms(f, 'stribeck_velocity_m_s')} mm/s (Stribeck)"
+            )
+        if _moved(f, "viscous_n_s_m"):
+            parts.append(
+                f"viscous drag {_v(f, 'viscous_n_s_m'):.3g}{_sd(f, 'viscous_n_s_m')} N·s/m"
+            )
+        return "seal friction: " + (", ".join(parts) or "beyond the spec's Coulomb friction")
     if p == "thermal":
-        return (
-            f"temperature: gas force follows the oil temperature (coupling "
-            f"{_v(f, 'gas_coupling'):.2g}{_sd(f, 'gas_coupling')}), viscosity falls "
-            f"{100 * _v(f, 'viscosity_coeff_per_k'):.2g} %/K"
-        )
+        parts = []
+        if _moved(f, "gas_coupling"):
+            parts.append(
+                "gas force follows the oil temperature (coupling "
+                f"{_v(f, 'gas_coupling'):.2g}{_sd(f, 'gas_coupling')})"
+            )
+        for key in ("viscosity_coeff_per_k", "damping_coeff_per_k"):
+            if _moved(f, key):
+                what = "viscosity" if key.startswith("visc") else "damping"
+                parts.append(f"{what} falls {100 * _v(f, key):.2g}{_sd_pct(f, key)} %/K")
+        return "temperature: " + (", ".join(parts) or "the force drifts with the oil temperature")
     if p == "cavitation":
         return (
             "cavitation: the rebound chamber holds at "
@@ -88,6 +132,21 @@ def describe(f: Finding, spec_gas_pa: float) -> str:
             f"gas spring: gas volume {_v(f, 'volume_factor'):.3g}{_sd(f, 'volume_factor')} × the "
             f"spec's (polytropic index {_v(f, 'polytropic_index'):.3g})"
         )
+    if p == "contact":
+        sides = []
+        if _moved(f, "bump_force_n"):
+            sides.append(
+                f"a bump stop from x = {1e3 * _v(f, 'bump_onset_m'):+.3g}"
+                f"{_sd_ms(f, 'bump_onset_m')} mm ({_v(f, 'bump_force_n'):.3g}"
+                f"{_sd(f, 'bump_force_n')} N 10 mm past it)"
+            )
+        if _moved(f, "topout_force_n"):
+            sides.append(
+                f"a top-out spring from x = {1e3 * _v(f, 'topout_onset_m'):+.3g}"
+                f"{_sd_ms(f, 'topout_onset_m')} mm ({_v(f, 'topout_force_n'):.3g}"
+                f"{_sd(f, 'topout_force_n')} N 10 mm past it)"
+            )
+        return "contact: " + (" and ".join(sides) or "at the end of travel")
     if p == "position_force":
         knots = [_v(f, f"f{k}_n") for k in range(8)]
         lo, hi = _v(f, "x_lo_m"), _v(f, "x_hi_m")
@@ -100,7 +159,44 @@ def describe(f: Finding, spec_gas_pa: float) -> str:
     return p
 
 
+_CALIBRATION_WORDS = {
+    "gas_volume_m3": "gas volume",
+    "gas_pressure_pa": "gas charge",
+    "friction_n": "Coulomb friction",
+    "compression_valve.preload_m": "compression valve preload",
+    "compression_valve.face_area_m2": "compression valve face area",
+    "rebound_valve.preload_m": "rebound valve preload",
+    "rebound_valve.face_area_m2": "rebound valve face area",
+}
+
+
+def describe_calibration(r: CalibrationRow) -> str:
+    """ "the spec's gas volume is 1.4× too small": the spec against the recording."""
+    what = _CALIBRATION_WORDS.get(r.parameter, r.parameter)
+    if r.spec_value == 0:
+        return f"the spec's {what} is 0, the recording's {r.fitted:.3g} {r.unit}"
+    ratio = r.fitted / r.spec_value
+    if ratio <= 0:
+        return f"the spec's {what} fits as {r.fitted:.3g} {r.unit}"
+    sd = f" ± {r.sd / abs(r.spec_value):.2g}" if math.isfinite(r.sd) else ""
+    word, times = ("small", ratio) if ratio > 1 else ("large", 1 / ratio)
+    return f"the spec's {what} is {times:.2g}× too {word} (fitted {ratio:.3g}{sd} × the spec's)"
+
+
+def calibration_text(d: Diagnosis) -> str:
+    moved = [r for r in d.calibration if r.moved]
+    if not moved:
+        return ""
+    return "Calibrated, not physics: " + "; ".join(describe_calibration(r) for r in moved) + "."
+
+
 def verdict_text(d: Diagnosis) -> str:
+    text = _physics_text(d)
+    cal = calibration_text(d)
+    return f"{text} {cal}" if cal else text
+
+
+def _physics_text(d: Diagnosis) -> str:
     spec_gas = d.final.model.spec.gas_pressure_pa
     m = d.mismatch
     if m.p_value >= 0.01:
@@ -186,6 +282,17 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
             "physics": [f.physics for f in order],
             "unexplained": [r.to_json() for r in d.unexplained.regions],
             "indistinguishable": d.indistinguishable,
+            "calibration": [
+                {
+                    "parameter": r.parameter,
+                    "spec_value": r.spec_value,
+                    "fitted": r.fitted,
+                    "sd": _num(r.sd),
+                    "unit": r.unit,
+                    "moved": r.moved,
+                }
+                for r in d.calibration
+            ],
             "text": verdict_text(d),
             "remaining_rms_n": d.remaining.structured_rms_n,
             "remaining_p_value": d.remaining.p_value,

@@ -60,7 +60,7 @@ def register(sub: Any) -> None:
         metavar="LIST",
         help=(
             "physics terms fitted with the globals, comma-separated: compressibility, "
-            "thermal, friction, cavitation, sensor_lag, gas_spring, position_force; "
+            "thermal, friction, cavitation, sensor_lag, gas_spring, contact, position_force; "
             "term.param frees a parameter the term holds; none: the paper's model alone "
             "(default: sensor_lag, the channel delay)"
         ),

@@ -236,6 +236,18 @@ class Term:
         data only with impossible values stands in for something else."""
         return ""
 
+    def unseen(self, p: Mapping[str, float], x: FloatArray) -> dict[str, float]:
+        """Parameters no sample at the positions `x` depends on, with the off values a
+        fit reports for them (a force past an onset the stroke never reaches is not
+        measured, and must not ride along to a car that travels further)."""
+        return {}
+
+    def unplaced(self, p: Mapping[str, float], x: FloatArray) -> str:
+        """Why these fitted values cannot be told apart from other physics on data that
+        cover the positions `x` ("" when they can): a term acting only where another
+        acts too names nothing."""
+        return ""
+
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
         """Starting values worth trying before a fit (local names), where the term's
         effect can vanish at its nominal value (a threshold no sample reaches). `seen`:
@@ -258,6 +270,7 @@ class Evaluation:
     p_c: FloatArray
     outputs: dict[str, FloatArray]
     state: dict[str, FloatArray]
+    x: FloatArray = field(default_factory=lambda: np.zeros(0))  # the rod's position
 
 
 def _samples(value: ArrayLike, n: int) -> FloatArray:
@@ -451,7 +464,7 @@ class DamperModel:
             else w.total
         )
         assert w.dp is not None
-        return Evaluation(total, w.parts, w.dp, w.p_c, w.outputs, carry_out)
+        return Evaluation(total, w.parts, w.dp, w.p_c, w.outputs, carry_out, w.x)
 
     def force(self, inputs: ModelInputs, a_bc: ArrayLike, a_bt: ArrayLike) -> FloatArray:
         return self.evaluate(inputs, a_bc, a_bt).force

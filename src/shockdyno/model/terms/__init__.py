@@ -1,7 +1,8 @@
 """The term library: physics the paper's model leaves out, by interface name.
 
 Names are an interface (fit --terms, the fit JSON's `terms`, diagnose's findings):
-compressibility, thermal, friction, cavitation, sensor_lag, gas_spring, position_force.
+compressibility, thermal, friction, cavitation, sensor_lag, gas_spring, contact,
+position_force.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from shockdyno.errors import ConfigError
 from shockdyno.model.composite import Term
 from shockdyno.model.terms.cavitation import Cavitation
 from shockdyno.model.terms.compressibility import Compressibility
+from shockdyno.model.terms.contact import Contact
 from shockdyno.model.terms.friction import Friction
 from shockdyno.model.terms.gas_spring import GasSpring
 from shockdyno.model.terms.position_force import PositionForce
@@ -25,6 +27,7 @@ LIBRARY: dict[str, type[Term]] = {
         Cavitation,
         SensorLag,
         GasSpring,
+        Contact,
         PositionForce,
     )
 }
@@ -41,6 +44,7 @@ __all__ = [
     "LIBRARY",
     "Cavitation",
     "Compressibility",
+    "Contact",
     "Friction",
     "GasSpring",
     "PositionForce",

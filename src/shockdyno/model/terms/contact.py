@@ -1,0 +1,92 @@
+"""Contact at the ends of travel: a bump stop and a top-out spring, each with a free onset.
+
+F = F_b·(max(0, x − x_b)/δ)^n − F_t·(max(0, x_t − x)/δ)^n, δ = 10 mm: the bump stop
+(compression side, onset x_b) pushes the rod out, the top-out spring (rebound side,
+onset x_t < 0) pulls it in. Each side is stated by its force 10 mm past its onset, which
+an engineer reads off a bump-stop curve, rather than by a stiffness whose unit changes
+with n. n is 2 (a progressive elastomer) unless named (`contact.exponent`).
+
+Beside `position_force`, which bends a smooth curve through the whole stroke, this is a
+hinge: nothing before the onset, then a power law. Off: both forces 0 (the onsets then
+do nothing, and the data cannot place them: their σ is infinite).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from shockdyno.model.composite import FORCE, Evaluation, FloatArray, Term, Work
+from shockdyno.model.params import Param
+
+REFERENCE_DEPTH_M = 0.010
+# A contact must reach this share of the stroke's half-length past its onset on the data:
+# one whose onset lies in the last 10 % acts only in the ±26° of phase about reversal
+# (acos 0.9), where a lag, a delay or friction acts too, and is no evidence of contact.
+MIN_DEPTH_SHARE = 0.10
+
+
+class Contact(Term):
+    name = "contact"
+    stage = FORCE + 4
+    summary = "bump stop / top-out spring: force past a free onset, F·(depth/10 mm)^n"
+    PARAMS = (
+        Param("bump_onset_m", "m", 0.02, 0.0, 0.2, 0.005, 0.2, doc="bump stop starts at x"),
+        Param("bump_force_n", "N", 100.0, 0.0, 50000.0, 100.0, 0.0, doc="bump force 10 mm past"),
+        Param("topout_onset_m", "m", -0.02, -0.2, 0.0, 0.005, -0.2, doc="top-out starts at x"),
+        Param("topout_force_n", "N", 100.0, 0.0, 50000.0, 100.0, 0.0, doc="top-out 10 mm past"),
+        Param("exponent", "1", 2.0, 1.0, 4.0, 0.5, 2.0, free=False, doc="1 linear, 2 progressive"),
+    )
+
+    def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
+        # Past the onset the force grows fast, before it there is none: a start whose
+        # onset lies beyond the stroke has no gradient. So the onsets start inside the
+        # stroke the data cover, one side at a time and both.
+        hi, lo = 0.03, -0.03
+        if seen is not None and seen.x.size:
+            hi, lo = float(np.max(seen.x)), float(np.min(seen.x))
+        out: list[dict[str, float]] = []
+        for q in (0.5, 0.7, 0.85):
+            bump = {"bump_onset_m": max(q * hi, 0.0), "bump_force_n": 100.0}
+            top = {"topout_onset_m": min(q * lo, 0.0), "topout_force_n": 100.0}
+            out.append({**bump, "topout_force_n": 0.0})
+            out.append({**top, "bump_force_n": 0.0})
+            out.append({**bump, **top})
+        return out
+
+    def unseen(self, p: Mapping[str, float], x: FloatArray) -> dict[str, float]:
+        if not x.size:
+            return {}
+        out: dict[str, float] = {}
+        if float(np.max(x)) <= p["bump_onset_m"]:
+            out["bump_force_n"] = 0.0
+        if float(np.min(x)) >= p["topout_onset_m"]:
+            out["topout_force_n"] = 0.0
+        return out
+
+    def unplaced(self, p: Mapping[str, float], x: FloatArray) -> str:
+        if not x.size:
+            return ""
+        hi, lo = float(np.max(x)), float(np.min(x))
+        half = 0.5 * (hi - lo)
+        for side, force, depth in (
+            ("bump stop", p["bump_force_n"], hi - p["bump_onset_m"]),
+            ("top-out", p["topout_force_n"], p["topout_onset_m"] - lo),
+        ):
+            if force > 0 and 0 < depth < MIN_DEPTH_SHARE * half:
+                return (
+                    f"{side} only in the last {1e3 * depth:.2g} mm of the stroke: it acts at "
+                    "reversal only, where a lag or friction acts too (a slow push through "
+                    "the end of travel would tell)"
+                )
+        return ""
+
+    def apply(
+        self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
+    ) -> FloatArray | None:
+        n = p["exponent"]
+        bump = np.maximum(w.x - p["bump_onset_m"], 0.0) / REFERENCE_DEPTH_M
+        top = np.maximum(p["topout_onset_m"] - w.x, 0.0) / REFERENCE_DEPTH_M
+        w.add_part(self.name, p["bump_force_n"] * bump**n - p["topout_force_n"] * top**n)
+        return None

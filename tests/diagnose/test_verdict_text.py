@@ -1,0 +1,63 @@
+"""The verdict's words: a term's text names only the parameters the data moved, with σ,
+and a calibrated spec value reads as the spec's error, not as physics."""
+
+from __future__ import annotations
+
+from shockdyno.diagnose.engine import CalibrationRow, Finding
+from shockdyno.diagnose.verdict import describe, describe_calibration
+
+
+def _finding(physics: str, params: dict[str, tuple[float, float | None]]) -> Finding:
+    return Finding(
+        physics=physics,
+        round=1,
+        claimed=True,
+        p_value=0.001,
+        lr_n2=1.0,
+        heldout_gain=0.9,
+        heldout_detail="",
+        effect_rms_n=10.0,
+        effect_peak_n=20.0,
+        parameters={k: {"value": v, "sd": sd, "unit": ""} for k, (v, sd) in params.items()},
+    )
+
+
+def test_thermal_text_leaves_out_a_coupling_that_did_not_move() -> None:
+    f = _finding(
+        "thermal", {"gas_coupling": (8e-12, 0.01), "viscosity_coeff_per_k": (0.031, 0.002)}
+    )
+    text = describe(f, 1.6e6)
+    assert "coupling" not in text
+    assert "viscosity falls 3.1 ± 0.2 %/K" in text
+    moved = _finding(
+        "thermal", {"gas_coupling": (0.9, 0.05), "viscosity_coeff_per_k": (3.5e-21, 0.001)}
+    )
+    text = describe(moved, 1.6e6)
+    assert "coupling 0.9 ± 0.05" in text and "viscosity" not in text
+
+
+def test_friction_text_names_what_moved() -> None:
+    f = _finding(
+        "friction",
+        {
+            "breakaway_n": (24.0, 1.5),
+            "stribeck_velocity_m_s": (0.005, 0.0004),
+            "viscous_n_s_m": (2.0, 5.0),  # within 3σ of off
+        },
+    )
+    text = describe(f, 1.6e6)
+    assert "breakaway 24 ± 1.5 N" in text and "5 ± 0.4 mm/s" in text
+    assert "viscous" not in text
+
+
+def test_a_calibrated_gas_volume_reads_as_the_spec_s_error() -> None:
+    small = CalibrationRow("gas_volume_m3", 1.0e-4, 1.4e-4, 1e-7, "m³")
+    assert small.moved
+    assert "gas volume is 1.4× too small (fitted 1.4 ± 0.001 × the spec's)" in (
+        describe_calibration(small)
+    )
+    large = CalibrationRow("gas_volume_m3", 1.0e-4, 0.7e-4, 1e-7, "m³")
+    assert "1.4× too large" in describe_calibration(large)
+    # Within 5 % or within 3σ: not worth a word.
+    assert not CalibrationRow("friction_n", 35.0, 36.0, 0.1, "N").moved
+    assert not CalibrationRow("friction_n", 35.0, 45.0, 5.0, "N").moved

@@ -12,6 +12,7 @@ from contract_helpers import Collector, settled_status
 from shockdyno.errors import RigFault
 from shockdyno.rig.actuator import ModbusActuator
 from shockdyno.run.session import RigSession
+from shockdyno.simrig.drive import Knots
 from shockdyno.simrig.faults import Fault
 
 CENTRE_M = 0.001
@@ -49,6 +50,73 @@ def test_a_setpoint_another_master_rewrites_is_a_controlled_stop(
     assert abs(st.position_m - rig.stroke_centre_m) < CENTRE_M
     # The samples before the stop are the planned 1 Hz sine, not the rogue's 3 Hz one.
     assert len(rec.all) < 6000
+
+
+@pytest.mark.parametrize(
+    ("intrusion", "kind"),
+    [("disable", "drive_disabled"), ("stop", "drive_stopped"), ("quick_stop", "drive_stopped")],
+)
+def test_another_master_that_disables_or_stops_the_drive_ends_the_test(
+    sim_rig_factory, intrusion: str, kind: str
+) -> None:
+    """Issue 21.1: a second master's control word (0, stop, quick stop) mid-test. Before,
+    the sweep said "complete" while the ram sat parked for the rest of the window."""
+    sim = sim_rig_factory(speed=10.0)
+    rig = sim.rig_config()
+    rogue = ModbusActuator(rig)
+    rogue.connect()
+    rec = Collector()
+
+    def collect(block) -> None:
+        rec.block(block)
+        if len(rec.blocks) == 20:
+            if intrusion == "disable":
+                rogue.write({"control_word": 0})
+            else:
+                rogue.control(intrusion, enable=True)
+
+    try:
+        with RigSession(rig) as session:
+            session.set_clicks(7, 0)
+            out = session.run_sine(0.03, 1.0, 1, 3, collect)
+    finally:
+        rogue.close()
+    events = [e.kind for e in session.events]  # with the teardown's
+    assert out.status == "aborted", out.reason
+    assert kind in [e.kind for e in out.events] and "another Modbus master" in out.reason
+    st = settled_status(rig)
+    assert not st.enabled and not st.running
+    if intrusion == "disable":
+        # Disabled by someone else: stopped and disabled where it stood, not re-enabled
+        # behind their back to centre it; the events say so.
+        assert "stop_step_failed" in events
+    else:
+        assert abs(st.position_m - rig.stroke_centre_m) < CENTRE_M
+
+
+def test_a_test_whose_ram_stood_still_is_not_complete(sim_rig_factory) -> None:
+    """Issue 21.1: verification sees every measured cycle. A drive that stops moving but
+    keeps reporting running (its status unchanged) still fails the plan check."""
+    sim = sim_rig_factory(speed=10.0)
+    rig = sim.rig_config()
+    rec = Collector()
+    regs = sim.registers
+
+    def stall() -> None:
+        # The ram eases to a stop over a cycle while the drive still says "running".
+        drive, t = regs.engine.drive, regs.engine.now_s
+        drive.env = Knots([t, t + 1.0 / drive.frequency_hz], [drive.env.value(t), 0.0])
+
+    def collect(block) -> None:
+        rec.block(block)
+        if len(rec.blocks) == 40:
+            sim.call(stall)
+
+    with RigSession(rig) as session:
+        session.set_clicks(7, 0)
+        out = session.run_sine(0.03, 1.0, 1, 3, collect)
+    assert out.status != "complete", out.reason
+    assert "moved ±" in out.reason
 
 
 def test_a_drive_whose_watchdog_stays_off_is_never_enabled(sim_rig_factory) -> None:

@@ -33,7 +33,7 @@ from shockdyno.rig.frames import FRAME_LEN, STATUS_MOTION
 from shockdyno.rig.types import SampleBlock
 from shockdyno.run import signals
 from shockdyno.run.safety import LimitMonitor, SafetyEvent, SafetyTrip
-from shockdyno.run.verify import frame_loss, measure_sine, plan_mismatch
+from shockdyno.run.verify import cycle_mismatch, frame_loss, measure_sine, plan_mismatch
 
 CENTRE_TOLERANCE_M = 0.001
 # A command's round trip takes wall time, which a fast simulated rig turns into seconds of
@@ -132,6 +132,11 @@ class RigSession:
         # Setpoints the host wrote, read back on every poll: another Modbus master changing
         # one is a controlled stop, never a test that silently runs something else.
         self._watched: dict[str, float] = {}
+        # DAQ time until which a running sine must keep the drive's running bit: a drive
+        # that stops before it (another master's stop or quick stop, its own panel) ends
+        # the test, which is then never "complete".
+        self._running_until: float | None = None
+        self._fresh = False  # the latest DAQ read brought samples: the DAQ clock is current
 
     # -- events ------------------------------------------------------------------------
     def record_events(self, sink: EventSink | None) -> None:
@@ -305,6 +310,8 @@ class RigSession:
                 m_start = t0 + (ramp + warmup_cycles) / frequency_hz
                 m_end = m_start + measured_cycles / frequency_hz
                 end = t0 + total_s
+                # Half a cycle of slack: the ramp-out ends at `end` by the drive's clock.
+                self._running_until = end - 0.5 / frequency_hz
                 self._wait(
                     lambda s: self._t >= end + SETTLE_S and not self._motion and not s.running,
                     daq_budget_s=total_s + 2.0,
@@ -326,6 +333,7 @@ class RigSession:
                 self._safe_stop(ev.message)
         finally:
             self._on_block = self._on_actuator = None
+            self._running_until = None
         return SineOutcome(
             status=status,
             reason=reason,
@@ -355,6 +363,15 @@ class RigSession:
             run.t_s, run.displacement_m, (m_start, m_end), amplitude_m, frequency_hz
         )
         mismatch = plan_mismatch(measured, frequency_hz, amplitude_m, self.rig.verify)
+        if mismatch is None:
+            mismatch = cycle_mismatch(
+                run.t_s,
+                run.displacement_m,
+                (m_start, m_end),
+                amplitude_m,
+                frequency_hz,
+                self.rig.verify,
+            )
         if mismatch is not None:
             ev = self._event("plan_mismatch", f"test does not match its plan: {mismatch}")
             return "degraded", ev.message, True
@@ -392,6 +409,35 @@ class RigSession:
                     )
                 )
 
+    def _check_state(self, st: ActuatorStatus) -> None:
+        """The drive's state read back like its setpoints: disabled while this session holds
+        it enabled, or stopped while a sine should run, is a change this session did not
+        make (another Modbus master, the drive's own panel) and a controlled stop."""
+        if self._armed and not st.enabled and not st.fault:
+            raise SafetyTrip(
+                SafetyEvent(
+                    self._t,
+                    "drive_disabled",
+                    f"the drive reports disabled (status word 0x{st.word:04x}) while this "
+                    "session held it enabled: another Modbus master or the drive's panel "
+                    "disabled it",
+                )
+            )
+        until = self._running_until
+        # Judged on the DAQ clock, so only while it is current: a frozen DAQ's last sample
+        # is older than the drive, which may have ended the sine as planned meanwhile.
+        if until is None or not self._fresh or self._t >= until or st.running or st.fault:
+            return
+        raise SafetyTrip(
+            SafetyEvent(
+                self._t,
+                "drive_stopped",
+                f"the drive stopped the sine {until - self._t:.3g} s before its end "
+                f"(status word 0x{st.word:04x}): another Modbus master or the drive's "
+                "panel stopped it",
+            )
+        )
+
     def _check_sine(self, a: float, f: float, warmup: int, measured: int) -> None:
         check_sine(self.rig, a, f, warmup, measured)
 
@@ -424,6 +470,7 @@ class RigSession:
             time.sleep(0.005)  # stopping: the drive's own status is enough
             block = SampleBlock.empty()
         now = self.clock()
+        self._fresh = bool(len(block))
         if len(block):
             self._last_sample_wall = now
             gap = self._largest_gap(block)
@@ -487,6 +534,7 @@ class RigSession:
         self._emit_actuator(st.fields())
         if check:
             self._check_setpoints(st.setpoints, "at a status poll")
+            self._check_state(st)
         if check and st.fault:
             raise SafetyTrip(
                 SafetyEvent(self._t, "actuator_fault", f"actuator fault: {st.fault_text}")
@@ -546,6 +594,14 @@ class RigSession:
     def _move_to_centre(self, check: bool) -> None:
         act = self._act()
         st = act.status()
+        if not check and not st.enabled:
+            # Disabled by someone else (a panel, an emergency stop, another master): this
+            # session does not re-enable a drive behind their back to centre it.
+            raise RigFault(
+                f"the drive is disabled, not by this session: left at "
+                f"{(st.position_m - self.rig.stroke_centre_m) * 1e3:+.1f} mm from centre, "
+                "not re-enabled to centre it"
+            )
         distance = abs(st.position_m - self.rig.stroke_centre_m)
         v = self.rig.ramp.move_velocity_m_s
         act.set_mode("hold")
@@ -586,7 +642,9 @@ class RigSession:
 
     def _stop_motion(self) -> None:
         act = self._act()
-        act.control("stop")
+        # A drive someone else disabled stays disabled: the stop goes without the enable
+        # bit, which would otherwise re-enable it.
+        act.control("stop", enable=act.status().enabled)
         self._wait(
             lambda s: not s.running,
             daq_budget_s=self.rig.ramp.stop_time_s + 2.0,

@@ -88,5 +88,36 @@ def plan_mismatch(
     return "; ".join(problems) or None
 
 
+def cycle_mismatch(
+    t: NDArray[np.float64],
+    x: NDArray[np.float64],
+    window: tuple[float, float],
+    amplitude_m: float,
+    frequency_hz: float,
+    tol: VerifyConfig,
+) -> str | None:
+    """The first whole cycle in `window` that did not move as planned (its half range off
+    the planned amplitude, or its mid-point off the stroke centre, beyond the rig's
+    tolerances), or None. The extremes over the whole window cannot see a ram that moved
+    for the first cycles and sat still for the rest: each cycle must move."""
+    lo_t, hi_t = window
+    period = 1.0 / frequency_hz
+    n = int(np.floor((hi_t - lo_t) / period + 1e-6))
+    for k in range(n):
+        inside = (t >= lo_t + k * period) & (t < lo_t + (k + 1) * period)
+        if np.count_nonzero(inside) < 4:
+            return f"cycle {k + 1} of {n} has no samples"
+        top, bottom = float(np.max(x[inside])), float(np.min(x[inside]))
+        half, centre = (top - bottom) / 2, (top + bottom) / 2
+        if abs(half / amplitude_m - 1) > tol.amplitude_tolerance:
+            return (
+                f"cycle {k + 1} of {n} moved ±{half * 1e3:.3g} mm, planned "
+                f"±{amplitude_m * 1e3:g} mm"
+            )
+        if abs(centre) > tol.centre_tolerance_m:
+            return f"cycle {k + 1} of {n} centred {centre * 1e3:+.3g} mm off the stroke centre"
+    return None
+
+
 def frame_loss(lost: int, expected: int) -> float:
     return lost / expected if expected > 0 else (math.inf if lost else 0.0)

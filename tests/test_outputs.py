@@ -113,3 +113,39 @@ def test_empty_or_foreign_mcap_is_named_not_shown_as_zero_tests(capsys, tmp_path
     assert main([command, str(path)]) == 2
     err = capsys.readouterr().err
     assert ("empty file" if kind == "empty" else "not a shockdyno recording") in err
+
+
+def test_sweep_never_records_over_its_own_rig_file(capsys, tmp_path):
+    """Issue 21.2: `--rig copy.toml -o copy.toml --force` made the rig file an MCAP."""
+    rig = tmp_path / "copy.toml"
+    shutil.copy(Path(__file__).resolve().parents[1] / "rigs" / "sim.toml", rig)
+    before = rig.read_bytes()
+    args = ["sweep", "--rig", str(rig), "--start-sim", "--clicks", "0", "--freq", "1"]
+    assert main([*args, "-o", str(rig), "--force"]) == 2
+    assert "input of this command" in capsys.readouterr().err
+    assert rig.read_bytes() == before
+    scenario = tmp_path / "s.toml"
+    scenario.write_text("[scenario]\nname = 's'\ndescription = 'x'\n")
+    assert main([*args, "--scenario", str(scenario), "-o", str(scenario), "--force"]) == 2
+    assert scenario.read_text().startswith("[scenario]")
+
+
+@pytest.mark.parametrize("command", ["fit", "diagnose", "ride"])
+def test_an_existing_report_is_refused_before_any_work(capsys, rec, tmp_path, command):
+    """Issue 21.5: --report DIR is checked first; an existing index.html needs --force,
+    and nothing (not the JSON either) is written by the refused call."""
+    report = tmp_path / "report"
+    report.mkdir()
+    (report / "index.html").write_text("keep me")
+    out = tmp_path / "out.json"
+    args = [command, str(rec)] if command != "ride" else [command, *FAST_RIDE]
+    assert main([*args, "--json", str(out), "--report", str(report)]) == 2
+    err = capsys.readouterr().err
+    assert "index.html exists" in err and "--force" in err and err.count("\n") == 1
+    assert not out.exists()
+    assert (report / "index.html").read_text() == "keep me"
+    # A report DIR that is a file is refused the same way.
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    assert main([*args, "--json", str(out), "--report", str(afile)]) == 2
+    assert "not a directory" in capsys.readouterr().err and not out.exists()

@@ -30,6 +30,16 @@ def _same_file(a: Path, b: Path) -> bool:
         return a.resolve() == b.resolve()
 
 
+def refuse_inputs(
+    out: Path, inputs: Iterable[str | os.PathLike[str]], flag: str = "--json"
+) -> None:
+    """An output that is one of the command's inputs (also through a link) is refused,
+    `--force` or not."""
+    for source in inputs:
+        if _same_file(out, Path(source)):
+            raise ConfigError(f"{flag} {out} is an input of this command; refusing to overwrite it")
+
+
 def check_output(
     path: str | os.PathLike[str],
     *,
@@ -46,9 +56,7 @@ def check_output(
     if is_stdout(path):
         return None
     out = Path(path)
-    for source in inputs:
-        if _same_file(out, Path(source)):
-            raise ConfigError(f"{flag} {out} is an input of this command; refusing to overwrite it")
+    refuse_inputs(out, inputs, flag)
     if out.is_dir():
         raise ConfigError(f"{flag} {out} is a directory")
     if out.exists() and not force:
@@ -63,6 +71,33 @@ def check_output(
     os.close(fd)
     os.unlink(probe)
     return out
+
+
+REPORT_FILES = ("index.html", "click_chart.csv")
+
+
+def check_report_dir(
+    out: Path, inputs: Iterable[str | os.PathLike[str]], force: bool, flag: str = "--report"
+) -> None:
+    """Refuse a report DIR before any work: a file, an existing report (DIR/index.html)
+    without `force`, one whose files would overwrite an input, or a DIR that cannot be
+    created."""
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"{flag} {out}: is a file, not a directory")
+    index = out / "index.html"
+    if index.is_file() and index.stat().st_size > 0 and not force:
+        raise ConfigError(f"{flag}: {index} exists (use --force to replace it)")
+    own = {(out / name).resolve() for name in REPORT_FILES}
+    for source in inputs:
+        path = Path(source)
+        drawn = path.suffix == ".png" and path.resolve().parent == out.resolve()
+        if path.resolve() in own or drawn:
+            raise ConfigError(f"{flag}: the report would overwrite its input {path}")
+    base = out
+    while not base.exists():  # the nearest existing ancestor must take new files
+        base = base.parent
+    if not os.access(base, os.W_OK | os.X_OK):
+        raise ConfigError(f"{flag}: cannot create files in {base}")
 
 
 def write_output(

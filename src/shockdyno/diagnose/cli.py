@@ -42,7 +42,9 @@ def register(sub: Any) -> None:
     p.add_argument("--spec", metavar="PATH", help="base damper spec TOML (without --fit)")
     p.add_argument("--alpha", type=float, default=0.01, help="significance level of a claim")
     p.add_argument("--seed", type=int, default=0, help="seed of the bootstrap")
-    p.add_argument("--force", action="store_true", help="overwrite an existing DIAG.json")
+    p.add_argument(
+        "--force", action="store_true", help="overwrite an existing DIAG.json or --report page"
+    )
     p.set_defaults(func=run_diagnose)
 
 
@@ -88,7 +90,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     from shockdyno.diagnose.verdict import to_json
     from shockdyno.fit.result import FitResult
     from shockdyno.model import load_spec
-    from shockdyno.outputs import check_output, write_output
+    from shockdyno.outputs import check_output, check_report_dir, write_output
     from shockdyno.progress import StageProgress
     from shockdyno.record import open_recording
     from shockdyno.record.layout import set_paths
@@ -99,6 +101,8 @@ def run_diagnose(args: argparse.Namespace) -> int:
         *([args.spec] if args.spec else []),
     ]
     out = check_output(args.json, force=args.force, inputs=inputs)
+    if args.report:
+        check_report_dir(Path(args.report), inputs, args.force)
     if not 0 < args.alpha < 1:
         raise ConfigError(f"--alpha must be between 0 and 1, got {args.alpha}")
     settings = Settings(alpha=args.alpha, seed=args.seed, candidates=_candidates(args.terms))

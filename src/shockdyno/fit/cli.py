@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from shockdyno.errors import FitError
-from shockdyno.outputs import check_output, write_output
+from shockdyno.outputs import check_output, check_report_dir, write_output
 
 # Beyond these a recording is not of a damper on a dyno (a unit mix-up or a corrupt file).
 MAX_DISPLACEMENT_M = 1.0
@@ -37,7 +37,9 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--json", required=True, metavar="FIT.json", help="where to write the result (- for stdout)"
     )
-    p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
+    p.add_argument(
+        "--force", action="store_true", help="overwrite an existing --json file or --report page"
+    )
     p.add_argument(
         "--report",
         metavar="DIR",
@@ -186,6 +188,8 @@ def run_fit(args: argparse.Namespace) -> int:
 
     inputs = [*set_paths(Path(args.recording)), *([args.spec] if args.spec else [])]
     out = check_output(args.json, force=args.force, inputs=inputs)
+    if args.report:
+        check_report_dir(Path(args.report), inputs, args.force)
     load_spec(args.spec)  # a bad spec or term list fails now, not after reading
     selection = parse_terms(args.terms)
     tests = open_recording(args.recording).require_recording().load_all()

@@ -8,9 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno.errors import ConfigError, RecordingError
-
-# Files the report writes under fixed names; an input among them would be overwritten.
-OWN_FILES = ("index.html", "click_chart.csv")
+from shockdyno.outputs import check_report_dir
 
 
 def register(sub: Any) -> None:
@@ -36,18 +34,8 @@ def register(sub: Any) -> None:
 
 
 def check_output_dir(out: Path, inputs: list[Path], force: bool) -> None:
-    """Refuse a DIR that is a file, an existing report without --force, or one that would
-    overwrite an input."""
-    if out.exists() and not out.is_dir():
-        raise ConfigError(f"-o {out}: is a file, not a directory")
-    index = out / "index.html"
-    if index.is_file() and index.stat().st_size > 0 and not force:
-        raise ConfigError(f"{index} exists: use --force to replace it")
-    own = {(out / name).resolve() for name in OWN_FILES}
-    for path in inputs:
-        drawn = path.suffix == ".png" and path.resolve().parent == out.resolve()
-        if path.resolve() in own or drawn:
-            raise ConfigError(f"the report would overwrite its input {path}")
+    """`-o DIR` of `report`: the shared report-directory policy."""
+    check_report_dir(out, inputs, force, flag="-o")
 
 
 def load_json(path: str, flag: str) -> Any:

@@ -14,7 +14,7 @@ from shockdyno.fit.result import FitResult
 from shockdyno.lists import parse_floats, parse_ints, parse_letters
 from shockdyno.model.quarter_car import QuarterCar
 from shockdyno.model.road import DEFAULT_BAND_RAD_M
-from shockdyno.outputs import check_output, write_output
+from shockdyno.outputs import check_output, check_report_dir, write_output
 from shockdyno.progress import StageProgress
 from shockdyno.ride.study import RideConfig, RideResult, run_study
 
@@ -38,7 +38,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument(
         "--json", required=True, help="write the result here (docs/ride.md; - for stdout)"
     )
-    p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
+    p.add_argument(
+        "--force", action="store_true", help="overwrite an existing --json file or --report page"
+    )
     p.add_argument(
         "--report",
         metavar="DIR",
@@ -175,6 +177,8 @@ def handle(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     inputs = [args.fit] if args.fit else []
     out = check_output(args.json, force=args.force, inputs=inputs)
+    if args.report:
+        check_report_dir(Path(args.report), inputs, args.force)
     fit = None
     if config.linear_damper_ns_m is None:
         if not args.fit:

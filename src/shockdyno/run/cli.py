@@ -15,6 +15,7 @@ from shockdyno import __version__
 from shockdyno.errors import ConfigError, RigFault
 from shockdyno.lists import parse_clicks, parse_frequencies
 from shockdyno.model.spec import default_spec_path, load_spec
+from shockdyno.outputs import refuse_inputs
 from shockdyno.run.plan import SweepPlan, frequencies_for_velocities, parse_velocities_mm_s
 from shockdyno.run.recording import record_sweep
 from shockdyno.run.signals import stop_on_signals
@@ -193,6 +194,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from shockdyno.rig.config import load_rig
 
     console = Console()
+    # No file the sweep reads may become its recording, --force or not.
+    read = [args.rig, default_spec_path(), *([args.scenario] if args.scenario else [])]
+    refuse_inputs(Path(args.output), read, flag="-o")
     rig = load_rig(args.rig)
     plan = _plan(args, *_click_ranges(load_spec()), rig)
     with contextlib.ExitStack() as stack:

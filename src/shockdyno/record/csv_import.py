@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from shockdyno.errors import RecordingError
 from shockdyno.record.atomic import atomic_file
 from shockdyno.record.layout import part_paths
+from shockdyno.record.lock import recording_lock
 from shockdyno.record.plausible import (
     MAX_AMPLITUDE_M,
     MAX_CLICKS,
@@ -540,6 +541,17 @@ def import_csv(
     """Read MANIFEST and its data files and write one recording at `output`.
 
     `progress(stage, fraction)` is told of each file read (first half) and test written."""
+    with recording_lock(output):
+        return _import_locked(manifest, output, opts, force, progress)
+
+
+def _import_locked(
+    manifest: Path,
+    output: Path,
+    opts: ImportOptions,
+    force: bool,
+    progress: Callable[[str, float], None] | None,
+) -> list[TestMeta]:
     stale = part_paths(output)
     if stale and not force:
         raise RecordingError(f"{stale[0]} exists (use --force to replace the recording set)")

@@ -31,6 +31,32 @@ def record_sweep(
     resume: bool = False,
     console: Console | None = None,
 ) -> Any:
+    """Run the plan on the rig into the recording; returns the SweepResult. The recording
+    has one writer: a second sweep, resume or --force on it is refused (record/lock.py)."""
+    from shockdyno.record.lock import recording_lock
+
+    with recording_lock(output):
+        return _record_sweep(
+            rig,
+            plan,
+            output,
+            metadata=metadata,
+            overwrite=overwrite,
+            resume=resume,
+            console=console,
+        )
+
+
+def _record_sweep(
+    rig: RigConfig,
+    plan: SweepPlan,
+    output: Path,
+    *,
+    metadata: dict[str, str],
+    overwrite: bool = False,
+    resume: bool = False,
+    console: Console | None = None,
+) -> Any:
     """Run the plan on the rig into the recording; returns the SweepResult."""
     from shockdyno.record import RecordingWriter, open_recording
     from shockdyno.run.liveview import LiveView

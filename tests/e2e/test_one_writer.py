@@ -1,0 +1,65 @@
+"""A recording has one writer (issue 21.3): a second sweep, `--resume` or `--force` on a
+recording another process is writing is refused, naming that process; nothing of the
+first is lost."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from shockdyno.record import open_recording
+from shockdyno.record.lock import lock_path
+
+REPO = Path(__file__).resolve().parents[2]
+CLI = [sys.executable, "-m", "shockdyno.cli"]
+SWEEP = [*CLI, "sweep", "--rig", str(REPO / "rigs" / "sim.toml"), "--start-sim"]
+
+
+def _wait_for(path: Path, timeout_s: float = 30.0) -> None:
+    end = time.monotonic() + timeout_s
+    while not path.exists():
+        assert time.monotonic() < end, f"{path} never appeared"
+        time.sleep(0.05)
+
+
+def test_a_second_writer_is_refused_by_name_and_the_first_goes_on(tmp_path: Path) -> None:
+    rec = tmp_path / "one.mcap"
+    first = subprocess.Popen(
+        [*SWEEP, "--speed", "4", "--clicks", "0-21", "--freq", "1", "-o", str(rec)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        _wait_for(rec)  # the writer has the lock before it creates the file
+        assert lock_path(rec).exists()
+        for extra in (["--resume"], ["--force"], []):
+            second = subprocess.run(
+                [*SWEEP, "--speed", "50", "--clicks", "0", "--freq", "1", "-o", str(rec), *extra],
+                capture_output=True,
+                text=True,
+                timeout=60,
+            )
+            assert second.returncode != 0, extra
+            err = second.stderr.strip()
+            assert err.count("\n") == 0, err
+            assert f"being written by process {first.pid}" in err and "sweep" in err, err
+            assert rec.exists() and first.poll() is None  # the first still runs, its file kept
+        # `import -o` onto it is refused the same way.
+        csv = REPO / "recordings" / "examples" / "csv" / "manifest.csv"
+        imp = subprocess.run(
+            [*CLI, "import", str(csv), "-o", str(rec), "--force"],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        assert imp.returncode != 0 and f"process {first.pid}" in imp.stderr
+    finally:
+        first.send_signal(signal.SIGINT)
+        first.wait(timeout=60)
+    # The first writer's tests are all there, and its lock is gone with it.
+    tests = open_recording(rec).require_recording().tests
+    assert tests and all(t.clicks == i for i, t in enumerate(tests[:-1]))
+    assert not lock_path(rec).exists()

@@ -43,7 +43,10 @@ def register(sub: Any) -> None:
     p.add_argument("--alpha", type=float, default=0.01, help="significance level of a claim")
     p.add_argument("--seed", type=int, default=0, help="seed of the bootstrap")
     p.add_argument(
-        "--force", action="store_true", help="overwrite an existing DIAG.json or --report page"
+        "--force",
+        action="store_true",
+        help="overwrite an existing DIAG.json or --report page; accept a --fit made from "
+        "another recording (DIAG.json says so)",
     )
     p.set_defaults(func=run_diagnose)
 
@@ -93,6 +96,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     from shockdyno.outputs import check_output, check_report_dir, write_output
     from shockdyno.progress import StageProgress
     from shockdyno.record import open_recording
+    from shockdyno.record.identity import provenance, recording_info, stored_sha256
     from shockdyno.record.layout import set_paths
 
     inputs = [
@@ -106,15 +110,23 @@ def run_diagnose(args: argparse.Namespace) -> int:
     if not 0 < args.alpha < 1:
         raise ConfigError(f"--alpha must be between 0 and 1, got {args.alpha}")
     settings = Settings(alpha=args.alpha, seed=args.seed, candidates=_candidates(args.terms))
-    fit = FitResult.load(args.fit) if args.fit else None
+    fit = FitResult.load(args.fit).require_usable(f"--fit {args.fit}") if args.fit else None
     if fit is None:
         load_spec(args.spec)  # a bad spec fails before reading the recording
+    recording = recording_info(Path(args.recording))
+    fit_from = None
+    if fit is not None:
+        stored = stored_sha256(fit.info, "recording", "sha256")
+        fit_from = provenance(stored, recording["sha256"], "the fit", "--fit", args.force)
     tests = open_recording(args.recording).require_recording().load_all()
     if not tests:
         raise ConfigError(f"{args.recording}: no tests to diagnose")
     with StageProgress("diagnose") as progress:
         d = diagnose(tests, fit, settings, progress, spec_path=args.spec)
     doc = to_json(d)
+    doc["info"]["recording"] = recording
+    if fit_from is not None:
+        doc["info"]["fit_provenance"] = fit_from
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
     write_output(args.json, text, force=args.force, inputs=inputs)
     shown = Console(stderr=out is None)

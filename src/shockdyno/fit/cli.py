@@ -204,6 +204,9 @@ def run_fit(args: argparse.Namespace) -> int:
             progress=progress,
             terms=selection,
         )
+    from shockdyno.record.identity import recording_info
+
+    result.info["recording"] = recording_info(Path(args.recording))
     text = result_json(result)  # a result that cannot be written fails before anything is
     # With --json -, stdout carries only the JSON; the human summary goes to stderr.
     human = Console(stderr=out is None)

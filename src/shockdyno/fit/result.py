@@ -9,6 +9,7 @@ base spec. Together they rebuild the fitted damper with `FitResult.spec()`.
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -21,7 +22,7 @@ from shockdyno.fit.trend import AreaTrend
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, load_spec
-from shockdyno.model.terms import make_term
+from shockdyno.model.terms import LIBRARY, make_term
 from shockdyno.record.atomic import write_text_atomic
 
 
@@ -151,8 +152,12 @@ class FitResult:
             if delay:
                 terms = {"sensor_lag": {"delay_s": Estimate(float(delay), float("nan"), "s")}}
         built = [make_term(name) for name in terms]
+        # JSON has no infinity: a value written as null is the parameter's infinite off
+        # value (cavitation's floor at -inf: no clamp).
         values = {
-            f"{name}.{k}": est.value for name, params in terms.items() for k, est in params.items()
+            f"{name}.{k}": est.value if math.isfinite(est.value) else _off(name, k)
+            for name, params in terms.items()
+            for k, est in params.items()
         }
         return DamperModel(self.spec(), tuple(built), values)
 
@@ -174,6 +179,29 @@ class FitResult:
             bt = self.trend["A_bt"].at(clicks)
             return max(bc, 0.0), max(bt, 0.0)
         raise FitError(f"the fit has no result for {clicks} clicks")
+
+    def problem(self) -> str:
+        """Why this result cannot be used as a damper ("" when it can): a global or a term
+        value that is not a number, a bleed area that is negative or not a number."""
+        for key, value in self.globals.items():
+            if not math.isfinite(value):
+                return f"global {key} is {value}"
+        for c in self.clicks:
+            for name, area in (("A_bc", c.a_bc_m2), ("A_bt", c.a_bt_m2)):
+                if not (math.isfinite(area) and area >= 0):
+                    return f"{name} at {c.clicks} clicks is {area:g} m²"
+        for term, params in self.terms.items():
+            for k, est in params.items():
+                if not math.isfinite(est.value) and math.isfinite(_off(term, k)):
+                    return f"term parameter {term}.{k} is {est.value}"
+        return ""
+
+    def require_usable(self, label: str) -> FitResult:
+        """Self, or a one-line ConfigError naming the bad value and the file."""
+        problem = self.problem()
+        if problem:
+            raise ConfigError(f"{label}: not a usable fit: {problem}")
+        return self
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -260,6 +288,15 @@ class FitResult:
             raise ConfigError(f"fit file not found: {p}") from None
         except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError) as exc:
             raise ConfigError(f"{p}: not a shockdyno fit result ({exc!r})") from None
+
+
+def _off(term: str, local: str) -> float:
+    """A term parameter's off value (nan for an unknown one)."""
+    cls = LIBRARY.get(term)
+    for p in cls.PARAMS if cls is not None else ():
+        if p.name == local:
+            return p.off
+    return math.nan
 
 
 def _nan_to_none(v: float) -> float | None:

@@ -253,7 +253,8 @@ def _fit_section(page: Page, fit: FitResult, tests: list[TestData], out_dir: Pat
 
     page.section(
         "Fit and validation",
-        f"Damper model fitted to this recording ({len(fit.clicks)} click settings; base spec "
+        f"Damper model of the fit ({len(fit.clicks)} click settings; where it came from: the "
+        f"Recording table's 'fit' row; base spec "
         f"{fit.spec_path}). Errors of the proposed model and of Talbott's single-bleed model "
         "per test frequency, averaged over clicks (the paper's Table 4):",
     )

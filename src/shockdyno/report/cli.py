@@ -28,7 +28,10 @@ def register(sub: Any) -> None:
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="report directory")
     p.add_argument("--title", help="page title (default: from the recording's metadata)")
     p.add_argument(
-        "--force", action="store_true", help="replace an existing DIR/index.html (default: refuse)"
+        "--force",
+        action="store_true",
+        help="replace an existing DIR/index.html; show a result made from another recording "
+        "(the page says so) (default: refuse both)",
     )
     p.set_defaults(func=run_report)
 
@@ -64,6 +67,26 @@ def _gas_force(metadata: dict[str, str]) -> float | None:
         return None
 
 
+def _provenance(args: argparse.Namespace, fit: Any, diagnose: Any, ride: Any) -> dict[str, str]:
+    """Each result given against the recording's hash: a page row each; a result of
+    another recording is refused unless --force (issue 21.4)."""
+    from shockdyno.record.identity import provenance, recording_sha256, stored_sha256
+
+    given = [
+        ("fit", "the fit", "--fit", fit.info if fit is not None else None, ("recording",)),
+        ("diagnosis", "the diagnosis", "--diagnose", diagnose, ("info", "recording")),
+        ("ride", "the ride study's fit", "--ride", ride, ("fit_recording",)),
+    ]
+    if all(doc is None for *_, doc, _ in given):
+        return {}
+    actual = recording_sha256(Path(args.recording))
+    return {
+        row: provenance(stored_sha256(doc, *keys, "sha256"), actual, what, flag, args.force)
+        for row, what, flag, doc, keys in given
+        if doc is not None
+    }
+
+
 def run_report(args: argparse.Namespace) -> int:
     from rich.console import Console
 
@@ -74,17 +97,18 @@ def run_report(args: argparse.Namespace) -> int:
     out = Path(args.output)
     inputs = [Path(p) for p in (args.recording, args.fit, args.diagnose, args.ride) if p]
     check_output_dir(out, inputs, args.force)
-    fit = FitResult.load(args.fit) if args.fit else None
+    fit = FitResult.load(args.fit).require_usable(f"--fit {args.fit}") if args.fit else None
     diagnose = load_json(args.diagnose, "--diagnose") if args.diagnose else None
     ride = load_json(args.ride, "--ride") if args.ride else None
     if ride is not None and not isinstance(ride, dict):
         raise ConfigError(f"--ride: {args.ride} is not a ride result (no JSON object)")
+    provenance_rows = _provenance(args, fit, diagnose, ride)
 
     console = Console(stderr=True)
     with console.status("report: reading the recording") as status:
         rec = open_recording(args.recording)
         tests = rec.load_all() + [rec.load(m) for m in rec.interrupted]
-        metadata = {"recording": str(args.recording), **rec.metadata}
+        metadata = {"recording": str(args.recording), **rec.metadata, **provenance_rows}
         if rec.truncated:
             metadata["note"] = "the recording was cut off; every test it holds is shown"
         if not tests and rec.truncated:

@@ -183,11 +183,14 @@ def handle(args: argparse.Namespace) -> int:
     if config.linear_damper_ns_m is None:
         if not args.fit:
             raise ConfigError("--fit FIT.json is required (or --linear-damper-ns-m C)")
-        fit = FitResult.load(args.fit)
+        fit = FitResult.load(args.fit).require_usable(f"--fit {args.fit}")
     with StageProgress("ride") as progress:
         result = run_study(config, fit, args.fit, progress=progress)
+    doc = result.to_json()
+    # The recording the fit came from, so a report can tell a ride of another damper.
+    doc["fit_recording"] = fit.info.get("recording") if fit is not None else None
     try:
-        text = json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"
+        text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
     except ValueError as exc:
         raise ConfigError(f"the ride result cannot be written as JSON ({exc})") from None
     write_output(args.json, text, force=args.force, inputs=inputs)

@@ -1,0 +1,59 @@
+"""A recording's identity: the SHA-256 of its bytes (every file of the set, in order).
+
+Fit, diagnosis and ride results carry it, so a result given with another recording is
+recognised instead of being shown as that recording's (docs/fit.md, `info.recording`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import Any
+
+from shockdyno.errors import ConfigError, RecordingError
+from shockdyno.record.layout import set_paths
+
+CHUNK = 1 << 20
+
+
+def recording_sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    paths = set_paths(Path(path))
+    if not paths:
+        raise RecordingError(f"no such recording: {path}")
+    for p in paths:
+        try:
+            with p.open("rb") as fh:
+                while block := fh.read(CHUNK):
+                    digest.update(block)
+        except OSError as exc:
+            raise RecordingError(f"cannot read {p} ({exc.strerror})") from None
+    return digest.hexdigest()
+
+
+def recording_info(path: Path) -> dict[str, str]:
+    """What a result stores of the recording it was made from."""
+    return {"file": Path(path).name, "sha256": recording_sha256(path)}
+
+
+def stored_sha256(doc: Any, *keys: str) -> str | None:
+    """The hash a result document stores under the nested `keys`, if any."""
+    node = doc
+    for key in keys:
+        if not isinstance(node, dict):
+            return None
+        node = node.get(key)
+    return node if isinstance(node, str) and node else None
+
+
+def provenance(stored: str | None, actual: str, what: str, flag: str, force: bool) -> str:
+    """One line for the page on where a result came from; a result of another recording
+    is refused unless `force` (and then the line says so)."""
+    if stored is None:
+        return f"not checked: {what} was written before results carried their recording's hash"
+    if stored == actual:
+        return f"made from this recording (sha256 {actual[:12]})"
+    line = f"{what} was made from another recording (sha256 {stored[:12]}, this one {actual[:12]})"
+    if not force:
+        raise ConfigError(f"{flag}: {line}; use --force to show it anyway")
+    return f"FROM ANOTHER RECORDING: {line}; shown because of --force"

@@ -117,3 +117,19 @@ def parse_frequencies(text: str, what: str = "--freq") -> list[float]:
     """Test frequencies in (0, 50] Hz, in the order given."""
     freqs = parse_floats(text, what)
     return in_range(freqs, what, lambda f: 0 < f <= 50, "(0, 50] Hz")
+
+
+MAX_SEED = 2**32 - 1
+
+
+def seed_arg(text: str) -> int:
+    """argparse type of every --seed: a whole number 0..2³²-1 (NumPy's seeds)."""
+    import argparse
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a seed is a whole number, not {text!r}") from None
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"a seed is from 0 to {MAX_SEED}, not {value}")
+    return value

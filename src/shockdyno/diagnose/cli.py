@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
 from shockdyno.errors import ConfigError
+from shockdyno.lists import seed_arg
 
 
 def register(sub: Any) -> None:
@@ -41,7 +43,7 @@ def register(sub: Any) -> None:
     p.add_argument("--report", metavar="DIR", help="also write figures and index.html here")
     p.add_argument("--spec", metavar="PATH", help="base damper spec TOML (without --fit)")
     p.add_argument("--alpha", type=float, default=0.01, help="significance level of a claim")
-    p.add_argument("--seed", type=int, default=0, help="seed of the bootstrap")
+    p.add_argument("--seed", type=seed_arg, default=0, help="seed of the bootstrap")
     p.add_argument(
         "--force",
         action="store_true",
@@ -52,11 +54,15 @@ def register(sub: Any) -> None:
 
 
 def _candidates(text: str) -> tuple[str, ...]:
+    from shockdyno.fit.terms import split_terms
     from shockdyno.model.terms import LIBRARY
 
-    if text.strip() in ("", "all"):
+    items = split_terms(text)
+    if items == ["all"]:
         return tuple(LIBRARY)
-    names = tuple(dict.fromkeys(s.strip() for s in text.split(",") if s.strip()))
+    if "none" in items:
+        raise ConfigError("--terms none: diagnose needs at least one candidate term (or all)")
+    names = tuple(dict.fromkeys(items))
     for n in names:
         if n not in LIBRARY:
             raise ConfigError(f"--terms: unknown term {n!r} (one of {', '.join(LIBRARY)})")
@@ -118,13 +124,19 @@ def run_diagnose(args: argparse.Namespace) -> int:
     if fit is not None:
         stored = stored_sha256(fit.info, "recording", "sha256")
         fit_from = provenance(stored, recording["sha256"], "the fit", "--fit", args.force)
-    tests = open_recording(args.recording).require_recording().load_all()
+    rec = open_recording(args.recording).require_recording()
+    loss = rec.loss_note()
+    if loss:
+        print(f"warning: {args.recording}: {loss}", file=sys.stderr)
+    tests = rec.load_all()
     if not tests:
         raise ConfigError(f"{args.recording}: no tests to diagnose")
     with StageProgress("diagnose") as progress:
         d = diagnose(tests, fit, settings, progress, spec_path=args.spec)
     doc = to_json(d)
     doc["info"]["recording"] = recording
+    if loss:
+        doc["info"]["recording_loss"] = loss
     if fit_from is not None:
         doc["info"]["fit_provenance"] = fit_from
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"

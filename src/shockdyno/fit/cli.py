@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from shockdyno.errors import FitError
+from shockdyno.lists import seed_arg
 from shockdyno.outputs import check_output, check_report_dir, write_output
 
 # Beyond these a recording is not of a damper on a dyno (a unit mix-up or a corrupt file).
@@ -55,7 +56,7 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--spec", metavar="PATH", help="base damper spec TOML (default: sim/ohlins-s46.toml)"
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the GA (default 0)")
+    p.add_argument("--seed", type=seed_arg, default=0, help="seed of the GA (default 0)")
     p.add_argument(
         "--terms",
         default="sensor_lag",
@@ -192,7 +193,11 @@ def run_fit(args: argparse.Namespace) -> int:
         check_report_dir(Path(args.report), inputs, args.force)
     load_spec(args.spec)  # a bad spec or term list fails now, not after reading
     selection = parse_terms(args.terms)
-    tests = open_recording(args.recording).require_recording().load_all()
+    rec = open_recording(args.recording).require_recording()
+    loss = rec.loss_note()
+    if loss:
+        print(f"warning: {args.recording}: {loss}", file=sys.stderr)
+    tests = rec.load_all()
     check_fit_input(tests, args.recording)
     console = Console(stderr=True)
     with StageProgress("fit", console) as progress:
@@ -207,6 +212,8 @@ def run_fit(args: argparse.Namespace) -> int:
     from shockdyno.record.identity import recording_info
 
     result.info["recording"] = recording_info(Path(args.recording))
+    if loss:
+        result.info["recording_loss"] = loss
     text = result_json(result)  # a result that cannot be written fails before anything is
     # With --json -, stdout carries only the JSON; the human summary goes to stderr.
     human = Console(stderr=out is None)

@@ -27,11 +27,24 @@ class TermSelection:
         return tuple(t.name for t in self.terms)
 
 
+def split_terms(text: str) -> list[str]:
+    """The one `--terms` grammar of fit and diagnose: comma-separated names, none empty.
+    An empty list ("", ",", "a,,b") is an error, not a silent "none" or "all"."""
+    items = [s.strip() for s in text.split(",")]
+    if not any(items):
+        raise ConfigError(
+            f"--terms {text!r}: an empty list (give term names such as friction,sensor_lag; "
+            f"the library: {', '.join(LIBRARY)})"
+        )
+    if not all(items):
+        raise ConfigError(f"--terms {text!r}: an empty name between commas")
+    return items
+
+
 def parse_terms(text: str | None) -> TermSelection:
     """Parse `--terms`; unknown names are one-line ConfigErrors naming the library."""
-    raw = DEFAULT_TERMS if text is None else text
-    items = [s.strip() for s in raw.split(",") if s.strip()]
-    if items in ([], ["none"]):
+    items = split_terms(DEFAULT_TERMS if text is None else text)
+    if items == ["none"]:
         return TermSelection((), ())
     terms: dict[str, Term] = {}
     free: list[str] = []

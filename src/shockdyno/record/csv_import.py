@@ -568,14 +568,17 @@ def _import_locked(
         "import_options": json.dumps(options, sort_keys=True),
         **opts.metadata,
     }
-    with atomic_file(output, force) as tmp:
-        with RecordingWriter(tmp, metadata=metadata, overwrite=True) as writer:
-            for i, test in enumerate(tests):
-                if progress is not None:
-                    progress(f"write test {i + 1}/{len(tests)}", 0.5 + 0.5 * i / len(tests))
-                writer.begin_test(test.meta)
-                writer.write_samples(test.block)
-                writer.end_test(test.meta)
-        for p in stale:
-            p.unlink()
+    try:
+        with atomic_file(output, force) as tmp:
+            with RecordingWriter(tmp, metadata=metadata, overwrite=True) as writer:
+                for i, test in enumerate(tests):
+                    if progress is not None:
+                        progress(f"write test {i + 1}/{len(tests)}", 0.5 + 0.5 * i / len(tests))
+                    writer.begin_test(test.meta)
+                    writer.write_samples(test.block)
+                    writer.end_test(test.meta)
+            for p in stale:
+                p.unlink()
+    except RecordingError as exc:  # name the recording, not only its temporary file
+        raise RecordingError(f"-o {output}: {exc}") from None
     return [t.meta for t in tests]

@@ -71,8 +71,11 @@ def recording_lock(recording: Path) -> Iterator[None]:
             break
         os.close(fd)
     try:
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{os.getpid()}\n{' '.join(sys.argv)}\n".encode())
+        try:
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{os.getpid()}\n{' '.join(sys.argv)}\n".encode())
+        except OSError:
+            pass  # a full disk: the lock holds all the same, only its holder goes unnamed
         yield
     finally:
         try:

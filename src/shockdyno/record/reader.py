@@ -87,6 +87,25 @@ class Recording:
             self.events.extend(part.events)
             self.actuator.extend(part.actuator)
 
+    def loss_note(self) -> str | None:
+        """What a cut-off recording lost, in one line for an analysis to print (None when
+        it is whole): the tests interrupted mid-write are left out, and nothing after the
+        cut was written."""
+        if not self.truncated and not self.interrupted:
+            return None
+        problem = next((p.problem for p in self.parts if p.problem), "cut off")
+        lost = len(self.interrupted)
+        which = ", ".join(str(m.index) for m in self.interrupted)
+        return (
+            f"the recording is cut off ({problem}): {len(self.tests)} tests read; "
+            + (
+                f"{lost} interrupted mid-write left out (test {which}); "
+                if lost
+                else "no test was interrupted; "
+            )
+            + "any test after the cut was never written"
+        )
+
     def require_recording(self) -> Recording:
         """Refuse (one RecordingError line) a file that holds no shockdyno recording at all:
         empty, or an MCAP file some other program wrote. A cut-off recording passes."""

@@ -56,6 +56,15 @@ def _whole_records(method: Callable[P, R]) -> Callable[P, R]:
 
     @functools.wraps(method)
     def guarded(*args: P.args, **kwargs: P.kwargs) -> R:
+        try:
+            return _held(*args, **kwargs)
+        except OSError as exc:  # a full disk, a pulled USB stick: name the file
+            path = getattr(args[0], "path", "the recording") if args else "the recording"
+            raise RecordingError(
+                f"cannot write {path} ({exc.strerror or exc}); what was written before is kept"
+            ) from None
+
+    def _held(*args: P.args, **kwargs: P.kwargs) -> R:
         if threading.current_thread() is not threading.main_thread():
             return method(*args, **kwargs)
         handlers = {sig: signal.getsignal(sig) for sig in _GUARDED}

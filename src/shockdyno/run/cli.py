@@ -13,7 +13,7 @@ from rich.console import Console
 
 from shockdyno import __version__
 from shockdyno.errors import ConfigError, RigFault
-from shockdyno.lists import parse_clicks, parse_frequencies
+from shockdyno.lists import parse_clicks, parse_frequencies, seed_arg
 from shockdyno.model.spec import default_spec_path, load_spec
 from shockdyno.outputs import refuse_inputs
 from shockdyno.run.plan import SweepPlan, frequencies_for_velocities, parse_velocities_mm_s
@@ -66,7 +66,7 @@ def register(sub: Any) -> None:
     d.add_argument("--out-dir", type=Path, default=Path("recordings"), help="output directory")
     d.add_argument("--clicks", default="0-21:3", help="click settings, e.g. 0-21:3 or 0,5,10")
     d.add_argument("--speed", type=float, default=50.0, help=SPEED_HELP)
-    d.add_argument("--seed", type=int, default=0, help="simulated rig's noise seed")
+    d.add_argument("--seed", type=seed_arg, default=0, help="simulated rig's noise seed")
     d.add_argument("--cycles", type=int, default=5, help="measured cycles per test")
     d.add_argument("--no-fit", action="store_true", help="record and report only")
     d.add_argument("--table", action="store_true", help="only print the model's click table")
@@ -115,7 +115,7 @@ def register(sub: Any) -> None:
     )
     s.add_argument("--speed", type=float, default=1.0, help=f"with --start-sim: {SPEED_HELP}")
     s.add_argument("--scenario", type=Path, help="with --start-sim: extra physics, sim/scenarios/")
-    s.add_argument("--seed", type=int, default=0, help="with --start-sim")
+    s.add_argument("--seed", type=seed_arg, default=0, help="with --start-sim")
     s.set_defaults(func=cmd_sweep)
 
     r = sub.add_parser("replay", help="play a recording through the live view")

@@ -6,6 +6,7 @@ import argparse
 import sys
 import time
 
+from shockdyno.lists import seed_arg
 from shockdyno.rig.config import default_rig_path, load_rig
 from shockdyno.simrig.faults import parse_fault
 from shockdyno.simrig.server import start_sim_rig
@@ -32,7 +33,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         default=1.0,
         help="x real time: simulated seconds per wall-clock second",
     )
-    p.add_argument("--seed", type=int, default=0, help="noise seed (same seed, same bytes)")
+    p.add_argument("--seed", type=seed_arg, default=0, help="noise seed (same seed, same bytes)")
     p.add_argument(
         "--serial", choices=("socket", "pty", "both"), default="socket", help="DAQ transport"
     )

@@ -225,7 +225,7 @@ def describe(out: Path) -> str:
     return f"{''.join(status) or '-':<5} {len(rec.events):>3} ev {safe:<19} {cut:<6} {reason[:60]}"
 
 
-Action = Callable[[Any, subprocess.Popen[bytes]], None]
+Action = Callable[[Any, subprocess.Popen[bytes]], "str | None"]
 
 
 def case(name: str, action: Action, *, complete: int = 0, internal: bool = False) -> None:
@@ -240,7 +240,7 @@ def case(name: str, action: Action, *, complete: int = 0, internal: bool = False
             wait_running_test(out, proc, complete)
             time.sleep(0.3)
             t0 = time.monotonic()
-            action(sim, proc)
+            note = action(sim, proc)
             stopped, disabled = probe.times(t0, internal)
             code = proc.wait(timeout=30)
         finally:
@@ -249,6 +249,8 @@ def case(name: str, action: Action, *, complete: int = 0, internal: bool = False
                 proc.wait()
             probe.close()
         print(f"{name:<30} {stopped:>7.2f} {disabled:>8.2f} {code:>5}  {describe(out)}")
+        if note:
+            print(f"{'':<30} {note}")
 
 
 def inject(fault: Fault) -> Action:
@@ -263,6 +265,36 @@ def double_ctrl_c(sim: Any, proc: subprocess.Popen[bytes]) -> None:
     proc.send_signal(signal.SIGINT)
     time.sleep(0.1)
     proc.send_signal(signal.SIGINT)
+
+
+def rogue_control(*commands: str, enable: bool) -> Action:
+    """Another master's control word: 0 (disable), or stop / quick stop with enable set."""
+
+    def act(sim: Any, proc: subprocess.Popen[bytes]) -> None:
+        other = ModbusActuator(sim.rig_config())
+        other.connect()
+        try:
+            other.control(*commands, enable=enable)
+        finally:
+            other.close()
+
+    return act
+
+
+def second_writer(*extra: str) -> Action:
+    """A second `sweep` onto the recording being written (--resume, --force): it must be
+    refused, and the first must go on."""
+
+    def act(sim: Any, proc: subprocess.Popen[bytes]) -> str:
+        folder = Path(proc.args[proc.args.index("--rig") + 1]).parent
+        out = folder / "rec.mcap"
+        cmd = [*CLI, "sweep", "--rig", str(folder / "rig.toml"), "--clicks", "0", "--freq", "1",
+               "-o", str(out), *extra]  # fmt: skip
+        done = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=60)
+        said = (done.stderr.strip().splitlines() or ["(nothing)"])[-1]
+        return f"second sweep {' '.join(extra)}: exit {done.returncode}: {said[:110]}"
+
+    return act
 
 
 def rogue(values: dict[str, float], then_kill: bool = False) -> Action:
@@ -310,9 +342,14 @@ def table_sessions(quick: bool) -> None:
         ("2nd master: rod_clicks 21", rogue({"rod_clicks": 21}), {}),
         ("2nd master: watchdog 65535 ms", rogue({"heartbeat_timeout_ms": 65535}), {}),
         ("2nd master: watchdog, kill -9", rogue({"heartbeat_timeout_ms": 65535}, True), {}),
+        ("2nd master: disable (word 0)", rogue_control(enable=False), {}),
+        ("2nd master: stop", rogue_control("stop", enable=True), {}),
+        ("2nd master: quick stop", rogue_control("quick_stop", enable=True), {}),
+        ("concurrent writer: --resume", second_writer("--resume"), {}),
+        ("concurrent writer: --force", second_writer("--force"), {}),
     ]
     if quick:
-        cases = cases[7:12]
+        cases = cases[7:12] + cases[-5:]
     for name, action, kw in cases:
         case(name, action, **kw)
     print(

@@ -40,7 +40,7 @@ from shockdyno.diagnose.locate import Location, locate
 from shockdyno.diagnose.stats import MismatchStat, mismatch_test, noise_draws
 from shockdyno.errors import FitError
 from shockdyno.fit.metrics import error_metrics
-from shockdyno.fit.prepare import prepare_tests
+from shockdyno.fit.prepare import prepare_tests, whole_cycles
 from shockdyno.fit.problem import DEFAULT_GLOBALS, nominal_value
 from shockdyno.fit.result import FitResult
 from shockdyno.model.composite import DamperModel
@@ -398,7 +398,22 @@ def diagnose(
     report("prepare", 0.0)
     prepared, notes = prepare_tests(list(tests), s.objective_rate_hz)
     if not prepared:
-        raise FitError("no usable test to diagnose (each needs motion, force and 20 samples)")
+        raise FitError(
+            "no usable test to diagnose (each needs motion, force and 20 samples): "
+            + "; ".join(notes[:3])
+            + (f"; and {len(notes) - 3} more" if len(notes) > 3 else "")
+        )
+    # The mismatch test weighs each phase's mean against its scatter from cycle to
+    # cycle: a test of fewer than two cycles has no scatter to weigh against.
+    few = [p for p in prepared if whole_cycles(p.data) < 2]
+    prepared = [p for p in prepared if whole_cycles(p.data) >= 2]
+    if not prepared:
+        raise FitError(
+            f"no test has two whole cycles ({len(few)} shorter): with fewer there is no "
+            "cycle-to-cycle noise to test a mismatch against, so nothing can be claimed"
+        )
+    if few:
+        notes.append(f"{len(few)} tests of fewer than two cycles left out of the diagnosis")
     spec = fit.spec() if fit is not None else load_spec(spec_path)
     data = Data.build(spec, prepared, s.full_rate_hz)
     rng = np.random.default_rng(s.seed)

@@ -26,6 +26,28 @@ FloatArray = NDArray[np.float64]
 
 OBJECTIVE_RATE_HZ = 200.0
 MIN_SAMPLES = 20
+# A test moved when its half range is this many times the LVDT's noise: pure noise over
+# thousands of samples spans about ±4σ, so a parked ram's ±1 µm never passes, and a
+# 0.1 mm stroke on a 1 µm LVDT does.
+MOTION_SNR = 20.0
+
+
+def lvdt_noise_m(x: FloatArray) -> float:
+    """The displacement channel's noise σ from its third differences (robust MAD): a
+    smooth stroke contributes A ω³ dt³ to them, 2.5e-8 m for 30 mm at 1.5 Hz and 1 kHz,
+    far below any LVDT's noise, while white noise gives σ √20."""
+    if x.size < 8:
+        return 0.0
+    d3 = np.diff(x, 3)
+    return float(1.4826 * np.median(np.abs(d3 - np.median(d3))) / np.sqrt(20.0))
+
+
+def whole_cycles(d: TestData) -> float:
+    """How many cycles of its frequency the test's measured samples span."""
+    if d.t.size < 2 or not d.meta.frequency_hz > 0:
+        return 0.0
+    dt = float(d.t[1] - d.t[0])
+    return float((d.t[-1] - d.t[0] + dt) * d.meta.frequency_hz)
 
 
 @dataclass(frozen=True)
@@ -89,9 +111,23 @@ def prepare_tests(
                 f"test {m.index} ({m.clicks} clicks, {m.frequency_hz:g} Hz): too few samples"
             )
             continue
-        if float(np.ptp(d.x)) <= 0 or float(np.ptp(d.force)) <= 0:
-            notes.append(f"test {m.index} ({m.clicks} clicks): no motion or no force")
+        half = 0.5 * float(np.ptp(d.x))
+        noise = lvdt_noise_m(d.x)
+        if half <= MOTION_SNR * noise or half <= 0 or float(np.ptp(d.force)) <= 0:
+            why = (
+                "no force"
+                if half > MOTION_SNR * noise and half > 0
+                else f"no motion: the ram moved ±{half * 1e6:.3g} µm against "
+                f"{noise * 1e6:.2g} µm of LVDT noise"
+            )
+            notes.append(f"test {m.index} ({m.clicks} clicks, {m.frequency_hz:g} Hz): {why}")
             continue
+        cycles = whole_cycles(d)
+        if cycles < 2:
+            notes.append(
+                f"test {m.index} ({m.clicks} clicks, {m.frequency_hz:g} Hz): "
+                f"only {cycles:.2g} cycles measured (fewer than two)"
+            )
         v, a = differentiate(d.t, d.x)
         dt = float(d.t[1] - d.t[0])
         step = max(1, round(1.0 / (rate_hz * dt)))

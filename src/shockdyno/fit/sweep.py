@@ -92,7 +92,11 @@ def prepare_problem(
     base = load_spec(path)
     prepared, notes = prepare_tests(tests, objective_rate_hz)
     if not prepared:
-        raise FitError("no usable test to fit (each needs motion, force and 20 samples)")
+        raise FitError(
+            "no usable test to fit (each needs motion, force and 20 samples): "
+            + "; ".join(notes[:3])
+            + (f"; and {len(notes) - 3} more" if len(notes) > 3 else "")
+        )
     prob = StackedProblem(base, prepared)
     model = DamperModel(base, selection.terms)
     if model.term("position_force") is not None:

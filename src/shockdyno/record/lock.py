@@ -52,7 +52,7 @@ def recording_lock(recording: Path) -> Iterator[None]:
             fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         except OSError as exc:
             raise RecordingError(
-                f"{recording}: cannot create its lock {path} ({exc.strerror})"
+                f"-o {recording}: cannot create files in {path.parent} ({exc.strerror})"
             ) from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)

@@ -68,9 +68,45 @@ def _render_verdict(page: Page, verdict: Any) -> bool:
     unexplained = verdict.get("unexplained")
     if physics is not None:
         page.paragraph(f"Physics named: {_text(physics)}.")
-    if unexplained:
+    regions = _dicts(unexplained)
+    if regions:
+        page.paragraph(
+            "Still unexplained: " + "; ".join(region_text(r) for r in regions) + ".", warn=True
+        )
+    elif unexplained:
         page.paragraph(f"Still unexplained: {_text(unexplained)}.", warn=True)
     return True
+
+
+def region_text(r: dict[str, Any]) -> str:
+    """A region of DIAG.json in words: "in rebound at 15.6 to 29.2 mm, -0.097 to -0.036 m/s,
+    near reversal (1, 1.5 Hz; 25 % of the structure, 19 N RMS)"."""
+    x = _range(r.get("x_range_m"), 1e3, "mm")
+    head = " ".join(
+        w
+        for w in (
+            f"in {r['stroke']}" if isinstance(r.get("stroke"), str) else "",
+            f"at {x}" if x != "–" else "",
+        )
+        if w
+    )
+    where = [
+        head,
+        _range(r.get("v_range_m_s"), 1.0, "m/s"),
+        "near reversal" if r.get("near_reversal") is True else "",
+    ]
+    extra = []
+    freqs = r.get("frequencies_hz")
+    if isinstance(freqs, list) and freqs:
+        extra.append(f"{_text(freqs)} Hz")
+    share = _finite(r.get("share"))
+    if share is not None:
+        extra.append(f"{100 * share:.0f} % of the structure")
+    rms = _finite(r.get("rms_n"))
+    if rms is not None:
+        extra.append(f"{rms:.3g} N RMS")
+    text = ", ".join(w for w in where if w and w != "–")
+    return text + (f" ({'; '.join(extra)})" if extra else "")
 
 
 def _render_mismatch(page: Page, mismatch: Any) -> bool:

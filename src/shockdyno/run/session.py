@@ -136,6 +136,7 @@ class RigSession:
         # that stops before it (another master's stop or quick stop, its own panel) ends
         # the test, which is then never "complete".
         self._running_until: float | None = None
+        self._running_cycles = 0.0  # the cycles, ramps included, the drive must count
         self._fresh = False  # the latest DAQ read brought samples: the DAQ clock is current
 
     # -- events ------------------------------------------------------------------------
@@ -312,6 +313,7 @@ class RigSession:
                 end = t0 + total_s
                 # Half a cycle of slack: the ramp-out ends at `end` by the drive's clock.
                 self._running_until = end - 0.5 / frequency_hz
+                self._running_cycles = cycles + 2 * ramp
                 self._wait(
                     lambda s: self._t >= end + SETTLE_S and not self._motion and not s.running,
                     daq_budget_s=total_s + 2.0,
@@ -424,17 +426,26 @@ class RigSession:
                 )
             )
         until = self._running_until
-        # Judged on the DAQ clock, so only while it is current: a frozen DAQ's last sample
-        # is older than the drive, which may have ended the sine as planned meanwhile.
-        if until is None or not self._fresh or self._t >= until or st.running or st.fault:
+        if until is None or st.running or st.fault:
+            return
+        if st.cycle_count is not None:
+            # The drive's own count: a sine that ended as planned counted every cycle,
+            # whatever the DAQ stream (which lags the drive at a fast sim's speed) shows.
+            early = st.cycle_count < math.floor(self._running_cycles + 1e-9)
+            said = f"after {st.cycle_count} of {self._running_cycles:g} cycles"
+        else:
+            # Judged on the DAQ clock, so only while it is current: a frozen DAQ's last
+            # sample is older than the drive, which may have ended as planned meanwhile.
+            early = self._fresh and self._t < until
+            said = f"{until - self._t:.3g} s before its end"
+        if not early:
             return
         raise SafetyTrip(
             SafetyEvent(
                 self._t,
                 "drive_stopped",
-                f"the drive stopped the sine {until - self._t:.3g} s before its end "
-                f"(status word 0x{st.word:04x}): another Modbus master or the drive's "
-                "panel stopped it",
+                f"the drive stopped the sine {said} (status word 0x{st.word:04x}): another "
+                "Modbus master or the drive's panel stopped it",
             )
         )
 

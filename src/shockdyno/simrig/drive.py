@@ -120,7 +120,9 @@ class SimDrive:
     def cycle_count(self, t: float) -> int:
         if self.sine_end < 0:
             return 0
-        return int(min(max((t - self.t0) * self.frequency_hz, 0.0), self.total_cycles))
+        # Cycles run: a stopped sine counts no further than its stop.
+        ran = min(t, self.sine_end) - self.t0
+        return int(min(max(ran * self.frequency_hz, 0.0), self.total_cycles) + 1e-9)
 
     # -- events ------------------------------------------------------------------------
     def _stop_motion(self, t: float, ramp_s: float, cycles: float = 1.0) -> None:

@@ -1,0 +1,25 @@
+"""Unexplained regions read as words on the page, not as Python dicts (issue 21.8)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from shockdyno.report.build import build_report
+
+
+def test_unexplained_regions_are_words(tmp_path: Path) -> None:
+    region = {
+        "stroke": "rebound",
+        "x_range_m": [0.0156, 0.0292],
+        "v_range_m_s": [-0.097, -0.036],
+        "frequencies_hz": [1.0, 1.5],
+        "share": 0.25,
+        "rms_n": 19.0,
+        "near_reversal": True,
+    }
+    doc = {"verdict": {"physics": [], "unexplained": [region], "text": "Mismatch."}}
+    index = build_report([], tmp_path / "r", title="t", diagnose=doc)
+    html = index.read_text()
+    assert "in rebound at 15.6 to 29.2 mm, -0.097 to -0.036 m/s, near reversal" in html
+    assert "25 % of the structure" in html and "19 N RMS" in html
+    assert "{&#x27;stroke" not in html and "{'stroke" not in html and "x_range_m" not in html

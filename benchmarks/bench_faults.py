@@ -220,9 +220,12 @@ def describe(out: Path) -> str:
     starts = [i for i, (_, k, _) in enumerate(rec.events) if k == "start"]
     kinds = {k for _, k, _ in rec.events[starts[-1] if starts else 0 :]}  # after the last start
     safe = "+".join(k for k in ("stop", "centre", "disable") if k in kinds) or "-"
-    reason = next((m.extra.get("reason", "") for m in rec.tests if m.status != "complete"), "")
+    reason = next(
+        (m.abort_reason or m.extra.get("reason", "") for m in rec.tests if m.status != "complete"),
+        "",
+    )
     cut = "cut" if rec.truncated else "closed"
-    return f"{''.join(status) or '-':<5} {len(rec.events):>3} ev {safe:<19} {cut:<6} {reason[:60]}"
+    return f"{''.join(status) or '-':<5} {len(rec.events):>3} ev {safe:<19} {cut:<6} {reason[:110]}"
 
 
 Action = Callable[[Any, subprocess.Popen[bytes]], "str | None"]
@@ -292,7 +295,7 @@ def second_writer(*extra: str) -> Action:
                "-o", str(out), *extra]  # fmt: skip
         done = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=60)
         said = (done.stderr.strip().splitlines() or ["(nothing)"])[-1]
-        return f"second sweep {' '.join(extra)}: exit {done.returncode}: {said[:110]}"
+        return f"second sweep {' '.join(extra)}: exit {done.returncode}: {said[:170]}"
 
     return act
 

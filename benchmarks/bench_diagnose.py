@@ -45,7 +45,6 @@ times of [1] are inflated by the parallel cases. [3] runs alone, after [1].
 from __future__ import annotations
 
 import argparse
-import concurrent.futures as cf
 import json
 import math
 import os
@@ -60,6 +59,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from shockdyno.batch.runner import map_tasks
 
 ROOT = Path(__file__).resolve().parents[1]
 CLI = str(Path(sys.executable).with_name("shockdyno"))
@@ -457,10 +458,19 @@ def speed(workdir: Path) -> None:
     )
 
 
+def _run_item(item: tuple[Case, str, str]) -> Row:
+    return run_case(*item)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="1 seed, 2 strengths, no pairs")
-    ap.add_argument("--jobs", type=int, default=2, help="cases run in parallel (default 2)")
+    ap.add_argument(
+        "--jobs", type=int, default=2, help="local Dask workers: cases in parallel (default 2)"
+    )
+    ap.add_argument(
+        "--scheduler", metavar="ADDRESS", help="run the cases on this Dask cluster instead"
+    )
     ap.add_argument("--no-speed", action="store_true", help="skip [3]")
     ap.add_argument("--only-speed", action="store_true", help="only [3]")
     ap.add_argument(
@@ -501,18 +511,19 @@ def main() -> None:
     t0 = time.perf_counter()
     rows: list[Row] = []
     try:
-        with cf.ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-            futs = {
-                pool.submit(run_case, c, str(workdir), f"{i:03d}"): c
-                for i, c in sorted(enumerate(cases), key=lambda ic: run_order(ic[1]))
-            }
-            for fut in cf.as_completed(futs):
-                try:
-                    row = fut.result()
-                except Exception as exc:  # a crashed worker
-                    row = Row(futs[fut], error=f"{type(exc).__name__}: {exc}"[:160])
-                rows.append(row)
-                print_row(row)
+        # Through the batch runner (shockdyno.batch): a local Dask cluster of --jobs
+        # workers, or --scheduler's; a case whose worker dies runs again elsewhere.
+        ordered = sorted(enumerate(cases), key=lambda ic: run_order(ic[1]))
+        items = [(c, str(workdir), f"{i:03d}") for i, c in ordered]
+        for item, got in map_tasks(
+            _run_item, items, scheduler=args.scheduler, workers=max(1, args.jobs)
+        ):
+            if isinstance(got, BaseException):  # a crashed case
+                row = Row(item[0], error=f"{type(got).__name__}: {got}"[:160])
+            else:
+                row = got
+            rows.append(row)
+            print_row(row)
         order = {c.name: i for i, c in enumerate(cases)}
         rows.sort(key=lambda r: order[r.case.name])
         print(f"\nper recording ({time.perf_counter() - t0:.0f} s for [1] and [2]):")

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 from rich.console import Console
 
+from shockdyno.batch.runner import map_tasks
 from shockdyno.fit import fit_sweep
 from shockdyno.model.spec import default_spec_path
 from shockdyno.record import open_recording
@@ -110,12 +111,33 @@ def record(out: Path, case: Case, seed: int) -> tuple[list[TestData], Path | Non
     return open_recording(out).load_all(), spec
 
 
+def record_and_fit(
+    item: tuple[Case, int, str],
+) -> tuple[dict[str, tuple[float, float]], float, float]:
+    """One recording of `case` with `seed`, fitted: each true parameter's (value, σ), and the
+    recording's and the fit's seconds. A batch task (shockdyno.batch.runner.map_tasks)."""
+    case, seed, tmpdir = item
+    t0 = time.perf_counter()
+    tests, spec = record(Path(tmpdir) / f"{case.name}-{seed}.mcap", case, seed)
+    t1 = time.perf_counter()
+    fit = fit_sweep(tests, spec, terms=case.terms)
+    t2 = time.perf_counter()
+    got = {}
+    for q in case.truth:
+        term, _, name = q.partition(".")
+        e = fit.terms[term][name]
+        got[q] = (e.value, e.sd)
+    return got, t1 - t0, t2 - t1
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument(
         "--case", action="append", choices=[c.name for c in CASES], help="only these cases"
     )
+    ap.add_argument("--jobs", type=int, default=1, help="local Dask workers (default 1)")
+    ap.add_argument("--scheduler", metavar="ADDRESS", help="run on this Dask cluster instead")
     args = ap.parse_args()
     cases = [c for c in CASES if not args.case or c.name in args.case]
     print(f"{args.seeds} recordings per case (seeds 101..), sweep {PLAN.clicks} x 0.5/1/1.5 Hz")
@@ -123,18 +145,20 @@ def main() -> None:
         for case in cases:
             values: dict[str, list[tuple[float, float]]] = {q: [] for q in case.truth}
             rec_s, fit_s = [], []
-            for seed in range(101, 101 + args.seeds):
-                t0 = time.perf_counter()
-                tests, spec = record(Path(tmpdir) / f"{case.name}-{seed}.mcap", case, seed)
-                t1 = time.perf_counter()
-                fit = fit_sweep(tests, spec, terms=case.terms)
-                t2 = time.perf_counter()
-                rec_s.append(t1 - t0)
-                fit_s.append(t2 - t1)
-                for q in case.truth:
-                    term, _, name = q.partition(".")
-                    e = fit.terms[term][name]
-                    values[q].append((e.value, e.sd))
+            items = [(case, seed, tmpdir) for seed in range(101, 101 + args.seeds)]
+            # Through the batch runner: one task a recording, on --jobs local workers or
+            # --scheduler's cluster (timings are then each task's own).
+            for item, result in map_tasks(
+                record_and_fit, items, scheduler=args.scheduler, workers=max(1, args.jobs)
+            ):
+                if isinstance(result, BaseException):
+                    print(f"  {case.name} seed {item[1]}: failed: {result}")
+                    continue
+                got, rec, fit_t = result
+                rec_s.append(rec)
+                fit_s.append(fit_t)
+                for q, pair in got.items():
+                    values[q].append(pair)
             print(
                 f"\n{case.name} ({case.terms}): fit {np.mean(fit_s):.1f} s per recording, "
                 f"{np.mean(fit_s) / np.mean(rec_s):.2f}x the recording's {np.mean(rec_s):.1f} s"

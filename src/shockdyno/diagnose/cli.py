@@ -92,17 +92,62 @@ def _summary(doc: dict[str, Any]) -> Any:
     return table
 
 
-def run_diagnose(args: argparse.Namespace) -> int:
-    from rich.console import Console
-
+def diagnose_file(
+    recording: Path,
+    *,
+    fit_path: str | None = None,
+    spec: str | None = None,
+    alpha: float = 0.01,
+    seed: int = 0,
+    terms: str = "all",
+    force: bool = False,
+    progress: Any = None,
+    warn: Any = None,
+) -> tuple[Any, dict[str, Any]]:
+    """`shockdyno diagnose` on one recording, as `batch diagnose` runs it too: the
+    Diagnosis and its DIAG.json document (with `info.recording` and the fit's
+    provenance)."""
     from shockdyno.diagnose.engine import Settings, diagnose
     from shockdyno.diagnose.verdict import to_json
     from shockdyno.fit.result import FitResult
     from shockdyno.model import load_spec
-    from shockdyno.outputs import check_output, check_report_dir, write_output
-    from shockdyno.progress import StageProgress
     from shockdyno.record import open_recording
     from shockdyno.record.identity import provenance, recording_info, stored_sha256
+
+    if not 0 < alpha < 1:
+        raise ConfigError(f"--alpha must be between 0 and 1, got {alpha}")
+    settings = Settings(alpha=alpha, seed=seed, candidates=_candidates(terms))
+    fit = FitResult.load(fit_path).require_usable(f"--fit {fit_path}") if fit_path else None
+    if fit is None:
+        load_spec(spec)  # a bad spec fails before reading the recording
+    info = recording_info(recording)
+    fit_from = None
+    if fit is not None:
+        stored = stored_sha256(fit.info, "recording", "sha256")
+        fit_from = provenance(stored, info["sha256"], "the fit", "--fit", force)
+    rec = open_recording(recording).require_recording()
+    loss = rec.loss_note()
+    if loss and warn is not None:
+        warn(f"warning: {recording}: {loss}")
+    tests = rec.load_all()
+    if not tests:
+        raise ConfigError(f"{recording}: no tests to diagnose")
+    d = diagnose(tests, fit, settings, progress, spec_path=spec)
+    doc = to_json(d)
+    doc["info"]["recording"] = info
+    if loss:
+        doc["info"]["recording_loss"] = loss
+    if fit_from is not None:
+        doc["info"]["fit_provenance"] = fit_from
+    return d, doc
+
+
+def run_diagnose(args: argparse.Namespace) -> int:
+    from rich.console import Console
+
+    from shockdyno.model import load_spec
+    from shockdyno.outputs import check_output, check_report_dir, write_output
+    from shockdyno.progress import StageProgress
     from shockdyno.record.layout import set_paths
 
     inputs = [
@@ -115,30 +160,21 @@ def run_diagnose(args: argparse.Namespace) -> int:
         check_report_dir(Path(args.report), inputs, args.force)
     if not 0 < args.alpha < 1:
         raise ConfigError(f"--alpha must be between 0 and 1, got {args.alpha}")
-    settings = Settings(alpha=args.alpha, seed=args.seed, candidates=_candidates(args.terms))
-    fit = FitResult.load(args.fit).require_usable(f"--fit {args.fit}") if args.fit else None
-    if fit is None:
+    if args.fit is None:
         load_spec(args.spec)  # a bad spec fails before reading the recording
-    recording = recording_info(Path(args.recording))
-    fit_from = None
-    if fit is not None:
-        stored = stored_sha256(fit.info, "recording", "sha256")
-        fit_from = provenance(stored, recording["sha256"], "the fit", "--fit", args.force)
-    rec = open_recording(args.recording).require_recording()
-    loss = rec.loss_note()
-    if loss:
-        print(f"warning: {args.recording}: {loss}", file=sys.stderr)
-    tests = rec.load_all()
-    if not tests:
-        raise ConfigError(f"{args.recording}: no tests to diagnose")
+    _candidates(args.terms)  # a bad list fails before anything is read
     with StageProgress("diagnose") as progress:
-        d = diagnose(tests, fit, settings, progress, spec_path=args.spec)
-    doc = to_json(d)
-    doc["info"]["recording"] = recording
-    if loss:
-        doc["info"]["recording_loss"] = loss
-    if fit_from is not None:
-        doc["info"]["fit_provenance"] = fit_from
+        d, doc = diagnose_file(
+            Path(args.recording),
+            fit_path=args.fit,
+            spec=args.spec,
+            alpha=args.alpha,
+            seed=args.seed,
+            terms=args.terms,
+            force=args.force,
+            progress=progress,
+            warn=lambda line: print(line, file=sys.stderr),
+        )
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
     write_output(args.json, text, force=args.force, inputs=inputs)
     shown = Console(stderr=out is None)

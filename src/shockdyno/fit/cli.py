@@ -176,10 +176,46 @@ def _globals_table(result: Any) -> Any:
     return table
 
 
+def fit_file(
+    recording: Path,
+    *,
+    spec: str | None = None,
+    optimizer: str = "fast",
+    seed: int = 0,
+    terms: str | None = None,
+    progress: Any = None,
+    warn: Any = None,
+) -> tuple[Any, list[Any]]:
+    """`shockdyno fit` on one recording, as `batch fit` runs it too: the FitResult (with
+    `info.recording` and any `info.recording_loss`) and the tests it read."""
+    from shockdyno.fit.sweep import fit_sweep
+    from shockdyno.fit.terms import parse_terms
+    from shockdyno.record import open_recording
+    from shockdyno.record.identity import recording_info
+
+    rec = open_recording(recording).require_recording()
+    loss = rec.loss_note()
+    if loss and warn is not None:
+        warn(f"warning: {recording}: {loss}")
+    tests = rec.load_all()
+    check_fit_input(tests, str(recording))
+    result = fit_sweep(
+        tests,
+        spec_path=spec,
+        optimizer=optimizer,
+        seed=seed,
+        progress=progress,
+        terms=parse_terms(terms),
+    )
+    result.info["recording"] = recording_info(recording)
+    if loss:
+        result.info["recording_loss"] = loss
+    return result, tests
+
+
 def run_fit(args: argparse.Namespace) -> int:
     from rich.console import Console
 
-    from shockdyno.fit.sweep import fit_sweep
     from shockdyno.fit.terms import parse_terms
     from shockdyno.fit.validate import table4_table
     from shockdyno.model import load_spec
@@ -192,28 +228,18 @@ def run_fit(args: argparse.Namespace) -> int:
     if args.report:
         check_report_dir(Path(args.report), inputs, args.force)
     load_spec(args.spec)  # a bad spec or term list fails now, not after reading
-    selection = parse_terms(args.terms)
-    rec = open_recording(args.recording).require_recording()
-    loss = rec.loss_note()
-    if loss:
-        print(f"warning: {args.recording}: {loss}", file=sys.stderr)
-    tests = rec.load_all()
-    check_fit_input(tests, args.recording)
+    parse_terms(args.terms)
     console = Console(stderr=True)
     with StageProgress("fit", console) as progress:
-        result = fit_sweep(
-            tests,
-            spec_path=args.spec,
+        result, tests = fit_file(
+            Path(args.recording),
+            spec=args.spec,
             optimizer=args.optimizer,
             seed=args.seed,
+            terms=args.terms,
             progress=progress,
-            terms=selection,
+            warn=lambda line: print(line, file=sys.stderr),
         )
-    from shockdyno.record.identity import recording_info
-
-    result.info["recording"] = recording_info(Path(args.recording))
-    if loss:
-        result.info["recording_loss"] = loss
     text = result_json(result)  # a result that cannot be written fails before anything is
     # With --json -, stdout carries only the JSON; the human summary goes to stderr.
     human = Console(stderr=out is None)

@@ -21,30 +21,14 @@ if TYPE_CHECKING:
     from shockdyno.rig.config import RigConfig
 
 
-def record_sweep(
-    rig: RigConfig,
-    plan: SweepPlan,
-    output: Path,
-    *,
-    metadata: dict[str, str],
-    overwrite: bool = False,
-    resume: bool = False,
-    console: Console | None = None,
-) -> Any:
-    """Run the plan on the rig into the recording; returns the SweepResult. The recording
-    has one writer: a second sweep, resume or --force on it is refused (record/lock.py)."""
+def record_sweep(rig: RigConfig, plan: SweepPlan, output: Path, **options: Any) -> Any:
+    """Run the plan on the rig into the recording; returns the SweepResult (`options`:
+    `_record_sweep`'s). The recording has one writer: a second sweep, resume or --force
+    on it is refused (record/lock.py)."""
     from shockdyno.record.lock import recording_lock
 
     with recording_lock(output):
-        return _record_sweep(
-            rig,
-            plan,
-            output,
-            metadata=metadata,
-            overwrite=overwrite,
-            resume=resume,
-            console=console,
-        )
+        return _record_sweep(rig, plan, output, **options)
 
 
 def _record_sweep(

@@ -1,0 +1,1 @@
+"""Batch runs of fit, diagnose and report on Dask distributed (`shockdyno batch`)."""

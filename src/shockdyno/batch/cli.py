@@ -1,0 +1,131 @@
+"""`shockdyno batch fit|diagnose|report PATHS... --out DIR [--scheduler ADDRESS] [--workers N]`."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from shockdyno.batch.jobs import KINDS
+from shockdyno.errors import ConfigError
+from shockdyno.lists import seed_arg
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "batch",
+        help="fit, diagnose or report many recordings on Dask (local cluster or a scheduler)",
+        description=(
+            "Run `fit`, `diagnose` or `report` on every recording in PATHS (files, folders, "
+            "globs), one task a recording, on Dask distributed: an embedded local cluster of "
+            "processes, or an existing cluster (--scheduler). Writes DIR/NAME.fit.json, "
+            "NAME.diag.json or NAME/index.html, and DIR/results.parquet and results.csv. "
+            "A recording whose result exists for the same content, options and version is "
+            "skipped; a bad recording is a row with its error (docs/batch.md)."
+        ),
+    )
+    p.add_argument("kind", choices=KINDS)
+    p.add_argument("paths", nargs="+", metavar="PATHS")
+    p.add_argument("--out", required=True, type=Path, metavar="DIR")
+    p.add_argument(
+        "--scheduler", metavar="ADDRESS", help="an existing cluster, e.g. tcp://10.0.0.5:8786"
+    )
+    p.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="worker processes of the local cluster (default: the machine's cores)",
+    )
+    g = p.add_argument_group("options passed to each command")
+    g.add_argument("--terms", metavar="LIST", help="fit: default sensor_lag; diagnose: all")
+    g.add_argument("--spec", metavar="PATH", help="base damper spec TOML")
+    g.add_argument("--alpha", type=float, default=0.01, help="diagnose: significance")
+    g.add_argument("--seed", type=seed_arg, default=0)
+    g.add_argument("--optimizer", choices=("fast", "ga"), default="fast", help="fit")
+    g.add_argument(
+        "--fit",
+        metavar="FILE|DIR",
+        help="diagnose/report: a fit JSON for all, or a folder of NAME.fit.json (a batch fit's)",
+    )
+    p.set_defaults(func=run)
+
+
+def _options(args: argparse.Namespace) -> dict[str, Any]:
+    from shockdyno.fit.terms import parse_terms
+
+    opts: dict[str, Any] = {"seed": args.seed}
+    if args.spec:
+        opts["spec"] = str(Path(args.spec).resolve())
+    if args.fit:
+        opts["fit"] = str(Path(args.fit).resolve())
+    if args.kind == "fit":
+        opts["optimizer"] = args.optimizer
+        if args.terms is not None:
+            parse_terms(args.terms)  # refused now, not once per recording
+            opts["terms"] = args.terms
+    if args.kind == "diagnose":
+        from shockdyno.diagnose.cli import _candidates
+
+        if not 0 < args.alpha < 1:
+            raise ConfigError(f"--alpha must be between 0 and 1, got {args.alpha}")
+        opts["alpha"] = args.alpha
+        opts["terms"] = args.terms or "all"
+        _candidates(opts["terms"])
+    return opts
+
+
+def run(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+    from shockdyno.batch.runner import collect, plan_jobs, run_batch
+
+    if args.workers is not None and args.workers < 1:
+        raise ConfigError(f"--workers must be at least 1, got {args.workers}")
+    out: Path = args.out
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {out}: is a file, not a directory")
+    options = _options(args)
+    recordings = collect(args.paths)
+    jobs = plan_jobs(args.kind, recordings, out.resolve(), options)
+    console = Console(stderr=True)
+    counts = {"done": 0, "skipped": 0, "failed": 0}
+    with Progress(
+        TextColumn("batch " + args.kind),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[counts]}"),
+        console=console,
+        disable=not console.is_terminal,
+    ) as bar:
+        task = bar.add_task("batch", total=len(jobs), counts="")
+
+        def progress(row: dict[str, Any], n: int, total: int) -> None:
+            counts[row["status"]] = counts.get(row["status"], 0) + 1
+            text = ", ".join(f"{v} {k}" for k, v in counts.items()) + f", {total - n} to go"
+            bar.update(task, completed=n, counts=text)
+            if not console.is_terminal:
+                line = f"batch: {n}/{total} {row['status']} {row['name']}"
+                print(line + (f": {row['error']}" if row["error"] else ""), file=sys.stderr)
+
+        def on_cluster(link: str) -> None:
+            where = args.scheduler or f"local cluster, {args.workers or 'all'} workers"
+            console.print(f"batch: {len(jobs)} recordings on {where}; dashboard {link}")
+
+        rows = run_batch(
+            jobs,
+            out,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            progress=progress,
+            on_cluster=on_cluster,
+        )
+    failed = [r for r in rows if r["status"] == "failed"]
+    print(
+        f"batch {args.kind}: {counts['done']} done, {counts['skipped']} skipped, "
+        f"{len(failed)} failed of {len(jobs)}; table {out / 'results.parquet'} and .csv"
+    )
+    for r in failed:
+        print(f"  failed {r['path']}: {r['error']}")
+    return 3 if failed else 0

@@ -1,0 +1,215 @@
+"""One recording, one task: what a Dask worker runs for `batch fit|diagnose|report`.
+
+A task writes the same file the single command writes (`NAME.fit.json`,
+`NAME.diag.json`, `NAME/index.html`), atomically, then a key file
+(`.batch/NAME.KIND.json`: the recording's hash, the options and the version) that lets a
+re-run skip it. A task that dies between the two leaves a complete result and no key:
+the re-run writes the same result again, atomically, and nothing is written twice into
+one file. Every error becomes the row's one-line `error`, never the batch's end.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from shockdyno import __version__
+from shockdyno.errors import ShockdynoError
+from shockdyno.record.atomic import write_text_atomic
+
+KINDS = ("fit", "diagnose", "report")
+SUFFIX = {"fit": ".fit.json", "diagnose": ".diag.json", "report": "/index.html"}
+# Test-only: seconds a task waits before its work, so a test can kill a worker while it
+# holds one. Unset in normal use.
+DELAY_ENV = "SHOCKDYNO_BATCH_TEST_DELAY_S"
+
+
+@dataclass(frozen=True)
+class Job:
+    kind: str
+    recording: str
+    name: str  # the result's file name stem in the output folder
+    sha256: str
+    out_dir: str
+    options: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def result_path(self) -> Path:
+        return Path(self.out_dir) / f"{self.name}{SUFFIX[self.kind]}"
+
+    @property
+    def key_path(self) -> Path:
+        return Path(self.out_dir) / ".batch" / f"{self.name}.{self.kind}.json"
+
+    def key(self) -> dict[str, Any]:
+        return {"sha256": self.sha256, "options": self.options, "version": __version__}
+
+
+@dataclass
+class Row:
+    """One line of results.parquet / results.csv."""
+
+    path: str
+    name: str
+    sha256: str
+    kind: str
+    status: str  # done | skipped | failed
+    error: str = ""
+    damper_id: str = ""
+    clicks: str = ""
+    frequencies_hz: str = ""
+    e_t_before: float | None = None
+    e_t_after: float | None = None
+    physics: str = ""
+    calibration: str = ""
+    result: str = ""
+    wall_s: float = 0.0
+    version: str = __version__
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def done_already(job: Job) -> bool:
+    """The result exists and was made from the same bytes, options and version."""
+    try:
+        stored = json.loads(job.key_path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return bool(stored == job.key() and job.result_path.exists())
+
+
+def run_job(job: Job) -> dict[str, Any]:
+    """The worker's task: the row of one recording (never raises for a bad recording)."""
+    t0 = time.perf_counter()
+    row = Row(job.recording, job.name, job.sha256, job.kind, "done")
+    try:
+        if done_already(job):
+            row.status = "skipped"
+            _describe(row, job)
+            return row.as_dict()
+        delay = float(os.environ.get(DELAY_ENV, "0") or 0)
+        if delay > 0:
+            time.sleep(delay)
+        _RUN[job.kind](job, row)
+        job.key_path.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(job.key_path, json.dumps(job.key(), sort_keys=True) + "\n")
+        row.result = str(job.result_path)
+    except Exception as exc:  # one bad recording is a row, never the batch's end
+        row.status = "failed"
+        text = " ".join(str(exc).split())[:500]
+        row.error = text if isinstance(exc, ShockdynoError) else f"{type(exc).__name__}: {text}"
+    row.wall_s = time.perf_counter() - t0
+    return row.as_dict()
+
+
+def _fit(job: Job, row: Row) -> None:
+    from shockdyno.fit.cli import fit_file, result_json
+
+    o = job.options
+    result, tests = fit_file(
+        Path(job.recording),
+        spec=o.get("spec"),
+        optimizer=o.get("optimizer", "fast"),
+        seed=int(o.get("seed", 0)),
+        terms=o.get("terms"),
+    )
+    write_text_atomic(job.result_path, result_json(result))
+    _from_tests(row, tests)
+    e_t = [t.proposed.get("E_t") for t in result.tests]
+    row.e_t_after = _mean(e_t)
+    row.physics = ";".join(sorted(result.terms))
+    moved = {k: v for k, v in result.globals.items()}
+    row.calibration = ";".join(f"{k}={v:.6g}" for k, v in sorted(moved.items()))
+
+
+def _diagnose(job: Job, row: Row) -> None:
+    from shockdyno.diagnose.cli import diagnose_file
+
+    o = job.options
+    d, doc = diagnose_file(
+        Path(job.recording),
+        fit_path=_fit_for(job),
+        spec=o.get("spec"),
+        alpha=float(o.get("alpha", 0.01)),
+        seed=int(o.get("seed", 0)),
+        terms=o.get("terms", "all"),
+    )
+    write_text_atomic(job.result_path, json.dumps(doc, indent=2, allow_nan=False) + "\n")
+    _from_tests(row, [p.data for p in d.data.prepared])
+    _from_diag(row, doc)
+
+
+def _report(job: Job, row: Row) -> None:
+    from shockdyno.fit.result import FitResult
+    from shockdyno.record import open_recording
+    from shockdyno.report.build import build_report
+
+    rec = open_recording(job.recording).require_recording()
+    tests = rec.load_all()
+    fit_path = _fit_for(job)
+    fit = FitResult.load(fit_path).require_usable(f"--fit {fit_path}") if fit_path else None
+    diag_path = Path(job.out_dir) / f"{job.name}.diag.json"
+    diag = json.loads(diag_path.read_text()) if diag_path.exists() else None
+    out = Path(job.out_dir) / job.name
+    title = f"{rec.metadata.get('damper_id') or job.name}: dyno report"
+    metadata = {"recording": Path(job.recording).name, **rec.metadata}
+    build_report(tests, out, title=title, metadata=metadata, fit=fit, diagnose=diag)
+    _from_tests(row, tests)
+    row.damper_id = rec.metadata.get("damper_id", "")
+    if diag is not None:
+        _from_diag(row, diag)
+
+
+_RUN = {"fit": _fit, "diagnose": _diagnose, "report": _report}
+
+
+def _fit_for(job: Job) -> str | None:
+    """--fit: a file for every recording, or a folder of NAME.fit.json (a batch fit's)."""
+    given = job.options.get("fit")
+    if not given:
+        return None
+    p = Path(given)
+    if p.is_dir():
+        candidate = p / f"{job.name}.fit.json"
+        return str(candidate) if candidate.exists() else None
+    return str(p)
+
+
+def _describe(row: Row, job: Job) -> None:
+    """A skipped row still says what the result holds."""
+    try:
+        doc = json.loads(job.result_path.read_text())
+    except (OSError, ValueError):
+        return
+    row.result = str(job.result_path)
+    if job.kind == "diagnose" and isinstance(doc, dict):
+        _from_diag(row, doc)
+
+
+def _from_tests(row: Row, tests: list[Any]) -> None:
+    metas = [t.meta for t in tests]
+    row.clicks = ",".join(str(c) for c in sorted({m.clicks for m in metas}))
+    row.frequencies_hz = ",".join(f"{f:g}" for f in sorted({m.frequency_hz for m in metas}))
+
+
+def _from_diag(row: Row, doc: dict[str, Any]) -> None:
+    verdict = doc.get("verdict", {})
+    row.physics = ";".join(verdict.get("physics", []))
+    row.calibration = ";".join(
+        f"{r['parameter']}={r['fitted'] / r['spec_value']:.3g}x"
+        for r in verdict.get("calibration", [])
+        if r.get("moved") and r.get("spec_value")
+    )
+    tests = doc.get("tests", [])
+    row.e_t_before = _mean([t.get("E_t_before") for t in tests])
+    row.e_t_after = _mean([t.get("E_t_after") for t in tests])
+
+
+def _mean(values: list[Any]) -> float | None:
+    ok = [float(v) for v in values if isinstance(v, int | float)]
+    return sum(ok) / len(ok) if ok else None

@@ -1,0 +1,157 @@
+"""`shockdyno batch` on real Dask clusters (issue 18): a LocalCluster of 2 worker processes,
+and a `dask scheduler` with two `dask worker` processes on 127.0.0.1, one of them killed
+while it holds a task. The batch's JSONs equal the single command's (wall time aside); a
+bad recording is a row with its error; a re-run skips what is done."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from shockdyno.batch.table import read_table
+
+REPO = Path(__file__).resolve().parents[2]
+CLI = [sys.executable, "-m", "shockdyno.cli"]
+MANIFEST = REPO / "recordings" / "examples" / "csv" / "manifest.csv"
+pytestmark = pytest.mark.timeout(240)
+
+
+def _cli(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [*CLI, *args], capture_output=True, text=True, timeout=200, cwd=REPO, env=env
+    )
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Four small recordings (one damper id each), a foreign file and a cut-off one."""
+    root = tmp_path_factory.mktemp("batch-in")
+    for i in range(4):
+        done = _cli("import", str(MANIFEST), "-o", str(root / f"r{i}.mcap"), "--meta",
+                    f"damper_id=D{i}")  # fmt: skip
+        assert done.returncode == 0, done.stderr
+    (root / "bad.mcap").write_text("not a recording\n")
+    data = (root / "r0.mcap").read_bytes()
+    (root / "cut.mcap").write_bytes(data[:200])  # the header and nothing more
+    return root
+
+
+def _without_wall(doc: dict) -> dict:  # type: ignore[type-arg]
+    doc = json.loads(json.dumps(doc))
+    doc["info"].pop("wall_s", None)
+    return doc
+
+
+def test_a_local_cluster_batch_is_the_single_command_and_resumes(
+    recordings: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    done = _cli("batch", "fit", str(recordings), "--out", str(out), "--workers", "2")
+    assert done.returncode == 3, done.stderr  # the two bad files failed; the rest ran
+    rows = {r["name"]: r for r in read_table(out)}
+    assert set(rows) == {"r0", "r1", "r2", "r3", "bad", "cut"}
+    for name in ("r0", "r1", "r2", "r3"):
+        assert rows[name]["status"] == "done" and rows[name]["clicks"] == "0,21"
+        single = tmp_path / f"{name}.json"
+        one = _cli("fit", str(recordings / f"{name}.mcap"), "--json", str(single))
+        assert one.returncode == 0, one.stderr
+        batch_doc = json.loads((out / f"{name}.fit.json").read_text())
+        assert _without_wall(batch_doc) == _without_wall(json.loads(single.read_text()))
+    for name in ("bad", "cut"):
+        assert rows[name]["status"] == "failed"
+        assert rows[name]["error"] and "\n" not in rows[name]["error"]
+    assert "not an MCAP file" in rows["bad"]["error"]
+    csv = (out / "results.csv").read_text().splitlines()
+    assert len(csv) == 7 and csv[0].startswith('"path","name","sha256"')
+    # A re-run skips every result made from the same bytes, options and version.
+    mtimes = {p.name: p.stat().st_mtime_ns for p in out.glob("*.fit.json")}
+    again = _cli("batch", "fit", str(recordings), "--out", str(out), "--workers", "2")
+    assert again.returncode == 3
+    rows = {r["name"]: r["status"] for r in read_table(out)}
+    assert [rows[f"r{i}"] for i in range(4)] == ["skipped"] * 4
+    assert {p.name: p.stat().st_mtime_ns for p in out.glob("*.fit.json")} == mtimes
+    # Other options are another result: not skipped.
+    other = _cli("batch", "fit", str(recordings / "r0.mcap"), "--out", str(out), "--workers",
+                 "1", "--terms", "none")  # fmt: skip
+    assert other.returncode == 0 and read_table(out)[0]["status"] == "done"
+
+
+def _start(cmd: list[str], env: dict[str, str]) -> subprocess.Popen[bytes]:
+    return subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def test_a_scheduler_with_two_workers_survives_a_killed_worker(
+    recordings: Path, tmp_path: Path
+) -> None:
+    sched_file = tmp_path / "scheduler.json"
+    env = {**os.environ, "SHOCKDYNO_BATCH_TEST_DELAY_S": "5"}
+    py = [sys.executable, "-m"]
+    scheduler = _start(
+        [*py, "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0",
+         "--dashboard-address", "127.0.0.1:0", "--scheduler-file", str(sched_file)],
+        env,
+    )  # fmt: skip
+    workers: list[subprocess.Popen[bytes]] = []
+    try:
+        deadline = time.monotonic() + 60
+        while not sched_file.exists():
+            assert time.monotonic() < deadline and scheduler.poll() is None
+            time.sleep(0.1)
+        time.sleep(0.2)
+        address = json.loads(sched_file.read_text())["address"]
+        assert address.startswith("tcp://127.0.0.1:")
+        for _ in range(2):
+            workers.append(
+                _start(
+                    [
+                        *py,
+                        "distributed.cli.dask_worker",
+                        address,
+                        "--no-nanny",
+                        "--nthreads",
+                        "1",
+                        "--host",
+                        "127.0.0.1",
+                        "--no-dashboard",
+                    ],
+                    env,
+                )
+            )
+        out = tmp_path / "out"
+        paths = [str(recordings / f"r{i}.mcap") for i in range(4)]
+        batch = subprocess.Popen(
+            [*CLI, "batch", "fit", *paths, "--out", str(out), "--scheduler", address],
+            cwd=REPO,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        time.sleep(3.5)  # both workers are inside their first task (each waits 5 s first)
+        workers[0].send_signal(signal.SIGKILL)
+        stdout, stderr = batch.communicate(timeout=180)
+        assert batch.returncode == 0, stderr
+        rows = read_table(out)
+        assert sorted(r["name"] for r in rows) == ["r0", "r1", "r2", "r3"]
+        assert all(r["status"] == "done" for r in rows)
+        assert sorted(p.name for p in out.glob("*.fit.json")) == [
+            f"r{i}.fit.json" for i in range(4)
+        ]
+        for p in out.glob("*.fit.json"):
+            json.loads(p.read_text())  # whole, not torn
+        assert "4 done" in stdout
+    finally:
+        for p in [*workers, scheduler]:
+            if p.poll() is None:
+                p.terminate()
+                try:
+                    p.wait(timeout=20)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+                    p.wait()

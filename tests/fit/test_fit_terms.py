@@ -179,14 +179,15 @@ def test_a_term_fitted_to_a_clean_recording_stays_off(
 
 
 def _time_constant(fit: FitResult) -> float:
-    """τ of the compressibility term at the fitted values and the spec's gas charge."""
+    """τ of the compressibility term at the fitted values and the spec's gas charge, with
+    the piston's ∂q/∂Δp near its operating point taken as 2e-11 m³/(s·Pa)."""
     spec = fit.spec()
     p = {k: e.value for k, e in fit.terms["compressibility"].items()}
     compliance = (1 - p["air_fraction"]) * p["oil_compressibility_per_gpa"] * 1e-9 + p[
         "air_fraction"
     ] / spec.gas_pressure_pa
-    volume = spec.piston_area_m2 * spec.oil_column_m
-    return volume * compliance / p["valve_conductance_m3_s_pa"]
+    volume = spec.annulus_area_m2 * spec.oil_column_m
+    return volume * compliance / 2e-11
 
 
 def test_compressibility_fitted_to_a_clean_recording_vanishes(

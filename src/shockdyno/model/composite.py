@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -156,6 +156,8 @@ class Work:
     q_demand: FloatArray
     p_c: FloatArray
     dp: FloatArray | None = None
+    dp_static: FloatArray | None = None  # Δp before any chamber state acted on it
+    chamber: Any = None  # model/chamber.Chamber: the compliance a chamber term found
     parts: dict[str, FloatArray] = field(default_factory=dict)
     outputs: dict[str, FloatArray] = field(default_factory=dict)
     total: FloatArray | None = None

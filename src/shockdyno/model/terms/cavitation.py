@@ -1,11 +1,14 @@
 """Rebound-chamber cavitation: the chamber behind the piston cannot fall below the oil's
-vapour / air-release pressure.
+vapour / air-release pressure, and what it could not fill must refill first.
 
 In a monotube the compression chamber sits at gas pressure p_c, so on a fast
 compression stroke the rebound chamber, p_r = p_c - Δp, is the one that would go below
-p_v once Δp exceeds p_c - p_v. It cannot: p_r = max(p_c - Δp, p_v), Δp = p_c - p_r, and
-the compression force saturates (earlier at lower gas pressure). Off: p_v = -∞ (no
-clamp). A recording that never reaches p_v bounds it only from above.
+p_v once Δp exceeds p_c - p_v. It cannot: it sits at p_v, the compression force
+saturates (earlier at lower gas pressure), and vapour fills the volume the flow does not.
+After reversal the vapour must be pushed back before the chamber's pressure builds, so
+the rebound force lags (model/chamber.py integrates both, with the compressibility
+term's compliance when it is in the model). Off: p_v = -∞ (no floor). A recording that
+never reaches p_v bounds it only from above.
 """
 
 from __future__ import annotations
@@ -15,20 +18,23 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from shockdyno.model.chamber import Chamber
 from shockdyno.model.composite import PRESSURE, Evaluation, FloatArray, Term, Work
 from shockdyno.model.params import Param
+from shockdyno.model.terms.compressibility import run_chamber
 
 
 class Cavitation(Term):
     name = "cavitation"
-    stage = PRESSURE + 5  # after compressibility: the clamp acts on the chamber's pressure
-    summary = "rebound chamber clamped at the vapour / air-release pressure"
+    stage = PRESSURE + 5  # after compressibility: the floor acts on the chamber it found
+    stateful = True
+    summary = "rebound chamber floored at the vapour / air-release pressure; vapour refills"
     PARAMS = (
         Param(
             "release_pressure_pa",
             "Pa",
             3000.0,
-            -5.0e6,  # below any pressure the data reach: the clamp never acts (nests "off")
+            -5.0e6,  # below any pressure the data reach: the floor never acts (nests "off")
             1.0e6,
             1.0e5,
             -math.inf,
@@ -37,11 +43,10 @@ class Cavitation(Term):
     )
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
-        # Below the lowest pressure the data reach the clamp does nothing (no gradient),
-        # and a little above it the clamp already moves the force by hundreds of N: the
-        # band where it binds but does not overshoot is narrow (7e5 Pa did nothing and
-        # 9e5 overshot on a sweep whose truth was 8.5e5). So the starts sit just above
-        # the lowest rebound-chamber pressure the model without the clamp reaches.
+        # Below the lowest pressure the data reach the floor does nothing (no gradient),
+        # and a little above it the floor already moves the force by hundreds of N: the
+        # band where it binds but does not overshoot is narrow. So the starts sit just
+        # above the lowest rebound-chamber pressure the model without it reaches.
         fixed = [3e3, 1e5, 3e5, 5e5, 7e5, 9e5]
         if seen is not None and seen.p_c.size:
             lowest = float(np.min(seen.p_c - seen.dp))
@@ -58,6 +63,15 @@ class Cavitation(Term):
         if floor == -math.inf:
             return None
         assert w.dp is not None
-        p_r = np.maximum(w.p_c - w.dp, floor)
-        w.set_dp(self.name, w.p_c - p_r)
-        return None
+        found = w.chamber if isinstance(w.chamber, Chamber) else None
+        chamber = Chamber(
+            air_fraction=found.air_fraction if found else 0.0,
+            charge_pa=w.spec.gas_pressure_pa,
+            oil_compressibility_per_pa=found.oil_compressibility_per_pa if found else 0.0,
+            release_pa=floor,
+            length_m=w.spec.oil_column_m,
+        )
+        dp, vapour, state = run_chamber(w, chamber, carry)
+        w.set_dp(self.name, dp)
+        w.outputs[f"{self.name}.vapour_m3"] = vapour
+        return state

@@ -1,27 +1,66 @@
-"""Oil compressibility with entrained air: the pressure drop lags the valve's static one.
+"""Oil compressibility with entrained air: the rebound chamber's pressure is a state.
 
-Wood's mixture law at the chamber's gas charge p (absolute):
-    1/β_eff = (1 - α) c_oil + α / p
-and the chamber of volume V (piston area × the spec's oil column) behind a valve of
-conductance G = ∂q/∂Δp fills with the time constant τ = V / (β_eff G), so
-    τ dΔp/dt = Δp_static - Δp.
-Off: α = 0 and c_oil = 0 (rigid oil: τ = 0). τ is per test, at its gas charge, so a test
-at another gas pressure sees another τ: that is how the data separate air from a sensor
-lag. Only τ is identifiable from one charge; the fit frees α and holds c_oil and G.
+The chamber (model/chamber.py) fills through the piston's own flow law against its
+compliance, Wood's law at the local absolute pressure p:
+
+    C(p) = V(x) [(1 - α) c_oil + α p₀ / p²],     V(x) = A_r (L + x),
+
+α the free air by volume at the charge pressure p₀ (the spec's gas pressure), c_oil the
+oil's compressibility. The pressure drop lags its static value most where the chamber's
+pressure is lowest (on the compression stroke, where air expands), and the loop opens
+near reversal. Off: α = 0 and c_oil = 0 (rigid oil: the algebraic solve, exactly). Only
+the compliance is seen by a sweep, so the fit frees α and holds c_oil (name it to free
+it: `compressibility.oil_compressibility_per_gpa`).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
 import numpy as np
 
+from shockdyno.model.chamber import Chamber, integrate
 from shockdyno.model.composite import PRESSURE, Evaluation, FloatArray, Term, Work
-from shockdyno.model.filters import first_order_lag
 from shockdyno.model.params import Param
 from shockdyno.model.spec import DamperSpec
 
 MAX_BULK_MODULUS_PA = 2.2e9
+
+
+def run_chamber(
+    w: Work, chamber: Chamber, carry: FloatArray | None
+) -> tuple[FloatArray, FloatArray, FloatArray | None]:
+    """(Δp, vapour volume, state) of the chamber on the work's samples, from the static
+    Δp the flow solve gave (kept in w.dp_static for the next chamber term)."""
+    if w.dp_static is None:
+        w.dp_static = w.dp
+    assert w.dp_static is not None
+    if chamber.inert:
+        return w.dp_static, np.zeros_like(w.dp_static), None
+    return integrate(
+        w.spec,
+        chamber,
+        w.x,
+        w.v,
+        w.p_c,
+        w.dp_static,
+        w.bleed_compression_m2,
+        w.bleed_rebound_m2,
+        w.k_leak,
+        w.starts,
+        w.dt_s,
+        w.inputs.periodic,
+        carry,
+    )
+
+
+def bulk_modulus_pa(p: Mapping[str, float], pressure_pa: float, charge_pa: float) -> float:
+    """β_eff of the chamber's oil at an absolute pressure (Wood's law); inf for rigid oil."""
+    alpha = p["air_fraction"]
+    comp = (1 - alpha) * p["oil_compressibility_per_gpa"] * 1e-9
+    comp += alpha * charge_pa / pressure_pa**2
+    return 1 / comp if comp > 0 else math.inf
 
 
 class Compressibility(Term):
@@ -30,7 +69,7 @@ class Compressibility(Term):
     stateful = True
     summary = "oil bulk modulus with entrained air: Δp lags, the loop opens near reversal"
     PARAMS = (
-        Param("air_fraction", "1", 0.01, 0.0, 0.3, 0.01, 0.0, doc="free air by volume"),
+        Param("air_fraction", "1", 0.01, 0.0, 0.3, 0.01, 0.0, doc="free air by volume at p₀"),
         Param(
             "oil_compressibility_per_gpa",
             "1/GPa",
@@ -42,17 +81,6 @@ class Compressibility(Term):
             free=False,
             doc="1/β of the oil (mineral oil: 1/1.5 GPa)",
         ),
-        Param(
-            "valve_conductance_m3_s_pa",
-            "m³/(s·Pa)",
-            2.0e-11,
-            1.0e-13,
-            1.0e-8,
-            1.0e-11,
-            2.0e-11,
-            free=False,
-            doc="∂q/∂Δp of the piston near its operating point",
-        ),
     )
 
     def nesting_free(self) -> tuple[str, ...]:
@@ -62,38 +90,41 @@ class Compressibility(Term):
 
     def implausible(self, p: Mapping[str, float], spec: DamperSpec) -> str:
         # Mineral oil is 1.5-2 GPa; oil with any air is softer. A fit that needs stiffer
-        # oil is using a tiny lag to stand in for something else (a sensor): a 2 ms
-        # load-cell lag fitted as 0.03 % air in 5 GPa oil, 2.46 GPa in all, which the
-        # earlier 2.5 GPa limit let through. 2.2 GPa leaves 10 % over the stiffest oil.
-        comp = (1 - p["air_fraction"]) * p["oil_compressibility_per_gpa"] * 1e-9
-        comp += p["air_fraction"] / spec.gas_pressure_pa
-        if comp > 0 and 1 / comp > MAX_BULK_MODULUS_PA:
-            return f"effective bulk modulus {1e-9 / comp:.3g} GPa: stiffer than any oil"
+        # oil at the charge pressure is using a tiny lag to stand in for something else
+        # (a sensor's lag). 2.2 GPa leaves 10 % over the stiffest oil.
+        beta = bulk_modulus_pa(p, spec.gas_pressure_pa, spec.gas_pressure_pa)
+        if math.isfinite(beta) and beta > MAX_BULK_MODULUS_PA:
+            return f"effective bulk modulus {beta / 1e9:.3g} GPa: stiffer than any oil"
         return ""
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
         return [{"air_fraction": a} for a in (0.001, 0.01, 0.05)]
 
-    def time_constants(self, w: Work, p: Mapping[str, float]) -> FloatArray:
-        """τ per segment (s), at each segment's gas charge."""
-        spec = w.spec
-        charge = np.full(w.starts.size, spec.gas_pressure_pa)
-        gp = w.inputs.gas_pressure_pa
-        if gp is not None:
-            finite = np.isfinite(gp)
-            if np.any(finite):
-                charge = np.where(finite, spec.gas_pressure_pa * gp / np.mean(gp[finite]), charge)
-        alpha = p["air_fraction"]
-        compliance = (1 - alpha) * p["oil_compressibility_per_gpa"] * 1e-9 + alpha / charge
-        volume = spec.piston_area_m2 * spec.oil_column_m
-        return np.asarray(volume * compliance / p["valve_conductance_m3_s_pa"], dtype=float)
+    def chamber(self, w: Work, p: Mapping[str, float]) -> Chamber:
+        return Chamber(
+            air_fraction=p["air_fraction"],
+            charge_pa=w.spec.gas_pressure_pa,
+            oil_compressibility_per_pa=p["oil_compressibility_per_gpa"] * 1e-9,
+            release_pa=-math.inf,
+            length_m=w.spec.oil_column_m,
+        )
 
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:
         assert w.dp is not None
-        tau = self.time_constants(w, p)
-        dp, state = first_order_lag(w.dp, tau, w.starts, w.dt_s, carry, periodic=w.inputs.periodic)
+        chamber = self.chamber(w, p)
+        w.chamber = chamber
+        dp, _, state = run_chamber(w, chamber, carry)
         w.set_dp(self.name, dp)
-        w.outputs[f"{self.name}.time_constant_s"] = tau[w.inputs.segment_of_sample()]
+        p_r = w.p_c - dp
+        w.outputs[f"{self.name}.bulk_modulus_pa"] = np.asarray(
+            1.0
+            / np.maximum(
+                (1 - p["air_fraction"]) * p["oil_compressibility_per_gpa"] * 1e-9
+                + p["air_fraction"] * w.spec.gas_pressure_pa / np.maximum(p_r, 1.0) ** 2,
+                1e-30,
+            ),
+            dtype=float,
+        )
         return state

@@ -37,6 +37,7 @@ from shockdyno.simrig.drive import (
     SimDrive,
 )
 from shockdyno.simrig.faults import Fault
+from shockdyno.simrig.reference import PlantParams, PlantState, ReferencePlant
 
 _ONE_SEGMENT = np.zeros(1, dtype=np.intp)
 CHUNK = 10  # samples: the grid on which commands, faults and trips take effect
@@ -95,6 +96,7 @@ class _State:
     clicks: tuple[int, int] = (10, 0)
     areas: tuple[float, float] = (0.0, 0.0)
     temperature_c: float = 40.0
+    plant: PlantState | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -109,12 +111,19 @@ class SimEngine:
         lvdt_lag_s: float = 0.0,
         seed: int = 0,
         faults: list[Fault] | None = None,
+        plant: PlantParams | None = None,
     ) -> None:
         self.rig = rig
         self.spec = spec
         self.model = DamperModel(spec, tuple(terms or ()), dict(term_values or {}))
         self.params = SimParams.from_rig(rig)
         self.fs = rig.daq.sample_rate_hz
+        self.plant = ReferencePlant(spec, plant, self.fs) if plant is not None else None
+        # Samples per step of the server's loop: the reference plant's stiff solver takes
+        # ~0.25 ms a sample, so its steps are short enough for Modbus to stay answered.
+        self.max_batch = 5000 if self.plant is None else 200
+        # and long enough that a restart of the solver (~5 ms) is paid once per 0.1 s.
+        self.min_batch = CHUNK if self.plant is None else 100
         self.cal = rig.daq.calibration
         self.centre = rig.stroke_centre_m
         p = self.params
@@ -148,6 +157,8 @@ class SimEngine:
             faults=sorted(faults or [], key=lambda f: f.at_s),
             temperature_c=p.ambient_c,
         )
+        if self.plant is not None:
+            self.state.plant = self.plant.initial(x0 - self.centre, p.ambient_c)
         self.set_clicks(10, 0)
         self.produced = 0  # samples produced so far (the DAQ's sequence counter)
         self.frames_sent = 0
@@ -231,15 +242,22 @@ class SimEngine:
         st.x_hist = _tail(st.x_hist, x)
         rel = x - self.centre
         a_bc, a_bt = st.areas
-        ev = self.model.evaluate(
-            ModelInputs.single(rel, v, a, 1.0 / self.fs), a_bc, a_bt, state=st.term_state
-        )
-        st.term_state = ev.state
-        force = ev.force
+        sensed: tuple[FloatArray, FloatArray] | None = None
+        if self.plant is not None and st.plant is not None:
+            force, f_sensed, x_sensed, temp, st.plant = self.plant.run(
+                t, rel, v, a, st.areas, st.plant, p.ambient_c
+            )
+            sensed = (f_sensed - force, x_sensed - rel)  # what the sensor chain adds
+        else:
+            ev = self.model.evaluate(
+                ModelInputs.single(rel, v, a, 1.0 / self.fs), a_bc, a_bt, state=st.term_state
+            )
+            st.term_state = ev.state
+            force = ev.force
+            temp = ev.outputs.get("thermal.temperature_c", np.full(n, p.ambient_c))
         if st.jam_until > t[0]:
             ramp = np.clip((t - st.jam_start) / 0.2, 0.0, 1.0)
             force = force + np.where(t < st.jam_until, p.jam_force_n * ramp, 0.0)
-        temp = ev.outputs.get("thermal.temperature_c", np.full(n, p.ambient_c))
         drv.position_m = float(x[-1])
         drv.last_force_n = float(force[-1])
         st.temperature_c = float(temp[-1])
@@ -262,8 +280,12 @@ class SimEngine:
             pos, st.lvdt_zi = first_order_lag(
                 x, self._lvdt_lag_s, _ONE_SEGMENT, np.array([1.0 / self.fs]), st.lvdt_zi
             )
+        f_meas = force
+        if sensed is not None:
+            f_meas = f_meas + sensed[0]
+            pos = pos + sensed[1]
         pos = pos + p.position_noise_m * st.rng_pos.standard_normal(n)
-        f_meas = force + p.force_noise_n * st.rng_force.standard_normal(n)
+        f_meas = f_meas + p.force_noise_n * st.rng_force.standard_normal(n)
         t_meas = temp + p.temperature_noise_c * st.rng_temp.standard_normal(n)
         status = np.where(drv.motion(t), STATUS_MOTION, 0).astype(np.uint16)
         self.produced += n

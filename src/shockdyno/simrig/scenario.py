@@ -8,6 +8,12 @@ kind = "compressibility"      # a term of the library (shockdyno.model.terms.LIB
 air_fraction = 0.03           # its parameters by local name (SI); others stay nominal
 [sensors]
 lvdt_lag_s = 0.001            # optional LVDT first-order lag
+
+or, instead of terms, the reference plant (simrig/reference.py: physics written apart
+from the term library) with any of its parameters:
+[plant]
+kind = "reference"
+air_fraction = 0.02
 """
 
 from __future__ import annotations
@@ -20,6 +26,7 @@ from pathlib import Path
 from shockdyno.errors import ConfigError
 from shockdyno.model.composite import Term
 from shockdyno.model.terms import make_term
+from shockdyno.simrig.reference import PlantParams
 
 
 @dataclass
@@ -30,6 +37,7 @@ class Scenario:
     values: dict[str, float] = field(default_factory=dict)  # qualified parameter values
     lvdt_lag_s: float = 0.0
     source: str = ""
+    plant: PlantParams | None = None  # the reference plant instead of the paper's model
 
 
 def scenario_dir() -> Path:
@@ -51,7 +59,7 @@ def load_scenario(path: str | Path) -> Scenario:
     head = doc.get("scenario")
     if not isinstance(head, dict) or not isinstance(head.get("name"), str):
         raise ConfigError(f"{p}: scenario.name: missing")
-    unknown = sorted(set(doc) - {"scenario", "term", "sensors"})
+    unknown = sorted(set(doc) - {"scenario", "term", "sensors", "plant"})
     if unknown:
         raise ConfigError(f"{p}: {unknown[0]}: unknown key")
     terms: list[Term] = []
@@ -77,6 +85,15 @@ def load_scenario(path: str | Path) -> Scenario:
                 raise ConfigError(f"{where}: {key} must be in [{q.lo:g}, {q.hi:g}], got {value!r}")
             values[term.qualified(key)] = float(value)
         terms.append(term)
+    plant = None
+    table = doc.get("plant")
+    if table is not None:
+        if not isinstance(table, dict) or table.get("kind", "paper") not in ("paper", "reference"):
+            raise ConfigError(f'{p}: plant.kind: "paper" or "reference"')
+        if table.get("kind") == "reference":
+            if terms:
+                raise ConfigError(f"{p}: the reference plant takes its own parameters, not terms")
+            plant = PlantParams.from_table(table, f"{p}: plant")
     sensors = doc.get("sensors", {})
     lag = sensors.get("lvdt_lag_s", 0.0) if isinstance(sensors, dict) else None
     if isinstance(lag, bool) or not isinstance(lag, int | float) or lag < 0:
@@ -88,4 +105,5 @@ def load_scenario(path: str | Path) -> Scenario:
         values=values,
         lvdt_lag_s=float(lag),
         source=str(p),
+        plant=plant,
     )

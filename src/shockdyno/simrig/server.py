@@ -108,6 +108,7 @@ class SimRig:
             terms=scenario.terms if scenario else None,
             term_values=scenario.values if scenario else None,
             lvdt_lag_s=scenario.lvdt_lag_s if scenario else 0.0,
+            plant=scenario.plant if scenario else None,
             seed=seed,
             faults=sched,
         )
@@ -276,13 +277,13 @@ class SimRig:
             now = self.clock()
             due = int((now - wall0) * self.speed * fs) + sim0 - self.engine.produced
             due = due // CHUNK * CHUNK
-            if due > 0:
-                self.behind_s = max(self.behind_s, (due - MAX_BATCH) / fs)
+            if due >= self.engine.min_batch:
+                self.behind_s = max(self.behind_s, (due - self.engine.max_batch) / fs)
                 self._watchdogs(now)
-                self._send(self.engine.advance(min(due, MAX_BATCH)))
+                self._send(self.engine.advance(min(due, self.engine.max_batch)))
             if self._pty is not None and self._pty.pending:
                 self._pty.write(b"")
-            await asyncio.sleep(sleep if due <= MAX_BATCH else 0)
+            await asyncio.sleep(sleep if due <= self.engine.max_batch else 0)
 
     def _watchdogs(self, now: float) -> None:
         d = self.engine.drive

@@ -177,7 +177,7 @@ def test_a_vapour_volume_refills_before_the_rebound_pressure_builds() -> None:
     v1, t1, v2 = 2.0, 0.02, -0.1
     n = 400
     t = np.arange(n) / FS
-    v = np.where(t < t1, v1, v2)
+    v = np.where(t <= t1 + 1e-9, v1, v2)  # the first sample is the start: 20 steps at v1
     z = np.zeros(n)
     bc, bt = (float(a) for a in SPEC.bleed_areas(0, 0))
     model = DamperModel(SPEC, (make_term("cavitation"),), {"cavitation.release_pressure_pa": p_v})
@@ -388,3 +388,28 @@ def test_friction_says_when_its_fit_is_not_physics() -> None:
     assert "inside the sign change" in term.implausible(patch, SPEC)
     huge = {**real, "breakaway_n": 900.0}
     assert "over 5x" in term.implausible(huge, SPEC)
+
+
+def test_an_older_fit_with_the_retired_valve_conductance_still_reads(tmp_path: Path) -> None:
+    """Fits written before the chamber state carry compressibility's fixed conductance;
+    the model they give leaves it out (the flow law gives the conductance now)."""
+    import json
+
+    from shockdyno.fit import fit_sweep
+    from shockdyno.fit.result import FitResult
+    from shockdyno.fit.synthetic import synthetic_sweep
+
+    fit = fit_sweep(synthetic_sweep(SPEC, [5], cycles=2, seed=1), terms="none")
+    out = tmp_path / "FIT.json"
+    fit.save(out)
+    doc = json.loads(out.read_text())
+    doc["terms"] = {
+        "compressibility": {
+            "air_fraction": {"value": 0.01, "sd": None, "unit": "1"},
+            "valve_conductance_m3_s_pa": {"value": 2e-11, "sd": None, "unit": "", "fixed": True},
+        }
+    }
+    old = tmp_path / "OLD.json"
+    old.write_text(json.dumps(doc))
+    model = FitResult.load(old).model()
+    assert model.value("compressibility.air_fraction") == 0.01

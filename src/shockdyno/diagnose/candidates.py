@@ -109,6 +109,9 @@ class Candidate:
     explained: FloatArray  # baseline phase means minus the candidate's
     heldout_gain: float = math.nan
     heldout_detail: str = ""
+    # Largest phase mean of the term's own force component: what the term itself adds,
+    # apart from what refitting the areas and globals beside it moved.
+    own_peak_n: float = math.inf
 
 
 def try_candidate(
@@ -131,7 +134,13 @@ def try_candidate(
     effect = float(np.sqrt(np.mean((fitted.force - base.force) ** 2)))
     change = data.bin_matrix((fitted.force - base.force)[:, None])[:, 0]
     peak = float(np.max(np.abs(change))) if change.size else 0.0
-    return Candidate(name, fitted, lr, p, effect, peak, base_means - means)
+    own_peak = math.inf
+    ev = evaluate(data, fitted)
+    own = ev.components.get(name) if ev is not None else None
+    if own is not None:
+        binned_own = data.bin_matrix(own[:, None])[:, 0]
+        own_peak = float(np.max(np.abs(binned_own))) if binned_own.size else 0.0
+    return Candidate(name, fitted, lr, p, effect, peak, base_means - means, own_peak_n=own_peak)
 
 
 def _structured_mse(data: Data, residual: FloatArray) -> float:

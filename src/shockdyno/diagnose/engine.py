@@ -21,6 +21,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -43,7 +44,7 @@ from shockdyno.fit.metrics import error_metrics
 from shockdyno.fit.prepare import prepare_tests, whole_cycles
 from shockdyno.fit.problem import DEFAULT_GLOBALS, nominal_value
 from shockdyno.fit.result import FitResult
-from shockdyno.model.composite import DamperModel
+from shockdyno.model.composite import DamperModel, Term
 from shockdyno.model.spec import DamperSpec, load_spec
 from shockdyno.model.terms import LIBRARY, make_term
 from shockdyno.record.types import TestData
@@ -220,6 +221,24 @@ def _e_t(data: Data, fitted: Fitted) -> list[float]:
     return out
 
 
+def _moved_off(fitted: Fitted, term: Term) -> bool:
+    """Whether any free parameter of `term` moved off its off value by more than 3σ (and
+    a thousandth of its scale). A term that fits better while staying at off explains
+    nothing itself: its refit moved the rest (a gas spring at 0.998 ± 0.002 × the spec's
+    once took 97 % of what a claimed compressibility's short refit had left)."""
+    free = [p for p in term.params() if term.qualified(p.name) in fitted.free]
+    if not free:
+        return True  # nothing was fitted: nothing to judge
+    for p in free:
+        q = term.qualified(p.name)
+        value = fitted.model.value(q)
+        sd = fitted.term_sd.get(q, math.nan)
+        noise = 3 * sd if math.isfinite(sd) else 0.0
+        if not math.isfinite(value) or abs(value - p.off) > max(noise, 1e-3 * p.scale):
+            return True
+    return False
+
+
 def why_not(
     c: Candidate,
     scored: dict[str, tuple[float, str]],
@@ -243,6 +262,13 @@ def why_not(
             unplaced = term.unplaced(c.fitted.model.local_values(term), x)
             if unplaced:
                 return f"not placed: {unplaced}"
+        if not _moved_off(c.fitted, term):
+            return "its parameters stay at their off values: the gain is the refit's"
+        if c.own_peak_n < min_effect_n:
+            return (
+                f"its own force peaks at {c.own_peak_n:.2g} N, too small to matter: the gain "
+                "is the refit's"
+            )
     if c.p_value >= s.alpha:
         return f"p = {c.p_value:.3g} ≥ {s.alpha:g}"
     if c.name not in scored:
@@ -530,6 +556,20 @@ def diagnose(
         # calibrated beside it a bump stop's onset stopped at 24.1 mm where it was 21.
         nfev = s.final_nfev if claimed else s.max_nfev
         base = refit(data, base.model, base.free, base, max_nfev=nfev)
+        # A claim whose term, refitted to convergence, stays at its off values was the
+        # short refit's gain, not the term's: it leaves the model and the verdict.
+        idle = [n for n in claimed if (t := base.model.term(n)) and not _moved_off(base, t)]
+        if idle:
+            for f in findings:
+                if f.claimed and f.physics in idle:
+                    f.claimed = False
+                    f.why_not = "refitted on every test it stays at its off values"
+            claimed[:] = [n for n in claimed if n not in idle]
+            groups[:] = [g for g in groups if not set(idle) & set(cast(list[str], g["group"]))]
+            kept = base.model.with_terms(t for t in base.model.terms if t.name not in idle)
+            own = {f"{n}." for n in idle}
+            free = tuple(q for q in base.free if not q.startswith(tuple(own)))
+            base = refit(data, kept, free, base, max_nfev=s.final_nfev if claimed else s.max_nfev)
         for f in findings:
             if f.claimed:
                 f.parameters = _parameters(base, f.physics)

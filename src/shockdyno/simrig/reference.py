@@ -59,8 +59,8 @@ class PlantParams:
     vapour_rate_m3_s_pa: float = 1.0e-7  # k_e: how fast vapour forms below p_v
     condense_rate_m3_s_pa: float = 1.0e-8  # k_c: how fast it goes back above p_v
     bleed_land_m: float = 0.004  # laminar length of a bleed passage
-    valve_discharge: float = 0.65
-    valve_smoothing_pa: float = 2.0e4  # softplus width of the stack's crack
+    valve_discharge: float = 0.7
+    valve_smoothing_pa: float = 2.0e3  # softplus width of the stack's crack
     # gas
     gas_pressure_factor: float = 1.0  # × the spec's charge
     gas_volume_factor: float = 1.0  # × the spec's gas volume
@@ -70,8 +70,8 @@ class PlantParams:
     # rod seal (LuGre)
     breakaway_n: float = 0.0  # above the spec's Coulomb friction
     stribeck_velocity_m_s: float = 0.005
-    seal_stiffness_n_m: float = 2.0e6
-    seal_damping_n_s_m: float = 60.0
+    seal_stiffness_n_m: float = 2.0e7
+    seal_damping_n_s_m: float = 0.0
     seal_viscous_n_s_m: float = 0.0
     # thermal network
     viscosity_coeff_per_k: float = 0.0  # ν ∝ exp(-b (T_o - 40 °C))
@@ -203,9 +203,8 @@ class ReferencePlant:
 
     def _seal_g(self, v: float) -> float:
         p = self.p
-        return self.spec.friction_n + p.breakaway_n * math.exp(
-            -((v / p.stribeck_velocity_m_s) ** 2)
-        )
+        g = self.spec.friction_n + p.breakaway_n * math.exp(-((v / p.stribeck_velocity_m_s) ** 2))
+        return max(g, 1e-3)  # no seal friction at all: the bristles never load
 
     def rates(self, y: FloatArray, x: float, v: float) -> tuple[FloatArray, float]:
         """dy/dt and the rod force (without inertia) at state y, position x, velocity v."""
@@ -360,6 +359,7 @@ def reference_sweep(
     clock = 0.0
     tests: list[Any] = []
     vapour, lowest, temps = 0.0, math.inf, []
+    last_x = 0.0  # the rod is moved, never set: a jump would move no oil
 
     def advance(
         x: FloatArray, v: FloatArray, a: FloatArray, areas: tuple[float, float]
@@ -383,6 +383,12 @@ def reference_sweep(
         bc, bt = spec.bleed_areas(c, 0)
         areas = (float(bc), float(bt))
         for f in frequencies_hz:
+            if last_x != 0.0:  # back to mid-stroke (the last test ended at the bottom)
+                s = np.arange(1, round(sample_rate_hz) + 1) * dt  # 1 s half-cosine move
+                move = last_x * (1 + np.cos(math.pi * s)) / 2
+                move_v = -last_x * math.pi / 2 * np.sin(math.pi * s)
+                move_a = -last_x * math.pi**2 / 2 * np.cos(math.pi * s)
+                advance(move, move_v, move_a, areas)
             rest = np.zeros(round(rest_s * sample_rate_hz))
             advance(rest, rest, rest, areas)
             w = 2 * math.pi * f
@@ -397,6 +403,7 @@ def reference_sweep(
             a = np.gradient(v, dt)
             vapour = 0.0 if not tests else vapour
             _, f_s, x_s, temp = advance(x, v, a, areas)
+            last_x = float(x[-1])
             # Kept from the bottom of the stroke: a rig's recording starts anywhere but
             # exactly on a cycle's own up-crossing.
             first = n_warm

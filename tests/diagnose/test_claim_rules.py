@@ -36,3 +36,25 @@ def test_a_first_term_needs_part_of_the_held_out_structure_a_joining_one_most() 
     # What explains the claimed term's shape again refines it, whatever its gain.
     assert "same shape" in why_not(_friction(shape), {"friction": (0.99, "")}, s, 1.0,
                                    [("compressibility", shape)])  # fmt: skip
+
+
+def test_a_term_that_stays_off_or_adds_too_little_force_is_the_refits_gain() -> None:
+    """A candidate's gain can come from refitting the areas and globals beside it: a gas
+    spring at 0.998 ± 0.002 x the spec's once 'removed' 97 % of what a claimed term's
+    short refit had left. A term is claimable only if its own parameters moved off their
+    off values beyond 3σ and its own force component matters."""
+    s = Settings()
+    spec = load_spec(None)
+    shape = np.cos(np.linspace(0, 6, 80)) ** 3
+    scored = {"gas_spring": (0.97, "")}
+    for value, sd, own, want in (
+        (0.998, 0.002, 5.0, "off values"),  # within 3σ of off (1.0)
+        (0.98, 0.002, 0.3, "too small to matter"),  # moved, but adds 0.3 N
+        (0.7, 0.01, 40.0, ""),  # a real change of the gas spring
+    ):
+        model = DamperModel(spec, (make_term("gas_spring"),), {"gas_spring.volume_factor": value})
+        q = "gas_spring.volume_factor"
+        fitted = Fitted(model, (q,), {}, {q: sd}, np.zeros(0), np.zeros(0))
+        c = Candidate("gas_spring", fitted, 1e4, 0.001, 5.0, 20.0, shape, own_peak_n=own)
+        said = why_not(c, scored, s, 1.0)
+        assert (want in said) if want else said == "", (value, said)

@@ -26,3 +26,36 @@ def test_frames_follow_the_injected_clock(sim_rig_factory) -> None:
         assert sim.engine.produced == 250
     finally:
         port.close()
+
+
+def test_modbus_is_answered_while_a_slow_plant_runs_behind(sim_rig_factory) -> None:
+    """A plant slower than real time (the reference plant's stiff solver on a loaded
+    machine) keeps the rig behind its schedule; every Modbus read must still be answered
+    well inside the rig file's 0.5 s timeout, not only after several plant steps."""
+    from shockdyno.rig.actuator import ModbusActuator
+
+    sim = sim_rig_factory(speed=1.0)
+    engine = sim.engine
+    fast = engine.advance
+
+    def slow(n: int) -> bytes:
+        time.sleep(0.25)  # 200 samples of the reference plant on a busy core: 0.8x real time
+        return fast(n)
+
+    def as_the_reference_plant() -> None:
+        engine.advance, engine.max_batch, engine.min_batch = slow, 200, 100
+
+    sim.call(as_the_reference_plant)
+    act = ModbusActuator(sim.rig_config())
+    act.connect()
+    try:
+        time.sleep(1.0)  # let it fall behind
+        worst = 0.0
+        for _ in range(15):
+            t0 = time.monotonic()
+            act.read_words(1, 1)  # raises RigFault on a timeout
+            worst = max(worst, time.monotonic() - t0)
+        assert sim.behind_s > 0.05, sim.behind_s  # it really was behind
+        assert worst < 0.35, worst  # one batch and the answer; not several batches
+    finally:
+        act.close()

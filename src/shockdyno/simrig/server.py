@@ -41,6 +41,7 @@ logging.getLogger("pymodbus").addHandler(logging.NullHandler())
 SINK_LIMIT = 1 << 20  # bytes queued for a slow reader before new frames are discarded
 SERVER_FAULTS = ("modbus_timeout", "daq_disconnect")  # faults of the wires, not the engine
 MAX_BATCH = 5000  # samples per engine step: keeps Modbus answers prompt when behind
+BEHIND_PAUSE_S = 0.002  # between batches when behind: the loop answers Modbus meanwhile
 
 
 @dataclass
@@ -283,7 +284,11 @@ class SimRig:
                 self._send(self.engine.advance(min(due, self.engine.max_batch)))
             if self._pty is not None and self._pty.pending:
                 self._pty.write(b"")
-            await asyncio.sleep(sleep if due <= self.engine.max_batch else 0)
+            # Behind schedule, still sleep a little: with sleep(0) every turn of the loop
+            # ran a batch, and a Modbus request needs several turns (read, decode, answer),
+            # so a plant slower than real time (the reference plant's stiff solver on a
+            # loaded machine) let requests time out at 0.5 s.
+            await asyncio.sleep(sleep if due <= self.engine.max_batch else BEHIND_PAUSE_S)
 
     def _watchdogs(self, now: float) -> None:
         d = self.engine.drive

@@ -25,8 +25,10 @@ lint: $(VENV)/.installed
 	$(BIN)/ruff format --check src tests benchmarks
 	$(BIN)/mypy src
 
+# Two workers, one per core of the CI machine; a module stays on one worker
+# (--dist loadscope), so a module's recordings fixture is made once.
 test: lint
-	$(BIN)/pytest -q
+	$(BIN)/pytest -q -n 2 --dist loadscope
 
 bench: $(VENV)/.runtime
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done

@@ -20,7 +20,7 @@ from shockdyno.batch.table import read_table
 REPO = Path(__file__).resolve().parents[2]
 CLI = [sys.executable, "-m", "shockdyno.cli"]
 MANIFEST = REPO / "recordings" / "examples" / "csv" / "manifest.csv"
-pytestmark = pytest.mark.timeout(240)
+pytestmark = [pytest.mark.timeout(240), pytest.mark.slow]  # clusters of processes: about 1 min
 
 
 def _cli(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:

@@ -18,7 +18,8 @@ from shockdyno.diagnose.verdict import to_json
 from shockdyno.record import open_recording
 
 REPO = Path(__file__).resolve().parents[2]
-pytestmark = pytest.mark.timeout(400)  # a recording diagnosed with the whole library
+# Slow (4 min on one core): `pytest -m "not slow"` leaves it out; `make test` runs it.
+pytestmark = [pytest.mark.timeout(400), pytest.mark.slow]  # diagnosed with the whole library
 CLI = [sys.executable, "-m", "shockdyno.cli"]
 
 # Scenario files under neutral names; their physics, not their names, is the answer.

@@ -119,7 +119,7 @@ def test_a_real_sweep_runs_on_the_reference_plant(tmp_path: Path) -> None:
     sc.write_text('[scenario]\nname = "r"\n[plant]\nkind = "reference"\nbreakaway_n = 40\n')
     out = tmp_path / "ref.mcap"
     cli = [sys.executable, "-m", "shockdyno.cli", "sweep", "--rig", str(REPO / "rigs/sim.toml")]
-    cli += ["--start-sim", "--speed", "1", "--clicks", "10", "--freq", "1.5", "--cycles", "2"]
+    cli += ["--start-sim", "--speed", "0.5", "--clicks", "10", "--freq", "1.5", "--cycles", "2"]
     cli += ["--warmup-cycles", "1", "--scenario", str(sc), "-o", str(out), "--seed", "4"]
     done = subprocess.run(
         cli, capture_output=True, text=True, timeout=240, env={**os.environ, "COLUMNS": "200"}

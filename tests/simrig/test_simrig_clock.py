@@ -59,3 +59,46 @@ def test_modbus_is_answered_while_a_slow_plant_runs_behind(sim_rig_factory) -> N
         assert worst < 0.35, worst  # one batch and the answer; not several batches
     finally:
         act.close()
+
+
+def test_a_slow_plant_steps_beside_the_loop_reads_at_once_commands_between_steps(
+    sim_rig_factory, tmp_path
+) -> None:
+    """The reference plant steps in a thread of its own: a step of a whole second (seen on
+    a loaded machine) must not hold up a read, while a command waits for the step under
+    way, so it reaches the engine between steps, as on the loop."""
+    from dataclasses import replace
+
+    from shockdyno.rig.actuator import ModbusActuator
+
+    sc = tmp_path / "ref.toml"
+    sc.write_text('[scenario]\nname = "r"\n[plant]\nkind = "reference"\n')
+    sim = sim_rig_factory(speed=1.0, scenario=sc)
+    engine = sim.engine
+    fast = engine.advance
+    steps: list[tuple[float, float]] = []
+
+    def slow(n: int) -> bytes:
+        t0 = time.monotonic()
+        time.sleep(1.0)
+        out = fast(n)
+        steps.append((t0, time.monotonic()))
+        return out
+
+    sim.call(lambda: setattr(engine, "advance", slow))
+    rig = sim.rig_config()
+    act = ModbusActuator(replace(rig, actuator=replace(rig.actuator, timeout_s=3.0)))
+    act.connect()
+    try:
+        time.sleep(1.3)  # inside the second step
+        t0 = time.monotonic()
+        act.read_words(1, 1)
+        assert time.monotonic() - t0 < 0.2  # not after the step
+        asked = time.monotonic()
+        act.write({"move_velocity": 0.01})
+        done = time.monotonic()
+        # The command waited for the step under way: one ended between asking and done.
+        assert any(asked <= end <= done for _, end in steps), (asked, done, steps)
+        assert abs(engine.drive.move_velocity_m_s - 0.01) < 1e-8  # a float32 register
+    finally:
+        act.close()

@@ -68,6 +68,11 @@ class DriveRegisters:
             registers[off : off + reg.width] = words
 
     # -- writes ------------------------------------------------------------------------
+    def only_heartbeat(self, address: int, count: int) -> bool:
+        """Whether a write of `count` words at `address` touches the heartbeat alone (the
+        one write that does not reach the engine's state)."""
+        return all(self._owner.get(a) == "heartbeat" for a in range(address, address + count))
+
     def write(
         self, registers: list[int], block_start: int, address: int, values: list[int]
     ) -> ExcCodes | None:

@@ -61,3 +61,38 @@ def test_a_calibrated_gas_volume_reads_as_the_spec_s_error() -> None:
     # Within 5 % or within 3σ: not worth a word.
     assert not CalibrationRow("friction_n", 35.0, 36.0, 0.1, "N").moved
     assert not CalibrationRow("friction_n", 35.0, 45.0, 5.0, "N").moved
+
+
+def test_the_verdict_judges_significance_at_the_search_s_alpha() -> None:
+    """`--alpha 0.05` with p = 0.03: the search claims at 0.05, so the verdict may not say
+    "nothing claimed" because a 0.01 was written into it."""
+    from types import SimpleNamespace
+
+    from shockdyno.diagnose.locate import Location
+    from shockdyno.diagnose.stats import MismatchStat
+    from shockdyno.diagnose.verdict import verdict_text
+
+    stat = MismatchStat(0.03, 1.0, 5.0, 12.0, 0.2, 40.0)
+    f = _finding("friction", {"breakaway_n": (24.0, 1.5)})
+    f.p_value = 0.03
+
+    def diagnosis(alpha: float) -> SimpleNamespace:
+        return SimpleNamespace(
+            alpha=alpha,
+            mismatch=stat,
+            location=Location([]),
+            findings=[f],
+            indistinguishable=[],
+            single_frequency=False,
+            unexplained=Location([]),
+            remaining=stat,
+            calibration=[],
+            final=SimpleNamespace(
+                model=SimpleNamespace(spec=SimpleNamespace(gas_pressure_pa=1.6e6))
+            ),
+        )
+
+    loose = verdict_text(diagnosis(0.05))  # type: ignore[arg-type]
+    assert "Nothing claimed" not in loose and "Claimed seal friction" in loose
+    strict = verdict_text(diagnosis(0.01))  # type: ignore[arg-type]
+    assert "No mismatch beyond noise" in strict

@@ -63,6 +63,11 @@ def test_the_three_transports_are_represented() -> None:
             "",
             "position_actual: missing register",
         ),
+        (  # bool("false") is True: a quoted false made the register writable
+            'type = "uint16", writable = false }',
+            'type = "uint16", writable = "false" }',
+            "writable: must be true or false",
+        ),
     ],
 )
 def test_mistakes_name_file_and_key(old: str, new: str, fragment: str) -> None:

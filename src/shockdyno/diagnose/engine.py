@@ -188,6 +188,7 @@ class Diagnosis:
     wall_s: float
     single_frequency: bool
     calibration: list[CalibrationRow] = field(default_factory=list)
+    alpha: float = 0.01  # the significance level the search used; the verdict reads it
 
 
 def _parameters(fitted: Fitted, name: str) -> dict[str, dict[str, object]]:
@@ -603,4 +604,5 @@ def diagnose(
         calibration=calibration_rows(
             load_spec(fit.spec_path) if fit else spec, base, GAS_VOLUME in baseline.free
         ),
+        alpha=s.alpha,
     )

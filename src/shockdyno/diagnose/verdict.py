@@ -199,7 +199,7 @@ def verdict_text(d: Diagnosis) -> str:
 def _physics_text(d: Diagnosis) -> str:
     spec_gas = d.final.model.spec.gas_pressure_pa
     m = d.mismatch
-    if m.p_value >= 0.01:
+    if m.p_value >= d.alpha:
         return (
             f"No mismatch beyond noise: the model's residual repeats by {m.structured_rms_n:.2g} N "
             f"RMS against {m.noise_floor_n:.2g} N of noise (p = {m.p_value:.2g}). Nothing claimed."
@@ -252,7 +252,7 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
     order = sorted(claimed, key=lambda f: -f.heldout_gain)
     return {
         "mismatch": {
-            "significant": m.p_value < 0.01,
+            "significant": m.p_value < d.alpha,
             "p_value": m.p_value,
             "noise_floor_n": m.noise_floor_n,
             "structured_rms_n": m.structured_rms_n,

@@ -261,6 +261,12 @@ class _Reader:
             raise self.fail(key, f"must be {lo}-{hi}, got {value}")
         return value
 
+    def bool_(self, key: str, default: Any = ...) -> bool:
+        value = self.raw(key, default)
+        if not isinstance(value, bool):  # bool("false") is True: a string is refused
+            raise self.fail(key, f"must be true or false (no quotes), got {value!r}")
+        return value
+
     def str_(self, key: str, default: Any = ..., choices: tuple[str, ...] = ()) -> str:
         value = self.raw(key, default)
         if not isinstance(value, str) or not value:
@@ -300,7 +306,7 @@ def _register_map(r: _Reader) -> RegisterMap:
             address=t.int_("address", lo=0, hi=65535),
             type=t.str_("type", choices=tuple(REGISTER_WIDTH)),  # type: ignore[arg-type]
             scale=t.num("scale", 1.0),
-            writable=bool(t.raw("writable", True)),
+            writable=t.bool_("writable", True),
         )
         t.check_unknown()
         regs[name] = reg

@@ -67,3 +67,44 @@ def test_a_whole_recording_has_no_loss_note(tmp_path: Path) -> None:
     out = tmp_path / "fit.json"
     assert main(["fit", str(rec), "--json", str(out)]) == 0
     assert "recording_loss" not in json.loads(out.read_text())["info"]
+
+
+def _results(tmp_path: Path) -> dict[str, Path]:
+    """A real fit, a diagnosis-shaped and a ride-shaped JSON, and the example recording."""
+    from shockdyno.fit.result import FitResult
+    from shockdyno.model import default_spec_path
+
+    fit = tmp_path / "FIT.json"
+    FitResult.from_spec(default_spec_path(), (0, 10)).save(fit)
+    diag = tmp_path / "DIAG.json"
+    diag.write_text(json.dumps({"mismatch": {}, "findings": [], "verdict": {}}))
+    ride = tmp_path / "RIDE.json"
+    ride.write_text(json.dumps({"rms": [], "flags": {}}))
+    return {"rec": EXAMPLE, "fit": fit, "diag": diag, "ride": ride}
+
+
+@pytest.mark.parametrize(
+    ("argv", "given", "said"),
+    [
+        (["ride", "--fit", "{rec}"], "rec", "is an MCAP recording; expected a fit result"),
+        (["ride", "--fit", "{diag}"], "diag", "is a diagnosis (DIAG.json"),
+        (["report", "{rec}", "--diagnose", "{fit}"], "fit", "is a fit result (FIT.json"),
+        (["report", "{rec}", "--ride", "{diag}"], "diag", "expected a ride study"),
+        (["report", "{rec}", "--fit", "{ride}"], "ride", "is a ride study (RIDE.json"),
+        (["diagnose", "{rec}", "--fit", "{rec}"], "rec", "is an MCAP recording"),
+    ],
+)
+def test_a_wrong_result_file_is_named_in_one_short_line(
+    argv: list[str], given: str, said: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`ride --fit demo.mcap` printed an 11.9 MB "line" of the recording's bytes, and
+    `report --diagnose FIT.json` exited 0 with empty rows (issue 20)."""
+    paths = _results(tmp_path)
+    args = [a.format(**{k: str(v) for k, v in paths.items()}) for a in argv]
+    out = tmp_path / "out"
+    args += ["-o", str(out)] if argv[0] == "report" else ["--json", str(tmp_path / "o.json")]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert said in err and str(paths[given]) in err, err
+    assert "\n" not in err and len(err) < 300 and "Traceback" not in err
+    assert not out.exists() and not (tmp_path / "o.json").exists()

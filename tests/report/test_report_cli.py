@@ -131,10 +131,10 @@ def test_existing_page_is_refused_without_force(
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
-        (["--fit", "nope.json"], "fit file not found"),
+        (["--fit", "nope.json"], "--fit: nope.json not found"),
         (["--diagnose", "nope.json"], "--diagnose: nope.json not found"),
         (["--ride", "BAD"], "--ride:"),
-        (["--ride", "LIST"], "not a ride result"),
+        (["--ride", "LIST"], "is JSON of another kind; expected a ride study"),
     ],
 )
 def test_bad_inputs_are_one_line(

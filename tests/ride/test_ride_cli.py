@@ -101,7 +101,7 @@ def test_flags_and_interpolated_clicks_reach_console_json_and_report(
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--fit", "missing.json"], "fit file not found"),
+        (["--fit", "missing.json"], "--fit: missing.json not found"),
         (["--roads", "A,Q"], "road class 'Q'"),
         (["--clicks", "5,x"], "--clicks"),
         (["--clicks", "30"], "30 clicks is outside the fitted range"),

@@ -24,6 +24,7 @@ from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, load_spec
 from shockdyno.model.terms import LIBRARY, make_term
 from shockdyno.record.atomic import write_text_atomic
+from shockdyno.result_files import read_result
 
 
 @dataclass(frozen=True)
@@ -241,10 +242,10 @@ class FitResult:
         write_text_atomic(Path(path), json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n")
 
     @staticmethod
-    def load(path: str | Path) -> FitResult:
+    def load(path: str | Path, flag: str = "--fit") -> FitResult:
         p = Path(path)
+        doc = read_result(p, flag, "fit")  # one line for a recording, a DIAG.json, ...
         try:
-            doc = json.loads(p.read_text())
             clicks = [
                 ClickFit(
                     clicks=int(c["clicks"]),
@@ -285,10 +286,8 @@ class FitResult:
                     for name, params in dict(doc.get("terms", {})).items()
                 },
             )
-        except FileNotFoundError:
-            raise ConfigError(f"fit file not found: {p}") from None
-        except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError) as exc:
-            raise ConfigError(f"{p}: not a shockdyno fit result ({exc!r})") from None
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise ConfigError(f"{flag}: {p}: not a whole fit result ({exc!r:.200})") from None
 
 
 # Parameters a term no longer has, read from older fits and left out: the chamber state

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Any
 
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.outputs import check_report_dir
+from shockdyno.result_files import read_result
 
 
 def register(sub: Any) -> None:
@@ -39,18 +39,6 @@ def register(sub: Any) -> None:
 def check_output_dir(out: Path, inputs: list[Path], force: bool) -> None:
     """`-o DIR` of `report`: the shared report-directory policy."""
     check_report_dir(out, inputs, force, flag="-o")
-
-
-def load_json(path: str, flag: str) -> Any:
-    p = Path(path)
-    try:
-        return json.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"{flag}: {p} not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{flag}: cannot read {p}: {exc}") from None
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"{flag}: {p} is not JSON ({exc.msg}, line {exc.lineno})") from None
 
 
 def _gas_force(metadata: dict[str, str]) -> float | None:
@@ -98,10 +86,8 @@ def run_report(args: argparse.Namespace) -> int:
     inputs = [Path(p) for p in (args.recording, args.fit, args.diagnose, args.ride) if p]
     check_output_dir(out, inputs, args.force)
     fit = FitResult.load(args.fit).require_usable(f"--fit {args.fit}") if args.fit else None
-    diagnose = load_json(args.diagnose, "--diagnose") if args.diagnose else None
-    ride = load_json(args.ride, "--ride") if args.ride else None
-    if ride is not None and not isinstance(ride, dict):
-        raise ConfigError(f"--ride: {args.ride} is not a ride result (no JSON object)")
+    diagnose = read_result(args.diagnose, "--diagnose", "diagnosis") if args.diagnose else None
+    ride = read_result(args.ride, "--ride", "ride") if args.ride else None
     provenance_rows = _provenance(args, fit, diagnose, ride)
 
     console = Console(stderr=True)

@@ -1,0 +1,73 @@
+"""Reading a result file (FIT.json, DIAG.json, RIDE.json) given on the command line.
+
+A user hands `--fit`, `--diagnose` or `--ride` whatever file is at hand: a recording, a
+CSV, the other kind of result. Each gets one short line naming what the file is and what
+was expected, never the file's bytes (a recording's UnicodeDecodeError once printed an
+11.9 MB "line"), and a result of the wrong kind is refused rather than read as empty.
+No I/O beyond reading the one file; no project imports, so any layer may use it.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from shockdyno.errors import ConfigError
+
+MCAP_MAGIC = b"\x89MCAP"
+# What each kind of result holds at its top level (all of them, to be that kind).
+KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "fit": ("a fit result (FIT.json, from shockdyno fit)", ("globals", "clicks")),
+    "diagnosis": ("a diagnosis (DIAG.json, from shockdyno diagnose)", ("mismatch", "findings")),
+    "ride": ("a ride study (RIDE.json, from shockdyno ride)", ("rms", "flags")),
+}
+
+
+def kind_of(doc: Any) -> str | None:
+    """Which result a parsed JSON document is, if any."""
+    if not isinstance(doc, dict):
+        return None
+    for kind, (_, keys) in KINDS.items():
+        if all(k in doc for k in keys):
+            return kind
+    return None
+
+
+def _what_bytes_are(head: bytes) -> str:
+    if head.startswith(MCAP_MAGIC):
+        return "an MCAP recording"
+    if head[:4] == b"PAR1":
+        return "a Parquet table"
+    if b"\x00" in head:
+        return "a binary file"
+    return "not JSON"
+
+
+def read_result(path: str | Path, flag: str, expected: str) -> dict[str, Any]:
+    """The JSON document at `path`, checked to be the `expected` kind of result; else a
+    one-line ConfigError naming `flag`, the file, what it is and what was expected."""
+    p = Path(path)
+    want = KINDS[expected][0]
+    try:
+        raw = p.read_bytes()
+    except FileNotFoundError:
+        raise ConfigError(f"{flag}: {p} not found") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{flag}: {p} is a folder; expected {want}") from None
+    except OSError as exc:
+        raise ConfigError(f"{flag}: cannot read {p}: {exc.strerror or exc}") from None
+    try:
+        doc = json.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError:
+        raise ConfigError(f"{flag}: {p} is {_what_bytes_are(raw[:64])}; expected {want}") from None
+    except json.JSONDecodeError as exc:
+        what = _what_bytes_are(raw[:64])
+        where = f" ({exc.msg}, line {exc.lineno})" if what == "not JSON" else ""
+        raise ConfigError(f"{flag}: {p} is {what}{where}; expected {want}") from None
+    got = kind_of(doc)
+    if got != expected:
+        what = KINDS[got][0] if got is not None else "JSON of another kind"
+        raise ConfigError(f"{flag}: {p} is {what}; expected {want}")
+    assert isinstance(doc, dict)  # kind_of said so
+    return doc

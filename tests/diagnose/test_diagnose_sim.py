@@ -144,12 +144,15 @@ def test_a_concealed_effect_is_named(diagnoses: dict[str, dict], name: str) -> N
     d = diagnoses[name]
     assert d["mismatch"]["significant"]
     if name in PARTLY:
-        # Known defect (open, issue 17): since the rebound chamber became a state, the
-        # library's own model at the simulated values (1 % air, 25 N breakaway) fits this
-        # recording worse than compressibility alone refitted (phase-mean SS 16122 vs
-        # 5323 N² on seed 6), so friction cannot join: it was claimed in CI's run and
-        # missed on seeds 6 and 16 here. What must hold: the first effect is claimed,
-        # and what the second leaves is reported, not silently absorbed.
+        # Known defect (open, issue 17): the search, not the model. The library's model at
+        # the simulated values fits this recording to noise (phase-mean SS 73 N² against
+        # 85 of noise; 8722 without friction), but once air is claimed, the refits that
+        # add friction stay in the basin where air took in what it could (0.88 % air in
+        # 0.74 GPa oil; friction's LR -28 N² at 15 and at 25 evaluations), and restarted
+        # from the plain fit with air at its simulated value the refit runs to a 124 N,
+        # 1.2 mm/s breakaway (SS 95566). Friction was claimed in CI's run and missed on
+        # seeds 6 and 16 here. What must hold: the first effect is claimed, and what the
+        # second leaves is reported, not silently absorbed.
         physics = set(d["verdict"]["physics"])
         assert PARTLY[name] <= physics <= EXPECT[name], d["verdict"]["text"]
         if physics != EXPECT[name]:
@@ -219,3 +222,37 @@ def test_the_json_has_every_documented_field(diagnoses: dict[str, dict]) -> None
     assert set(d["verdict"]) >= {"physics", "unexplained", "text"}
     assert set(d["tests"][0]) >= {"index", "clicks", "frequency_hz", "E_t_before", "E_t_after"}
     json.dumps(d, allow_nan=False)
+
+
+@pytest.mark.parametrize("name", ["s-air", "s-seal", "s-cav", "s-heat", "s-two", "s-bump"])
+def test_the_library_at_the_simulated_values_fits_the_recording_to_noise(
+    recordings: dict[str, Path], name: str
+) -> None:
+    """Plumbing that cannot lie: the sim-rig evaluates the term library, so the library's
+    model at the scenario's values and the spec's areas must leave no structure (phase-
+    mean SS within a few times its noise). A miss of the diagnosis on these recordings
+    is then the search's, not a model the sim and the fit read differently."""
+    from shockdyno.diagnose.candidates import binned_means
+    from shockdyno.diagnose.data import Data
+    from shockdyno.fit.prepare import prepare_tests
+    from shockdyno.model import load_spec
+    from shockdyno.model.composite import DamperModel
+    from shockdyno.simrig.scenario import load_scenario
+
+    rec = recordings[name]
+    sc = load_scenario(rec.with_name(rec.name.replace("r", "p", 1).replace(".mcap", ".toml")))
+    spec = load_spec()
+    prepared, _ = prepare_tests(open_recording(rec).load_all(), 100.0)
+    data = Data.build(spec, prepared, None)
+    bc = np.array([float(spec.bleed_areas(c, g)[0]) for c, g in data.prob.keys])
+    bt = np.array([float(spec.bleed_areas(c, g)[1]) for c, g in data.prob.keys])
+
+    def structure(model: DamperModel) -> tuple[float, float]:
+        data.prob.set_model(model)
+        means, binned = binned_means(data, data.prob.force(model, bc, bt) - data.prob.f)
+        return float(means @ means), float(np.sum(np.concatenate([b.mean_var for b in binned])))
+
+    ss, noise = structure(DamperModel(spec, sc.terms, sc.values))
+    plain, _ = structure(DamperModel(spec))
+    assert ss <= 3 * noise, (ss, noise)
+    assert plain > 10 * noise  # and the effect is there to be found

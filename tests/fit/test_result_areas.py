@@ -36,3 +36,20 @@ def test_clicks_between_fitted_ones_follow_the_trend():
 def test_clicks_outside_the_fitted_range_are_refused(clicks):
     with pytest.raises(FitError, match="outside the fitted range 5-15"):
         _result().areas(clicks)
+
+
+def test_a_gas_setting_gets_its_own_areas_never_another_s():
+    """A sweep over the gas bottle's clicks fits each (rod, gas) pair: areas(5) took the
+    first pair with 5 rod clicks whatever its gas, so the click chart drew the gas-3 test
+    with the gas-0 areas."""
+    r = _result()
+    r.clicks.append(ClickFit(5, 3, 9e-6, 7e-6, 8e-6))
+    assert r.main_gas_clicks() == 0
+    assert r.areas(5) == (6e-6, 3e-6) == r.areas(5, gas_clicks=0)
+    assert r.areas(5, gas_clicks=3) == (9e-6, 7e-6)
+    with pytest.raises(FitError, match="outside the fitted range 5-5 at 3 gas clicks"):
+        r.areas(10, gas_clicks=3)  # the trend is gas 0's: not lent to gas 3
+    with pytest.raises(FitError, match="no result at 7 gas clicks"):
+        r.areas(5, gas_clicks=7)
+    bc, _ = r.areas(10)  # gas 0: the trend, as before
+    assert bc == pytest.approx(np.polyval([1e-6, 1e-6], 10))

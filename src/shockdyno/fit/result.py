@@ -163,24 +163,44 @@ class FitResult:
         }
         return DamperModel(self.spec(), tuple(built), values)
 
-    def areas(self, clicks: int, model: str = "proposed") -> tuple[float, float]:
-        """(A_bc, A_bt) at a click setting: the fitted value, else the trend."""
+    def main_gas_clicks(self) -> int:
+        """The gas setting with the most fitted rod clicks (the trend's; the lowest on a
+        tie), 0 for a fit without clicks."""
+        counts: dict[int, int] = {}
         for c in self.clicks:
-            if c.clicks == clicks:
+            counts[c.gas_clicks] = counts.get(c.gas_clicks, 0) + 1
+        return min(counts, key=lambda g: (-counts[g], g)) if counts else 0
+
+    def areas(
+        self, clicks: int, model: str = "proposed", gas_clicks: int | None = None
+    ) -> tuple[float, float]:
+        """(A_bc, A_bt) at a click setting: the fitted value, else the trend. `gas_clicks`
+        None: the main gas setting (a sweep over the gas bottle's clicks fits each pair;
+        the first pair with these rod clicks, whatever its gas, was taken before)."""
+        gas = self.main_gas_clicks() if gas_clicks is None else gas_clicks
+        at = f" at {gas} gas clicks" if gas or any(c.gas_clicks for c in self.clicks) else ""
+        for c in self.clicks:
+            if c.clicks == clicks and c.gas_clicks == gas:
                 if model == "talbott":
                     return c.a_b_talbott_m2, c.a_b_talbott_m2
                 return c.a_bc_m2, c.a_bt_m2
-        fitted = [c.clicks for c in self.clicks]
+        fitted = [c.clicks for c in self.clicks if c.gas_clicks == gas]
+        if self.clicks and not fitted:
+            raise FitError(f"the fit has no result{at}")
         if fitted and not min(fitted) <= clicks <= max(fitted):
             raise FitError(
-                f"{clicks} clicks is outside the fitted range {min(fitted)}-{max(fitted)}; "
+                f"{clicks} clicks is outside the fitted range {min(fitted)}-{max(fitted)}{at}; "
                 "the trend is not extrapolated"
             )
-        if model == "proposed" and "A_bc" in self.trend and "A_bt" in self.trend:
-            bc = self.trend["A_bc"].at(clicks)
-            bt = self.trend["A_bt"].at(clicks)
-            return max(bc, 0.0), max(bt, 0.0)
-        raise FitError(f"the fit has no result for {clicks} clicks")
+        trend_bc, trend_bt = self.trend.get("A_bc"), self.trend.get("A_bt")
+        if (
+            model == "proposed"
+            and trend_bc is not None
+            and trend_bt is not None
+            and trend_bc.gas_clicks == gas
+        ):
+            return max(trend_bc.at(clicks), 0.0), max(trend_bt.at(clicks), 0.0)
+        raise FitError(f"the fit has no result for {clicks} clicks{at}")
 
     def problem(self) -> str:
         """Why this result cannot be used as a damper ("" when it can): a global or a term

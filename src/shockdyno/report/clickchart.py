@@ -132,9 +132,11 @@ def measured_chart(
     return out
 
 
-def model_forces(fit: FitResult, clicks: int, targets: Sequence[float]) -> dict[float, float]:
+def model_forces(
+    fit: FitResult, clicks: int, targets: Sequence[float], gas_clicks: int | None = None
+) -> dict[float, float]:
     """The fitted model at mid-stroke, zero acceleration, at each signed velocity."""
-    a_bc, a_bt = fit.areas(clicks)
+    a_bc, a_bt = fit.areas(clicks, gas_clicks=gas_clicks)
     v = np.asarray(targets, dtype=float)
     zeros = np.zeros_like(v)
     force = quasi_static_force(fit.model().vehicle(), zeros, v, zeros, a_bc, a_bt)
@@ -143,8 +145,10 @@ def model_forces(fit: FitResult, clicks: int, targets: Sequence[float]) -> dict[
 
 def static_force_n(fit: FitResult) -> float:
     """The model's force at rest at mid-stroke: the gas force on the rod."""
-    clicks = fit.clicks[0].clicks if fit.clicks else 0
-    a_bc, a_bt = fit.areas(clicks)
+    first = fit.clicks[0] if fit.clicks else None
+    a_bc, a_bt = fit.areas(
+        first.clicks if first else 0, gas_clicks=first.gas_clicks if first else 0
+    )
     car = fit.model().vehicle()
     return float(np.asarray(quasi_static_force(car, 0.0, 0.0, 0.0, a_bc, a_bt)).reshape(-1)[0])
 
@@ -160,8 +164,9 @@ def click_chart(
     curve: dict[int, dict[float, float]] = {}
     if fit is not None and fit.clicks:
         for c in fit.clicks:
-            model[(c.clicks, c.gas_clicks)] = model_forces(fit, c.clicks, targets)
-        fitted = sorted({c.clicks for c in fit.clicks})
+            model[(c.clicks, c.gas_clicks)] = model_forces(fit, c.clicks, targets, c.gas_clicks)
+        gas = fit.main_gas_clicks()  # the trend's curve is at the main gas setting
+        fitted = sorted({c.clicks for c in fit.clicks if c.gas_clicks == gas})
         for n in range(fitted[0], fitted[-1] + 1):
             try:
                 curve[n] = model_forces(fit, n, targets)

@@ -35,6 +35,7 @@ Scenario files select it with `[plant] kind = "reference"` (docs/scenarios.md).
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
@@ -52,6 +53,7 @@ P_ATM = 101_325.0
 # (0.006 N RMS apart on a sine, 0.12 N where vapour forms) and far quicker where the ram
 # stops, where the gas piston on its seal made Radau take 1.2 s for 40 samples (0.2 s).
 METHOD = "LSODA"
+FALLBACK = "Radau"  # where LSODA fails to converge (long offline sweeps, now and then)
 P_MIN = 500.0  # Pa absolute: the air law's floor (the vapour state keeps p_r above it)
 
 
@@ -288,16 +290,28 @@ class ReferencePlant:
             vi = float(np.interp(time, tt, vv))
             return self.rates(y, xi, vi)[0]
 
-        sol = solve_ivp(
-            rhs,
-            (float(tt[0]), float(tt[-1])),
-            state.y,
-            method=METHOD,
-            t_eval=t,
-            rtol=1e-6,
-            atol=np.array([1.0, 1.0, 1e-9, 1e-6, 1e-12, 1e-9, 1e-4, 1e-4]),
-            max_step=float(tt[-1] - tt[0]) or 1e-3,
-        )
+        def solve(method: str) -> Any:
+            return solve_ivp(
+                rhs,
+                (float(tt[0]), float(tt[-1])),
+                state.y,
+                method=method,
+                t_eval=t,
+                rtol=1e-6,
+                atol=np.array([1.0, 1.0, 1e-9, 1e-6, 1e-12, 1e-9, 1e-4, 1e-4]),
+                max_step=float(tt[-1] - tt[0]) or 1e-3,
+            )
+
+        sol = None
+        with warnings.catch_warnings():
+            # LSODA says "repeated convergence failures" as a warning: take it as a failure
+            warnings.simplefilter("error", UserWarning)
+            try:
+                sol = solve(METHOD)
+            except (UserWarning, RuntimeError, ValueError):
+                sol = None
+        if sol is None or not sol.success:
+            sol = solve(FALLBACK)  # slower, and it has not failed where LSODA did
         if not sol.success:
             raise RuntimeError(f"reference plant: the integration failed ({sol.message})")
         ys = sol.y

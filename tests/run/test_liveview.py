@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from report_helpers import AMPLITUDE_M, make_test, temperature_at
 from rich.console import Console
 
+from report_helpers import AMPLITUDE_M, make_test, temperature_at
 from shockdyno.record import RecordingWriter, open_recording
 from shockdyno.record.types import TestData as Recorded  # aliased: pytest collects Test*
 from shockdyno.report import build_report

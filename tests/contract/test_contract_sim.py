@@ -219,3 +219,51 @@ def test_oil_over_temperature_stops_the_test(sim_rig_factory, tmp_path) -> None:
     assert out.status == "aborted" and out.reason.startswith("temperature limit")
     st = settled_status(sim.rig_config())
     assert not st.enabled and abs(st.position_m - sim.rig.stroke_centre_m) < 1e-3
+
+
+def test_the_session_runs_on_any_daq_and_is_an_adjuster(sim_rig_factory) -> None:
+    """RigSession depends on the `Daq` protocol, not on SerialDaq: a DAQ that wraps the
+    serial one (a logger, a second channel set) runs a whole test; and the session is the
+    `Adjuster` the sweep runner sets clicks through."""
+    from shockdyno.rig import Adjuster, Daq
+    from shockdyno.rig.config import DaqConfig
+    from shockdyno.rig.daq import SerialDaq
+    from shockdyno.rig.types import SampleBlock
+
+    class CountingDaq:
+        def __init__(self, config: DaqConfig, centre_m: float) -> None:
+            self.inner = SerialDaq(config, centre_m)
+            self.sample_rate_hz = self.inner.sample_rate_hz
+            self.samples = 0
+
+        def read(self) -> SampleBlock:
+            block = self.inner.read()
+            self.samples += block.t_s.size
+            return block
+
+        @property
+        def dropped_frames(self) -> int:
+            return self.inner.dropped_frames
+
+        @property
+        def corrupt_frames(self) -> int:
+            return self.inner.corrupt_frames
+
+        def close(self) -> None:
+            self.inner.close()
+
+    sim = sim_rig_factory(speed=20.0)
+    opened: list[CountingDaq] = []
+
+    def open_daq(config: DaqConfig, centre_m: float) -> CountingDaq:
+        opened.append(CountingDaq(config, centre_m))
+        return opened[-1]
+
+    with RigSession(sim.rig_config(), open_daq=open_daq) as session:
+        assert isinstance(session, Adjuster) and isinstance(opened[0], Daq)
+        assert isinstance(opened[0].inner, Daq)
+        session.set_clicks(10, 0)
+        rec = Collector()
+        out = session.run_sine(0.02, 1.5, 1, 2, rec.block)
+    assert out.status == "complete"
+    assert opened[0].samples >= rec.all.t_s.size > 1000  # every sample came through it

@@ -27,10 +27,10 @@ import numpy as np
 
 from shockdyno.errors import ConfigError, RigFault
 from shockdyno.rig.actuator import ActuatorStatus, ModbusActuator
-from shockdyno.rig.config import RigConfig
+from shockdyno.rig.config import DaqConfig, RigConfig
 from shockdyno.rig.daq import READ_SIZE, SerialDaq
 from shockdyno.rig.frames import FRAME_LEN, STATUS_MOTION
-from shockdyno.rig.types import SampleBlock
+from shockdyno.rig.types import Daq, SampleBlock
 from shockdyno.run import signals
 from shockdyno.run.safety import LimitMonitor, SafetyEvent, SafetyTrip
 from shockdyno.run.verify import cycle_mismatch, frame_loss, measure_sine, plan_mismatch
@@ -106,13 +106,15 @@ class RigSession:
         *,
         prompt: Callable[[str], None] | None = None,
         clock: Callable[[], float] = time.monotonic,
+        open_daq: Callable[[DaqConfig, float], Daq] = SerialDaq,
     ) -> None:
         self.rig = rig
         self.prompt = prompt or _console_prompt
         self.clock = clock
+        self._open_daq = open_daq  # any `Daq`: the session reads only what the protocol has
         self.events: list[SafetyEvent] = []
         self.actuator: ModbusActuator | None = None
-        self.daq: SerialDaq | None = None
+        self.daq: Daq | None = None
         self._monitor = LimitMonitor(rig.limits)
         self._hb_thread: threading.Thread | None = None
         self._hb_stop = threading.Event()
@@ -173,7 +175,7 @@ class RigSession:
         try:
             self.actuator = ModbusActuator(self.rig)
             self.actuator.connect()
-            self.daq = SerialDaq(self.rig.daq, self.rig.stroke_centre_m)
+            self.daq = self._open_daq(self.rig.daq, self.rig.stroke_centre_m)
             self._event("connect", f"{self.rig.actuator.describe()}, DAQ {self.rig.daq.url}")
             self._first_samples()
             self.enable()
@@ -458,7 +460,7 @@ class RigSession:
             raise RigFault("rig session is not open")
         return self.actuator
 
-    def _daq(self) -> SerialDaq:
+    def _daq(self) -> Daq:
         if self.daq is None or self._closed:
             raise RigFault("rig session is not open")
         return self.daq

@@ -122,3 +122,28 @@ def test_user_mistakes_are_one_line_errors(
     assert code != 0
     assert err.startswith("shockdyno fit: error:") and err.count("\n") == 1
     assert not (tmp_path / "x.json").exists()
+
+
+def test_a_value_pressed_against_a_bound_of_zero_reads_zero() -> None:
+    """An optimiser at a bound of 0 leaves 1.7e-28 there: the tables print 0 and say why
+    (issue 20), and a real small value or a value at another bound is printed as it is."""
+    from rich.console import Console
+
+    from shockdyno.fit.cli import _mm2, terms_table
+    from shockdyno.model.params import Estimate
+
+    terms = {
+        "sensor_lag": {
+            "delay_s": Estimate(1.7e-28, 2e-5, "s", at_bound=True),
+            "load_cell_lag_s": Estimate(0.0021, 1e-4, "s"),
+        },
+        "compressibility": {"air_fraction": Estimate(0.3, 0.01, "1", at_bound=True)},
+    }
+    console = Console(width=200, record=True)
+    console.print(terms_table(terms))
+    text = console.export_text()
+    assert "1.7e-28" not in text
+    delay = next(line for line in text.splitlines() if "delay_s" in line)
+    assert " 0 " in delay and "at a bound" in delay
+    assert "0.0021" in text and "0.3" in text
+    assert _mm2(1e-24, float("nan")) == "0" and _mm2(2.5e-6, 2.5e-7) == "2.5 ±10%"

@@ -82,12 +82,23 @@ def terms_table(terms: dict[str, Any]) -> Any:
         for k, est in params.items():
             note = "held" if est.fixed else ("at a bound" if est.at_bound else "")
             sd = "" if not math.isfinite(est.sd) else f"{est.sd:.3g}"
-            table.add_row(term, k, f"{est.value:.4g}", sd, est.unit, note)
+            table.add_row(term, k, _value(est.value, est.at_bound), sd, est.unit, note)
     return table
 
 
+AT_ZERO = 1e-12  # SI: an optimiser hugging a bound of 0 leaves 1.7e-28 there, not data
+
+
+def _value(value: float, at_bound: bool) -> str:
+    """A parameter as a person reads it: one pressed against a bound of 0 reads 0."""
+    return "0" if at_bound and abs(value) <= AT_ZERO else f"{value:.4g}"
+
+
 def _mm2(value: float, sd: float) -> str:
-    """Area in mm² with its 1-σ uncertainty in percent (compact for narrow terminals)."""
+    """Area in mm² with its 1-σ uncertainty in percent (compact for narrow terminals); a
+    bleed closed to the optimiser's floor (1e-24 m²) reads 0."""
+    if abs(value) <= AT_ZERO:
+        return "0" if not math.isfinite(sd) or sd <= AT_ZERO else f"0 ±{sd * 1e6:.1g}"
     text = f"{value * 1e6:.4g}"
     if not math.isfinite(sd):
         return text + " ±?"

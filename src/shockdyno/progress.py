@@ -12,11 +12,24 @@ quick refusal of bad input, print nothing but their own one line.
 
 from __future__ import annotations
 
+import os
+import sys
 from time import monotonic
 from types import TracebackType
 
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+PIPE_WIDTH = 200  # columns of a table written to a pipe or a file: whole, not cut at 80
+
+
+def table_console(stderr: bool = False) -> Console:
+    """A console for result tables: on a terminal its own width; piped or redirected (no
+    terminal, no COLUMNS) wide enough that a table is written whole (rich's 80 columns cut
+    the fit's tables into ellipses in a log file)."""
+    stream = sys.stderr if stderr else sys.stdout
+    piped = not stream.isatty() and "COLUMNS" not in os.environ
+    return Console(stderr=stderr, width=PIPE_WIDTH if piped else None)
 
 
 class StageProgress:

@@ -147,3 +147,27 @@ def test_a_value_pressed_against_a_bound_of_zero_reads_zero() -> None:
     assert " 0 " in delay and "at a bound" in delay
     assert "0.0021" in text and "0.3" in text
     assert _mm2(1e-24, float("nan")) == "0" and _mm2(2.5e-6, 2.5e-7) == "2.5 ±10%"
+
+
+def test_piped_tables_are_written_whole(tmp_path: Path) -> None:
+    """A fit's tables sent to a pipe or a log file were cut at rich's 80 columns (cells
+    ending in '…'): off a terminal they are written at 200 (issue 20)."""
+    import os
+    import re
+    import subprocess
+    import sys
+
+    example = Path(__file__).resolve().parents[2] / "recordings" / "examples" / "example.mcap"
+    env = {k: v for k, v in os.environ.items() if k != "COLUMNS"}
+    cmd = [sys.executable, "-m", "shockdyno.cli", "fit", str(example)]
+    cmd += ["--json", str(tmp_path / "fit.json")]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=120, env=env)
+    assert done.returncode == 0, done.stderr[-300:]
+    # A row whose first cell is blank is a wrapped row: at 80 columns the bleed table
+    # put "±1.3e+03%" on a line of its own under "0.0009361".
+    text = done.stdout
+    bleeds = text[text.index("Bleed areas per click") :]
+    bleeds = bleeds[: bleeds.index("└")]
+    wrapped = [line for line in bleeds.splitlines() if re.match(r"^│\s+│", line)]
+    assert not wrapped, "\n".join(wrapped)
+    assert "…" not in done.stdout

@@ -143,11 +143,10 @@ def diagnose_file(
 
 
 def run_diagnose(args: argparse.Namespace) -> int:
-    from rich.console import Console
 
     from shockdyno.model import load_spec
     from shockdyno.outputs import check_output, check_report_dir, write_output
-    from shockdyno.progress import StageProgress
+    from shockdyno.progress import StageProgress, table_console
     from shockdyno.record.layout import set_paths
 
     inputs = [
@@ -177,7 +176,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
         )
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
     write_output(args.json, text, force=args.force, inputs=inputs)
-    shown = Console(stderr=out is None)
+    shown = table_console(stderr=out is None)
     m = doc["mismatch"]
     shown.print(
         f"mismatch: {'[bold red]significant[/]' if m['significant'] else 'none beyond noise'} "

@@ -230,7 +230,7 @@ def run_fit(args: argparse.Namespace) -> int:
     from shockdyno.fit.terms import parse_terms
     from shockdyno.fit.validate import table4_table
     from shockdyno.model import load_spec
-    from shockdyno.progress import StageProgress
+    from shockdyno.progress import StageProgress, table_console
     from shockdyno.record import open_recording
     from shockdyno.record.layout import set_paths
 
@@ -253,7 +253,7 @@ def run_fit(args: argparse.Namespace) -> int:
         )
     text = result_json(result)  # a result that cannot be written fails before anything is
     # With --json -, stdout carries only the JSON; the human summary goes to stderr.
-    human = Console(stderr=out is None)
+    human = table_console(stderr=out is None)
     human.print(_globals_table(result))
     if result.terms:
         human.print(terms_table(result.terms))

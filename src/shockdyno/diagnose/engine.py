@@ -38,6 +38,7 @@ from shockdyno.diagnose.candidates import (
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.fitting import Fitted, full_rate_force, refit
 from shockdyno.diagnose.locate import Location, locate
+from shockdyno.diagnose.spikes import remove_spikes
 from shockdyno.diagnose.stats import MismatchStat, mismatch_test, noise_draws
 from shockdyno.errors import FitError
 from shockdyno.fit.metrics import error_metrics
@@ -189,6 +190,7 @@ class Diagnosis:
     single_frequency: bool
     calibration: list[CalibrationRow] = field(default_factory=list)
     alpha: float = 0.01  # the significance level the search used; the verdict reads it
+    sensor: list[str] = field(default_factory=list)  # faults of the sensors, not physics
 
 
 def _parameters(fitted: Fitted, name: str) -> dict[str, dict[str, object]]:
@@ -424,6 +426,8 @@ def diagnose(
             progress(stage, fraction)
 
     report("prepare", 0.0)
+    tests, spikes = remove_spikes(tests)
+    sensor = [spikes.sentence()] if spikes is not None else []
     prepared, notes = prepare_tests(list(tests), s.objective_rate_hz)
     if not prepared:
         raise FitError(
@@ -605,4 +609,5 @@ def diagnose(
             load_spec(fit.spec_path) if fit else spec, base, GAS_VOLUME in baseline.free
         ),
         alpha=s.alpha,
+        sensor=sensor,
     )

@@ -7,8 +7,8 @@ import json
 from pathlib import Path
 
 import pytest
-from report_helpers import DIAGNOSE_SAMPLE, sweep_tests, write_recording
 
+from report_helpers import DIAGNOSE_SAMPLE, sweep_tests, write_recording
 from shockdyno.cli import main
 from shockdyno.fit.result import FitResult
 from shockdyno.model import default_spec_path

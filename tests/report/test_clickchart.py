@@ -9,8 +9,8 @@ import math
 
 import numpy as np
 import pytest
-from report_helpers import AMPLITUDE_M, make_test, spec
 
+from report_helpers import AMPLITUDE_M, make_test, spec
 from shockdyno.fit.result import FitResult
 from shockdyno.model import damper_force, default_spec_path
 from shockdyno.report.clickchart import (

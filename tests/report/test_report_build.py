@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from report_helpers import AMPLITUDE_M, make_test, temperature_at
 
+from report_helpers import AMPLITUDE_M, make_test, temperature_at
 from shockdyno.errors import ConfigError
 from shockdyno.record.types import TestData as Recorded  # aliased: pytest collects Test*
 from shockdyno.report import build_report, summarise

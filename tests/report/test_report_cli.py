@@ -40,6 +40,12 @@ def test_full_page_has_every_section_and_only_local_files(full_report: Path) -> 
         assert term in text
     # 22 clicks would give 22 loop figures: they sit in collapsed blocks.
     assert text.count("<details>") >= 3
+    # No absolute path of this machine: the spec and the recording (a tmp path here, out
+    # of the working directory) are named by their last parts (issue 20).
+    from shockdyno.model import default_spec_path
+
+    assert str(default_spec_path().parent) not in text and "/tmp/" not in text
+    assert "…/rec" in text or "sweep.mcap" in text
 
 
 def test_diagnose_section_renders_the_documented_keys(full_report: Path) -> None:

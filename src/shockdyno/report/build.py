@@ -134,7 +134,7 @@ def build_report(
     page = Page(title)
     if metadata:
         page.section("Recording")
-        page.table(["key", "value"], [[k, v] for k, v in metadata.items()])
+        page.table(["key", "value"], [[k, shown_path(str(v))] for k, v in metadata.items()])
 
     if complete:
         say("click chart")
@@ -247,6 +247,19 @@ def _peaks_and_overlays(
     page.close_details()
 
 
+def shown_path(text: str) -> str:
+    """A path as a page may show it: relative to the working directory when under it, else
+    its last two parts. A report is handed on; this machine's layout (/home/jd/...) is
+    not the reader's business. Anything that is not an absolute path is left as it is."""
+    if not text.startswith("/"):
+        return text
+    p = Path(text)
+    try:
+        return str(p.relative_to(Path.cwd()))
+    except ValueError:
+        return str(Path("…", *p.parts[-2:])) if len(p.parts) > 2 else text
+
+
 def _fit_section(page: Page, fit: FitResult, tests: list[TestData], out_dir: Path) -> None:
     from shockdyno.fit.plots import fit_figures
     from shockdyno.fit.validate import table4_rows
@@ -254,9 +267,9 @@ def _fit_section(page: Page, fit: FitResult, tests: list[TestData], out_dir: Pat
     page.section(
         "Fit and validation",
         f"Damper model of the fit ({len(fit.clicks)} click settings; where it came from: the "
-        f"Recording table's 'fit' row; base spec "
-        f"{fit.spec_path}). Errors of the proposed model and of Talbott's single-bleed model "
-        "per test frequency, averaged over clicks (the paper's Table 4):",
+        f"Recording table's 'fit' row; base spec {shown_path(fit.spec_path)}). Errors of the "
+        "proposed model and of Talbott's single-bleed model per test frequency, averaged "
+        "over clicks (the paper's Table 4):",
     )
     header, rows = table4_rows(fit)
     if rows:

@@ -19,6 +19,8 @@ CLICKS = (0, 10, 21)
 # reason, a click interpolated from the trend, the paper's values where it has them.
 RIDE_SAMPLE = {
     "schema": "shockdyno.ride/1",
+    "quarter_car": {"sprung_mass_kg": 400.0, "unsprung_mass_kg": 45.0, "spring_n_m": 35000.0,
+                    "tyre_n_m": 250000.0},
     "damper": {"settings": [{"clicks": 5, "source": "fit"}, {"clicks": 7, "source": "trend"}]},
     "flags": {"travel_m": 0.05},
     "rms": [

@@ -106,6 +106,8 @@ def test_ride_section_flags_runs_and_explains_the_paper_gap(full_report: Path) -
     assert "Interpolated from the fit" in text and "7 clicks" in text
     # 0.252 / 0.028 = 9.0 and 3.524 / 0.309 = 11.4: computed from the file, not quoted.
     assert "Ours are 9.0-11.4× the paper" in text
+    # The page states the car it ran (issue 20), read from the file, not Table 5's.
+    assert "sprung mass 400 kg, unsprung mass 45 kg, spring 35 kN/m, tyre 250 kN/m" in text
     assert text.index("Ours are 9.0") > text.index("km/h")  # beside (after) the table
 
 

@@ -90,6 +90,23 @@ def _table7(page: Page, entries: list[dict[str, Any]]) -> None:
     page.table(["km/h", "damper", *roads], rows, cell_classes=classes)
 
 
+def car_sentence(car: dict[str, Any]) -> str:
+    """The car the study ran, in the paper's Table 5 terms (a reader compares cars)."""
+    parts = []
+    for key, label, scale, unit in (
+        ("sprung_mass_kg", "sprung mass", 1.0, "kg"),
+        ("unsprung_mass_kg", "unsprung mass", 1.0, "kg"),
+        ("spring_n_m", "spring", 1e-3, "kN/m"),
+        ("tyre_n_m", "tyre", 1e-3, "kN/m"),
+    ):
+        value = _f(car.get(key))
+        if value is not None:
+            parts.append(f"{label} {value * scale:.4g} {unit}")
+    if not parts:
+        return "The ride file does not state its car."
+    return "The car: " + ", ".join(parts) + " (the paper's Table 5 unless set on the command line)."
+
+
 def render_ride(page: Page, doc: Any) -> None:
     """Append the ride section for ``doc`` (the parsed ride JSON)."""
     page.section(
@@ -101,6 +118,9 @@ def render_ride(page: Page, doc: Any) -> None:
     if not isinstance(doc, dict):
         page.paragraph("The ride file holds no object; nothing to show.", warn=True)
         return
+    car = doc.get("quarter_car")
+    if isinstance(car, dict):
+        page.paragraph(car_sentence(car))
     damper = doc.get("damper") if isinstance(doc.get("damper"), dict) else {}
     settings = damper.get("settings") if isinstance(damper, dict) else None
     if isinstance(settings, list):

@@ -58,3 +58,30 @@ def test_a_term_that_stays_off_or_adds_too_little_force_is_the_refits_gain() -> 
         c = Candidate("gas_spring", fitted, 1e4, 0.001, 5.0, 20.0, shape, own_peak_n=own)
         said = why_not(c, scored, s, 1.0)
         assert (want in said) if want else said == "", (value, said)
+
+
+def test_a_gas_spring_at_a_spec_s_error_is_calibration_not_a_second_physics() -> None:
+    """With air claimed, a gas spring joined at 0.972x the spec's volume (a CI run's s-air
+    recording): the spec's error, listed as calibration. At 0.33x it stays physics."""
+    from shockdyno.diagnose.engine import Finding, _gas_spring_is_calibration
+
+    def case(factor: float) -> tuple[bool, list[str], list[Finding]]:
+        model = DamperModel(
+            load_spec(),
+            (make_term("compressibility"), make_term("gas_spring")),
+            {"gas_spring.volume_factor": factor},
+        )
+        base = Fitted(model, ("gas_spring.volume_factor",), {}, {}, np.zeros(0), np.zeros(0))
+        claimed = ["compressibility", "gas_spring"]
+        findings = [
+            Finding(name, 1 + i, True, 0.002, 1.0, 0.96, "", 1.0, 2.0, {})
+            for i, name in enumerate(claimed)
+        ]
+        groups: list[dict[str, object]] = [{"group": ["gas_spring", "position_force"]}]
+        return _gas_spring_is_calibration(base, claimed, findings, groups), claimed, findings
+
+    moved, claimed, findings = case(0.972)
+    assert moved and claimed == ["compressibility"]
+    assert not findings[1].claimed and "calibration, not physics" in findings[1].why_not
+    moved, claimed, findings = case(0.33)
+    assert not moved and claimed == ["compressibility", "gas_spring"] and findings[1].claimed

@@ -87,6 +87,7 @@ def test_the_verdict_judges_significance_at_the_search_s_alpha() -> None:
             unexplained=Location([]),
             remaining=stat,
             calibration=[],
+            sensor=[],
             final=SimpleNamespace(
                 model=SimpleNamespace(spec=SimpleNamespace(gas_pressure_pa=1.6e6))
             ),

@@ -28,7 +28,7 @@ class Spikes:
     count: int  # isolated spikes taken out, all tests
     samples: int  # samples looked at
     tests: int  # tests with any
-    largest_n: float  # largest distance of a spike from its neighbours' median
+    largest_n: float  # largest distance of a spike from its neighbours' mean
 
     def sentence(self) -> str:
         per_k = 1000.0 * self.count / max(self.samples, 1)
@@ -73,13 +73,13 @@ def remove_spikes(tests: Sequence[TestData]) -> tuple[list[TestData], Spikes | N
         if t.force.size < 2 * WINDOW:
             out.append(t)
             continue
-        lone, med = _isolated(t.force)
+        lone, between = _isolated(t.force)
         n = int(np.count_nonzero(lone))
         if n == 0:
             out.append(t)
             continue
         count += n
         hit += 1
-        largest = max(largest, float(np.max(np.abs(t.force - med)[lone])))
-        out.append(replace(t, force=np.where(lone, med, t.force)))
+        largest = max(largest, float(np.max(np.abs(t.force - between)[lone])))
+        out.append(replace(t, force=np.where(lone, between, t.force)))
     return out, (Spikes(count, samples, hit, largest) if count else None)

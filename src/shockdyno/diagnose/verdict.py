@@ -194,8 +194,7 @@ def verdict_text(d: Diagnosis) -> str:
     text = _physics_text(d)
     cal = calibration_text(d)
     text = f"{text} {cal}" if cal else text
-    sensor = getattr(d, "sensor", [])
-    return text + "".join(f" Sensor, not physics: {line}." for line in sensor)
+    return text + "".join(f" Sensor, not physics: {line}." for line in d.sensor)
 
 
 def _physics_text(d: Diagnosis) -> str:
@@ -295,7 +294,7 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
                 }
                 for r in d.calibration
             ],
-            "sensor": list(getattr(d, "sensor", [])),
+            "sensor": list(d.sensor),
             "text": verdict_text(d),
             "remaining_rms_n": d.remaining.structured_rms_n,
             "remaining_p_value": d.remaining.p_value,

@@ -37,9 +37,10 @@ from shockdyno.record.plausible import (
 from shockdyno.record.types import TestMeta
 from shockdyno.record.writer import RecordingWriter
 from shockdyno.rig.types import SampleBlock
+from shockdyno.units import M_PER_IN
+from shockdyno.units import N_PER_LBF as LBF_N
 
-LBF_N = 4.4482216152605  # exact by definition of the pound-force
-LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "in": 0.0254}
+LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "in": M_PER_IN}
 FORCE_UNITS = {"N": 1.0, "kN": 1e3, "lbf": LBF_N}
 TIME_UNITS = ("auto", "s", "ms", "iso")
 TEMPERATURE_UNITS = ("C", "F")

@@ -31,11 +31,10 @@ from shockdyno.errors import ConfigError, FitError
 from shockdyno.fit.result import FitResult
 from shockdyno.model.quarter_car import quasi_static_force
 from shockdyno.record.atomic import write_text_atomic
+from shockdyno.units import M_PER_IN, N_PER_LBF
 
 FloatArray = NDArray[np.float64]
 
-M_PER_IN = 0.0254
-N_PER_LBF = 4.4482216152605
 
 # Dense where a damper's curve bends (bleed to valve knee), coarse at speed. m/s.
 DEFAULT_SPEEDS_M_S: tuple[float, ...] = (

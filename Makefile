@@ -3,7 +3,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test lint bench clean browser
 
 # Two stamps: the demo needs only the runtime (.runtime); lint and tests add the test tools
 # (.installed, the name kept so `make .venv/.installed` still builds everything).
@@ -25,9 +25,19 @@ lint: $(VENV)/.installed
 	$(BIN)/ruff format --check src tests benchmarks
 	$(BIN)/mypy src
 
+# The report's browser tests need a headless Chromium (Debian's `chromium`); where this
+# machine can install it (root with apt-get, as CI is) it is installed, else they skip.
+browser:
+	@command -v chromium >/dev/null || command -v chromium-browser >/dev/null \
+	  || command -v google-chrome >/dev/null \
+	  || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
+	       && DEBIAN_FRONTEND=noninteractive apt-get install -y -q chromium >/dev/null 2>&1 \
+	       && echo "installed chromium for the browser tests"; } \
+	  || echo "no chromium (apt-get install chromium): the browser tests will skip"
+
 # Two workers, one per core of the CI machine; a module stays on one worker
 # (--dist loadscope), so a module's recordings fixture is made once.
-test: lint
+test: lint browser
 	$(BIN)/pytest -q -n 2 --dist loadscope
 
 bench: $(VENV)/.runtime

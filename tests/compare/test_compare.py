@@ -176,3 +176,13 @@ def test_wrong_inputs_get_one_line(
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and words in err[0], (args, err)
     assert not (tmp_path / "x" / "index.html").exists()
+
+
+def test_json_to_standard_output_is_only_the_table(
+    sims: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    args = ["compare", str(sims["a"]), str(sims["a2"]), "-o", str(tmp_path / "p"), "--json", "-"]
+    assert main(args) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["reference"] == "before"
+    assert "index.html" in captured.err

@@ -78,5 +78,6 @@ def run_compare(args: argparse.Namespace) -> int:
         print(f"compare: {r.b} vs {r.a}, clicks {r.clicks}: {r.text(units)}", file=sys.stderr)
     if not found:
         print("compare: every value within the scatter or not judged", file=sys.stderr)
-    print(f"compare: {index}")
+    # With --json - the table owns standard output.
+    print(f"compare: {index}", file=sys.stderr if args.json == "-" else sys.stdout)
     return 0

@@ -106,7 +106,10 @@ def render(
         "One colour per input; a marker per click setting; fits as their model's "
         "force-velocity curve (dashed; mid-stroke, zero acceleration).",
     )
-    page.figure(cplots.peak_overlay(inputs, out_dir / "peaks.png", units).name, "peak overlay")
+    page.figure(
+        cplots.peak_overlay(inputs, out_dir / "peaks.png", units).name,
+        "Peak force against peak velocity of every test, one colour per input.",
+    )
 
     matched, unmatched = _matched_loops(inputs)
     page.section(

@@ -108,3 +108,15 @@ def test_report_shows_the_drift_and_prints_one_warning_line(
     html = (out / "index.html").read_text(encoding="utf-8")
     assert html.count('<p class="warn">Drift: test 0') == 2
     assert "±2 SD" in html
+
+
+def test_a_test_without_a_measured_window_is_cut_into_its_whole_cycles() -> None:
+    # Older or hand-made recordings store no window: the whole record is measured (as
+    # TestData.measured() has it), 1 warm-up + 3 cycles at 1.5 Hz, and no part cycle.
+    test = make_test(0, 10, 1.5, cycles=3)
+    bare = replace(test, meta=replace(test.meta, measured_start_s=None, measured_end_s=None))
+    bounds = repeatability.cycle_bounds(bare)
+    assert len(bounds) == 4
+    assert bounds[-1][1] <= float(bare.t[-1]) + 1e-3 + 1e-9
+    imported = replace(bare, meta=replace(bare.meta, motion="imported"))
+    assert repeatability.cycle_bounds(imported) == []  # no period to cut by

@@ -139,15 +139,17 @@ class Drift:
 def cycle_bounds(test: TestData) -> list[tuple[float, float]]:
     """(start, end) times of the measured cycles: recorded starts, else every 1/f."""
     meta = test.meta
-    lo, hi = meta.measured_start_s, meta.measured_end_s
-    if lo is None or hi is None or meta.motion != "sine" or not meta.frequency_hz > 0:
+    if meta.motion != "sine" or not meta.frequency_hz > 0 or test.t.size < 2:
         return []
+    lo, hi = meta.measured_start_s, meta.measured_end_s
+    if lo is None or hi is None:  # no window recorded: the whole record is measured
+        lo, hi = float(test.t[0]), float(test.t[-1]) + 1.0 / meta.sample_rate_hz
     starts = [s for s in meta.cycle_start_s if lo - 1e-9 <= s < hi - 1e-9]
     if len(starts) >= 1:
         ends = [*starts[1:], hi]
         return list(zip(starts, ends, strict=True))
     period = 1.0 / meta.frequency_hz
-    n = round((hi - lo) / period)
+    n = math.floor((hi - lo) / period + 1e-6)  # whole cycles only
     return [(lo + k * period, lo + (k + 1) * period) for k in range(n)]
 
 

@@ -186,3 +186,17 @@ def test_json_to_standard_output_is_only_the_table(
     captured = capsys.readouterr()
     assert json.loads(captured.out)["reference"] == "before"
     assert "index.html" in captured.err
+
+
+def test_two_fits_compare_their_bleed_areas(sims: dict[str, Path], tmp_path: Path) -> None:
+    # The second spec opens the compression bleed 1.5x at every click above 0: +50 %.
+    other = tmp_path / "bigger.json"
+    FitResult.from_spec(sims["spec_b"], CLICKS).save(other)
+    doc = _compare(tmp_path, str(sims["fit"]), str(other))
+    assert {r["verdict"] for r in doc["rows"]} == {"not judged"}  # two models: no scatter
+    by_click = {e["clicks"]: e["areas"] for e in doc["bleed_areas"]}
+    ratio = by_click[CHANGED]["bigger"]["A_bc_m2"] / by_click[CHANGED]["fit"]["A_bc_m2"]
+    assert ratio == pytest.approx(1.5)
+    assert by_click[CHANGED]["bigger"]["A_bt_m2"] == by_click[CHANGED]["fit"]["A_bt_m2"]
+    html = (tmp_path / "page" / "index.html").read_text(encoding="utf-8")
+    assert "A_bc bigger vs fit (%)" in html and "+50.0" in html

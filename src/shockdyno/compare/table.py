@@ -161,6 +161,8 @@ def bleed_rows(inputs: list[Input]) -> tuple[list[str], list[list[str]], list[di
     header = ["clicks", "gas"]
     for i in fits:
         header += [f"A_bc {i.label} (mm²)", f"A_bt {i.label} (mm²)"]
+    for i in fits[1:]:
+        header += [f"A_bc {i.label} vs {fits[0].label} (%)", f"A_bt {i.label} (%)"]
     rows, doc = [], []
     for key in keys:
         cells = [str(key[0]), str(key[1])]
@@ -173,6 +175,14 @@ def bleed_rows(inputs: list[Input]) -> tuple[list[str], list[list[str]], list[di
                 continue
             cells += [f"{c.a_bc_m2 * 1e6:.3f}", f"{c.a_bt_m2 * 1e6:.3f}"]
             entry["areas"][i.label] = {"A_bc_m2": c.a_bc_m2, "A_bt_m2": c.a_bt_m2}
+        first = entry["areas"].get(fits[0].label)
+        for i in fits[1:]:
+            other = entry["areas"].get(i.label)
+            for name in ("A_bc_m2", "A_bt_m2"):
+                if first is None or other is None or not first[name] > 0:
+                    cells.append("–")
+                    continue
+                cells.append(f"{100 * (other[name] / first[name] - 1):+.1f}")
         rows.append(cells)
         doc.append(entry)
     return header, rows, doc

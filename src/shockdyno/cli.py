@@ -26,6 +26,7 @@ COMMAND_MODULES = [
     "shockdyno.ride.cli",  # ride
     "shockdyno.diagnose.cli",  # diagnose
     "shockdyno.report.cli",  # report
+    "shockdyno.compare.cli",  # compare
     "shockdyno.batch.cli",  # batch
 ]
 

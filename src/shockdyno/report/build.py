@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 from shockdyno.errors import ConfigError
 from shockdyno.record.atomic import write_text_atomic
 from shockdyno.record.types import TestData
-from shockdyno.report import clickchart, plots
+from shockdyno.report import clickchart, plots, repeatability
 from shockdyno.report.clickplots import force_vs_clicks
 from shockdyno.report.diagnose_section import render_diagnose
 from shockdyno.report.html import SUMMARY_HEADER, SUMMARY_LEGEND, Page, summary_row
@@ -107,12 +107,14 @@ def build_report(
     ride: dict[str, Any] | None = None,
     gas_force_n: float | None = None,
     progress: Callable[[str], None] | None = None,
+    warn: Callable[[str], None] | None = None,
 ) -> Path:
     """Write the report into ``out_dir``; returns the path of index.html.
 
     Every part is optional: no tests (a ride-only page), no fit (measured click chart
     only), ``diagnose`` and ``ride`` as the JSON documents of those commands.
     ``gas_force_n``: the static gas force to mark on loops (taken from the fit if given).
+    ``warn``: called with each drift warning (one line), e.g. to print it on the terminal.
     """
     say = progress or (lambda _: None)
     out_dir = Path(out_dir)
@@ -143,13 +145,17 @@ def build_report(
     if tests:
         _summary_section(page, summaries)
 
+    peak_cycles = repeatability.sweep_cycles([c.test for c in complete], ())
+    if complete:
+        _drift_section(page, peak_cycles, warn)
+
     for heading, header, rows in tables:
         page.section(heading)
         page.table(header, rows)
 
     if complete:
         say("peak and overlay figures")
-        _peaks_and_overlays(page, complete, out_dir, gas_force_n)
+        _peaks_and_overlays(page, complete, out_dir, gas_force_n, peak_cycles)
 
     if fit is not None:
         say("fit figures")
@@ -179,6 +185,12 @@ def _click_chart_section(
     page: Page, tests: list[TestData], fit: FitResult | None, out_dir: Path
 ) -> None:
     chart = clickchart.click_chart(tests, fit)
+    speeds = sorted({abs(v) for v in chart.velocities_m_s})
+    scatter = repeatability.chart_scatter(
+        repeatability.sweep_cycles(tests, speeds), chart.velocities_m_s
+    )
+    band = repeatability.chart_band(scatter)
+    widest = repeatability.widest(band)
     page.section(
         "Click chart",
         "Force at standard velocities per click, compression (comp, velocity > 0) and rebound "
@@ -187,9 +199,11 @@ def _click_chart_section(
         "averaged over the click's frequencies.",
     )
     page.figure(
-        force_vs_clicks(chart, out_dir / "click_chart.png").name,
+        force_vs_clicks(chart, out_dir / "click_chart.png", band).name,
         "Force against clicks at each standard velocity: measured (solid; hollow markers "
-        "extrapolated)" + (", fitted model (dashed)" if chart.model_curve else "") + ".",
+        "extrapolated)" + (", fitted model (dashed)" if chart.model_curve else "") + ". "
+        "Bars: ±2 SD of the single cycles' readings (cycle-to-cycle band"
+        + (f", at most ±{widest:.1f} N)." if math.isfinite(widest) else "; none known)."),
     )
     write_text_atomic(out_dir / "click_chart.csv", clickchart.to_csv(chart))
     header, rows = clickchart.table_rows(chart, "measured")
@@ -228,13 +242,41 @@ def _summary_section(page: Page, summaries: list[TestSummary]) -> None:
     page.close_details()
 
 
+def _drift_section(
+    page: Page, cycles: list[repeatability.TestCycles], warn: Callable[[str], None] | None
+) -> None:
+    """Tests whose cycles drift, on the page and through ``warn`` (one line each)."""
+    found = repeatability.drifts(cycles)
+    page.section(
+        "Repeatability",
+        "Cycle-to-cycle bands on the click chart and the peak-force plot are ±2 SD of the "
+        "single cycles. A drift: a straight line through a test's per-cycle peak force whose "
+        f"slope is over {repeatability.DRIFT_T:g}x its SD and changes the force by "
+        f"{100 * repeatability.DRIFT_MIN_SHARE:g} % or more over the test "
+        f"({repeatability.DRIFT_MIN_CYCLES} cycles or more).",
+    )
+    if not found:
+        checked = sum(c.n_cycles >= repeatability.DRIFT_MIN_CYCLES for c in cycles)
+        page.paragraph(f"No drift in the {checked} tests with enough cycles to tell.")
+    for d in found:
+        page.paragraph("Drift: " + d.text() + ".", warn=True)
+        if warn is not None:
+            warn(d.text())
+
+
 def _peaks_and_overlays(
-    page: Page, complete: list[plots.Curves], out_dir: Path, gas_force_n: float | None
+    page: Page,
+    complete: list[plots.Curves],
+    out_dir: Path,
+    gas_force_n: float | None,
+    cycles: list[repeatability.TestCycles],
 ) -> None:
     page.section("Peak force vs peak velocity")
+    band = repeatability.peak_band(cycles)
     page.figure(
-        plots.peak_curves([c.summary for c in complete], out_dir / "peaks.png").name,
-        "One curve per click through its test frequencies; complete tests only.",
+        plots.peak_curves([c.summary for c in complete], out_dir / "peaks.png", band).name,
+        "One curve per click through its test frequencies; complete tests only. Bars: ±2 SD "
+        "of the test's per-cycle peak force (cycle-to-cycle band).",
     )
     page.section("Overlays across clicks")
     by_freq: dict[float, list[plots.Curves]] = {}

@@ -120,6 +120,9 @@ def run_report(args: argparse.Namespace) -> int:
             ride=ride,
             gas_force_n=gas,
             progress=progress,
+            warn=lambda text: console.print(
+                f"report: warning: {text}", markup=False, highlight=False, soft_wrap=True
+            ),
         )
     print(f"report: {index}")
     return 0

@@ -13,11 +13,15 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
 
-from shockdyno.report.clickchart import ClickChart
+from shockdyno.report.clickchart import ClickChart, Setting
 from shockdyno.report.plots import DPI, readable_colours
 
 
-def force_vs_clicks(chart: ClickChart, path: Path) -> Path:
+def force_vs_clicks(
+    chart: ClickChart, path: Path, band: dict[Setting, dict[float, float]] | None = None
+) -> Path:
+    """``band``: per setting and signed velocity, the half-width (N) of the cycle-to-cycle
+    band, drawn as error bars on the measured points (report/repeatability.py)."""
     speeds = sorted({abs(v) for v in chart.velocities_m_s})
     colours = dict(zip(speeds, readable_colours(len(speeds)), strict=True))
     fig = Figure(figsize=(10.0, 4.6), layout="constrained")
@@ -41,6 +45,9 @@ def force_vs_clicks(chart: ClickChart, path: Path) -> Path:
                         color=colour,
                         mfc="white" if r.extrapolated else colour,
                     )
+                    half = (band or {}).get((c, gas), {}).get(target, math.nan)
+                    if math.isfinite(half) and not r.extrapolated:
+                        ax.errorbar(c, r.force_n, yerr=half, color=colour, capsize=3, lw=1.0)
             if chart.model_curve:
                 clicks = sorted(chart.model_curve)
                 ax.plot(
@@ -63,6 +70,8 @@ def force_vs_clicks(chart: ClickChart, path: Path) -> Path:
     handles.append(Line2D([], [], color="0.3", marker="o", mfc="white", lw=0, label="extrapolated"))
     if chart.model_curve:
         handles.append(Line2D([], [], color="0.3", ls="--", label="fitted model (x = 0)"))
+    if band:
+        handles.append(Line2D([], [], color="0.3", marker="|", ms=12, lw=0, label="±2 SD, cycles"))
     fig.legend(handles=handles, loc="outside right center", fontsize=9, frameon=False)
     if len(gas_values) > 1:
         fig.suptitle(f"gas clicks {gas} (the table lists every gas setting)", fontsize=10)

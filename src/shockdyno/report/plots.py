@@ -172,10 +172,16 @@ def frequency_overlay(
     return _save(fig, path)
 
 
-def peak_curves(summaries: Sequence[TestSummary], path: Path) -> Path:
+def peak_curves(
+    summaries: Sequence[TestSummary],
+    path: Path,
+    band: dict[int, tuple[float, float]] | None = None,
+) -> Path:
     """Peak force vs peak velocity, one curve per click through its frequencies.
 
     Compression peaks sit in the upper right, rebound peaks (signed) in the lower left.
+    ``band``: per test index, the half-width (N) of the cycle-to-cycle band of its peak
+    compression and rebound force, drawn as error bars (report/repeatability.py).
     """
     norm = _click_norm([s.clicks for s in summaries])
     cmap = CMAP
@@ -198,6 +204,16 @@ def peak_curves(summaries: Sequence[TestSummary], path: Path) -> Path:
             ([s.peak_rebound_velocity_m_s for s in group], [s.peak_rebound_force_n for s in group]),
         ):
             ax.plot(vel, force, "-", marker=marker, ms=4, color=colour, lw=1.0)
+        for s in group if band else ():
+            half = band.get(s.index) if band else None
+            if half is None:
+                continue
+            for vel1, f1, h in (
+                (s.peak_compression_velocity_m_s, s.peak_compression_force_n, half[0]),
+                (s.peak_rebound_velocity_m_s, s.peak_rebound_force_n, half[1]),
+            ):
+                if math.isfinite(h):
+                    ax.errorbar(vel1, f1, yerr=h, color=colour, capsize=3, lw=1.0)
     ax.axhline(0.0, color="0.6", lw=0.6)
     ax.axvline(0.0, color="0.6", lw=0.6)
     ax.grid(True, alpha=0.3)

@@ -1,0 +1,83 @@
+"""`shockdyno compare A B [C ...] [--fit FIT.json ...] -o DIR [--json FILE]`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from shockdyno import units as units_mod
+from shockdyno.errors import ConfigError
+from shockdyno.outputs import check_output, check_report_dir, write_output
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "compare",
+        help="recordings and fits side by side: overlays, click charts, a difference table",
+        description=(
+            "Compare recordings (.mcap: real, imported or simulated; measured) and fits "
+            "(FIT.json: the model), any mix, against the first input: peak-force curves and "
+            "loops overlaid, click charts side by side, and a difference table at the "
+            "standard velocities judged against the scatter the recordings show. Writes "
+            "DIR/index.html with PNGs beside it (offline). Documented in docs/compare.md."
+        ),
+    )
+    p.add_argument("inputs", nargs="+", metavar="INPUT", help="recordings or fits; the first is A")
+    p.add_argument(
+        "--fit", action="append", default=[], metavar="FIT.json",
+        help="a fit to compare as well (repeatable); also accepted as an INPUT",
+    )  # fmt: skip
+    p.add_argument(
+        "--label", action="append", default=[], metavar="NAME=TEXT",
+        help="name an input on the page, NAME being its path or file stem (default: the stem)",
+    )  # fmt: skip
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="page directory")
+    p.add_argument("--json", metavar="FILE", help="write the difference table (SI) here; - stdout")
+    p.add_argument("--title", default="Comparison", help="page title")
+    units_mod.add_argument(p, "the page's tables and plots")
+    p.add_argument("--force", action="store_true", help="replace an existing page or --json file")
+    p.set_defaults(func=run_compare)
+
+
+def run_compare(args: argparse.Namespace) -> int:
+    from shockdyno.compare.inputs import default_labels, load_input
+    from shockdyno.compare.page import render
+    from shockdyno.compare.table import difference_rows, shared_settings, to_json
+
+    units = units_mod.get(args.units)
+    paths = [*args.inputs, *args.fit]
+    if len(paths) < 2:
+        raise ConfigError("give two or more inputs to compare (recordings or fits)")
+    out = Path(args.output)
+    check_report_dir(out, paths, args.force, flag="-o")
+    if args.json:
+        check_output(args.json, force=args.force, inputs=paths)
+    labels = default_labels(paths, args.label)
+    flags = ["input"] * len(args.inputs) + ["--fit"] * len(args.fit)
+    inputs = [
+        load_input(Path(p), label, units.standard_velocities_m_s, flag)
+        for p, label, flag in zip(paths, labels, flags, strict=True)
+    ]
+    if not shared_settings(inputs):
+        have = "; ".join(
+            f"{i.label}: {', '.join(f'{c}/{g}' for c, g in i.settings) or 'none'}" for i in inputs
+        )
+        raise ConfigError(
+            f"the inputs share no click setting with {inputs[0].label} (clicks/gas: {have})"
+        )
+    rows = difference_rows(inputs)
+    index = render(inputs, rows, out, units, args.title)
+    if args.json:
+        text = json.dumps(to_json(inputs, rows), indent=2, allow_nan=False) + "\n"
+        write_output(args.json, text, force=args.force, inputs=paths)
+    found = [r for r in rows if r.verdict == "difference"]
+    for r in found[:10]:
+        print(f"compare: {r.b} vs {r.a}, clicks {r.clicks}: {r.text(units)}", file=sys.stderr)
+    if not found:
+        print("compare: every value within the scatter or not judged", file=sys.stderr)
+    # With --json - the table owns standard output.
+    print(f"compare: {index}", file=sys.stderr if args.json == "-" else sys.stdout)
+    return 0

@@ -1,0 +1,123 @@
+"""The inputs of a comparison: a recording (measured) or a fit (the model), any mix.
+
+A recording gives its click chart as measured, the per-cycle scatter of every value
+(report/repeatability.py), its peak forces and loops. A fit gives the model's click
+chart (mid-stroke, zero acceleration: ``clickchart.model_forces``), whose values carry
+no scatter, and its bleed areas.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from shockdyno.errors import ConfigError, RecordingError
+from shockdyno.fit.result import FitResult
+from shockdyno.record import open_recording
+from shockdyno.record.types import TestData
+from shockdyno.report import clickchart, repeatability
+from shockdyno.report.summary import TestSummary, summarise
+from shockdyno.result_files import MCAP_MAGIC
+
+Setting = clickchart.Setting
+
+
+@dataclass(frozen=True)
+class Value:
+    """One click-chart value of an input: force (N) and the SD of that value (N; 0 for a
+    model, nan when unknown), and whether it is an extrapolation."""
+
+    force_n: float
+    sd_n: float
+    extrapolated: bool = False
+
+
+@dataclass
+class Input:
+    label: str
+    path: Path
+    kind: str  # "recording" | "fit"
+    chart: clickchart.ClickChart
+    values: dict[Setting, dict[float, Value]]
+    tests: list[TestData] = field(default_factory=list)
+    summaries: list[TestSummary] = field(default_factory=list)
+    cycles: list[repeatability.TestCycles] = field(default_factory=list)
+    fit: FitResult | None = None
+
+    @property
+    def settings(self) -> list[Setting]:
+        return sorted(self.values)
+
+
+def default_labels(paths: Sequence[str], given: Sequence[str]) -> list[str]:
+    """Labels from `--label NAME=TEXT` (NAME: the path as given or its stem), else the
+    file stems; a stem that repeats gets its position appended."""
+    named: dict[str, str] = {}
+    for item in given:
+        name, sep, text = item.partition("=")
+        if not sep or not name or not text:
+            raise ConfigError(f"--label {item!r}: use NAME=TEXT, e.g. {Path(paths[0]).stem}=left")
+        named[name] = text
+    known = set(paths) | {Path(p).stem for p in paths}
+    for name in named:
+        if name not in known:
+            raise ConfigError(f"--label {name}=...: {name} is none of the inputs")
+    stems = [Path(p).stem for p in paths]
+    labels = []
+    for k, p in enumerate(paths):
+        label = named.get(p) or named.get(stems[k]) or stems[k]
+        if stems.count(stems[k]) > 1 and label == stems[k]:
+            label = f"{label} ({k + 1})"
+        labels.append(label)
+    return labels
+
+
+def _is_mcap(path: Path) -> bool:
+    try:
+        with path.open("rb") as f:
+            return f.read(len(MCAP_MAGIC)) == MCAP_MAGIC
+    except FileNotFoundError:
+        raise ConfigError(f"{path} not found") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{path} is a folder; expected a recording (.mcap) or a fit") from None
+
+
+def load_input(path: Path, label: str, speeds_m_s: Sequence[float], flag: str = "input") -> Input:
+    """Read one input; a one-line error for anything that is neither kind."""
+    if flag == "input" and _is_mcap(path):
+        return _recording(path, label, speeds_m_s)
+    try:
+        fit = FitResult.load(path, flag=flag).require_usable(f"{flag} {path}")
+    except ConfigError as exc:
+        if flag != "input":
+            raise
+        raise ConfigError(f"{exc} or a recording (.mcap)") from None
+    return _fit(path, label, fit, speeds_m_s)
+
+
+def _recording(path: Path, label: str, speeds_m_s: Sequence[float]) -> Input:
+    rec = open_recording(path).require_recording()
+    tests = [t for t in rec.load_all() if t.meta.status == "complete"]
+    if not tests:
+        raise RecordingError(f"{path}: no complete test to compare")
+    chart = clickchart.click_chart(tests, None, speeds_m_s)
+    cycles = repeatability.sweep_cycles(tests, speeds_m_s)
+    scatter = repeatability.chart_scatter(cycles, chart.velocities_m_s)
+    values: dict[Setting, dict[float, Value]] = {}
+    for key, row in chart.measured.items():
+        values[key] = {}
+        for t, r in row.items():
+            s = scatter.get(key, {}).get(t)
+            sd = s.sd_of_mean_n if s is not None and not r.extrapolated else math.nan
+            values[key][t] = Value(r.force_n, sd, r.extrapolated)
+    return Input(
+        label, path, "recording", chart, values, tests, [summarise(t) for t in tests], cycles
+    )
+
+
+def _fit(path: Path, label: str, fit: FitResult, speeds_m_s: Sequence[float]) -> Input:
+    chart = clickchart.click_chart([], fit, speeds_m_s)
+    values = {key: {t: Value(f, 0.0) for t, f in row.items()} for key, row in chart.model.items()}
+    return Input(label, path, "fit", chart, values, fit=fit)

@@ -1,0 +1,209 @@
+"""The comparison page: ``index.html`` with PNGs beside it, offline and self-contained.
+
+Files (fixed names inside the output directory): ``index.html``, ``peaks.png``,
+``loops_c<clicks>_g<gas>_<f>Hz.png`` per matched test, ``chart_<n>.png`` per input.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+from shockdyno.compare import plots as cplots
+from shockdyno.compare.inputs import Input
+from shockdyno.compare.table import (
+    DIFFERENCE,
+    FLOOR_N,
+    FLOOR_SHARE,
+    K_SCATTER,
+    NOT_JUDGED,
+    SMALL,
+    WITHIN,
+    Row,
+    bleed_rows,
+)
+from shockdyno.record.atomic import write_text_atomic
+from shockdyno.report import plots, repeatability
+from shockdyno.report.build import shown_path
+from shockdyno.report.clickplots import force_vs_clicks
+from shockdyno.report.html import Page
+from shockdyno.units import Units
+
+RULE = (
+    f"A difference: |B − A| > {K_SCATTER:g} × the SD of the difference (both sides' "
+    "scatter combined: cycle-to-cycle, and test-to-test where a click has several tests "
+    "at the velocity; a fit has none) and at least "
+    f"{100 * FLOOR_SHARE:g} % of the force or {FLOOR_N:g} N. Within the scatter: "
+    f"|B − A| ≤ {K_SCATTER:g} SD. Too small to matter: beyond the scatter but under "
+    "that floor. Not judged: extrapolated on one side, or two models."
+)
+
+
+def _matched_loops(inputs: Sequence[Input]) -> tuple[dict, list[str]]:  # type: ignore[type-arg]
+    """(setting, frequency) -> [(input, curves)] for tests two or more recordings have;
+    and a line per test that has no partner."""
+    found: dict[tuple[int, int, float], list[tuple[Input, plots.Curves]]] = {}
+    for inp in inputs:
+        seen = set()
+        for test, s in zip(inp.tests, inp.summaries, strict=True):
+            key = (test.meta.clicks, test.meta.gas_clicks, round(test.meta.frequency_hz, 6))
+            if key in seen:  # a repeated test: the first stands for the input
+                continue
+            seen.add(key)
+            found.setdefault(key, []).append((inp, plots.prepare(test, s)))
+    matched = {k: v for k, v in found.items() if len(v) >= 2}
+    unmatched = [
+        f"{v[0][0].label}: clicks {k[0]}, gas {k[1]}, {k[2]:g} Hz"
+        for k, v in sorted(found.items())
+        if len(v) < 2
+    ]
+    return matched, unmatched
+
+
+def _chart_table(inp: Input, units: Units) -> tuple[list[str], list[list[str]]]:
+    velocities = inp.chart.velocities_m_s
+    header = ["clicks", "gas"] + [
+        f"{'comp' if v > 0 else 'reb'} {units.velocity(abs(v)):.3g}" for v in velocities
+    ]
+    rows = []
+    for key, row in sorted(inp.values.items()):
+        cells = [str(key[0]), str(key[1])]
+        for v in velocities:
+            val = row[v]
+            if not math.isfinite(val.force_n):
+                cells.append("–")
+                continue
+            text = f"{units.force(val.force_n):.0f}"
+            if math.isfinite(val.sd_n) and val.sd_n > 0:
+                text += f" ±{units.force(2 * val.sd_n):.1f}"
+            cells.append(text + ("*" if val.extrapolated else ""))
+        rows.append(cells)
+    return header, rows
+
+
+def render(
+    inputs: Sequence[Input], rows: Sequence[Row], out_dir: Path, units: Units, title: str
+) -> Path:
+    out_dir.mkdir(parents=True, exist_ok=True)
+    page = Page(title)
+    f_unit, v_unit = units.force_label, units.velocity_label
+    page.section("Inputs")
+    page.table(
+        ["label", "file", "what", "click settings"],
+        [
+            [i.label, shown_path(str(i.path.resolve())) if i.path.is_absolute() else str(i.path),
+             "measured (recording)" if i.kind == "recording" else "fitted model (fit)",
+             ", ".join(f"{c}/{g}" for c, g in i.settings)]
+            for i in inputs
+        ],
+    )  # fmt: skip
+
+    _difference_section(page, inputs, rows, units)
+
+    page.section(
+        "Peak force vs peak velocity",
+        "One colour per input; a marker per click setting; fits as their model's "
+        "force-velocity curve (dashed; mid-stroke, zero acceleration).",
+    )
+    page.figure(
+        cplots.peak_overlay(inputs, out_dir / "peaks.png", units).name,
+        "Peak force against peak velocity of every test, one colour per input.",
+    )
+
+    matched, unmatched = _matched_loops(inputs)
+    page.section(
+        "Loops: same click and frequency",
+        "F-x and F-v over the measured cycles of the tests two or more recordings share "
+        "(same rod and gas clicks, same frequency), one colour per input.",
+    )
+    for k, (key, group) in enumerate(sorted(matched.items())):
+        label = f"clicks {key[0]}, gas {key[1]}, {key[2]:g} Hz: " + ", ".join(
+            i.label for i, _ in group
+        )
+        page.details(label, opened=k < 2)
+        name = f"loops_c{key[0]:02d}_g{key[1]:02d}_{key[2]:g}Hz.png"
+        page.figure(cplots.loops_overlay(group, label, out_dir / name, units).name, label)
+    page.close_details()
+    if not matched:
+        page.paragraph("No test matched: the recordings share no click and frequency.")
+    if unmatched:
+        page.paragraph("Without a partner (not overlaid): " + "; ".join(unmatched) + ".")
+    if any(i.kind == "fit" for i in inputs):
+        page.paragraph("Fits have no loops: they are compared by their click charts.")
+
+    page.section(
+        "Click charts side by side",
+        f"Force ({f_unit}) at the standard velocities ({v_unit}); measured values ± 2 SD of "
+        "the value (cycle-to-cycle and test-to-test scatter); * extrapolated. Figures: "
+        "force against clicks (N, mm/s); measured solid with the cycle-to-cycle band, "
+        "a fit's model dashed.",
+    )
+    for n, inp in enumerate(inputs):
+        page.subheading(f"{inp.label} ({inp.kind})")
+        header, table = _chart_table(inp, units)
+        page.table(header, table, numeric=[True] * len(header))
+        band = repeatability.chart_band(
+            repeatability.chart_scatter(inp.cycles, inp.chart.velocities_m_s)
+        )
+        png = force_vs_clicks(inp.chart, out_dir / f"chart_{n + 1}.png", band)
+        page.figure(png.name, f"{inp.label}: force against clicks")
+
+    header, bleed, _ = bleed_rows(list(inputs))
+    if bleed:
+        page.section("Fitted bleed areas", "Per click setting, from each fit given (mm²).")
+        page.table(header, bleed, numeric=[True] * len(header))
+
+    index = out_dir / "index.html"
+    write_text_atomic(index, page.render())
+    return index
+
+
+def _difference_section(
+    page: Page, inputs: Sequence[Input], rows: Sequence[Row], units: Units
+) -> None:
+    f_unit = units.force_label
+    page.section(
+        "Differences at the standard velocities",
+        f"Each input against {inputs[0].label}, per click setting both have: B − A in "
+        f"{f_unit} and % of A. {RULE}",
+    )
+    found = [r for r in rows if r.verdict == DIFFERENCE]
+    if found:
+        page.paragraph(
+            f"{len(found)} of {len(rows)} values differ beyond the scatter: "
+            + "; ".join(f"{r.b} vs {r.a}, clicks {r.clicks}: {r.text(units)}" for r in found[:8])
+            + ("; …" if len(found) > 8 else "."),
+            warn=True,
+        )
+    else:
+        page.paragraph(f"Every one of the {len(rows)} values is within the scatter or not judged.")
+    header = ["B vs A", "clicks", "gas", "stroke", f"v ({units.velocity_label})",
+              f"A ({f_unit})", f"B ({f_unit})", f"B − A ({f_unit})", "%",
+              f"SD ({f_unit})", "× SD", "judgement"]  # fmt: skip
+    cells, classes = [], []
+    for r in rows:
+        fin = math.isfinite(r.diff_n)
+        cells.append([
+            f"{r.b} vs {r.a}", str(r.clicks), str(r.gas_clicks), r.direction,
+            f"{units.velocity(abs(r.velocity_m_s)):.3g}",
+            f"{units.force(r.force_a_n):.0f}" if math.isfinite(r.force_a_n) else "–",
+            f"{units.force(r.force_b_n):.0f}" if math.isfinite(r.force_b_n) else "–",
+            f"{units.force(r.diff_n):+.1f}" if fin else "–",
+            f"{100 * r.diff_share:+.1f}" if math.isfinite(r.diff_share) else "–",
+            f"{units.force(r.sd_diff_n):.1f}" if math.isfinite(r.sd_diff_n) else "–",
+            f"{r.ratio:.1f}" if math.isfinite(r.ratio) else "–",
+            _short(r),
+        ])  # fmt: skip
+        classes.append("flag" if r.verdict == DIFFERENCE else "dim" if r.verdict != WITHIN else "")
+    page.table(header, cells, row_classes=classes, numeric=[False] * 4 + [True] * 7 + [False])
+
+
+def _short(r: Row) -> str:
+    if r.verdict == DIFFERENCE:
+        return f"{'softer' if r.softer else 'stiffer'}, {r.ratio:.0f}× the scatter"
+    if r.verdict == SMALL:
+        return "too small to matter"
+    if r.verdict == NOT_JUDGED:
+        return f"not judged: {r.why}"
+    return WITHIN

@@ -88,6 +88,8 @@ def test_the_verdict_judges_significance_at_the_search_s_alpha() -> None:
             remaining=stat,
             calibration=[],
             sensor=[],
+            testable=True,
+            short_tests=[],
             final=SimpleNamespace(
                 model=SimpleNamespace(spec=SimpleNamespace(gas_pressure_pa=1.6e6))
             ),

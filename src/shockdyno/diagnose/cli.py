@@ -178,11 +178,21 @@ def run_diagnose(args: argparse.Namespace) -> int:
     write_output(args.json, text, force=args.force, inputs=inputs)
     shown = table_console(stderr=out is None)
     m = doc["mismatch"]
-    shown.print(
-        f"mismatch: {'[bold red]significant[/]' if m['significant'] else 'none beyond noise'} "
-        f"(p = {m['p_value']:.3g}); structure {m['structured_rms_n']:.3g} N RMS, noise "
-        f"{m['noise_floor_n']:.3g} N, about {m['effective_values']:.0f} independent values"
-    )
+    if doc["short_tests"]:  # a warning, not an error: the rest of the diagnosis stands
+        n = len(doc["short_tests"])
+        print(
+            f"warning: {n} test{'s' * (n > 1)} of fewer than two whole cycles: nothing "
+            "claimed from them (no cycle-to-cycle noise to test against)",
+            file=sys.stderr,
+        )
+    if not m["tested"]:
+        shown.print("mismatch: not tested (no test has two whole cycles)")
+    else:
+        shown.print(
+            f"mismatch: {'[bold red]significant[/]' if m['significant'] else 'none beyond noise'} "
+            f"(p = {m['p_value']:.3g}); structure {m['structured_rms_n']:.3g} N RMS, noise "
+            f"{m['noise_floor_n']:.3g} N, about {m['effective_values']:.0f} independent values"
+        )
     if m["significant"]:
         shown.print(_summary(doc))
     shown.print(f"[bold]verdict:[/] {doc['verdict']['text']}")

@@ -190,8 +190,30 @@ def calibration_text(d: Diagnosis) -> str:
     return "Calibrated, not physics: " + "; ".join(describe_calibration(r) for r in moved) + "."
 
 
+def short_text(d: Diagnosis) -> str:
+    """Which tests are too short to test, and why that means claiming nothing from them."""
+    if not d.short_tests:
+        return ""
+    listed = "; ".join(
+        f"test {t.index} ({t.clicks} clicks, {t.frequency_hz:g} Hz): {t.cycles:.1f} cycles"
+        for t in d.short_tests
+    )
+    why = (
+        "with fewer than two whole cycles there is no cycle-to-cycle noise to test a "
+        "mismatch against"
+    )
+    if not d.testable:
+        return (
+            f"Nothing claimed: no test has two whole cycles ({listed}); {why}. "
+            "Record at least two measured cycles per test."
+        )
+    return f"Left out, nothing claimed from them ({why}): {listed}."
+
+
 def verdict_text(d: Diagnosis) -> str:
-    text = _physics_text(d)
+    text = short_text(d) if not d.testable else _physics_text(d)
+    if d.testable and d.short_tests:
+        text = f"{text} {short_text(d)}"
     cal = calibration_text(d)
     text = f"{text} {cal}" if cal else text
     return text + "".join(f" Sensor, not physics: {line}." for line in d.sensor)
@@ -253,11 +275,12 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
     order = sorted(claimed, key=lambda f: -f.heldout_gain)
     return {
         "mismatch": {
-            "significant": m.p_value < d.alpha,
-            "p_value": m.p_value,
-            "noise_floor_n": m.noise_floor_n,
-            "structured_rms_n": m.structured_rms_n,
-            "structured_share": m.structured_share,
+            "tested": d.testable,
+            "significant": d.testable and m.p_value < d.alpha,
+            "p_value": _num(m.p_value),
+            "noise_floor_n": _num(m.noise_floor_n),
+            "structured_rms_n": _num(m.structured_rms_n),
+            "structured_share": _num(m.structured_share),
             "effective_values": m.effective_values,
             "where": [r.to_json() for r in d.location.regions],
             "axes": d.location.axes,
@@ -296,9 +319,19 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
             ],
             "sensor": list(d.sensor),
             "text": verdict_text(d),
-            "remaining_rms_n": d.remaining.structured_rms_n,
-            "remaining_p_value": d.remaining.p_value,
+            "remaining_rms_n": _num(d.remaining.structured_rms_n),
+            "remaining_p_value": _num(d.remaining.p_value),
         },
+        "short_tests": [
+            {
+                "index": t.index,
+                "clicks": t.clicks,
+                "frequency_hz": t.frequency_hz,
+                "cycles": t.cycles,
+                "reason": "fewer than two whole cycles: no cycle-to-cycle noise to test against",
+            }
+            for t in d.short_tests
+        ],
         "tests": [
             {
                 "index": t.index,

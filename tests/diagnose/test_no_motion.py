@@ -106,3 +106,13 @@ def test_a_short_test_beside_whole_ones_is_left_out_and_the_rest_diagnosed_as_be
     assert "test 1 (14 clicks, 1.5 Hz)" in mixed["verdict"]["text"]
     # What stands before the note is the verdict of the whole tests alone.
     assert mixed["verdict"]["text"].startswith(alone["verdict"]["text"].split(" Calibrated")[0])
+    # --units imperial: the terminal's noise in lbf, the SI number converted; JSON still SI.
+    from shockdyno.units import N_PER_LBF
+
+    rec, out = tmp_path / "alone.mcap", tmp_path / "imperial.json"
+    argv = ["diagnose", str(rec), "--json", str(out), "--terms", "sensor_lag"]
+    assert main([*argv, "--units", "imperial"]) == 0
+    printed = capsys.readouterr().out
+    noise = alone["mismatch"]["noise_floor_n"]
+    assert f"noise {noise / N_PER_LBF:.3g} lbf" in printed and " N " not in printed
+    assert json.loads(out.read_text())["mismatch"] == alone["mismatch"]

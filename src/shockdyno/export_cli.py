@@ -10,10 +10,14 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from shockdyno import __version__
 from shockdyno.errors import ConfigError
 from shockdyno.fit.result import FitResult
 from shockdyno.lists import parse_floats, parse_ints
+from shockdyno.model.kinematics import differentiate
 from shockdyno.outputs import check_output
 from shockdyno.record.csv_export import export_csv
 from shockdyno.ride.damper_table import UNITS, click_tables, write_tables
@@ -51,7 +55,8 @@ def register(subparsers: Any) -> None:
         "--units",
         choices=tuple(UNITS),
         default="si",
-        help="--damper-table: mm/s and N, or in/s and lbf",
+        help="--damper-table: mm/s and N, or in/s and lbf (--csv is always SI, as its "
+        "column names say)",
     )
     p.add_argument("--force", action="store_true", help="write over files already in DIR")
     p.set_defaults(func=_export)
@@ -62,10 +67,23 @@ def _export(args: argparse.Namespace) -> int:
         for flag in ("clicks", "velocities_mm_s"):
             if getattr(args, flag) is not None:
                 raise ConfigError(f"--{flag.replace('_', '-')} goes with --damper-table")
-        files = export_csv(args.source, args.csv, force=args.force)
-        print(f"exported {len(files) - 1} tests to {args.csv} ({files[0].name} lists them)")
+        if args.units != "si":  # the exchange format import reads: its columns name SI units
+            raise ConfigError(
+                "--csv writes SI units (time_s, force_N, ...); --units goes with --damper-table"
+            )
+        files = export_csv(args.source, args.csv, force=args.force, velocity=_velocity)
+        print(
+            f"exported {len(files) - 1} tests to {args.csv} ({files[0].name} lists them), "
+            "in SI units as the column names say"
+        )
         return 0
     return _damper_table(args)
+
+
+def _velocity(t: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """dx/dt as the analysis takes it (fit/prepare.py): the exported column is the velocity
+    a fit or a click chart of these samples uses."""
+    return differentiate(t, x)[0]
 
 
 def _load_fit(path: Path) -> FitResult:

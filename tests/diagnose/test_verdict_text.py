@@ -50,6 +50,33 @@ def test_friction_text_names_what_moved() -> None:
     assert "viscous" not in text
 
 
+def test_imperial_text_is_the_si_text_converted() -> None:
+    """diagnose --units imperial: the same finding in lbf, in/s, in and lbf·s/in, each number
+    the SI one times the factor (issue 20); DIAG.json keeps the SI text."""
+    from shockdyno.units import IMPERIAL, M_PER_IN, N_PER_LBF
+
+    f = _finding(
+        "friction",
+        {
+            "breakaway_n": (24.0, 1.5),
+            "stribeck_velocity_m_s": (0.005, 0.0004),
+            "viscous_n_s_m": (400.0, 5.0),
+        },
+    )
+    si, imp = describe(f, 1.6e6), describe(f, 1.6e6, IMPERIAL)
+    assert "viscous drag 400 ± 5 N·s/m" in si
+    assert f"breakaway {24 / N_PER_LBF:.3g} ± {1.5 / N_PER_LBF:.2g} lbf" in imp
+    assert f"{0.005 / M_PER_IN:.2g} ± {0.0004 / M_PER_IN:.2g} in/s (Stribeck)" in imp
+    assert f"viscous drag {400 / N_PER_LBF * M_PER_IN:.3g}" in imp and "lbf·s/in" in imp
+    bump = _finding("contact", {"bump_onset_m": (0.02, 0.001), "bump_force_n": (500.0, 10.0)})
+    text = describe(bump, 1.6e6, IMPERIAL)
+    assert f"x = {0.02 / M_PER_IN:+.3g} ± {0.001 / M_PER_IN:.2g} in" in text
+    assert (
+        f"({500 / N_PER_LBF:.3g} ± {10 / N_PER_LBF:.2g} lbf {0.01 / M_PER_IN:.2g} in past" in text
+    )
+    assert "x = +20 ± 1 mm (500 ± 10 N 10 mm past it)" in describe(bump, 1.6e6)
+
+
 def test_a_calibrated_gas_volume_reads_as_the_spec_s_error() -> None:
     small = CalibrationRow("gas_volume_m3", 1.0e-4, 1.4e-4, 1e-7, "m³")
     assert small.moved
@@ -88,6 +115,8 @@ def test_the_verdict_judges_significance_at_the_search_s_alpha() -> None:
             remaining=stat,
             calibration=[],
             sensor=[],
+            testable=True,
+            short_tests=[],
             final=SimpleNamespace(
                 model=SimpleNamespace(spec=SimpleNamespace(gas_pressure_pa=1.6e6))
             ),

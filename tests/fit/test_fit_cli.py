@@ -63,14 +63,19 @@ def test_fit_command_writes_json_report_and_table(
         assert c["A_bt_m2"] == pytest.approx(float(truth.bleed_areas(c["clicks"])[1]), rel=0.1)
     assert set(doc["globals"]) >= {"gas_pressure_pa", "friction_n"}
     assert "Enhancement (%)" in printed and "Talbott" in printed
-    # Every fitted global is printed with its value, and the force channel's delay in ms
+    # Every fitted global is printed in engineering units (the JSON stays SI), and the
+    # force channel's delay in ms
     assert "Calibrated globals" in printed
     lines = printed.splitlines()
+    engineering = {"gas_pressure_pa": (1e-5, "bar"), "friction_n": (1.0, "N")}
+    engineering |= {f"{v}_valve.preload_m": (1e3, "mm") for v in ("compression", "rebound")}
+    engineering |= {f"{v}_valve.face_area_m2": (1e6, "mm²") for v in ("compression", "rebound")}
     for key, value in doc["globals"].items():
         row = next(ln for ln in lines if f" {key} " in ln)
-        assert f"{value:.4g}" in row, (key, row)
+        factor, label = engineering[key]
+        assert f"{value * factor:.4g}" in row and f" {label} " in row, (key, row)
     delay_ms = doc["info"]["calibration"]["force_delay_s"] * 1e3
-    assert f"{delay_ms:.4g}" in next(ln for ln in lines if "force delay, ms" in ln)
+    assert f"{delay_ms:.4g}" in next(ln for ln in lines if "force delay" in ln)
     pngs = sorted(report.glob("*.png"))
     assert len(pngs) >= 3  # areas vs clicks, and overlays
     for p in pngs:
@@ -78,6 +83,9 @@ def test_fit_command_writes_json_report_and_table(
     # One page with the fit on it, linking the figures beside it:
     page = (report / "index.html").read_text(encoding="utf-8")
     assert "Fit and validation" in page and "Click chart" in page
+    # The page's globals in engineering units too: the gas charge in bar, areas in mm²
+    assert "Calibrated globals" in page and "<td>mm²</td>" in page
+    assert f'<td class="num">{doc["globals"]["gas_pressure_pa"] * 1e-5:.4g}</td>' in page
     for p in pngs:
         assert f'src="{p.name}"' in page
     rows = list(csv.reader((report / "table4.csv").read_text().splitlines()))
@@ -124,18 +132,21 @@ def test_user_mistakes_are_one_line_errors(
     assert not (tmp_path / "x.json").exists()
 
 
-def test_a_value_pressed_against_a_bound_of_zero_reads_zero() -> None:
-    """An optimiser at a bound of 0 leaves 1.7e-28 there: the tables print 0 and say why
-    (issue 20), and a real small value or a value at another bound is printed as it is."""
+def test_a_value_pressed_against_a_bound_reads_which_bound() -> None:
+    """An optimiser at a bound of 0 leaves 1.7e-28 there: the tables print "at lower bound
+    (0 ms)" in place of it (issue 20), a value at another bound names that one, and a real
+    small value or an unflagged one is printed as it is, in display units."""
     from rich.console import Console
 
-    from shockdyno.fit.cli import _mm2, terms_table
+    from shockdyno.fit.cli import _area, terms_table
+    from shockdyno.fit.display import shown
     from shockdyno.model.params import Estimate
+    from shockdyno.units import SI
 
     terms = {
         "sensor_lag": {
-            "delay_s": Estimate(1.7e-28, 2e-5, "s", at_bound=True),
-            "load_cell_lag_s": Estimate(0.0021, 1e-4, "s"),
+            "delay_s": Estimate(0.0021, 1e-4, "s"),
+            "load_cell_lag_s": Estimate(1.7e-28, 2e-5, "s", at_bound=True),
         },
         "compressibility": {"air_fraction": Estimate(0.3, 0.01, "1", at_bound=True)},
     }
@@ -143,10 +154,62 @@ def test_a_value_pressed_against_a_bound_of_zero_reads_zero() -> None:
     console.print(terms_table(terms))
     text = console.export_text()
     assert "1.7e-28" not in text
+    lag = next(line for line in text.splitlines() if "load_cell_lag_s" in line)
+    assert "at lower bound (0 ms)" in lag and " ms " in lag
     delay = next(line for line in text.splitlines() if "delay_s" in line)
-    assert " 0 " in delay and "at a bound" in delay
-    assert "0.0021" in text and "0.3" in text
-    assert _mm2(1e-24, float("nan")) == "0" and _mm2(2.5e-6, 2.5e-7) == "2.5 ±10%"
+    assert " 2.1 " in delay and " 0.1 " in delay  # 0.0021 s ± 1e-4 s in ms
+    air = next(line for line in text.splitlines() if "air_fraction" in line)
+    assert "at upper bound (0.3)" in air  # compressibility's air fraction tops out at 0.3
+    mm2 = shown("m²", SI)
+    assert _area(1e-24, float("nan"), mm2) == "0" and _area(2.5e-6, 2.5e-7, mm2) == "2.5 ±10%"
+
+
+def test_imperial_tables_are_the_si_numbers_converted(
+    recording: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--units imperial: the same fit, its N in lbf, m/s in in/s, bar in psi, mm² in in²
+    (each cell the SI one times the factor, not only a new label); the JSON stays SI."""
+    import re
+
+    from shockdyno.units import M_PER_IN, N_PER_LBF
+
+    cells: dict[str, dict[str, list[str]]] = {}
+    docs = {}
+    for units in ("si", "imperial"):
+        out = tmp_path / f"{units}.json"
+        argv = ["fit", str(recording), "--json", str(out), "--terms", "friction"]
+        assert main([*argv, "--units", units]) == 0
+        doc = json.loads(out.read_text())
+        docs[units] = (doc["globals"], doc["terms"], doc["clicks"])
+        lines = capsys.readouterr().out.splitlines()
+        rows = [[c.strip() for c in ln.split("│")[1:-1]] for ln in lines if ln.startswith("│")]
+        cells[units] = {r[1] if r[0] == "friction" else r[0]: r for r in rows if len(r) > 2}
+    assert docs["si"] == docs["imperial"]  # the JSON is SI whatever the tables show
+    si, imp = cells["si"], cells["imperial"]
+
+    def close(a: str, b: str, factor: float) -> None:
+        assert float(b) == pytest.approx(float(a) * factor, rel=2e-3), (a, b)
+
+    assert si["friction_n"][4] == "N" and imp["friction_n"][4] == "lbf"
+    close(si["friction_n"][1], imp["friction_n"][1], 1 / N_PER_LBF)
+    close(si["friction_n"][3], imp["friction_n"][3], 1 / N_PER_LBF)
+    assert imp["gas_pressure_pa"][4] == "psi"
+    close(si["gas_pressure_pa"][1], imp["gas_pressure_pa"][1], 1e5 / N_PER_LBF * M_PER_IN**2)
+    assert imp["compression_valve.face_area_m2"][4] == "in²"
+    close(
+        si["compression_valve.face_area_m2"][3],
+        imp["compression_valve.face_area_m2"][3],
+        1e-6 / M_PER_IN**2,
+    )
+    # The friction term: a velocity in in/s, a force in lbf (a number or a named bound).
+    for name, label_si, label_imp, factor in (
+        ("stribeck_velocity_m_s", "mm/s", "in/s", 1e-3 / M_PER_IN),
+        ("breakaway_n", "N", "lbf", 1 / N_PER_LBF),
+    ):
+        a, b = si[name], imp[name]
+        assert (a[4], b[4]) == (label_si, label_imp)
+        num = re.compile(r"[-+]?[0-9.]+(?:e[-+]?\d+)?")
+        close(num.findall(a[2])[-1], num.findall(b[2])[-1], factor)
 
 
 def test_piped_tables_are_written_whole(tmp_path: Path) -> None:

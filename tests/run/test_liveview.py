@@ -289,3 +289,28 @@ def test_glitched_samples_do_not_stop_the_sweep() -> None:
     s = view.end_test(test.meta)
     assert np.isnan(s.peak_compression_velocity_m_s)
     assert "vc=nanm/s" in s.line()
+
+
+def test_imperial_end_of_test_line_is_the_si_line_converted() -> None:
+    """sweep/replay --units imperial: the Fc=... Fr=... line in in, lbf, in/s and F, each
+    number the SI one converted (issue 20), through the live view as a sweep prints it."""
+    from shockdyno.units import IMPERIAL, M_PER_IN, N_PER_LBF
+
+    test = make_test(0, 6, 1.5)
+    s = summarise(test)
+    buf = io.StringIO()
+    with LiveView(1, console=Console(file=buf, force_terminal=False), units=IMPERIAL) as view:
+        view.start_test(test.meta)
+        for block in blocks_of(test, [200]):
+            view.update(block)
+        view.end_test(test.meta)
+    line = buf.getvalue().strip().splitlines()[-1]
+    assert line == s.line(1, 1, IMPERIAL)
+    got = dict(re.findall(r"(\w+)=([-+]?[0-9.]+)", line))
+    assert f" A={s.amplitude_m / M_PER_IN:.2f}in " in line  # 30 mm: 1.18 in
+    assert float(got["Fc"]) == pytest.approx(s.peak_compression_force_n / N_PER_LBF, abs=0.5)
+    assert float(got["Fr"]) == pytest.approx(s.peak_rebound_force_n / N_PER_LBF, abs=0.5)
+    assert float(got["vc"]) == pytest.approx(s.peak_compression_velocity_m_s / M_PER_IN, abs=5e-3)
+    assert s.temperature_c is not None
+    assert float(got["T"]) == pytest.approx(s.temperature_c * 1.8 + 32, abs=0.05)
+    assert "lbf" in line and "in/s" in line and "F " in line and "N " not in line

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from shockdyno import units as units_mod
 from shockdyno.errors import ConfigError
 from shockdyno.lists import seed_arg
 
@@ -50,6 +51,7 @@ def register(sub: Any) -> None:
         help="overwrite an existing DIAG.json or --report page; accept a --fit made from "
         "another recording (DIAG.json says so)",
     )
+    units_mod.add_argument(p, "the terminal text and table")
     p.set_defaults(func=run_diagnose)
 
 
@@ -69,11 +71,12 @@ def _candidates(text: str) -> tuple[str, ...]:
     return names
 
 
-def _summary(doc: dict[str, Any]) -> Any:
+def _summary(doc: dict[str, Any], units: units_mod.Units = units_mod.SI) -> Any:
     from rich.table import Table
 
     table = Table(title="Candidate physics (refitted with globals and areas)")
-    for name in ("round", "physics", "claimed", "p", "held-out gain", "peak effect N", "note"):
+    effect = f"peak effect {units.force_label}"
+    for name in ("round", "physics", "claimed", "p", "held-out gain", effect, "note"):
         table.add_column(name, justify="left" if name in ("physics", "note") else "right")
     for f in doc["findings"]:
         gain = f["heldout_gain"]
@@ -86,7 +89,7 @@ def _summary(doc: dict[str, Any]) -> Any:
             "[bold green]yes[/]" if f["claimed"] else "",
             f"{f['p_value']:.3g}",
             "–" if gain is None else f"{gain:.2f}",
-            f"{f['effect_peak_n']:.3g}",
+            f"{units.force(f['effect_peak_n']):.3g}",
             note,
         )
     return table
@@ -178,14 +181,33 @@ def run_diagnose(args: argparse.Namespace) -> int:
     write_output(args.json, text, force=args.force, inputs=inputs)
     shown = table_console(stderr=out is None)
     m = doc["mismatch"]
-    shown.print(
-        f"mismatch: {'[bold red]significant[/]' if m['significant'] else 'none beyond noise'} "
-        f"(p = {m['p_value']:.3g}); structure {m['structured_rms_n']:.3g} N RMS, noise "
-        f"{m['noise_floor_n']:.3g} N, about {m['effective_values']:.0f} independent values"
-    )
+    if doc["short_tests"]:  # a warning, not an error: the rest of the diagnosis stands
+        n = len(doc["short_tests"])
+        print(
+            f"warning: {n} test{'s' * (n > 1)} of fewer than two whole cycles: nothing "
+            "claimed from them (no cycle-to-cycle noise to test against)",
+            file=sys.stderr,
+        )
+    units = units_mod.get(args.units)
+    fl = units.force_label
+    if not m["tested"]:
+        shown.print("mismatch: not tested (no test has two whole cycles)")
+    else:
+        shown.print(
+            f"mismatch: {'[bold red]significant[/]' if m['significant'] else 'none beyond noise'} "
+            f"(p = {m['p_value']:.3g}); structure {units.force(m['structured_rms_n']):.3g} {fl} "
+            f"RMS, noise {units.force(m['noise_floor_n']):.3g} {fl}, about "
+            f"{m['effective_values']:.0f} independent values"
+        )
     if m["significant"]:
-        shown.print(_summary(doc))
-    shown.print(f"[bold]verdict:[/] {doc['verdict']['text']}")
+        shown.print(_summary(doc, units))
+    if units.imperial:  # DIAG.json's text stays SI; the terminal's is in the units asked
+        from shockdyno.diagnose.verdict import verdict_text
+
+        text = verdict_text(d, units)
+    else:
+        text = doc["verdict"]["text"]
+    shown.print(f"[bold]verdict:[/] {text}")
     if args.report:
         from shockdyno.diagnose.report import write_report
 

@@ -42,7 +42,7 @@ from shockdyno.diagnose.spikes import remove_spikes
 from shockdyno.diagnose.stats import MismatchStat, mismatch_test, noise_draws
 from shockdyno.errors import FitError
 from shockdyno.fit.metrics import error_metrics
-from shockdyno.fit.prepare import prepare_tests, whole_cycles
+from shockdyno.fit.prepare import PreparedTest, prepare_tests, whole_cycles
 from shockdyno.fit.problem import DEFAULT_GLOBALS, nominal_value
 from shockdyno.fit.result import FitResult
 from shockdyno.model.composite import DamperModel, Term
@@ -172,6 +172,17 @@ class TestScore:
     e_t_after: float
 
 
+@dataclass(frozen=True)
+class ShortTest:
+    """A test of fewer than two whole cycles: it has no cycle-to-cycle scatter, so no noise
+    to weigh a mismatch against, and the diagnosis claims nothing from it."""
+
+    index: int
+    clicks: int
+    frequency_hz: float
+    cycles: float
+
+
 @dataclass
 class Diagnosis:
     mismatch: MismatchStat
@@ -191,6 +202,12 @@ class Diagnosis:
     calibration: list[CalibrationRow] = field(default_factory=list)
     alpha: float = 0.01  # the significance level the search used; the verdict reads it
     sensor: list[str] = field(default_factory=list)  # faults of the sensors, not physics
+    short_tests: list[ShortTest] = field(default_factory=list)  # left out, see ShortTest
+
+    @property
+    def testable(self) -> bool:
+        """False when every test was short: no mismatch test, nothing claimed (_untestable)."""
+        return not math.isnan(self.mismatch.p_value)
 
 
 def _parameters(fitted: Fitted, name: str) -> dict[str, dict[str, object]]:
@@ -467,15 +484,15 @@ def diagnose(
     # The mismatch test weighs each phase's mean against its scatter from cycle to
     # cycle: a test of fewer than two cycles has no scatter to weigh against.
     few = [p for p in prepared if whole_cycles(p.data) < 2]
-    prepared = [p for p in prepared if whole_cycles(p.data) >= 2]
-    if not prepared:
-        raise FitError(
-            f"no test has two whole cycles ({len(few)} shorter): with fewer there is no "
-            "cycle-to-cycle noise to test a mismatch against, so nothing can be claimed"
-        )
-    if few:
-        notes.append(f"{len(few)} tests of fewer than two cycles left out of the diagnosis")
+    short = [
+        ShortTest(m.index, m.clicks, m.frequency_hz, whole_cycles(p.data))
+        for p in few
+        for m in (p.data.meta,)
+    ]
     spec = fit.spec() if fit is not None else load_spec(spec_path)
+    if len(few) == len(prepared):
+        return _untestable(few, short, fit, spec, s, notes, sensor, wall0)
+    prepared = [p for p in prepared if whole_cycles(p.data) >= 2]
     data = Data.build(spec, prepared, s.full_rate_hz)
     rng = np.random.default_rng(s.seed)
     report("baseline fit", 0.05)
@@ -642,4 +659,50 @@ def diagnose(
         ),
         alpha=s.alpha,
         sensor=sensor,
+        short_tests=short,
+    )
+
+
+def _untestable(
+    prepared: list[PreparedTest],
+    short: list[ShortTest],
+    fit: FitResult | None,
+    spec: DamperSpec,
+    s: Settings,
+    notes: list[str],
+    sensor: list[str],
+    wall0: float,
+) -> Diagnosis:
+    """Every test shorter than two cycles: the model is fitted and drawn (the residual is
+    there to see), but with no cycle-to-cycle scatter there is nothing to test it against,
+    so no statistic is reported and no term is tried."""
+    data = Data.build(spec, prepared, s.full_rate_hz)
+    base = _baseline(data, fit, s, notes)
+    nan = math.nan
+    untested = MismatchStat(nan, nan, nan, nan, nan, 0.0)
+    e_t = _e_t(data, base)
+    scores = [
+        TestScore(p.data.meta.index, p.data.meta.clicks, p.data.meta.frequency_hz, e, e)
+        for p, e in zip(prepared, e_t, strict=True)
+    ]
+    freqs = {round(p.data.meta.frequency_hz, 3) for p in prepared}
+    return Diagnosis(
+        mismatch=untested,
+        location=Location([], {}),
+        findings=[],
+        claimed=[],
+        indistinguishable=[],
+        unexplained=Location([], {}),
+        remaining=untested,
+        tests=scores,
+        baseline=base,
+        final=base,
+        data=data,
+        notes=notes,
+        wall_s=time.perf_counter() - wall0,
+        single_frequency=len(freqs) == 1,
+        calibration=[],
+        alpha=s.alpha,
+        sensor=sensor,
+        short_tests=short,
     )

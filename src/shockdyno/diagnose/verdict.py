@@ -9,6 +9,7 @@ from typing import Any
 from shockdyno.diagnose.engine import CalibrationRow, Diagnosis, Finding
 from shockdyno.diagnose.locate import Location
 from shockdyno.model.terms import LIBRARY
+from shockdyno.units import SI, Units
 
 
 def _v(f: Finding, name: str) -> float:
@@ -17,9 +18,9 @@ def _v(f: Finding, name: str) -> float:
     return float(value) if isinstance(value, int | float) else math.nan
 
 
-def _sd(f: Finding, name: str) -> str:
+def _sd(f: Finding, name: str, scale: float = 1.0) -> str:
     sd = f.parameters.get(name, {}).get("sd")
-    return f" ± {sd:.2g}" if isinstance(sd, int | float) and math.isfinite(sd) else ""
+    return f" ± {scale * sd:.2g}" if isinstance(sd, int | float) and math.isfinite(sd) else ""
 
 
 def _moved(f: Finding, name: str) -> bool:
@@ -70,9 +71,13 @@ def _signature(loc: Location) -> str:
     return ", ".join(bits)
 
 
-def describe(f: Finding, spec_gas_pa: float) -> str:
-    """One finding as physics with its numbers."""
+def describe(f: Finding, spec_gas_pa: float, u: Units = SI) -> str:
+    """One finding as physics with its numbers, forces, lengths and speeds in `u`."""
     p = f.physics
+    fn, fl = u.force_per_n, u.force_label
+    ln, ll = u.length_per_m, u.length_label
+    vn, vl = u.velocity_per_m_s, u.velocity_label
+    cn, cl = (fn / ln, f"{fl}·s/{ll}") if u.imperial else (1.0, "N·s/m")  # damping coefficient
     if p == "compressibility":
         alpha = _v(f, "air_fraction")
         c_oil = _v(f, "oil_compressibility_per_gpa") * 1e-9
@@ -101,13 +106,13 @@ def describe(f: Finding, spec_gas_pa: float) -> str:
         parts = []
         if _moved(f, "breakaway_n"):
             parts.append(
-                f"breakaway {_v(f, 'breakaway_n'):.3g}{_sd(f, 'breakaway_n')} N above Coulomb, "
-                f"falling over {1e3 * _v(f, 'stribeck_velocity_m_s'):.2g}"
-                f"{_sd_ms(f, 'stribeck_velocity_m_s')} mm/s (Stribeck)"
+                f"breakaway {fn * _v(f, 'breakaway_n'):.3g}{_sd(f, 'breakaway_n', fn)} {fl} "
+                f"above Coulomb, falling over {vn * _v(f, 'stribeck_velocity_m_s'):.2g}"
+                f"{_sd(f, 'stribeck_velocity_m_s', vn)} {vl} (Stribeck)"
             )
         if _moved(f, "viscous_n_s_m"):
             parts.append(
-                f"viscous drag {_v(f, 'viscous_n_s_m'):.3g}{_sd(f, 'viscous_n_s_m')} N·s/m"
+                f"viscous drag {cn * _v(f, 'viscous_n_s_m'):.3g}{_sd(f, 'viscous_n_s_m', cn)} {cl}"
             )
         return "seal friction: " + (", ".join(parts) or "beyond the spec's Coulomb friction")
     if p == "thermal":
@@ -136,15 +141,15 @@ def describe(f: Finding, spec_gas_pa: float) -> str:
         sides = []
         if _moved(f, "bump_force_n"):
             sides.append(
-                f"a bump stop from x = {1e3 * _v(f, 'bump_onset_m'):+.3g}"
-                f"{_sd_ms(f, 'bump_onset_m')} mm ({_v(f, 'bump_force_n'):.3g}"
-                f"{_sd(f, 'bump_force_n')} N 10 mm past it)"
+                f"a bump stop from x = {ln * _v(f, 'bump_onset_m'):+.3g}"
+                f"{_sd(f, 'bump_onset_m', ln)} {ll} ({fn * _v(f, 'bump_force_n'):.3g}"
+                f"{_sd(f, 'bump_force_n', fn)} {fl} {ln * 0.01:.2g} {ll} past it)"
             )
         if _moved(f, "topout_force_n"):
             sides.append(
-                f"a top-out spring from x = {1e3 * _v(f, 'topout_onset_m'):+.3g}"
-                f"{_sd_ms(f, 'topout_onset_m')} mm ({_v(f, 'topout_force_n'):.3g}"
-                f"{_sd(f, 'topout_force_n')} N 10 mm past it)"
+                f"a top-out spring from x = {ln * _v(f, 'topout_onset_m'):+.3g}"
+                f"{_sd(f, 'topout_onset_m', ln)} {ll} ({fn * _v(f, 'topout_force_n'):.3g}"
+                f"{_sd(f, 'topout_force_n', fn)} {fl} {ln * 0.01:.2g} {ll} past it)"
             )
         return "contact: " + (" and ".join(sides) or "at the end of travel")
     if p == "position_force":
@@ -153,8 +158,8 @@ def describe(f: Finding, spec_gas_pa: float) -> str:
         k = max(range(8), key=lambda i: abs(knots[i]))
         x = lo + (hi - lo) * k / 7
         return (
-            f"a force of position no named physics explains: up to {knots[k]:+.3g} N at "
-            f"x = {1e3 * x:+.3g} mm (bump stop, top-out or a seal that grips at one end?)"
+            f"a force of position no named physics explains: up to {fn * knots[k]:+.3g} {fl} "
+            f"at x = {ln * x:+.3g} {ll} (bump stop, top-out or a seal that grips at one end?)"
         )
     return p
 
@@ -190,25 +195,50 @@ def calibration_text(d: Diagnosis) -> str:
     return "Calibrated, not physics: " + "; ".join(describe_calibration(r) for r in moved) + "."
 
 
-def verdict_text(d: Diagnosis) -> str:
-    text = _physics_text(d)
+def short_text(d: Diagnosis) -> str:
+    """Which tests are too short to test, and why that means claiming nothing from them."""
+    if not d.short_tests:
+        return ""
+    listed = "; ".join(
+        f"test {t.index} ({t.clicks} clicks, {t.frequency_hz:g} Hz): {t.cycles:.1f} cycles"
+        for t in d.short_tests
+    )
+    why = (
+        "with fewer than two whole cycles there is no cycle-to-cycle noise to test a "
+        "mismatch against"
+    )
+    if not d.testable:
+        return (
+            f"Nothing claimed: no test has two whole cycles ({listed}); {why}. "
+            "Record at least two measured cycles per test."
+        )
+    return f"Left out, nothing claimed from them ({why}): {listed}."
+
+
+def verdict_text(d: Diagnosis, units: Units = SI) -> str:
+    """The verdict in words; forces, lengths and speeds in `units` (DIAG.json's is SI)."""
+    text = short_text(d) if not d.testable else _physics_text(d, units)
+    if d.testable and d.short_tests:
+        text = f"{text} {short_text(d)}"
     cal = calibration_text(d)
     text = f"{text} {cal}" if cal else text
     return text + "".join(f" Sensor, not physics: {line}." for line in d.sensor)
 
 
-def _physics_text(d: Diagnosis) -> str:
+def _physics_text(d: Diagnosis, u: Units = SI) -> str:
     spec_gas = d.final.model.spec.gas_pressure_pa
     m = d.mismatch
+    fl = u.force_label
     if m.p_value >= d.alpha:
         return (
-            f"No mismatch beyond noise: the model's residual repeats by {m.structured_rms_n:.2g} N "
-            f"RMS against {m.noise_floor_n:.2g} N of noise (p = {m.p_value:.2g}). Nothing claimed."
+            f"No mismatch beyond noise: the model's residual repeats by "
+            f"{u.force(m.structured_rms_n):.2g} {fl} RMS against {u.force(m.noise_floor_n):.2g} "
+            f"{fl} of noise (p = {m.p_value:.2g}). Nothing claimed."
         )
     where = _signature(d.location)
     lines = [
-        f"Mismatch: {m.structured_rms_n:.3g} N RMS repeats every cycle "
-        f"(noise {m.noise_floor_n:.2g} N)" + (f", {where}" if where else "") + "."
+        f"Mismatch: {u.force(m.structured_rms_n):.3g} {fl} RMS repeats every cycle "
+        f"(noise {u.force(m.noise_floor_n):.2g} {fl})" + (f", {where}" if where else "") + "."
     ]
     claimed = [f for f in d.findings if f.claimed]
     if not claimed:
@@ -222,7 +252,7 @@ def _physics_text(d: Diagnosis) -> str:
             else ""
         )
         lines.append(
-            f"Claimed {describe(f, spec_gas)}{alike}: p = {f.p_value:.2g}, it removes "
+            f"Claimed {describe(f, spec_gas, u)}{alike}: p = {f.p_value:.2g}, it removes "
             f"{100 * f.heldout_gain:.0f} % of the held-out structure."
         )
     for g in d.indistinguishable:
@@ -234,10 +264,11 @@ def _physics_text(d: Diagnosis) -> str:
         )
     if d.unexplained.regions:
         r = d.unexplained.regions[0]
+        vs, vl = (u.velocity_per_m_s, u.velocity_label) if u.imperial else (1.0, "m/s")
         lines.append(
-            f"Still unexplained: {d.remaining.structured_rms_n:.2g} N RMS, most in {r.stroke} at "
-            f"{1e3 * r.x_range_m[0]:.3g}…{1e3 * r.x_range_m[1]:.3g} mm, "
-            f"{r.v_range_m_s[0]:.2g}…{r.v_range_m_s[1]:.2g} m/s."
+            f"Still unexplained: {u.force(d.remaining.structured_rms_n):.2g} {fl} RMS, most in "
+            f"{r.stroke} at {u.length(r.x_range_m[0]):.3g}…{u.length(r.x_range_m[1]):.3g} "
+            f"{u.length_label}, {vs * r.v_range_m_s[0]:.2g}…{vs * r.v_range_m_s[1]:.2g} {vl}."
         )
     return " ".join(lines)
 
@@ -253,11 +284,12 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
     order = sorted(claimed, key=lambda f: -f.heldout_gain)
     return {
         "mismatch": {
-            "significant": m.p_value < d.alpha,
-            "p_value": m.p_value,
-            "noise_floor_n": m.noise_floor_n,
-            "structured_rms_n": m.structured_rms_n,
-            "structured_share": m.structured_share,
+            "tested": d.testable,
+            "significant": d.testable and m.p_value < d.alpha,
+            "p_value": _num(m.p_value),
+            "noise_floor_n": _num(m.noise_floor_n),
+            "structured_rms_n": _num(m.structured_rms_n),
+            "structured_share": _num(m.structured_share),
             "effective_values": m.effective_values,
             "where": [r.to_json() for r in d.location.regions],
             "axes": d.location.axes,
@@ -296,9 +328,19 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
             ],
             "sensor": list(d.sensor),
             "text": verdict_text(d),
-            "remaining_rms_n": d.remaining.structured_rms_n,
-            "remaining_p_value": d.remaining.p_value,
+            "remaining_rms_n": _num(d.remaining.structured_rms_n),
+            "remaining_p_value": _num(d.remaining.p_value),
         },
+        "short_tests": [
+            {
+                "index": t.index,
+                "clicks": t.clicks,
+                "frequency_hz": t.frequency_hz,
+                "cycles": t.cycles,
+                "reason": "fewer than two whole cycles: no cycle-to-cycle noise to test against",
+            }
+            for t in d.short_tests
+        ],
         "tests": [
             {
                 "index": t.index,

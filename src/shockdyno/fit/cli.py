@@ -14,9 +14,12 @@ from typing import Any
 
 import numpy as np
 
+from shockdyno import units as units_mod
 from shockdyno.errors import FitError
+from shockdyno.fit.display import Shown, bound_hit, bound_text, globals_rows, shown
 from shockdyno.lists import seed_arg
 from shockdyno.outputs import check_output, check_report_dir, write_output
+from shockdyno.units import SI, Units
 
 # Beyond these a recording is not of a damper on a dyno (a unit mix-up or a corrupt file).
 MAX_DISPLACEMENT_M = 1.0
@@ -68,49 +71,60 @@ def register(sub: Any) -> None:
             "(default: sensor_lag, the channel delay)"
         ),
     )
+    units_mod.add_argument(p, "the terminal tables")
     p.set_defaults(func=run_fit)
 
 
-def terms_table(terms: dict[str, Any]) -> Any:
-    """Fitted term parameters: value ± σ with unit; held ones and those at a bound marked."""
+def terms_table(terms: dict[str, Any], units: Units = SI) -> Any:
+    """Fitted term parameters: value ± σ in display units; held ones, and those pressed
+    against a bound ("at lower bound (0 ms)" in place of the value), marked."""
     from rich.table import Table
+
+    from shockdyno.model.terms import LIBRARY
 
     table = Table(title="Physics terms (±1σ)")
     for name in ("term", "parameter", "value", "±1σ", "unit", "note"):
         table.add_column(name, justify="left" if name in ("term", "parameter", "note") else "right")
     for term, params in terms.items():
+        declared = {p.name: p for p in getattr(LIBRARY.get(term), "PARAMS", ())}
         for k, est in params.items():
-            note = "held" if est.fixed else ("at a bound" if est.at_bound else "")
-            sd = "" if not math.isfinite(est.sd) else f"{est.sd:.3g}"
-            table.add_row(term, k, _value(est.value, est.at_bound), sd, est.unit, note)
+            param = declared.get(k)
+            show = shown(est.unit, units, est.value if param is None else param.nominal)
+            value = show.text(est.value)
+            note = "held" if est.fixed else ""
+            if est.at_bound and not est.fixed:
+                side = "" if param is None else bound_hit(est.value, param.lo, param.hi)
+                if side and param is not None:
+                    value = bound_text(side, param.lo if side == "lower" else param.hi, show)
+                else:
+                    note = "at a bound"
+                    value = "0" if abs(est.value) <= AT_ZERO else value  # not 1.7e-28
+            sd = "" if not math.isfinite(est.sd) else f"{show.spread(est.sd):.3g}"
+            table.add_row(term, k, value, sd, show.label, note)
     return table
 
 
 AT_ZERO = 1e-12  # SI: an optimiser hugging a bound of 0 leaves 1.7e-28 there, not data
 
 
-def _value(value: float, at_bound: bool) -> str:
-    """A parameter as a person reads it: one pressed against a bound of 0 reads 0."""
-    return "0" if at_bound and abs(value) <= AT_ZERO else f"{value:.4g}"
-
-
-def _mm2(value: float, sd: float) -> str:
-    """Area in mm² with its 1-σ uncertainty in percent (compact for narrow terminals); a
+def _area(value: float, sd: float, show: Shown) -> str:
+    """An area with its 1-σ uncertainty in percent (compact for narrow terminals); a
     bleed closed to the optimiser's floor (1e-24 m²) reads 0."""
     if abs(value) <= AT_ZERO:
-        return "0" if not math.isfinite(sd) or sd <= AT_ZERO else f"0 ±{sd * 1e6:.1g}"
-    text = f"{value * 1e6:.4g}"
+        return "0" if not math.isfinite(sd) or sd <= AT_ZERO else f"0 ±{show.spread(sd):.1g}"
+    text = f"{show.value(value):.4g}"
     if not math.isfinite(sd):
         return text + " ±?"
     if value > 0:
         return text + f" ±{100 * sd / value:.2g}%"
-    return text + f" ±{sd * 1e6:.1g}"
+    return text + f" ±{show.spread(sd):.1g}"
 
 
-def _clicks_table(result: Any) -> Any:
+def _clicks_table(result: Any, units: Units = SI) -> Any:
     from rich.table import Table
 
-    table = Table(title="Bleed areas per click (mm², ±1σ)")
+    show = shown("m²", units)
+    table = Table(title=f"Bleed areas per click ({show.label}, ±1σ)")
     for name in ("clicks", "gas", "A_bc", "A_bt", "A_b Talbott", "identifiable"):
         table.add_column(name, justify="right")
     for c in result.clicks:
@@ -118,9 +132,9 @@ def _clicks_table(result: Any) -> Any:
         table.add_row(
             str(c.clicks),
             str(c.gas_clicks),
-            _mm2(c.a_bc_m2, c.a_bc_sd_m2),
-            _mm2(c.a_bt_m2, c.a_bt_sd_m2),
-            _mm2(c.a_b_talbott_m2, c.a_b_talbott_sd_m2),
+            _area(c.a_bc_m2, c.a_bc_sd_m2, show),
+            _area(c.a_bt_m2, c.a_bt_sd_m2, show),
+            _area(c.a_b_talbott_m2, c.a_b_talbott_sd_m2, show),
             ident.get((c.identifiable_bc, c.identifiable_bt), "neither"),
         )
     return table
@@ -159,31 +173,15 @@ def result_json(result: Any) -> str:
         ) from None
 
 
-def _num(value: Any, scale: float = 1.0) -> str:
-    return (
-        f"{value * scale:.4g}" if isinstance(value, int | float) and math.isfinite(value) else "?"
-    )
-
-
-def _globals_table(result: Any) -> Any:
-    """The calibrated globals (result.globals) beside the spec's values, and the force channel's
-    delay; every key of result.globals is shown, whatever parameters the fit calibrates."""
+def _globals_table(result: Any, units: Units = SI) -> Any:
     from rich.table import Table
 
-    cal = result.info.get("calibration", {})
-    nominal, sd = cal.get("globals_nominal", {}), cal.get("globals_sd", {})
-    table = Table(title="Calibrated globals (SI units, as named; ±1σ)")
-    for name in ("parameter", "fitted", "±1σ", "spec", "change"):
-        table.add_column(name, justify="left" if name == "parameter" else "right")
-    for key, value in result.globals.items():
-        base = nominal.get(key)
-        change = "?"
-        if isinstance(base, int | float) and base != 0 and math.isfinite(base):
-            change = f"{100 * (value / base - 1):+.1f}%"
-        table.add_row(key, _num(value), _num(sd.get(key)), _num(base), change)
-    if "force_delay_s" in cal:
-        delay, delay_sd = cal["force_delay_s"], cal.get("force_delay_sd_s")
-        table.add_row("force delay, ms", _num(delay, 1e3), _num(delay_sd, 1e3), "0", "")
+    header, rows = globals_rows(result, units)
+    table = Table(title="Calibrated globals (±1σ)")
+    for name in header:
+        table.add_column(name, justify="left" if name in ("parameter", "unit") else "right")
+    for row in rows:
+        table.add_row(*row)
     return table
 
 
@@ -254,10 +252,11 @@ def run_fit(args: argparse.Namespace) -> int:
     text = result_json(result)  # a result that cannot be written fails before anything is
     # With --json -, stdout carries only the JSON; the human summary goes to stderr.
     human = table_console(stderr=out is None)
-    human.print(_globals_table(result))
+    units = units_mod.get(args.units)
+    human.print(_globals_table(result, units))
     if result.terms:
-        human.print(terms_table(result.terms))
-    human.print(_clicks_table(result))
+        human.print(terms_table(result.terms, units))
+    human.print(_clicks_table(result, units))
     human.print(table4_table(result))
     write_output(args.json, text, force=args.force, inputs=inputs)
     info = result.info

@@ -56,6 +56,13 @@ def nominal_value(spec: DamperSpec, key: str) -> float:
     return float(getattr(obj, tail) if tail else obj)
 
 
+def global_bounds(key: str, nominal: float) -> tuple[float, float]:
+    """The SI range a global is calibrated within (as global_params sets it)."""
+    lo, hi, fallback = _FACTORS.get(key, (0.2, 5.0, 1.0))
+    scale = nominal if nominal > 0 else fallback
+    return lo * scale, hi * scale
+
+
 def global_params(spec: DamperSpec, keys: Sequence[str] = DEFAULT_GLOBALS) -> list[GlobalParam]:
     out = []
     for key in keys:

@@ -1,7 +1,17 @@
 """Export a recording to the CSV exchange format (docs/csv.md).
 
-Numbers are written as the shortest decimal that reads back to the same float64 (Python's
-repr), so importing an exchange-format file and exporting it again gives back the same values.
+An imported test is written as it came in: the decimal places of a column that had fixed
+ones, else the shortest decimal that reads back to the same float64 (Python's repr), so
+import then export gives back the same text. A recording from a rig is written at each
+channel's own resolution: counts times a calibration (0.05 N a count) land on a decimal grid
+up to float64 rounding (229.10000000000002), so a column is written with the fewest decimal
+places that read back to within a few float64 steps of every value; a column on no such
+grid (a model's force) is written by repr. Either way export, import and export again give
+the same text: the second export reads the fixed places the first one wrote.
+
+The velocity column (m/s) is the derivative the analysis takes (a callable from the
+caller: record/ does no kinematics), computed from the values as written, so it is the
+same after a round trip; import ignores it and the analysis recomputes its own.
 """
 
 from __future__ import annotations
@@ -12,9 +22,12 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
+from numpy.typing import NDArray
+
 from shockdyno.errors import RecordingError
 from shockdyno.record.atomic import atomic_dir
-from shockdyno.record.csv_import import DECIMALS_KEY, SOURCE_KEY
+from shockdyno.record.csv_import import DECIMALS_KEY, SOURCE_KEY, VELOCITY_COLUMN
 from shockdyno.record.reader import Recording, open_recording
 from shockdyno.record.types import TestData, TestMeta
 
@@ -37,13 +50,33 @@ def _file_names(tests: list[TestMeta]) -> list[str]:
     return names
 
 
+MAX_PLACES = 9  # below a nanometre, a nanonewton: no channel of a dyno resolves finer
+ROUNDING_STEPS = 8  # float64 steps of the column's magnitude a written value may be off
+VELOCITY_PLACES = 6  # µm/s: far below a click chart's 25 mm/s, above any derivative's noise
+Differentiate = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
+
+
+def resolution_places(values: NDArray[np.float64]) -> int | None:
+    """The fewest decimal places that write every finite value to within a few float64
+    steps of itself (the channel's resolution), or None if none up to MAX_PLACES does."""
+    v = values[np.isfinite(values)]
+    if v.size == 0:
+        return 0
+    tol = ROUNDING_STEPS * np.finfo(float).eps * max(float(np.max(np.abs(v))), 1e-300)
+    for places in range(MAX_PLACES + 1):
+        if float(np.max(np.abs(np.round(v, places) - v))) <= tol:
+            return places
+    return None
+
+
 def _formatter(places: int | None) -> Callable[[float], str]:
     if places is None:
         return lambda v: "" if math.isnan(v) else repr(v)
     return lambda v: "" if math.isnan(v) else f"{v:.{places}f}"
 
 
-def _write_data(path: Path, data: TestData) -> None:
+def _write_data(path: Path, data: TestData, velocity: Differentiate | None) -> None:
+    imported = SOURCE_KEY in data.meta.extra
     known: dict[str, int] = {}
     for item in data.meta.extra.get(DECIMALS_KEY, "").split(","):
         name, _, places = item.partition("=")
@@ -54,8 +87,17 @@ def _write_data(path: Path, data: TestData) -> None:
     if data.temperature is not None:
         names.append("temperature_C")
         cols.append(data.temperature)
-    fmts = [_formatter(known.get(n)) for n in names]
+    decimals = [
+        known.get(n) if imported else resolution_places(c) for n, c in zip(names, cols, strict=True)
+    ]
+    fmts = [_formatter(p) for p in decimals]
     text = [list(map(fmt, c.tolist())) for fmt, c in zip(fmts, cols, strict=True)]
+    # An imported file gains no column it did not have: import then export stays the same.
+    if velocity is not None and (not imported or VELOCITY_COLUMN in known):
+        t, x = (np.array([float(v) if v else np.nan for v in col]) for col in text[:2])
+        fmt = _formatter(known.get(VELOCITY_COLUMN, VELOCITY_PLACES))
+        names.append(VELOCITY_COLUMN)
+        text.append(list(map(fmt, velocity(t, x).tolist())))
     with open(path, "w", encoding="utf-8", newline="") as out:
         out.write(",".join(names) + "\n")
         out.writelines(",".join(row) + "\n" for row in zip(*text, strict=True))
@@ -89,8 +131,15 @@ def _write_manifest(path: Path, tests: list[TestMeta], names: list[str]) -> None
             w.writerow(row)
 
 
-def export_csv(recording: Path | Recording, out_dir: Path, *, force: bool = False) -> list[Path]:
-    """Write DIR/manifest.csv and one data CSV per test (complete and aborted)."""
+def export_csv(
+    recording: Path | Recording,
+    out_dir: Path,
+    *,
+    force: bool = False,
+    velocity: Differentiate | None = None,
+) -> list[Path]:
+    """Write DIR/manifest.csv and one data CSV per test (complete and aborted); with
+    `velocity` (t, x -> dx/dt), a velocity_m_s column as well (see the module's doc)."""
     rec = recording if isinstance(recording, Recording) else open_recording(recording)
     if not rec.tests:
         raise RecordingError(f"{rec.path}: no complete or aborted test to export")
@@ -98,7 +147,7 @@ def export_csv(recording: Path | Recording, out_dir: Path, *, force: bool = Fals
     with atomic_dir(out_dir, force) as tmp:
         try:
             for i, name in enumerate(names):
-                _write_data(tmp / name, rec.load(i))
+                _write_data(tmp / name, rec.load(i), velocity)
             _write_manifest(tmp / MANIFEST_NAME, rec.tests, names)
         except OSError as exc:
             raise RecordingError(f"cannot write {out_dir}: {exc.strerror}") from exc

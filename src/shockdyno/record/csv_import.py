@@ -61,6 +61,7 @@ MANIFEST_KNOWN = (
     "abort_reason",
 )
 SOURCE_KEY = "csv_file"  # TestMeta.extra key: the data file a test was imported from
+VELOCITY_COLUMN = "velocity_m_s"  # written by export; read only for its decimal places
 DECIMALS_KEY = "csv_decimals"  # TestMeta.extra key: "time_s=3,force_N=2": fixed decimal places
 
 
@@ -344,6 +345,10 @@ def read_data_csv(path: Path, opts: ImportOptions) -> tuple[SampleBlock, str]:
     }
     if temp_name is not None:
         columns[temp_name] = "number_or_empty"
+    # An exported velocity is checked as a number and its places kept for the next export;
+    # its values are not used (the analysis takes its own derivative).
+    if VELOCITY_COLUMN in header:
+        columns[VELOCITY_COLUMN] = "number_or_empty"
     table = _Table(path, opts.delimiter, opts.max_file_bytes, columns)
     if not table.count:
         raise RecordingError(f"{path}:2: no data rows")
@@ -372,6 +377,8 @@ def read_data_csv(path: Path, opts: ImportOptions) -> tuple[SampleBlock, str]:
         if opts.temperature_unit == "F":
             temp = (temp - 32.0) * (5.0 / 9.0)
         shifts.append(("temperature_C", temp_col, 0 if opts.temperature_unit == "C" else None))
+    if VELOCITY_COLUMN in header:
+        shifts.append((VELOCITY_COLUMN, table.column(VELOCITY_COLUMN), 0))
     places = []
     for name, col, shift in shifts:
         d = table.decimals.get(col)

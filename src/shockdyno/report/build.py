@@ -303,6 +303,7 @@ def shown_path(text: str) -> str:
 
 
 def _fit_section(page: Page, fit: FitResult, tests: list[TestData], out_dir: Path) -> None:
+    from shockdyno.fit.display import globals_rows
     from shockdyno.fit.plots import fit_figures
     from shockdyno.fit.validate import table4_rows
 
@@ -316,6 +317,10 @@ def _fit_section(page: Page, fit: FitResult, tests: list[TestData], out_dir: Pat
     header, rows = table4_rows(fit)
     if rows:
         page.table(header, rows, numeric=[False, False, True, True, True])
+    header, rows = globals_rows(fit)  # engineering units: bar, mm, mm²; the JSON stays SI
+    if rows:
+        page.paragraph("Calibrated globals (±1σ) beside the spec's values:")
+        page.table(header, rows, numeric=[False, True, True, True, False, True])
     page.definitions(ERROR_MEASURES)
     for caption, png in fit_figures(fit, tests, out_dir):
         page.figure(_link_extra(out_dir, png, 0), caption)

@@ -116,6 +116,8 @@ def _render_mismatch(page: Page, mismatch: Any) -> bool:
     head = "significance unknown"
     if isinstance(significant, bool):
         head = "significant" if significant else "not significant"
+    if mismatch.get("tested") is False:  # every test under two cycles: no noise to test by
+        head = "not tested (no test has two whole cycles)"
     page.paragraph(
         f"Mismatch between model and measurement: {head} "
         f"(p = {_num(mismatch.get('p_value'))}; noise floor "

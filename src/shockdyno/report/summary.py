@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from shockdyno.errors import ConfigError
 from shockdyno.model import differentiate
 from shockdyno.record.types import TestData
+from shockdyno.units import SI, Units
 
 FloatArray = NDArray[np.float64]
 
@@ -47,18 +48,28 @@ class TestSummary:
     temperature_c: float | None
     dropped_frames: int | None
 
-    def line(self, done: int | None = None, total: int | None = None) -> str:
-        """One plain ASCII line (no control codes) for logs, pipes and CI."""
+    def line(self, done: int | None = None, total: int | None = None, units: Units = SI) -> str:
+        """One plain ASCII line (no control codes) for logs, pipes and CI; imperial units
+        give in, lbf, in/s and F (SI keeps the line as it always read: mm, N, m/s, C)."""
         head = f"test {done}/{total}" if done is not None and total is not None else "test"
-        temp = "-" if self.temperature_c is None else f"{self.temperature_c:.1f}C"
+        imp = units.imperial
+        if self.temperature_c is None:
+            temp = "-"
+        else:
+            temp = f"{units.temperature(self.temperature_c):.1f}{'F' if imp else 'C'}"
         dropped = "?" if self.dropped_frames is None else str(self.dropped_frames)
+        amp = (
+            f"{units.length(self.amplitude_m):.2f}in" if imp else f"{self.amplitude_m * 1e3:.1f}mm"
+        )
+        f_unit, v_unit = ("lbf", "in/s") if imp else ("N", "m/s")
+        v_scale, v_spec = (units.velocity_per_m_s, "+.2f") if imp else (1.0, "+.3f")
         return (
             f"{head} clicks={self.clicks} gas={self.gas_clicks} f={self.frequency_hz:.2f}Hz"
-            f" A={self.amplitude_m * 1e3:.1f}mm"
-            f" Fc={_fmt(self.peak_compression_force_n, '+.0f')}N"
-            f" Fr={_fmt(self.peak_rebound_force_n, '+.0f')}N"
-            f" vc={_fmt(self.peak_compression_velocity_m_s, '+.3f')}m/s"
-            f" vr={_fmt(self.peak_rebound_velocity_m_s, '+.3f')}m/s"
+            f" A={amp}"
+            f" Fc={_fmt(units.force(self.peak_compression_force_n), '+.0f')}{f_unit}"
+            f" Fr={_fmt(units.force(self.peak_rebound_force_n), '+.0f')}{f_unit}"
+            f" vc={_fmt(self.peak_compression_velocity_m_s * v_scale, v_spec)}{v_unit}"
+            f" vr={_fmt(self.peak_rebound_velocity_m_s * v_scale, v_spec)}{v_unit}"
             f" T={temp} dropped={dropped} {self.status}"
         )
 

@@ -12,6 +12,7 @@ import numpy as np
 from rich.console import Console
 
 from shockdyno import __version__
+from shockdyno import units as units_mod
 from shockdyno.errors import ConfigError, RigFault
 from shockdyno.lists import parse_clicks, parse_frequencies, seed_arg
 from shockdyno.model.spec import default_spec_path, load_spec
@@ -116,6 +117,7 @@ def register(sub: Any) -> None:
     s.add_argument("--speed", type=float, default=1.0, help=f"with --start-sim: {SPEED_HELP}")
     s.add_argument("--scenario", type=Path, help="with --start-sim: extra physics, sim/scenarios/")
     s.add_argument("--seed", type=seed_arg, default=0, help="with --start-sim")
+    units_mod.add_argument(s, "the end-of-test lines")
     s.set_defaults(func=cmd_sweep)
 
     r = sub.add_parser("replay", help="play a recording through the live view")
@@ -123,6 +125,7 @@ def register(sub: Any) -> None:
     r.add_argument("--speed", type=float, default=1.0, help="x real time: recorded seconds per "
                    "wall-clock second")  # fmt: skip
     r.add_argument("--fast", action="store_true", help="play as fast as it can (no waiting)")
+    units_mod.add_argument(r, "the end-of-test lines")
     r.set_defaults(func=cmd_replay)
 
 
@@ -213,7 +216,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             rig, spec_used = sim.rig_config(), str(default_spec_path())
         meta = _metadata(args, rig, spec_used)
         result = record_sweep(rig, plan, args.output, metadata=meta, overwrite=args.force,
-                              resume=args.resume, console=console)  # fmt: skip
+                              resume=args.resume, console=console,
+                              units=units_mod.get(args.units))  # fmt: skip
     console.print(f"recording: {args.output}", soft_wrap=True)
     if result is not None and result.degraded:
         listed = ", ".join(str(m.index) for m in result.degraded)
@@ -236,7 +240,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     if rec.truncated:
         console.print("[yellow]recording was cut off; replaying every complete test[/]")
     chunk = 100
-    with LiveView(len(rec.tests), console=console) as view:
+    with LiveView(len(rec.tests), console=console, units=units_mod.get(args.units)) as view:
         for i, meta in enumerate(rec.tests):
             test = rec.load(i)
             view.start_test(meta)

@@ -41,6 +41,7 @@ from rich.text import Text
 from shockdyno.record.types import TestData, TestMeta
 from shockdyno.report.summary import TestSummary, summarise
 from shockdyno.rig.types import SampleBlock
+from shockdyno.units import SI, Units
 
 __all__ = ["LiveStats", "LiveView", "TestSummary", "summarise"]
 
@@ -136,8 +137,10 @@ class LiveView:
         console: Console | None = None,
         enabled: bool = True,
         title: str = "sweep",
+        units: Units = SI,
     ) -> None:
         self.total_tests = total_tests
+        self.units = units  # of the end-of-test lines
         self.title = title
         self.console = console if console is not None else Console()
         self.enabled = enabled
@@ -276,7 +279,7 @@ class LiveView:
     def _emit(self, summary: TestSummary) -> None:
         if not self.enabled:
             return
-        line = summary.line(self.done, self.total_tests)
+        line = summary.line(self.done, self.total_tests, self.units)
         if not self.interactive:
             # Straight to the stream: rich would wrap long lines at its idea of the width.
             self.console.file.write(line + "\n")

@@ -16,6 +16,7 @@ from rich.console import Console
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.outputs import check_output
 from shockdyno.run.plan import SweepPlan
+from shockdyno.units import SI, Units
 
 if TYPE_CHECKING:
     from shockdyno.rig.config import RigConfig
@@ -40,6 +41,7 @@ def _record_sweep(
     overwrite: bool = False,
     resume: bool = False,
     console: Console | None = None,
+    units: Units = SI,
 ) -> Any:
     """Run the plan on the rig into the recording; returns the SweepResult."""
     from shockdyno.record import RecordingWriter, open_recording
@@ -84,7 +86,7 @@ def _record_sweep(
     # The recording must be creatable before the ram moves (found by a probe file now).
     check_output(output, force=True, flag="-o")
 
-    view = LiveView(len(todo), console=console)
+    view = LiveView(len(todo), console=console, units=units)
 
     def prompt(message: str) -> None:
         with view.paused():  # hold the live display while the operator reads and answers

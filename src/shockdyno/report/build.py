@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 from shockdyno.errors import ConfigError
 from shockdyno.record.atomic import write_text_atomic
 from shockdyno.record.types import TestData
-from shockdyno.report import clickchart, plots
+from shockdyno.report import clickchart, plots, temperature
 from shockdyno.report.clickplots import force_vs_clicks
 from shockdyno.report.diagnose_section import render_diagnose
 from shockdyno.report.html import SUMMARY_HEADER, SUMMARY_LEGEND, Page, summary_row
@@ -107,12 +107,15 @@ def build_report(
     ride: dict[str, Any] | None = None,
     gas_force_n: float | None = None,
     progress: Callable[[str], None] | None = None,
+    reference_temperature_c: float = temperature.DEFAULT_REFERENCE_C,
 ) -> Path:
     """Write the report into ``out_dir``; returns the path of index.html.
 
     Every part is optional: no tests (a ride-only page), no fit (measured click chart
     only), ``diagnose`` and ``ride`` as the JSON documents of those commands.
     ``gas_force_n``: the static gas force to mark on loops (taken from the fit if given).
+    ``reference_temperature_c``: oil temperature of the corrected click chart
+    (report/temperature.py).
     """
     say = progress or (lambda _: None)
     out_dir = Path(out_dir)
@@ -139,6 +142,7 @@ def build_report(
     if complete:
         say("click chart")
         _click_chart_section(page, [c.test for c in complete], fit, out_dir)
+        temperature.render(page, [c.test for c in complete], fit, reference_temperature_c)
 
     if tests:
         _summary_section(page, summaries)

@@ -29,7 +29,7 @@ from shockdyno.record.atomic import write_text_atomic
 from shockdyno.record.types import TestData
 from shockdyno.report import clickchart, plots, temperature
 from shockdyno.report.clickplots import force_vs_clicks
-from shockdyno.report.diagnose_section import render_diagnose
+from shockdyno.report.diagnose_section import render_diagnose, render_figures
 from shockdyno.report.html import SUMMARY_HEADER, SUMMARY_LEGEND, Page, summary_row
 from shockdyno.report.ride_section import render_ride
 from shockdyno.report.summary import TestSummary, summarise
@@ -108,6 +108,7 @@ def build_report(
     gas_force_n: float | None = None,
     progress: Callable[[str], None] | None = None,
     reference_temperature_c: float = temperature.DEFAULT_REFERENCE_C,
+    diagnose_dir: Path | None = None,
 ) -> Path:
     """Write the report into ``out_dir``; returns the path of index.html.
 
@@ -115,7 +116,8 @@ def build_report(
     only), ``diagnose`` and ``ride`` as the JSON documents of those commands.
     ``gas_force_n``: the static gas force to mark on loops (taken from the fit if given).
     ``reference_temperature_c``: oil temperature of the corrected click chart
-    (report/temperature.py).
+    (report/temperature.py). ``diagnose_dir``: the folder of the diagnose JSON, whose
+    ``info.figures`` (residual maps, loops) are relative to it and copied into ``out_dir``.
     """
     say = progress or (lambda _: None)
     out_dir = Path(out_dir)
@@ -161,6 +163,7 @@ def build_report(
 
     if diagnose is not None:
         render_diagnose(page, diagnose)
+        render_figures(page, diagnose, diagnose_dir, lambda png, n: _link_extra(out_dir, png, n))
     if ride is not None:
         render_ride(page, ride)
 

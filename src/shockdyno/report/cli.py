@@ -124,6 +124,7 @@ def run_report(args: argparse.Namespace) -> int:
             gas_force_n=gas,
             progress=progress,
             reference_temperature_c=reference_c,
+            diagnose_dir=Path(args.diagnose).parent if args.diagnose else None,
         )
     print(f"report: {index}")
     return 0

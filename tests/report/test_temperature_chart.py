@@ -4,6 +4,7 @@ rate: ~41 to ~49 °C over this sweep) and the fit of it with the thermal term.""
 
 from __future__ import annotations
 
+import csv
 import math
 import subprocess
 import sys
@@ -99,6 +100,11 @@ def test_fit_report_shows_the_corrected_chart_as_a_model_based_correction(therma
     assert f"Click chart at {HOT_REFERENCE_C:g} °C oil" in html
     assert "model-based correction" in html and "No temperature-corrected" not in html
     assert f"Corrected to {HOT_REFERENCE_C:g} °C" in html
+    text = (thermal["page"].parent / "click_chart_reference.csv").read_text()
+    rows = list(csv.DictReader(text.splitlines()))
+    assert len(rows) == 2 * 12 and {r["reference_c"] for r in rows} == {f"{HOT_REFERENCE_C:g}"}
+    hot = [float(r["corrected_n"]) - float(r["measured_n"]) for r in rows if r["corrected_n"]]
+    assert len(hot) == 24 and min(hot) > 0  # the gas force's rise lifts every value at 90 °C
 
 
 def test_report_without_a_thermal_fit_says_why_in_one_line(full_report: Path):

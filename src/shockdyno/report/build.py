@@ -5,6 +5,7 @@ and touches nothing else):
 
 - ``index.html``
 - ``click_chart.png``, ``click_chart.csv``: force at standard velocities per click
+- ``click_chart_reference.csv``: the same at a reference oil temperature (thermal fit)
 - ``peaks.png``: peak force vs peak velocity per click (complete tests)
 - ``overlay_<f>Hz.png``: every click at one frequency, coloured by clicks (complete tests)
 - ``loops_c<clicks>_g<gas>.png``: one click setting's frequencies overlaid (all tests)
@@ -144,7 +145,7 @@ def build_report(
     if complete:
         say("click chart")
         _click_chart_section(page, [c.test for c in complete], fit, out_dir)
-        temperature.render(page, [c.test for c in complete], fit, reference_temperature_c)
+        temperature.render(page, [c.test for c in complete], fit, reference_temperature_c, out_dir)
 
     if tests:
         _summary_section(page, summaries)

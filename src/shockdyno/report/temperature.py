@@ -23,15 +23,19 @@ viscosity dependence unless ``thermal.damping_coeff_per_k`` was fitted) is not c
 from __future__ import annotations
 
 import argparse
+import csv
+import io
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from shockdyno.errors import ConfigError, FitError
 from shockdyno.model.composite import ModelInputs
+from shockdyno.record.atomic import write_text_atomic
 from shockdyno.record.types import TestData
 from shockdyno.report import clickchart
 from shockdyno.report.html import Page
@@ -174,15 +178,47 @@ def corrected_chart(
     )
 
 
+CSV_NAME = "click_chart_reference.csv"
+CSV_HEADER = [
+    "clicks",
+    "gas_clicks",
+    "velocity_m_s",
+    "temperature_c",
+    "reference_c",
+    "measured_n",
+    "corrected_n",
+]
+
+
+def to_csv(c: CorrectedChart) -> str:
+    """Long format, one row per setting and velocity (velocity signed, + compression)."""
+    text = io.StringIO()
+    w = csv.writer(text, lineterminator="\n")
+    w.writerow(CSV_HEADER)
+    for key, row in sorted(c.corrected.items()):
+        for v in c.velocities_m_s:
+            cells = (c.measured[key][v], row[v])
+            values = [f"{f:.2f}" if math.isfinite(f) else "" for f in cells]
+            temp = f"{c.temperatures_c[key]:.2f}"
+            w.writerow([*key, f"{v:g}", temp, f"{c.reference_c:g}", *values])
+    return text.getvalue()
+
+
 def render(
-    page: Page, tests: Sequence[TestData], fit: FitResult | None, reference_c: float
+    page: Page,
+    tests: Sequence[TestData],
+    fit: FitResult | None,
+    reference_c: float,
+    out_dir: Path | None = None,
 ) -> None:
-    """The section after the click chart: the corrected chart, or one line saying why
-    there is none."""
+    """The section after the click chart: the corrected chart (and, given ``out_dir``, its
+    CSV there), or one line saying why there is none."""
     reason = why_not(tests, fit)
     heading = f"Click chart at {reference_c:g} °C oil"
     if reason or fit is None:
         page.paragraph(reason)  # in the click chart's section: one line, no heading
+        if out_dir is not None:  # a re-run's page must not sit beside an earlier one's CSV
+            (Path(out_dir) / CSV_NAME).unlink(missing_ok=True)
         return
     c = corrected_chart(tests, fit, reference_c)
     temps = sorted(c.temperatures_c.values())
@@ -210,6 +246,9 @@ def render(
         rows.append(cells)
     page.subheading(f"Corrected to {reference_c:g} °C (N; velocity in mm/s)")
     page.table(header, rows, numeric=[True] * len(header))
+    if out_dir is not None:
+        write_text_atomic(Path(out_dir) / CSV_NAME, to_csv(c))
+        page.link(CSV_NAME, CSV_NAME, ": measured and corrected values, with the temperatures.")
     left_out = sorted(set(c.measured) - set(c.corrected))
     if left_out:
         page.paragraph(

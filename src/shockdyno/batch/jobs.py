@@ -141,13 +141,14 @@ def _diagnose(job: Job, row: Row) -> None:
         seed=int(o.get("seed", 0)),
         terms=o.get("terms", "all"),
     )
-    # Its residual maps and loops beside it, named in it: `batch report` shows them.
+    # Its residual maps and loops beside it, named in it: `batch report` shows them. The
+    # JSON first: a plotting failure must not lose the diagnosis.
     figures = Path(job.out_dir) / f"{job.name}.diagnose"
+    doc["info"]["figures"] = figure_paths(figures, str(job.result_path))
+    write_text_atomic(job.result_path, json.dumps(doc, indent=2, allow_nan=False) + "\n")
     figures.mkdir(exist_ok=True)
     residual_maps(d, figures / FIGURES["residual_maps"])
     loops(d, figures / FIGURES["loops"])
-    doc["info"]["figures"] = figure_paths(figures, str(job.result_path))
-    write_text_atomic(job.result_path, json.dumps(doc, indent=2, allow_nan=False) + "\n")
     _from_tests(row, [p.data for p in d.data.prepared])
     _from_diag(row, doc)
 

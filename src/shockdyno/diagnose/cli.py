@@ -174,13 +174,12 @@ def run_diagnose(args: argparse.Namespace) -> int:
             progress=progress,
             warn=lambda line: print(line, file=sys.stderr),
         )
-    index = None
-    if args.report:  # first: DIAG.json names the figures, for `report --diagnose`
-        from shockdyno.diagnose.report import figure_paths, write_report
+    if args.report:  # DIAG.json names the figures drawn below, for `report --diagnose`
+        from shockdyno.diagnose.report import figure_paths
 
-        index = write_report(d, doc, Path(args.report))
         doc["info"]["figures"] = figure_paths(Path(args.report), args.json)
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
+    # Written before the figures are drawn: a plotting failure must not lose the diagnosis.
     write_output(args.json, text, force=args.force, inputs=inputs)
     shown = table_console(stderr=out is None)
     m = doc["mismatch"]
@@ -192,7 +191,10 @@ def run_diagnose(args: argparse.Namespace) -> int:
     if m["significant"]:
         shown.print(_summary(doc))
     shown.print(f"[bold]verdict:[/] {doc['verdict']['text']}")
-    if index is not None:
+    if args.report:
+        from shockdyno.diagnose.report import write_report
+
+        index = write_report(d, doc, Path(args.report))
         shown.print(f"report: {index}")
     if out is not None:
         shown.print(f"wrote {out} in {d.wall_s:.1f} s")

@@ -73,7 +73,7 @@ def check_output(
     return out
 
 
-REPORT_FILES = ("index.html", "click_chart.csv")
+REPORT_FILES = ("index.html", "click_chart.csv", "click_chart_reference.csv")
 
 
 def check_report_dir(

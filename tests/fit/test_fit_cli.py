@@ -165,7 +165,10 @@ def test_a_value_pressed_against_a_bound_reads_which_bound() -> None:
 
 
 def test_imperial_tables_are_the_si_numbers_converted(
-    recording: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    recording: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """--units imperial: the same fit, its N in lbf, m/s in in/s, bar in psi, mm² in in²
     (each cell the SI one times the factor, not only a new label); the JSON stays SI."""
@@ -173,6 +176,8 @@ def test_imperial_tables_are_the_si_numbers_converted(
 
     from shockdyno.units import M_PER_IN, N_PER_LBF
 
+    # pytest-xdist's workers set COLUMNS=80, which a table honours as a terminal's width
+    monkeypatch.delenv("COLUMNS", raising=False)
     cells: dict[str, dict[str, list[str]]] = {}
     docs = {}
     for units in ("si", "imperial"):

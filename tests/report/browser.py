@@ -38,6 +38,25 @@ PROBE = """
 })()
 """
 
+SETTLE = """
+(async () => {
+  const t0 = Date.now();
+  while (Date.now() - t0 < 2000 && !Array.from(document.images).every(i => i.complete))
+    await new Promise(r => setTimeout(r, 50));
+})()
+"""
+
+# Under print media: the navigation's display and how figures and tables break.
+PRINT_STYLES = """
+(() => {
+  const style = (sel, prop) => {
+    const el = document.querySelector(sel);
+    return el ? getComputedStyle(el).getPropertyValue(prop) : null; };
+  return {nav: style('nav', 'display'), figure: style('figure', 'break-inside'),
+          table: style('table', 'break-inside')};
+})()
+"""
+
 
 def find_chromium() -> str | None:
     for name in NAMES:
@@ -55,6 +74,8 @@ class PageReport:
     screenshot: bytes = b""
     page_height_px: int = 0
     scroll_width_px: int = 0  # wider than the window: the page scrolls sideways
+    pdf: bytes = b""  # the page printed (print_pdf), as a reader's print-to-PDF makes it
+    print_styles: dict[str, str] = field(default_factory=dict)  # computed under print media
 
 
 class _Pipe:
@@ -111,9 +132,12 @@ class _Pipe:
             self.events.append(msg)
 
 
-def open_page(chromium: str, page: Path, width: int = 800, screenshot: bool = False) -> PageReport:
+def open_page(
+    chromium: str, page: Path, width: int = 800, screenshot: bool = False, print_pdf: bool = False
+) -> PageReport:
     """Load ``page`` at ``width`` CSS pixels; collect images, errors, optionally a full-page
-    screenshot (PNG bytes)."""
+    screenshot (PNG bytes). ``print_pdf``: print it to PDF as loaded, without the probe
+    (which opens every block itself), so the PDF shows what the page's own print does."""
     to_chrome_r, to_chrome_w = os.pipe()
     from_chrome_r, from_chrome_w = os.pipe()
 
@@ -139,7 +163,7 @@ def open_page(chromium: str, page: Path, width: int = 800, screenshot: bool = Fa
         os.close(from_chrome_w)
         pipe = _Pipe(proc, to_chrome_w, from_chrome_r)
         try:
-            return _inspect(pipe, page, width, screenshot)
+            return _inspect(pipe, page, width, screenshot, print_pdf)
         finally:
             with contextlib.suppress(OSError):
                 pipe.send("Browser.close")
@@ -152,7 +176,7 @@ def open_page(chromium: str, page: Path, width: int = 800, screenshot: bool = Fa
             os.close(from_chrome_r)
 
 
-def _inspect(pipe: _Pipe, page: Path, width: int, screenshot: bool) -> PageReport:
+def _inspect(pipe: _Pipe, page: Path, width: int, screenshot: bool, print_pdf: bool) -> PageReport:
     target = pipe.call("Target.createTarget", {"url": "about:blank"})["targetId"]
     session = pipe.call("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
     for domain in ("Page", "Runtime", "Log", "Network"):
@@ -164,6 +188,28 @@ def _inspect(pipe: _Pipe, page: Path, width: int, screenshot: bool) -> PageRepor
     )
     pipe.call("Page.navigate", {"url": page.resolve().as_uri()}, session=session)
     pipe.wait_event("Page.loadEventFired")
+    if print_pdf:
+        import base64
+
+        # A reader opens the page and prints it a moment later: wait (up to 2 s) until
+        # every image has loaded, or has not started and will not without a scroll.
+        pipe.call("Runtime.evaluate", {"expression": SETTLE, "awaitPromise": True},
+                  session=session, timeout=10.0)  # fmt: skip
+        pipe.call("Emulation.setEmulatedMedia", {"media": "print"}, session=session)
+        styles = pipe.call(
+            "Runtime.evaluate",
+            {"expression": PRINT_STYLES, "returnByValue": True},
+            session=session,
+        )
+        pipe.call("Emulation.setEmulatedMedia", {"media": ""}, session=session)
+        printed = pipe.call(
+            "Page.printToPDF", {"paperWidth": 8.27, "paperHeight": 11.69}, session=session,
+            timeout=60.0,
+        )  # fmt: skip
+        return PageReport(
+            pdf=base64.b64decode(printed["data"]),
+            print_styles=dict(styles.get("result", {}).get("value") or {}),
+        )
     probe = pipe.call(
         "Runtime.evaluate",
         {"expression": PROBE, "awaitPromise": True, "returnByValue": True},

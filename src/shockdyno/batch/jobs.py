@@ -129,6 +129,8 @@ def _fit(job: Job, row: Row) -> None:
 
 def _diagnose(job: Job, row: Row) -> None:
     from shockdyno.diagnose.cli import diagnose_file
+    from shockdyno.diagnose.plots import loops, residual_maps
+    from shockdyno.diagnose.report import FIGURES, figure_paths
 
     o = job.options
     d, doc = diagnose_file(
@@ -139,7 +141,14 @@ def _diagnose(job: Job, row: Row) -> None:
         seed=int(o.get("seed", 0)),
         terms=o.get("terms", "all"),
     )
+    # Its residual maps and loops beside it, named in it: `batch report` shows them. The
+    # JSON first: a plotting failure must not lose the diagnosis.
+    figures = Path(job.out_dir) / f"{job.name}.diagnose"
+    doc["info"]["figures"] = figure_paths(figures, str(job.result_path))
     write_text_atomic(job.result_path, json.dumps(doc, indent=2, allow_nan=False) + "\n")
+    figures.mkdir(exist_ok=True)
+    residual_maps(d, figures / FIGURES["residual_maps"])
+    loops(d, figures / FIGURES["loops"])
     _from_tests(row, [p.data for p in d.data.prepared])
     _from_diag(row, doc)
 
@@ -158,7 +167,8 @@ def _report(job: Job, row: Row) -> None:
     out = Path(job.out_dir) / job.name
     title = f"{rec.metadata.get('damper_id') or job.name}: dyno report"
     metadata = {"recording": Path(job.recording).name, **rec.metadata}
-    build_report(tests, out, title=title, metadata=metadata, fit=fit, diagnose=diag)
+    build_report(tests, out, title=title, metadata=metadata, fit=fit, diagnose=diag,
+                 diagnose_dir=diag_path.parent)  # fmt: skip
     _from_tests(row, tests)
     row.damper_id = rec.metadata.get("damper_id", "")
     if diag is not None:

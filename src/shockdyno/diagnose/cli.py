@@ -177,7 +177,12 @@ def run_diagnose(args: argparse.Namespace) -> int:
             progress=progress,
             warn=lambda line: print(line, file=sys.stderr),
         )
+    if args.report:  # DIAG.json names the figures drawn below, for `report --diagnose`
+        from shockdyno.diagnose.report import figure_paths
+
+        doc["info"]["figures"] = figure_paths(Path(args.report), args.json)
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
+    # Written before the figures are drawn: a plotting failure must not lose the diagnosis.
     write_output(args.json, text, force=args.force, inputs=inputs)
     shown = table_console(stderr=out is None)
     m = doc["mismatch"]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -10,11 +11,25 @@ from shockdyno.diagnose.plots import loops, residual_maps
 from shockdyno.record.atomic import write_text_atomic
 from shockdyno.report.html import Page
 
+# The figures' names in DIR and their keys in DIAG.json's info.figures.
+FIGURES = {"residual_maps": "diagnose-residual-maps.png", "loops": "diagnose-loops.png"}
+
+
+def figure_paths(report_dir: Path, json_path: str) -> dict[str, str]:
+    """info.figures of DIAG.json: each figure of `write_report` relative to the JSON's
+    folder (to the working directory for '-'), so `report --diagnose DIAG.json` finds
+    them, also after the two are moved together."""
+    base = Path(json_path).parent if json_path != "-" else Path.cwd()
+    return {
+        key: Path(os.path.relpath(report_dir / name, base)).as_posix()
+        for key, name in FIGURES.items()
+    }
+
 
 def write_report(d: Diagnosis, doc: dict[str, Any], out: Path) -> Path:
     out.mkdir(parents=True, exist_ok=True)
-    maps = residual_maps(d, out / "diagnose-residual-maps.png")
-    lp = loops(d, out / "diagnose-loops.png")
+    maps = residual_maps(d, out / FIGURES["residual_maps"])
+    lp = loops(d, out / FIGURES["loops"])
     page = Page("Diagnosis: where the model and the recording differ, and why")
     page.section("Verdict")
     page.paragraph(doc["verdict"]["text"])

@@ -50,6 +50,9 @@ def register(sub: Any) -> None:
         help="also write DIR/index.html: the report page with the fit (figures, Table 4, "
         "click chart), and table4.csv beside it",
     )
+    from shockdyno.report.temperature import add_argument as add_reference_temperature
+
+    add_reference_temperature(p)
     p.add_argument(
         "--optimizer",
         choices=("fast", "ga"),
@@ -231,7 +234,9 @@ def run_fit(args: argparse.Namespace) -> int:
     from shockdyno.progress import StageProgress, table_console
     from shockdyno.record import open_recording
     from shockdyno.record.layout import set_paths
+    from shockdyno.report.temperature import reference_c
 
+    reference = reference_c(args.reference_temperature_c)
     inputs = [*set_paths(Path(args.recording)), *([args.spec] if args.spec else [])]
     out = check_output(args.json, force=args.force, inputs=inputs)
     if args.report:
@@ -285,6 +290,7 @@ def run_fit(args: argparse.Namespace) -> int:
                 metadata={"recording": str(args.recording), **rec.metadata},
                 fit=result,
                 progress=lambda stage: status.update(f"fit report: {stage}"),
+                reference_temperature_c=reference,
             )
         say(f"report: {index}")
         header, rows = table4_rows(result)

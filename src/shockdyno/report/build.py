@@ -5,6 +5,7 @@ and touches nothing else):
 
 - ``index.html``
 - ``click_chart.png``, ``click_chart.csv``: force at standard velocities per click
+- ``click_chart_reference.csv``: the same at a reference oil temperature (thermal fit)
 - ``peaks.png``: peak force vs peak velocity per click (complete tests)
 - ``overlay_<f>Hz.png``: every click at one frequency, coloured by clicks (complete tests)
 - ``loops_c<clicks>_g<gas>.png``: one click setting's frequencies overlaid (all tests)
@@ -27,9 +28,9 @@ from typing import TYPE_CHECKING, Any
 from shockdyno.errors import ConfigError
 from shockdyno.record.atomic import write_text_atomic
 from shockdyno.record.types import TestData
-from shockdyno.report import clickchart, plots, repeatability
+from shockdyno.report import clickchart, plots, repeatability, temperature
 from shockdyno.report.clickplots import force_vs_clicks
-from shockdyno.report.diagnose_section import render_diagnose
+from shockdyno.report.diagnose_section import render_diagnose, render_figures
 from shockdyno.report.html import SUMMARY_HEADER, SUMMARY_LEGEND, Page, summary_row
 from shockdyno.report.ride_section import render_ride
 from shockdyno.report.summary import TestSummary, summarise
@@ -108,6 +109,8 @@ def build_report(
     gas_force_n: float | None = None,
     progress: Callable[[str], None] | None = None,
     warn: Callable[[str], None] | None = None,
+    reference_temperature_c: float = temperature.DEFAULT_REFERENCE_C,
+    diagnose_dir: Path | None = None,
 ) -> Path:
     """Write the report into ``out_dir``; returns the path of index.html.
 
@@ -115,6 +118,9 @@ def build_report(
     only), ``diagnose`` and ``ride`` as the JSON documents of those commands.
     ``gas_force_n``: the static gas force to mark on loops (taken from the fit if given).
     ``warn``: called with each drift warning (one line), e.g. to print it on the terminal.
+    ``reference_temperature_c``: oil temperature of the corrected click chart
+    (report/temperature.py). ``diagnose_dir``: the folder of the diagnose JSON, whose
+    ``info.figures`` (residual maps, loops) are relative to it and copied into ``out_dir``.
     """
     say = progress or (lambda _: None)
     out_dir = Path(out_dir)
@@ -141,6 +147,7 @@ def build_report(
     if complete:
         say("click chart")
         _click_chart_section(page, [c.test for c in complete], fit, out_dir)
+        temperature.render(page, [c.test for c in complete], fit, reference_temperature_c, out_dir)
 
     if tests:
         _summary_section(page, summaries)
@@ -163,6 +170,7 @@ def build_report(
 
     if diagnose is not None:
         render_diagnose(page, diagnose)
+        render_figures(page, diagnose, diagnose_dir, lambda png, n: _link_extra(out_dir, png, n))
     if ride is not None:
         render_ride(page, ride)
 

@@ -8,6 +8,7 @@ from typing import Any
 
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.outputs import check_report_dir
+from shockdyno.report import temperature
 from shockdyno.result_files import read_result
 
 
@@ -27,6 +28,7 @@ def register(sub: Any) -> None:
     p.add_argument("--ride", metavar="RIDE.json", help="result of shockdyno ride")
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="report directory")
     p.add_argument("--title", help="page title (default: from the recording's metadata)")
+    temperature.add_argument(p)
     p.add_argument(
         "--force",
         action="store_true",
@@ -82,6 +84,7 @@ def run_report(args: argparse.Namespace) -> int:
     from shockdyno.record import open_recording
     from shockdyno.report.build import build_report
 
+    reference_c = temperature.reference_c(args.reference_temperature_c)
     out = Path(args.output)
     inputs = [Path(p) for p in (args.recording, args.fit, args.diagnose, args.ride) if p]
     check_output_dir(out, inputs, args.force)
@@ -123,6 +126,8 @@ def run_report(args: argparse.Namespace) -> int:
             warn=lambda text: console.print(
                 f"report: warning: {text}", markup=False, highlight=False, soft_wrap=True
             ),
+            reference_temperature_c=reference_c,
+            diagnose_dir=Path(args.diagnose).parent if args.diagnose else None,
         )
     print(f"report: {index}")
     return 0

@@ -9,6 +9,8 @@ missing or malformed part is skipped (and said so), never an error. Keys read:
   parameters: {name: {value, sd, unit}}, ambiguous_with}]
 - ``verdict``: {physics: [...], unexplained: [...], text}
 - ``tests``: [{index, clicks, frequency_hz, E_t_before, E_t_after}]
+- ``info.figures``: {residual_maps, loops}: the PNGs `diagnose --report DIR` drew, relative
+  to the JSON's folder; copied into the report's directory (`render_figures`)
 
 To show a new key, add a ``_render_<key>`` function and call it from ``render_diagnose``.
 """
@@ -16,6 +18,8 @@ To show a new key, add a ``_render_<key>`` function and call it from ``render_di
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from shockdyno.report.html import Page
@@ -237,3 +241,43 @@ def render_diagnose(page: Page, doc: Any) -> None:
     ]
     if missing:
         page.paragraph(f"Not in the diagnose file: {', '.join(missing)}.")
+
+
+FIGURE_CAPTIONS = {
+    "residual_maps": "Residual maps: the phase-locked residual (measured − model) against "
+    "displacement and velocity, before (paper's model) and after (with the claimed physics).",
+    "loops": "Residual loops: the tests with the most structure, measured against both models "
+    "(F–v, F–v near reversal, F–x).",
+}
+
+
+def render_figures(
+    page: Page, doc: Any, base_dir: Path | None, link: Callable[[Path, int], str]
+) -> None:
+    """The residual maps and loops `diagnose --report` drew, named in ``info.figures``
+    relative to ``base_dir`` (the JSON's folder); ``link`` copies one into the report's
+    directory and returns its href, so the page links nothing outside it."""
+    info = doc.get("info") if isinstance(doc, dict) else None
+    named = info.get("figures") if isinstance(info, dict) else None
+    if not isinstance(named, dict) or not named or base_dir is None:
+        page.paragraph(
+            "No residual maps or loops: this diagnosis was written without its figures "
+            "(shockdyno diagnose ... --report DIR draws them, and DIAG.json then names them)."
+        )
+        return
+    missing = []
+    for n, (key, caption) in enumerate(FIGURE_CAPTIONS.items()):
+        rel = named.get(key)
+        if not isinstance(rel, str):
+            continue
+        png = base_dir / rel
+        if png.suffix.lower() != ".png" or not png.is_file():
+            missing.append(rel)
+            continue
+        page.figure(link(png, 50 + n), caption)
+    if missing:
+        page.paragraph(
+            f"Figures of the diagnosis not found beside its JSON: {', '.join(missing)} "
+            "(moved apart from DIAG.json?).",
+            warn=True,
+        )

@@ -1,4 +1,4 @@
-"""The report page: one HTML file with inline CSS that links PNGs beside it."""
+"""The report page: one HTML file with inline CSS (and print script) that links PNGs beside it."""
 
 from __future__ import annotations
 
@@ -31,6 +31,43 @@ details > summary { cursor: pointer; font-weight: 600; padding: 0.2em 0; }
 dl.defs dt { font-weight: 600; margin-top: 0.4em; }
 dl.defs dd { margin-left: 1.5em; }
 p.warn { background: #fff4e0; border-left: 4px solid #c76b00; padding: 0.4em 0.7em; }
+"""
+
+# Print-to-PDF is the report on paper: every section expanded (with PRINT_SCRIPT), no
+# navigation, no figure or table split across pages.
+PRINT_CSS = """
+@media print {
+  body { max-width: none; margin: 0; padding: 0; font-size: 10pt; }
+  nav { display: none; }
+  details > summary { list-style: none; cursor: auto; }
+  details > summary::-webkit-details-marker { display: none; }
+  details::details-content { content-visibility: visible; display: contents; }
+  .scroll { overflow: visible; }
+  figure, table, tr, img, p.warn { break-inside: avoid; page-break-inside: avoid; }
+  h2, h3, details > summary { break-after: avoid; page-break-after: avoid; }
+  figure img { border: none; max-height: 24cm; }
+  a { color: inherit; text-decoration: none; }
+}
+"""
+
+# CSS cannot open a <details> (its content stays unrendered), and a lazy image that was
+# never scrolled to prints blank: a print does not wait for an image that starts loading
+# when it begins. So the images load lazily at first (the page opens at once) and the
+# rest in the background once it has loaded; before printing, every block is opened (and
+# any image still lazy loads); after, what was closed is closed again.
+PRINT_SCRIPT = """
+const shockdynoEager = () => document.querySelectorAll('img[loading="lazy"]')
+  .forEach(i => { i.loading = 'eager'; });
+addEventListener('load', () => setTimeout(shockdynoEager, 300));
+addEventListener('beforeprint', () => {
+  document.querySelectorAll('details:not([open])').forEach(d => {
+    d.dataset.printed = '1'; d.open = true; });
+  shockdynoEager();
+});
+addEventListener('afterprint', () => {
+  document.querySelectorAll('details[data-printed]').forEach(d => {
+    d.open = false; delete d.dataset.printed; });
+});
 """
 
 # Short headers, so the 13 columns fit an 800 px window; the section text says what
@@ -172,6 +209,7 @@ class Page:
             "<!DOCTYPE html>\n"
             '<html lang="en"><head><meta charset="utf-8">'
             '<meta name="viewport" content="width=device-width, initial-scale=1">'
-            f"<title>{escape(self.title)}</title><style>{CSS}</style></head>\n"
+            f"<title>{escape(self.title)}</title><style>{CSS}{PRINT_CSS}</style>"
+            f"<script>{PRINT_SCRIPT}</script></head>\n"
             f"<body><h1>{escape(self.title)}</h1>\n<nav>{nav}</nav>\n{body}\n</body></html>\n"
         )

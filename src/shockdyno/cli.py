@@ -20,6 +20,7 @@ from shockdyno.errors import ShockdynoError
 COMMAND_MODULES = [
     "shockdyno.run.cli",  # demo, sweep, replay
     "shockdyno.simrig.cli",  # sim-rig
+    "shockdyno.run.rig_cli",  # rig check | jog | tare
     "shockdyno.record.cli",  # info, import
     "shockdyno.export_cli",  # export (a recording to CSV, a fit to damper tables)
     "shockdyno.fit.cli",  # fit

@@ -217,3 +217,22 @@ def test_tare_measures_a_known_offset(
         assert main(["rig", "tare", "--rig", str(rig), "--write", str(target), *force]) == 2
         assert capsys.readouterr().err.count("\n") == 1
     assert rig.read_text() == before
+
+
+def test_check_over_modbus_rtu(
+    sim_rig_factory: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The rig file's transport decides: RTU framing (over a socket, as behind a serial server)."""
+    sim = sim_rig_factory(speed=1.0, modbus="rtu")
+    text = SIM_RIG.read_text().replace(
+        'transport = "tcp"\nhost = "127.0.0.1"\nport = 5020',
+        f'transport = "rtu"\nserial_port = "socket://127.0.0.1:{sim.modbus_port}"\n'
+        "baudrate = 115200",
+    )
+    assert 'transport = "rtu"' in text
+    rig = rig_file(sim, tmp_path, text)
+    writes = log_writes(sim)
+    assert main(["rig", "check", "--rig", str(rig), "--json", "-"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["ok"] and "modbus rtu socket://" in doc["drive"][0]["value"]
+    assert writes == []

@@ -29,7 +29,7 @@ from shockdyno.rig.frames import (
 )
 from shockdyno.rig.types import SampleBlock
 
-RATE_TOLERANCE = 0.05  # measured on the host's clock over ~1 s: reads jitter by ~10 ms
+RATE_TOLERANCE = 0.05  # measured on the host's clock over ~1 s, where reads jitter by ms
 POSITION_AGREEMENT_M = 0.001  # LVDT vs the drive's own position (as CENTRE_TOLERANCE_M)
 AT_REST_SD_M = 1e-4  # an LVDT at rest that varies more: the ram moves, or the LVDT is noisy
 
@@ -121,25 +121,24 @@ def open_links(rig: RigConfig) -> tuple[ModbusActuator, SerialDaq]:
 
 
 def listen(daq: SerialDaq, seconds: float, clock: Any = time.monotonic) -> DaqListen:
-    """Read the DAQ for `seconds` of host time. The rate counts frames by their sequence
-    numbers between the first and the last read that brought any, so a backlog waiting at
-    the start does not inflate it and lost frames do not deflate it."""
+    """Read the DAQ for `seconds` of host time. The rate is the slope of the last sequence
+    number of each read against the host time it arrived: a backlog waiting at the start,
+    a late read or a burst moves single points, not the slope, and lost frames do not
+    lower it (the counter counts them)."""
     blocks: list[SampleBlock] = []
-    first: tuple[float, int] | None = None
-    last: tuple[float, int] | None = None
+    arrivals: list[tuple[float, int]] = []
     start = clock()
     while clock() - start < seconds:
         block = daq.read()
         if not len(block):
             continue
-        now = clock()
         blocks.append(block)
-        if first is None:
-            first = (now, int(block.seq[-1]))
-        last = (now, int(block.seq[-1]))
+        arrivals.append((clock(), int(block.seq[-1])))
     rate = math.nan
-    if first is not None and last is not None and last[0] - first[0] > 0.25 * seconds:
-        rate = (last[1] - first[1]) / (last[0] - first[0])
+    # The first read may hold the backlog of the connection: the slope starts after it.
+    if len(arrivals) > 10 and arrivals[-1][0] - arrivals[1][0] > 0.25 * seconds:
+        t, seq = np.array(arrivals[1:], dtype=float).T
+        rate = float(np.polyfit(t - t[0], seq - seq[0], 1)[0])
     samples = SampleBlock.concat(blocks) if blocks else SampleBlock.empty()
     return DaqListen(
         samples=samples,

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from shockdyno.cli import main
+from shockdyno.model.composite import DamperModel, ModelInputs
 from shockdyno.rig.config import RigConfig, load_rig
 from shockdyno.rig.daq import SerialDaq
 from shockdyno.rig.types import SampleBlock
@@ -206,6 +207,15 @@ def test_tare_measures_a_known_offset(
     m0, se0, _ = _tare(plain, tmp_path, "plain", capsys)
     m1, se1, copy = _tare(shifted, tmp_path, "shifted", capsys)
     assert m1 - m0 == pytest.approx(offset, abs=4 * np.hypot(se0, se1) + 0.05)
+    # And the true load cell reads what the damper's model says it carries at rest there:
+    # the gas force on the rod at the parked position (the sim's damper is always mounted).
+    at_rest = np.full(50, PARKED_M)
+    still = np.zeros(50)
+    model = DamperModel(plain.spec, (), {})
+    force = model.evaluate(
+        ModelInputs.single(at_rest, still, still, 1e-3), *plain.true_bleed_areas(10)
+    ).force
+    assert m0 == pytest.approx(float(force[-1]), abs=4 * se0 + 0.05)
     assert 0 < se1 < 0.2  # 2 N noise over thousands of samples
     assert writes == []  # the drive stayed disabled
     # The copy zeroes the load cell: its offset is minus what it read.

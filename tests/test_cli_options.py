@@ -19,12 +19,19 @@ CLI = [sys.executable, "-m", "shockdyno.cli"]
 def _commands() -> dict[str, argparse.ArgumentParser]:
     parser = build_parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    return dict(sub.choices)
+    out = dict(sub.choices)
+    for name, command in sub.choices.items():  # and nested ones: `rig check`
+        for action in command._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                out.update({f"{name} {k}": v for k, v in action.choices.items()})
+    return out
 
 
 def test_every_command_help_shows_every_default() -> None:
     commands = _commands()
-    assert {"demo", "sweep", "replay", "sim-rig", "import", "fit", "ride"} <= set(commands)
+    assert {"demo", "sweep", "replay", "sim-rig", "import", "fit", "ride", "rig check"} <= set(
+        commands
+    )
     checked = 0
     for name, parser in commands.items():
         formatter = parser._get_formatter()

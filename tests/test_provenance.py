@@ -80,6 +80,10 @@ def test_a_diagnosis_or_ride_of_another_recording_is_refused(
     diag = tmp_path / "d.json"
     assert main(["diagnose", str(a), "--json", str(diag)]) == 0
     assert json.loads(diag.read_text())["info"]["recording"]["file"] == "a.mcap"
+    # Which spec the diagnosis used: on the terminal and in its JSON.
+    assert "spec: built-in default sim/ohlins-s46.toml (ohlins-s46)" in capsys.readouterr().out
+    used = json.loads(diag.read_text())["info"]["spec"]
+    assert used == {"path": "sim/ohlins-s46.toml", "name": "ohlins-s46", "default": True}
     ride = tmp_path / "r.json"
     fast = ["--clicks", "21", "--roads", "A", "--speeds-kmh", "60", "--duration-s", "2"]
     fast += ["--warmup-s", "0.5", "--no-step-check"]

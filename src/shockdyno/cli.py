@@ -20,6 +20,7 @@ from shockdyno.errors import ShockdynoError
 COMMAND_MODULES = [
     "shockdyno.run.cli",  # demo, sweep, replay
     "shockdyno.simrig.cli",  # sim-rig
+    "shockdyno.run.rig_cli",  # rig check | jog | tare
     "shockdyno.record.cli",  # info, import
     "shockdyno.export_cli",  # export (a recording to CSV, a fit to damper tables)
     "shockdyno.fit.cli",  # fit
@@ -109,10 +110,21 @@ def build_parser() -> argparse.ArgumentParser:
             continue
         module.register(sub)
     for command in sub.choices.values():
-        command.formatter_class = DefaultsHelpFormatter
-        # SUPPRESS: an option given before the command is not reset by the command's default
-        _add_logging_options(command, argparse.SUPPRESS)
+        for each in _with_nested(command):  # `rig check` too, not only `rig`
+            each.formatter_class = DefaultsHelpFormatter
+            # SUPPRESS: an option given before the command is not reset by the command's default
+            _add_logging_options(each, argparse.SUPPRESS)
     return parser
+
+
+def _with_nested(parser: argparse.ArgumentParser) -> list[argparse.ArgumentParser]:
+    """A command's parser and those of its own subcommands."""
+    out = [parser]
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                out.extend(_with_nested(child))
+    return out
 
 
 def main(argv: Sequence[str] | None = None) -> int:

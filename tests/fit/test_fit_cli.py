@@ -63,6 +63,9 @@ def test_fit_command_writes_json_report_and_table(
         assert c["A_bt_m2"] == pytest.approx(float(truth.bleed_areas(c["clicks"])[1]), rel=0.1)
     assert set(doc["globals"]) >= {"gas_pressure_pa", "friction_n"}
     assert "Enhancement (%)" in printed and "Talbott" in printed
+    # Which spec: on the terminal, in the JSON (spec_path) and on the page, never absolute there.
+    assert "spec: built-in default sim/ohlins-s46.toml (ohlins-s46)" in printed
+    assert Path(doc["spec_path"]).name == "ohlins-s46.toml"
     # Every fitted global is printed in engineering units (the JSON stays SI), and the
     # force channel's delay in ms
     assert "Calibrated globals" in printed
@@ -86,6 +89,7 @@ def test_fit_command_writes_json_report_and_table(
     # The page's globals in engineering units too: the gas charge in bar, areas in mm²
     assert "Calibrated globals" in page and "<td>mm²</td>" in page
     assert f'<td class="num">{doc["globals"]["gas_pressure_pa"] * 1e-5:.4g}</td>' in page
+    assert "base spec sim/ohlins-s46.toml" in page and doc["spec_path"] not in page
     for p in pngs:
         assert f'src="{p.name}"' in page
     rows = list(csv.reader((report / "table4.csv").read_text().splitlines()))

@@ -114,6 +114,7 @@ def diagnose_file(
     from shockdyno.diagnose.verdict import to_json
     from shockdyno.fit.result import FitResult
     from shockdyno.model import load_spec
+    from shockdyno.model.spec import spec_used
     from shockdyno.record import open_recording
     from shockdyno.record.identity import provenance, recording_info, stored_sha256
 
@@ -138,6 +139,10 @@ def diagnose_file(
     d = diagnose(tests, fit, settings, progress, spec_path=spec)
     doc = to_json(d)
     doc["info"]["recording"] = info
+    # Which damper spec the model started from: --spec, the fit's base spec, or the default.
+    doc["info"]["spec"] = spec_used(fit.spec_path if fit is not None else spec)
+    if fit is not None:
+        doc["info"]["spec"]["from_fit"] = str(fit_path)
     if loss:
         doc["info"]["recording_loss"] = loss
     if fit_from is not None:
@@ -185,6 +190,11 @@ def run_diagnose(args: argparse.Namespace) -> int:
     # Written before the figures are drawn: a plotting failure must not lose the diagnosis.
     write_output(args.json, text, force=args.force, inputs=inputs)
     shown = table_console(stderr=out is None)
+    from shockdyno.model.spec import spec_line
+
+    used = doc["info"]["spec"]
+    via = f", the base spec of {used['from_fit']}" if "from_fit" in used else ""
+    shown.print(spec_line(used) + via, soft_wrap=True, highlight=False, markup=False)
     m = doc["mismatch"]
     if doc["short_tests"]:  # a warning, not an error: the rest of the diagnosis stands
         n = len(doc["short_tests"])

@@ -9,6 +9,7 @@ from typing import Any
 from shockdyno.diagnose.engine import Diagnosis
 from shockdyno.diagnose.plots import loops, residual_maps
 from shockdyno.record.atomic import write_text_atomic
+from shockdyno.report.diagnose_section import spec_shown
 from shockdyno.report.html import Page
 
 # The figures' names in DIR and their keys in DIAG.json's info.figures.
@@ -33,6 +34,9 @@ def write_report(d: Diagnosis, doc: dict[str, Any], out: Path) -> Path:
     page = Page("Diagnosis: where the model and the recording differ, and why")
     page.section("Verdict")
     page.paragraph(doc["verdict"]["text"])
+    used = doc.get("info", {}).get("spec")
+    if isinstance(used, dict):
+        page.paragraph(f"Damper spec: {spec_shown(used)}.")
     page.section(
         "Findings",
         "Each candidate term refitted with the globals and areas; p from a cycle-bootstrap "

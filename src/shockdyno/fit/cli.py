@@ -257,6 +257,10 @@ def run_fit(args: argparse.Namespace) -> int:
     text = result_json(result)  # a result that cannot be written fails before anything is
     # With --json -, stdout carries only the JSON; the human summary goes to stderr.
     human = table_console(stderr=out is None)
+    from shockdyno.model.spec import spec_line, spec_used
+
+    # The JSON keeps the spec as `spec_path`; the terminal says which one it was.
+    human.print(spec_line(spec_used(args.spec)), soft_wrap=True, highlight=False, markup=False)
     units = units_mod.get(args.units)
     human.print(_globals_table(result, units))
     if result.terms:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 import tomllib
 from dataclasses import dataclass, fields, replace
@@ -134,6 +135,26 @@ def default_spec_path() -> Path:
     """sim/ohlins-s46.toml of this checkout, else of the current directory."""
     here = Path(__file__).resolve().parents[3] / "sim" / "ohlins-s46.toml"
     return here if here.exists() else Path("sim/ohlins-s46.toml")
+
+
+def spec_used(path: str | Path | None) -> dict[str, Any]:
+    """Which spec a command used, for its terminal line and its JSON: {path, name,
+    default}. `path` as the user gave it; the built-in default as its repository path."""
+    p = default_spec_path() if path is None else Path(path)
+    with contextlib.suppress(OSError):  # a fit's stored path to the default spec is the default
+        default = path is None or p.resolve() == default_spec_path().resolve()
+    shown = str(p)
+    if default:
+        root = Path(__file__).resolve().parents[3]
+        with contextlib.suppress(ValueError):
+            shown = str(p.resolve().relative_to(root))
+    return {"path": shown, "name": load_spec(p).name, "default": default}
+
+
+def spec_line(used: dict[str, Any]) -> str:
+    """ "spec: sim/x.toml (name)", or "spec: built-in default sim/ohlins-s46.toml (...)"."""
+    where = f"built-in default {used['path']}" if used.get("default") else used["path"]
+    return f"spec: {where} ({used['name']})"
 
 
 def _section(doc: dict[str, Any], key: str, path: Path) -> dict[str, Any]:

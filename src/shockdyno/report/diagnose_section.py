@@ -216,6 +216,17 @@ def _render_tests(page: Page, tests: Any) -> bool:
     return True
 
 
+def spec_shown(used: dict[str, Any]) -> str:
+    """The diagnosis's damper spec (``info.spec``) as a page shows it: never an absolute
+    path of the machine that ran it."""
+    from shockdyno.report.build import shown_path
+
+    path = shown_path(str(used.get("path", "?")))
+    text = f"{'built-in default ' if used.get('default') else ''}{path} ({used.get('name', '?')})"
+    fit = used.get("from_fit")
+    return f"{text}, the base spec of the fit {shown_path(str(fit))}" if fit else text
+
+
 def render_diagnose(page: Page, doc: Any) -> None:
     """Append the diagnose section for ``doc`` (the parsed diagnose JSON)."""
     page.section(
@@ -228,6 +239,9 @@ def render_diagnose(page: Page, doc: Any) -> None:
     if not isinstance(doc, dict):
         page.paragraph("The diagnose file holds no object; nothing to show.", warn=True)
         return
+    info = doc.get("info")
+    if isinstance(info, dict) and isinstance(info.get("spec"), dict):
+        page.paragraph(f"Damper spec of the diagnosis: {spec_shown(info['spec'])}.")
     shown = [
         _render_verdict(page, doc.get("verdict")),
         _render_mismatch(page, doc.get("mismatch")),

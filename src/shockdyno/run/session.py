@@ -604,7 +604,42 @@ class RigSession:
             if (self._t - t_start > budget_s and waited > MIN_WALL_S) or waited > 2 * budget_s + 5:
                 raise RigFault("the drive did not start the sine")
 
+    def move_to(self, displacement_m: float) -> ActuatorStatus:
+        """Ramp in hold mode to `displacement_m` from the stroke centre at the rig file's
+        move velocity, limits watched on every sample (a trip raises `SafetyTrip`; the
+        session's exit then stops, centres and disables). Refused before moving outside
+        `limits.travel_m`. Returns the drive's status on arrival."""
+        travel = self.rig.limits.travel_m
+        if not (math.isfinite(displacement_m) and abs(displacement_m) <= travel):
+            raise ConfigError(
+                f"target {displacement_m * 1e3:+g} mm is outside the rig's travel of "
+                f"±{travel * 1e3:g} mm ({self.rig.source} limits.travel_m); refused before moving"
+            )
+        if not self._armed:
+            raise RigFault(f"actuator is not enabled (disarmed by: {self._disarm_reason})")
+        _, st = self._move(self.rig.stroke_centre_m + displacement_m, check=True, what="move")
+        self._event("move", f"at {displacement_m * 1e3:+.2f} mm from centre")
+        return st
+
+    def dwell(self, duration_s: float) -> SampleBlock:
+        """Hold where the ram is for `duration_s` of DAQ time, limits and the drive watched
+        as in a sine; the samples read meanwhile."""
+        captured: list[SampleBlock] = []
+        self._catch_up(check=True)
+        end = self._t + duration_s
+        self._on_block = captured.append
+        try:
+            self._wait(lambda s: self._t >= end, daq_budget_s=duration_s + 2.0, what="dwell")
+        finally:
+            self._on_block = None
+        return SampleBlock.concat(captured) if captured else SampleBlock.empty()
+
     def _move_to_centre(self, check: bool) -> None:
+        distance, _ = self._move(self.rig.stroke_centre_m, check=check, what="ramp to centre")
+        self._event("centre", f"at stroke centre ({distance * 1e3:.1f} mm ramp)")
+
+    def _move(self, target_m: float, *, check: bool, what: str) -> tuple[float, ActuatorStatus]:
+        """Ramp to the absolute position `target_m`: the distance ramped, the status on arrival."""
         act = self._act()
         st = act.status()
         if not check and not st.enabled:
@@ -615,20 +650,17 @@ class RigSession:
                 f"{(st.position_m - self.rig.stroke_centre_m) * 1e3:+.1f} mm from centre, "
                 "not re-enabled to centre it"
             )
-        distance = abs(st.position_m - self.rig.stroke_centre_m)
+        distance = abs(st.position_m - target_m)
         v = self.rig.ramp.move_velocity_m_s
         act.set_mode("hold")
-        act.write({"move_velocity": v, "position_command": self.rig.stroke_centre_m})
-        self._wait(
-            lambda s: (
-                s.target_reached
-                and abs(s.position_m - self.rig.stroke_centre_m) < CENTRE_TOLERANCE_M
-            ),
+        act.write({"move_velocity": v, "position_command": target_m})
+        arrived = self._wait(
+            lambda s: s.target_reached and abs(s.position_m - target_m) < CENTRE_TOLERANCE_M,
             daq_budget_s=distance / v + 2.0,
-            what="ramp to centre",
+            what=what,
             check=check,
         )
-        self._event("centre", f"at stroke centre ({distance * 1e3:.1f} mm ramp)")
+        return distance, arrived
 
     def _safe_stop(self, reason: str) -> None:
         """Controlled stop, ramp to centre, disable. Every step is tried; none may raise."""

@@ -42,6 +42,7 @@ from shockdyno.simrig.reference import PlantParams, PlantState, ReferencePlant
 _ONE_SEGMENT = np.zeros(1, dtype=np.intp)
 CHUNK = 10  # samples: the grid on which commands, faults and trips take effect
 FloatArray = NDArray[np.float64]
+SIGNED_PARAMS = ("load_cell_offset_n",)  # [simulation] keys that may be zero or negative
 
 
 @dataclass
@@ -56,6 +57,9 @@ class SimParams:
     position_noise_m: float = 1e-6
     temperature_noise_c: float = 0.02
     ambient_c: float = 40.0
+    # What the load cell reads with no force on it (its zero drift): `shockdyno rig tare`
+    # must find it; any sign.
+    load_cell_offset_n: float = 0.0
     jam_force_n: float = 0.0  # set by the over-force fault
 
     @staticmethod
@@ -69,6 +73,10 @@ class SimParams:
                 raise ConfigError(f"{where}: unknown key")
             if isinstance(value, bool) or not isinstance(value, int | float):
                 raise ConfigError(f"{where}: must be a number, got {value!r}")
+            if key in SIGNED_PARAMS:
+                if not math.isfinite(value):
+                    raise ConfigError(f"{where}: must be finite, got {value!r}")
+                continue
             if not math.isfinite(value) or value < 0:
                 raise ConfigError(f"{where}: must be >= 0, got {value!r}")
             if value == 0 and not key.endswith(("_noise_n", "_noise_m", "_noise_c")):
@@ -287,7 +295,7 @@ class SimEngine:
             f_meas = f_meas + sensed[0]
             pos = pos + sensed[1]
         pos = pos + p.position_noise_m * st.rng_pos.standard_normal(n)
-        f_meas = f_meas + p.force_noise_n * st.rng_force.standard_normal(n)
+        f_meas = f_meas + p.load_cell_offset_n + p.force_noise_n * st.rng_force.standard_normal(n)
         t_meas = temp + p.temperature_noise_c * st.rng_temp.standard_normal(n)
         status = np.where(drv.motion(t), STATUS_MOTION, 0).astype(np.uint16)
         self.produced += n

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from shockdyno import units
 from shockdyno.errors import FitError
 from shockdyno.lists import seed_arg
 from shockdyno.outputs import check_output, check_report_dir, write_output
@@ -47,6 +48,7 @@ def register(sub: Any) -> None:
         help="also write DIR/index.html: the report page with the fit (figures, Table 4, "
         "click chart), and table4.csv beside it",
     )
+    units.add_argument(p, "the --report page's numbers, tables and plots")
     p.add_argument(
         "--optimizer",
         choices=("fast", "ga"),
@@ -286,6 +288,7 @@ def run_fit(args: argparse.Namespace) -> int:
                 metadata={"recording": str(args.recording), **rec.metadata},
                 fit=result,
                 progress=lambda stage: status.update(f"fit report: {stage}"),
+                units=units.get(args.units),
             )
         say(f"report: {index}")
         header, rows = table4_rows(result)

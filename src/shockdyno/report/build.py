@@ -30,9 +30,10 @@ from shockdyno.record.types import TestData
 from shockdyno.report import clickchart, plots
 from shockdyno.report.clickplots import force_vs_clicks
 from shockdyno.report.diagnose_section import render_diagnose
-from shockdyno.report.html import SUMMARY_HEADER, SUMMARY_LEGEND, Page, summary_row
+from shockdyno.report.html import SUMMARY_LEGEND, Page, summary_header, summary_row
 from shockdyno.report.ride_section import render_ride
 from shockdyno.report.summary import TestSummary, summarise
+from shockdyno.units import SI, Units
 
 if TYPE_CHECKING:  # the fit package is imported only when a fit is drawn
     from shockdyno.fit.result import FitResult
@@ -107,12 +108,15 @@ def build_report(
     ride: dict[str, Any] | None = None,
     gas_force_n: float | None = None,
     progress: Callable[[str], None] | None = None,
+    units: Units = SI,
 ) -> Path:
     """Write the report into ``out_dir``; returns the path of index.html.
 
     Every part is optional: no tests (a ride-only page), no fit (measured click chart
     only), ``diagnose`` and ``ride`` as the JSON documents of those commands.
     ``gas_force_n``: the static gas force to mark on loops (taken from the fit if given).
+    ``units``: what the page shows (tables, captions, figures); files beside it that are
+    JSON stay SI, the click-chart CSV names its units in its header.
     """
     say = progress or (lambda _: None)
     out_dir = Path(out_dir)
@@ -138,10 +142,10 @@ def build_report(
 
     if complete:
         say("click chart")
-        _click_chart_section(page, [c.test for c in complete], fit, out_dir)
+        _click_chart_section(page, [c.test for c in complete], fit, out_dir, units)
 
     if tests:
-        _summary_section(page, summaries)
+        _summary_section(page, summaries, units)
 
     for heading, header, rows in tables:
         page.section(heading)
@@ -149,7 +153,7 @@ def build_report(
 
     if complete:
         say("peak and overlay figures")
-        _peaks_and_overlays(page, complete, out_dir, gas_force_n)
+        _peaks_and_overlays(page, complete, out_dir, gas_force_n, units)
 
     if fit is not None:
         say("fit figures")
@@ -158,7 +162,7 @@ def build_report(
     if diagnose is not None:
         render_diagnose(page, diagnose)
     if ride is not None:
-        render_ride(page, ride)
+        render_ride(page, ride, units)
 
     # After the ride table: the ride page's figures follow the numbers they illustrate.
     for n, (heading, figures) in enumerate(extra_sections):
@@ -168,7 +172,7 @@ def build_report(
 
     if drawable:
         say("loops per click")
-        _loops_section(page, drawable, out_dir, gas_force_n)
+        _loops_section(page, drawable, out_dir, gas_force_n, units)
 
     index = out_dir / "index.html"
     write_text_atomic(index, page.render())
@@ -176,24 +180,25 @@ def build_report(
 
 
 def _click_chart_section(
-    page: Page, tests: list[TestData], fit: FitResult | None, out_dir: Path
+    page: Page, tests: list[TestData], fit: FitResult | None, out_dir: Path, units: Units
 ) -> None:
-    chart = clickchart.click_chart(tests, fit)
+    chart = clickchart.click_chart(tests, fit, units.standard_velocities_m_s)
+    u = f"{units.force_label}; velocity in {units.velocity_label}"
     page.section(
         "Click chart",
         "Force at standard velocities per click, compression (comp, velocity > 0) and rebound "
-        "(reb, velocity < 0), in N. Measured: the force of each test's force-velocity branch "
-        "where it passes the velocity (every crossing of the measured cycles averaged), then "
-        "averaged over the click's frequencies.",
+        f"(reb, velocity < 0), in {units.force_label}. Measured: the force of each test's "
+        "force-velocity branch where it passes the velocity (every crossing of the measured "
+        "cycles averaged), then averaged over the click's frequencies.",
     )
     page.figure(
-        force_vs_clicks(chart, out_dir / "click_chart.png").name,
+        force_vs_clicks(chart, out_dir / "click_chart.png", units).name,
         "Force against clicks at each standard velocity: measured (solid; hollow markers "
         "extrapolated)" + (", fitted model (dashed)" if chart.model_curve else "") + ".",
     )
-    write_text_atomic(out_dir / "click_chart.csv", clickchart.to_csv(chart))
-    header, rows = clickchart.table_rows(chart, "measured")
-    page.subheading("Measured (N; velocity in mm/s)")
+    write_text_atomic(out_dir / "click_chart.csv", clickchart.to_csv(chart, units))
+    header, rows = clickchart.table_rows(chart, "measured", units)
+    page.subheading(f"Measured ({u})")
     page.table(header, rows, numeric=[True] * len(header))
     if chart.any_extrapolated:
         page.paragraph(
@@ -202,38 +207,47 @@ def _click_chart_section(
             "velocity (shockdyno sweep --velocities-mm-s) to measure it."
         )
     if chart.model:
-        header, rows = clickchart.table_rows(chart, "model")
-        page.subheading("Fitted model (N; mid-stroke, zero acceleration)")
+        header, rows = clickchart.table_rows(chart, "model", units)
+        page.subheading(f"Fitted model ({u}; mid-stroke, zero acceleration)")
         # A long sweep's second table of the same shape is opened on demand.
         page.details(f"{len(rows)} click settings", opened=len(rows) <= OPEN_SUMMARY_MAX_ROWS)
         page.table(header, rows, numeric=[True] * len(header))
         page.close_details()
     also = " and the model's" if chart.model else ""
-    page.link("click_chart.csv", "click_chart.csv", f": the measured values{also} as CSV.")
+    page.link(
+        "click_chart.csv",
+        "click_chart.csv",
+        f": the measured values{also} as CSV ({units.velocity_label}, {units.force_label}).",
+    )
 
 
-def _summary_section(page: Page, summaries: list[TestSummary]) -> None:
+def _summary_section(page: Page, summaries: list[TestSummary], units: Units) -> None:
     page.section("Summary", SUMMARY_LEGEND)
     n_aborted = sum(s.status != "complete" for s in summaries)
     if n_aborted:
         page.paragraph(f"{n_aborted} of {len(summaries)} tests did not complete (marked).")
     long = len(summaries) > OPEN_SUMMARY_MAX_ROWS
     page.details(f"Summary table: {len(summaries)} tests", opened=not long)
+    header = summary_header(units)
     page.table(
-        SUMMARY_HEADER,
-        [summary_row(s) for s in summaries],
+        header,
+        [summary_row(s, units) for s in summaries],
         row_classes=["" if s.status == "complete" else "aborted" for s in summaries],
-        numeric=[True] * (len(SUMMARY_HEADER) - 1) + [False],
+        numeric=[True] * (len(header) - 1) + [False],
     )
     page.close_details()
 
 
 def _peaks_and_overlays(
-    page: Page, complete: list[plots.Curves], out_dir: Path, gas_force_n: float | None
+    page: Page,
+    complete: list[plots.Curves],
+    out_dir: Path,
+    gas_force_n: float | None,
+    units: Units,
 ) -> None:
     page.section("Peak force vs peak velocity")
     page.figure(
-        plots.peak_curves([c.summary for c in complete], out_dir / "peaks.png").name,
+        plots.peak_curves([c.summary for c in complete], out_dir / "peaks.png", units).name,
         "One curve per click through its test frequencies; complete tests only.",
     )
     page.section("Overlays across clicks")
@@ -242,8 +256,8 @@ def _peaks_and_overlays(
         by_freq.setdefault(round(c.test.meta.frequency_hz, 6), []).append(c)
     for k, (f, group) in enumerate(sorted(by_freq.items())):
         page.details(f"{f:g} Hz: every click", opened=k == 0)
-        png = plots.frequency_overlay(group, f, out_dir / _freq_name(f), gas_force_n)
-        page.figure(png.name, f"{f:g} Hz: every click, colour by clicks; complete tests.")
+        png = plots.frequency_overlay(group, f, out_dir / _freq_name(f), gas_force_n, units)
+        page.figure(png.name, f"{f:g} Hz: every click, named in the legend; complete tests.")
     page.close_details()
 
 
@@ -280,7 +294,11 @@ def _fit_section(page: Page, fit: FitResult, tests: list[TestData], out_dir: Pat
 
 
 def _loops_section(
-    page: Page, drawable: list[plots.Curves], out_dir: Path, gas_force_n: float | None
+    page: Page,
+    drawable: list[plots.Curves],
+    out_dir: Path,
+    gas_force_n: float | None,
+    units: Units,
 ) -> None:
     page.section(
         "Loops per click",
@@ -298,6 +316,8 @@ def _loops_section(
         if aborted:
             label += f" ({aborted} not complete)"
         page.details(label, opened=len(by_click) == 1)
-        png = plots.click_loops(group, out_dir / f"loops_c{clicks:02d}_g{gas:02d}.png", gas_force_n)
+        png = plots.click_loops(
+            group, out_dir / f"loops_c{clicks:02d}_g{gas:02d}.png", gas_force_n, units
+        )
         page.figure(png.name, f"clicks {clicks}, gas clicks {gas}")
     page.close_details()

@@ -9,6 +9,8 @@ from typing import Any
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.outputs import check_report_dir
 from shockdyno.result_files import read_result
+from shockdyno.units import add_argument as add_units_argument
+from shockdyno.units import get as get_units
 
 
 def register(sub: Any) -> None:
@@ -33,6 +35,7 @@ def register(sub: Any) -> None:
         help="replace an existing DIR/index.html; show a result made from another recording "
         "(the page says so) (default: refuse both)",
     )
+    add_units_argument(p, "the page's numbers, tables and plots")
     p.set_defaults(func=run_report)
 
 
@@ -120,6 +123,7 @@ def run_report(args: argparse.Namespace) -> int:
             ride=ride,
             gas_force_n=gas,
             progress=progress,
+            units=get_units(args.units),
         )
     print(f"report: {index}")
     return 0

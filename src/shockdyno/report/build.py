@@ -31,6 +31,7 @@ from shockdyno.report import clickchart, plots
 from shockdyno.report.clickplots import force_vs_clicks
 from shockdyno.report.diagnose_section import render_diagnose
 from shockdyno.report.html import SUMMARY_LEGEND, Page, summary_header, summary_row
+from shockdyno.report.interactive import Interactive
 from shockdyno.report.ride_section import render_ride
 from shockdyno.report.summary import TestSummary, summarise
 from shockdyno.units import SI, Units
@@ -136,13 +137,14 @@ def build_report(
         gas_force_n = clickchart.static_force_n(fit)
 
     page = Page(title)
+    live = Interactive(units)  # the interactive twins of the figures, and their script
     if metadata:
         page.section("Recording")
         page.table(["key", "value"], [[k, shown_path(str(v))] for k, v in metadata.items()])
 
     if complete:
         say("click chart")
-        _click_chart_section(page, [c.test for c in complete], fit, out_dir, units)
+        _click_chart_section(page, [c.test for c in complete], fit, out_dir, live)
 
     if tests:
         _summary_section(page, summaries, units)
@@ -153,7 +155,7 @@ def build_report(
 
     if complete:
         say("peak and overlay figures")
-        _peaks_and_overlays(page, complete, out_dir, gas_force_n, units)
+        _peaks_and_overlays(page, complete, out_dir, gas_force_n, live)
 
     if fit is not None:
         say("fit figures")
@@ -172,16 +174,19 @@ def build_report(
 
     if drawable:
         say("loops per click")
-        _loops_section(page, drawable, out_dir, gas_force_n, units)
+        _loops_section(page, drawable, out_dir, gas_force_n, live)
 
+    page.close_details()
+    page.raw(live.tail())
     index = out_dir / "index.html"
     write_text_atomic(index, page.render())
     return index
 
 
 def _click_chart_section(
-    page: Page, tests: list[TestData], fit: FitResult | None, out_dir: Path, units: Units
+    page: Page, tests: list[TestData], fit: FitResult | None, out_dir: Path, live: Interactive
 ) -> None:
+    units = live.units
     chart = clickchart.click_chart(tests, fit, units.standard_velocities_m_s)
     u = f"{units.force_label}; velocity in {units.velocity_label}"
     page.section(
@@ -191,11 +196,12 @@ def _click_chart_section(
         "force-velocity branch where it passes the velocity (every crossing of the measured "
         "cycles averaged), then averaged over the click's frequencies.",
     )
-    page.figure(
-        force_vs_clicks(chart, out_dir / "click_chart.png", units).name,
+    png = force_vs_clicks(chart, out_dir / "click_chart.png", units).name
+    caption = (
         "Force against clicks at each standard velocity: measured (solid; hollow markers "
-        "extrapolated)" + (", fitted model (dashed)" if chart.model_curve else "") + ".",
+        "extrapolated)" + (", fitted model (dashed)" if chart.model_curve else "") + "."
     )
+    page.raw(live.figure(png, caption, live.click_chart(chart)))
     write_text_atomic(out_dir / "click_chart.csv", clickchart.to_csv(chart, units))
     header, rows = clickchart.table_rows(chart, "measured", units)
     page.subheading(f"Measured ({u})")
@@ -243,13 +249,13 @@ def _peaks_and_overlays(
     complete: list[plots.Curves],
     out_dir: Path,
     gas_force_n: float | None,
-    units: Units,
+    live: Interactive,
 ) -> None:
+    units = live.units
     page.section("Peak force vs peak velocity")
-    page.figure(
-        plots.peak_curves([c.summary for c in complete], out_dir / "peaks.png", units).name,
-        "One curve per click through its test frequencies; complete tests only.",
-    )
+    peaks = plots.peak_curves([c.summary for c in complete], out_dir / "peaks.png", units)
+    caption = "One curve per click through its test frequencies; complete tests only."
+    page.raw(live.figure(peaks.name, caption, live.peaks(complete)))
     page.section("Overlays across clicks")
     by_freq: dict[float, list[plots.Curves]] = {}
     for c in complete:
@@ -257,7 +263,8 @@ def _peaks_and_overlays(
     for k, (f, group) in enumerate(sorted(by_freq.items())):
         page.details(f"{f:g} Hz: every click", opened=k == 0)
         png = plots.frequency_overlay(group, f, out_dir / _freq_name(f), gas_force_n, units)
-        page.figure(png.name, f"{f:g} Hz: every click, named in the legend; complete tests.")
+        caption = f"{f:g} Hz: every click, named in the legend; complete tests."
+        page.raw(live.figure(png.name, caption, live.overlay(group, gas_force_n)))
     page.close_details()
 
 
@@ -298,8 +305,9 @@ def _loops_section(
     drawable: list[plots.Curves],
     out_dir: Path,
     gas_force_n: float | None,
-    units: Units,
+    live: Interactive,
 ) -> None:
+    units = live.units
     page.section(
         "Loops per click",
         "Force-displacement and force-velocity over the measured cycles, one click's "
@@ -319,5 +327,6 @@ def _loops_section(
         png = plots.click_loops(
             group, out_dir / f"loops_c{clicks:02d}_g{gas:02d}.png", gas_force_n, units
         )
-        page.figure(png.name, f"clicks {clicks}, gas clicks {gas}")
+        caption = f"clicks {clicks}, gas clicks {gas}"
+        page.raw(live.figure(png.name, caption, live.click_loops(group, gas_force_n)))
     page.close_details()

@@ -146,6 +146,10 @@ class Page:
             f' loading="lazy"></a><figcaption>{escape(caption)}</figcaption></figure>'
         )
 
+    def raw(self, fragment: str) -> None:
+        """Markup made elsewhere (report/interactive.py's figures and script), as it is."""
+        self.parts.append(fragment)
+
     def table(
         self,
         header: Sequence[str],

@@ -55,6 +55,8 @@ class PageReport:
     screenshot: bytes = b""
     page_height_px: int = 0
     scroll_width_px: int = 0  # wider than the window: the page scrolls sideways
+    requests: list[str] = field(default_factory=list)  # every URL the page asked for
+    evaluated: Any = None  # what open_page's `evaluate` expression returned
 
 
 class _Pipe:
@@ -111,9 +113,17 @@ class _Pipe:
             self.events.append(msg)
 
 
-def open_page(chromium: str, page: Path, width: int = 800, screenshot: bool = False) -> PageReport:
+def open_page(
+    chromium: str,
+    page: Path,
+    width: int = 800,
+    screenshot: bool = False,
+    evaluate: str = "",
+    media: str = "",
+) -> PageReport:
     """Load ``page`` at ``width`` CSS pixels; collect images, errors, optionally a full-page
-    screenshot (PNG bytes)."""
+    screenshot (PNG bytes). ``evaluate``: a JS expression (a promise is awaited) run after
+    the probe, its value in ``evaluated``; ``media``: emulate it ("print")."""
     to_chrome_r, to_chrome_w = os.pipe()
     from_chrome_r, from_chrome_w = os.pipe()
 
@@ -139,7 +149,7 @@ def open_page(chromium: str, page: Path, width: int = 800, screenshot: bool = Fa
         os.close(from_chrome_w)
         pipe = _Pipe(proc, to_chrome_w, from_chrome_r)
         try:
-            return _inspect(pipe, page, width, screenshot)
+            return _inspect(pipe, page, width, screenshot, evaluate, media)
         finally:
             with contextlib.suppress(OSError):
                 pipe.send("Browser.close")
@@ -152,7 +162,9 @@ def open_page(chromium: str, page: Path, width: int = 800, screenshot: bool = Fa
             os.close(from_chrome_r)
 
 
-def _inspect(pipe: _Pipe, page: Path, width: int, screenshot: bool) -> PageReport:
+def _inspect(
+    pipe: _Pipe, page: Path, width: int, screenshot: bool, evaluate: str, media: str
+) -> PageReport:
     target = pipe.call("Target.createTarget", {"url": "about:blank"})["targetId"]
     session = pipe.call("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
     for domain in ("Page", "Runtime", "Log", "Network"):
@@ -162,6 +174,8 @@ def _inspect(pipe: _Pipe, page: Path, width: int, screenshot: bool) -> PageRepor
         {"width": width, "height": 900, "deviceScaleFactor": 1, "mobile": False},
         session=session,
     )
+    if media:
+        pipe.call("Emulation.setEmulatedMedia", {"media": media}, session=session)
     pipe.call("Page.navigate", {"url": page.resolve().as_uri()}, session=session)
     pipe.wait_event("Page.loadEventFired")
     probe = pipe.call(
@@ -175,6 +189,15 @@ def _inspect(pipe: _Pipe, page: Path, width: int, screenshot: bool) -> PageRepor
     )
     if "exceptionDetails" in probe:
         report.errors.append(f"probe failed: {probe['exceptionDetails']}")
+    if evaluate:
+        done = pipe.call(
+            "Runtime.evaluate",
+            {"expression": evaluate, "awaitPromise": True, "returnByValue": True},
+            session=session,
+        )
+        if "exceptionDetails" in done:
+            report.errors.append(f"evaluate failed: {done['exceptionDetails']}")
+        report.evaluated = done.get("result", {}).get("value")
     if screenshot:
         import base64
 
@@ -199,6 +222,8 @@ def _inspect(pipe: _Pipe, page: Path, width: int, screenshot: bool) -> PageRepor
             report.errors.append(" ".join(str(a.get("value")) for a in params.get("args", [])))
         elif method == "Log.entryAdded" and params.get("entry", {}).get("level") == "error":
             report.errors.append(str(params["entry"].get("text")))
+        elif method == "Network.requestWillBeSent":
+            report.requests.append(str(params.get("request", {}).get("url")))
         elif method == "Network.loadingFailed":
             report.failed_loads.append(str(params.get("errorText")))
     return report

@@ -51,8 +51,9 @@
     }
     var s = spec.series[best[0] - 1], k = best[1];
     var x = u.data[best[0]][0][k], y = u.data[best[0]][1][k];
-    out.textContent = s.label + ": " + spec.x_name + " " + fmt(x) + " " + spec.x_unit + ", " +
-      spec.y_name + " " + fmt(y) + " " + spec.y_unit + (s.notes ? s.notes[k] : "");
+    var unit = function (u) { return u ? " " + u : ""; };
+    out.textContent = s.label + ": " + spec.x_name + " " + fmt(x) + unit(spec.x_unit) + ", " +
+      spec.y_name + " " + fmt(y) + unit(spec.y_unit) + (s.notes ? s.notes[k] : "");
     mark.style.display = "block";
     mark.style.left = u.valToPos(x, "x") - 4 + "px";
     mark.style.top = u.valToPos(y, "y") - 4 + "px";

@@ -190,3 +190,18 @@ def test_si_page_keeps_si(full_report: Path) -> None:
     text = visible_text(full_report)
     assert "Measured (N; velocity in mm/s)" in text and "comp 25" in text
     assert "in/s" not in text and "lbf" not in text
+
+
+def test_fit_report_takes_units(tmp_path: Path) -> None:
+    from shockdyno.cli import main
+
+    example = Path(__file__).parents[2] / "recordings" / "examples" / "example.mcap"
+    out = tmp_path / "report"
+    args = ["fit", str(example), "--json", str(tmp_path / "fit.json"), "--report", str(out)]
+    assert main([*args, "--units", "imperial"]) == 0
+    text = visible_text(out / "index.html")
+    assert "Measured (lbf; velocity in in/s)" in text and "mm/s" not in text
+    # The JSON stays SI: the same fit as without --units (timings aside).
+    assert main(["fit", str(example), "--json", str(tmp_path / "si.json")]) == 0
+    imperial, si = (json.loads((tmp_path / n).read_text()) for n in ("fit.json", "si.json"))
+    assert imperial["clicks"] == si["clicks"] and imperial["globals"] == si["globals"]

@@ -159,7 +159,7 @@ def build_report(
 
     if fit is not None:
         say("fit figures")
-        _fit_section(page, fit, tests, out_dir)
+        _fit_section(page, fit, tests, out_dir, units)
 
     if diagnose is not None:
         render_diagnose(page, diagnose)
@@ -281,7 +281,9 @@ def shown_path(text: str) -> str:
         return str(Path("…", *p.parts[-2:])) if len(p.parts) > 2 else text
 
 
-def _fit_section(page: Page, fit: FitResult, tests: list[TestData], out_dir: Path) -> None:
+def _fit_section(
+    page: Page, fit: FitResult, tests: list[TestData], out_dir: Path, units: Units
+) -> None:
     from shockdyno.fit.plots import fit_figures
     from shockdyno.fit.validate import table4_rows
 
@@ -296,7 +298,7 @@ def _fit_section(page: Page, fit: FitResult, tests: list[TestData], out_dir: Pat
     if rows:
         page.table(header, rows, numeric=[False, False, True, True, True])
     page.definitions(ERROR_MEASURES)
-    for caption, png in fit_figures(fit, tests, out_dir):
+    for caption, png in fit_figures(fit, tests, out_dir, units):
         page.figure(_link_extra(out_dir, png, 0), caption)
 
 

@@ -430,7 +430,9 @@ class Interactive:
 
     def click_loops(self, group: Sequence[Curves], gas_force_n: float | None) -> list[Chart]:
         """One click setting's frequencies; aborted tests dashed."""
-        rows = sorted(group, key=lambda c: (c.test.meta.frequency_hz, c.test.meta.index))
+        # Fastest first, as in the PNG: the slower loops retrace part of it on the F-v
+        # plot and, drawn later, stay visible on top.
+        rows = sorted(group, key=lambda c: (-c.test.meta.frequency_hz, c.test.meta.index))
         colours = [css_colour(c) for c in readable_colours(len(rows))]
         u = self.units
         labels = [

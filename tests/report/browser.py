@@ -76,6 +76,8 @@ class PageReport:
     scroll_width_px: int = 0  # wider than the window: the page scrolls sideways
     pdf: bytes = b""  # the page printed (print_pdf), as a reader's print-to-PDF makes it
     print_styles: dict[str, str] = field(default_factory=dict)  # computed under print media
+    requests: list[str] = field(default_factory=list)  # every URL the page asked for
+    evaluated: Any = None  # what open_page's `evaluate` expression returned
 
 
 class _Pipe:
@@ -133,11 +135,19 @@ class _Pipe:
 
 
 def open_page(
-    chromium: str, page: Path, width: int = 800, screenshot: bool = False, print_pdf: bool = False
+    chromium: str,
+    page: Path,
+    width: int = 800,
+    screenshot: bool = False,
+    print_pdf: bool = False,
+    evaluate: str = "",
+    media: str = "",
 ) -> PageReport:
     """Load ``page`` at ``width`` CSS pixels; collect images, errors, optionally a full-page
     screenshot (PNG bytes). ``print_pdf``: print it to PDF as loaded, without the probe
-    (which opens every block itself), so the PDF shows what the page's own print does."""
+    (which opens every block itself), so the PDF shows what the page's own print does.
+    ``evaluate``: a JS expression (a promise is awaited) run after the probe, its value in
+    ``evaluated``; ``media``: emulate it ("print")."""
     to_chrome_r, to_chrome_w = os.pipe()
     from_chrome_r, from_chrome_w = os.pipe()
 
@@ -163,7 +173,7 @@ def open_page(
         os.close(from_chrome_w)
         pipe = _Pipe(proc, to_chrome_w, from_chrome_r)
         try:
-            return _inspect(pipe, page, width, screenshot, print_pdf)
+            return _inspect(pipe, page, width, screenshot, print_pdf, evaluate, media)
         finally:
             with contextlib.suppress(OSError):
                 pipe.send("Browser.close")
@@ -176,7 +186,15 @@ def open_page(
             os.close(from_chrome_r)
 
 
-def _inspect(pipe: _Pipe, page: Path, width: int, screenshot: bool, print_pdf: bool) -> PageReport:
+def _inspect(
+    pipe: _Pipe,
+    page: Path,
+    width: int,
+    screenshot: bool,
+    print_pdf: bool,
+    evaluate: str,
+    media: str,
+) -> PageReport:
     target = pipe.call("Target.createTarget", {"url": "about:blank"})["targetId"]
     session = pipe.call("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
     for domain in ("Page", "Runtime", "Log", "Network"):
@@ -186,6 +204,8 @@ def _inspect(pipe: _Pipe, page: Path, width: int, screenshot: bool, print_pdf: b
         {"width": width, "height": 900, "deviceScaleFactor": 1, "mobile": False},
         session=session,
     )
+    if media:
+        pipe.call("Emulation.setEmulatedMedia", {"media": media}, session=session)
     pipe.call("Page.navigate", {"url": page.resolve().as_uri()}, session=session)
     pipe.wait_event("Page.loadEventFired")
     if print_pdf:
@@ -221,6 +241,15 @@ def _inspect(pipe: _Pipe, page: Path, width: int, screenshot: bool, print_pdf: b
     )
     if "exceptionDetails" in probe:
         report.errors.append(f"probe failed: {probe['exceptionDetails']}")
+    if evaluate:
+        done = pipe.call(
+            "Runtime.evaluate",
+            {"expression": evaluate, "awaitPromise": True, "returnByValue": True},
+            session=session,
+        )
+        if "exceptionDetails" in done:
+            report.errors.append(f"evaluate failed: {done['exceptionDetails']}")
+        report.evaluated = done.get("result", {}).get("value")
     if screenshot:
         import base64
 
@@ -245,6 +274,8 @@ def _inspect(pipe: _Pipe, page: Path, width: int, screenshot: bool, print_pdf: b
             report.errors.append(" ".join(str(a.get("value")) for a in params.get("args", [])))
         elif method == "Log.entryAdded" and params.get("entry", {}).get("level") == "error":
             report.errors.append(str(params["entry"].get("text")))
+        elif method == "Network.requestWillBeSent":
+            report.requests.append(str(params.get("request", {}).get("url")))
         elif method == "Network.loadingFailed":
             report.failed_loads.append(str(params.get("errorText")))
     return report

@@ -69,3 +69,15 @@ def full_report(
         args += [f"--{flag}", str(path)]
     assert main(args) == 0
     return out / "index.html"
+
+
+@pytest.fixture(scope="session")
+def imperial_report(
+    recording: Path, inputs: dict[str, Path], tmp_path_factory: pytest.TempPathFactory
+) -> Path:
+    """The page of `recording` with the fit and the ride study in in/s, lbf, in, °F."""
+    out = tmp_path_factory.mktemp("imperial") / "report"
+    args = ["report", str(recording), "-o", str(out), "--units", "imperial"]
+    args += ["--fit", str(inputs["fit"]), "--ride", str(inputs["ride"])]
+    assert main(args) == 0
+    return out / "index.html"

@@ -74,7 +74,7 @@ def register(sub: Any) -> None:
             "(default: sensor_lag, the channel delay)"
         ),
     )
-    units_mod.add_argument(p, "the terminal tables")
+    units_mod.add_argument(p, "the terminal tables and the --report page")
     p.set_defaults(func=run_fit)
 
 
@@ -295,6 +295,7 @@ def run_fit(args: argparse.Namespace) -> int:
                 fit=result,
                 progress=lambda stage: status.update(f"fit report: {stage}"),
                 reference_temperature_c=reference,
+                units=units_mod.get(args.units),
             )
         say(f"report: {index}")
         header, rows = table4_rows(result)

@@ -17,6 +17,7 @@ from matplotlib.ticker import MaxNLocator
 from shockdyno.fit.result import FitResult
 from shockdyno.fit.validate import ModelForces, forces_for_tests
 from shockdyno.record.types import TestData
+from shockdyno.units import SI, Units
 
 
 def _areas_figure(result: FitResult, path: Path) -> None:
@@ -75,21 +76,30 @@ def _areas_figure(result: FitResult, path: Path) -> None:
     fig.savefig(path, dpi=110)
 
 
-def _overlay_figure(mf: ModelForces, path: Path) -> str:
+def _overlay_figure(mf: ModelForces, path: Path, units: Units = SI) -> str:
     m = mf.test.meta
     title = f"{m.clicks} clicks, {m.frequency_hz:g} Hz: measured vs proposed vs Talbott"
     fig = Figure(figsize=(11, 4.2))
     ax1, ax2 = fig.subplots(1, 2)
+    # SI keeps its m/s velocity axis; imperial reads in, in/s and lbf like the report.
+    v_scale, v_label = (
+        (units.velocity_per_m_s, units.velocity_label) if units.imperial else (1.0, "m/s")
+    )
+    f = units.force_per_n
     for ax, xs, xlabel in (
-        (ax1, mf.test.x * 1e3, "displacement (mm, + compression)"),
-        (ax2, mf.v, "velocity (m/s, + compression)"),
+        (
+            ax1,
+            mf.test.x * units.length_per_m,
+            f"displacement ({units.length_label}, + compression)",
+        ),
+        (ax2, mf.v * v_scale, f"velocity ({v_label}, + compression)"),
     ):
         # Measured wide and pale underneath, so a model lying on it stays visible.
-        ax.plot(xs, mf.test.force, color="C3", lw=3.0, alpha=0.45, label="measured")
-        ax.plot(xs, mf.proposed, color="C0", lw=1.0, ls="--", label="proposed")
-        ax.plot(xs, mf.talbott, color="C2", lw=1.0, label="Talbott")
+        ax.plot(xs, f * mf.test.force, color="C3", lw=3.0, alpha=0.45, label="measured")
+        ax.plot(xs, f * mf.proposed, color="C0", lw=1.0, ls="--", label="proposed")
+        ax.plot(xs, f * mf.talbott, color="C2", lw=1.0, label="Talbott")
         ax.set_xlabel(xlabel)
-        ax.set_ylabel("force (N)")
+        ax.set_ylabel(f"force ({units.force_label})")
         # Few ticks: labels such as "-0.075" must not run into each other.
         ax.xaxis.set_major_locator(MaxNLocator(nbins=6))
         ax.grid(alpha=0.3)
@@ -117,9 +127,10 @@ def representative(forces: Sequence[ModelForces]) -> list[ModelForces]:
 
 
 def fit_figures(
-    result: FitResult, tests: Sequence[TestData], out_dir: str | Path
+    result: FitResult, tests: Sequence[TestData], out_dir: str | Path, units: Units = SI
 ) -> list[tuple[str, Path]]:
-    """Write the figures as PNG into out_dir; returns (title, path) of each."""
+    """Write the figures as PNG into out_dir; returns (title, path) of each. ``units``:
+    of the overlays' axes (bleed areas stay mm², as the fit states them)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     figures: list[tuple[str, Path]] = []
@@ -131,5 +142,5 @@ def fit_figures(
     for mf in representative(forces_for_tests(result, usable)):
         m = mf.test.meta
         path = out / f"fit-overlay-{m.clicks}clicks-{m.frequency_hz:g}hz.png"
-        figures.append((_overlay_figure(mf, path), path))
+        figures.append((_overlay_figure(mf, path, units), path))
     return figures

@@ -31,9 +31,11 @@ from shockdyno.record.types import TestData
 from shockdyno.report import clickchart, plots, repeatability, temperature
 from shockdyno.report.clickplots import force_vs_clicks
 from shockdyno.report.diagnose_section import render_diagnose, render_figures
-from shockdyno.report.html import SUMMARY_HEADER, SUMMARY_LEGEND, Page, summary_row
+from shockdyno.report.html import SUMMARY_LEGEND, Page, summary_header, summary_row
+from shockdyno.report.interactive import Interactive
 from shockdyno.report.ride_section import render_ride
 from shockdyno.report.summary import TestSummary, summarise
+from shockdyno.units import SI, Units
 
 if TYPE_CHECKING:  # the fit package is imported only when a fit is drawn
     from shockdyno.fit.result import FitResult
@@ -111,6 +113,7 @@ def build_report(
     warn: Callable[[str], None] | None = None,
     reference_temperature_c: float = temperature.DEFAULT_REFERENCE_C,
     diagnose_dir: Path | None = None,
+    units: Units = SI,
 ) -> Path:
     """Write the report into ``out_dir``; returns the path of index.html.
 
@@ -121,6 +124,8 @@ def build_report(
     ``reference_temperature_c``: oil temperature of the corrected click chart
     (report/temperature.py). ``diagnose_dir``: the folder of the diagnose JSON, whose
     ``info.figures`` (residual maps, loops) are relative to it and copied into ``out_dir``.
+    ``units``: what the page shows (tables, captions, figures); files beside it that are
+    JSON stay SI, the click-chart CSV names its units in its header.
     """
     say = progress or (lambda _: None)
     out_dir = Path(out_dir)
@@ -140,17 +145,18 @@ def build_report(
         gas_force_n = clickchart.static_force_n(fit)
 
     page = Page(title)
+    live = Interactive(units)  # the interactive twins of the figures, and their script
     if metadata:
         page.section("Recording")
         page.table(["key", "value"], [[k, shown_path(str(v))] for k, v in metadata.items()])
 
     if complete:
         say("click chart")
-        _click_chart_section(page, [c.test for c in complete], fit, out_dir)
+        _click_chart_section(page, [c.test for c in complete], fit, out_dir, live)
         temperature.render(page, [c.test for c in complete], fit, reference_temperature_c, out_dir)
 
     if tests:
-        _summary_section(page, summaries)
+        _summary_section(page, summaries, units)
 
     peak_cycles = repeatability.sweep_cycles([c.test for c in complete], ())
     if complete:
@@ -162,17 +168,17 @@ def build_report(
 
     if complete:
         say("peak and overlay figures")
-        _peaks_and_overlays(page, complete, out_dir, gas_force_n, peak_cycles)
+        _peaks_and_overlays(page, complete, out_dir, gas_force_n, live, peak_cycles)
 
     if fit is not None:
         say("fit figures")
-        _fit_section(page, fit, tests, out_dir)
+        _fit_section(page, fit, tests, out_dir, units)
 
     if diagnose is not None:
         render_diagnose(page, diagnose)
         render_figures(page, diagnose, diagnose_dir, lambda png, n: _link_extra(out_dir, png, n))
     if ride is not None:
-        render_ride(page, ride)
+        render_ride(page, ride, units)
 
     # After the ride table: the ride page's figures follow the numbers they illustrate.
     for n, (heading, figures) in enumerate(extra_sections):
@@ -182,17 +188,21 @@ def build_report(
 
     if drawable:
         say("loops per click")
-        _loops_section(page, drawable, out_dir, gas_force_n)
+        _loops_section(page, drawable, out_dir, gas_force_n, live)
 
+    page.close_details()
+    page.raw(live.tail())
     index = out_dir / "index.html"
     write_text_atomic(index, page.render())
     return index
 
 
 def _click_chart_section(
-    page: Page, tests: list[TestData], fit: FitResult | None, out_dir: Path
+    page: Page, tests: list[TestData], fit: FitResult | None, out_dir: Path, live: Interactive
 ) -> None:
-    chart = clickchart.click_chart(tests, fit)
+    units = live.units
+    chart = clickchart.click_chart(tests, fit, units.standard_velocities_m_s)
+    u = f"{units.force_label}; velocity in {units.velocity_label}"
     speeds = sorted({abs(v) for v in chart.velocities_m_s})
     scatter = repeatability.chart_scatter(
         repeatability.sweep_cycles(tests, speeds), chart.velocities_m_s
@@ -202,20 +212,25 @@ def _click_chart_section(
     page.section(
         "Click chart",
         "Force at standard velocities per click, compression (comp, velocity > 0) and rebound "
-        "(reb, velocity < 0), in N. Measured: the force of each test's force-velocity branch "
-        "where it passes the velocity (every crossing of the measured cycles averaged), then "
-        "averaged over the click's frequencies.",
+        f"(reb, velocity < 0), in {units.force_label}. Measured: the force of each test's "
+        "force-velocity branch where it passes the velocity (every crossing of the measured "
+        "cycles averaged), then averaged over the click's frequencies.",
     )
-    page.figure(
-        force_vs_clicks(chart, out_dir / "click_chart.png", band).name,
+    png = force_vs_clicks(chart, out_dir / "click_chart.png", band, units).name
+    caption = (
         "Force against clicks at each standard velocity: measured (solid; hollow markers "
         "extrapolated)" + (", fitted model (dashed)" if chart.model_curve else "") + ". "
         "Bars: ±2 SD of the single cycles' readings (cycle-to-cycle band"
-        + (f", at most ±{widest:.1f} N)." if math.isfinite(widest) else "; none known)."),
+        + (
+            f", at most ±{units.force(widest):.1f} {units.force_label})."
+            if math.isfinite(widest)
+            else "; none known)."
+        )
     )
-    write_text_atomic(out_dir / "click_chart.csv", clickchart.to_csv(chart))
-    header, rows = clickchart.table_rows(chart, "measured")
-    page.subheading("Measured (N; velocity in mm/s)")
+    page.raw(live.figure(png, caption, live.click_chart(chart)))
+    write_text_atomic(out_dir / "click_chart.csv", clickchart.to_csv(chart, units))
+    header, rows = clickchart.table_rows(chart, "measured", units)
+    page.subheading(f"Measured ({u})")
     page.table(header, rows, numeric=[True] * len(header))
     if chart.any_extrapolated:
         page.paragraph(
@@ -224,28 +239,33 @@ def _click_chart_section(
             "velocity (shockdyno sweep --velocities-mm-s) to measure it."
         )
     if chart.model:
-        header, rows = clickchart.table_rows(chart, "model")
-        page.subheading("Fitted model (N; mid-stroke, zero acceleration)")
+        header, rows = clickchart.table_rows(chart, "model", units)
+        page.subheading(f"Fitted model ({u}; mid-stroke, zero acceleration)")
         # A long sweep's second table of the same shape is opened on demand.
         page.details(f"{len(rows)} click settings", opened=len(rows) <= OPEN_SUMMARY_MAX_ROWS)
         page.table(header, rows, numeric=[True] * len(header))
         page.close_details()
     also = " and the model's" if chart.model else ""
-    page.link("click_chart.csv", "click_chart.csv", f": the measured values{also} as CSV.")
+    page.link(
+        "click_chart.csv",
+        "click_chart.csv",
+        f": the measured values{also} as CSV ({units.velocity_label}, {units.force_label}).",
+    )
 
 
-def _summary_section(page: Page, summaries: list[TestSummary]) -> None:
+def _summary_section(page: Page, summaries: list[TestSummary], units: Units) -> None:
     page.section("Summary", SUMMARY_LEGEND)
     n_aborted = sum(s.status != "complete" for s in summaries)
     if n_aborted:
         page.paragraph(f"{n_aborted} of {len(summaries)} tests did not complete (marked).")
     long = len(summaries) > OPEN_SUMMARY_MAX_ROWS
     page.details(f"Summary table: {len(summaries)} tests", opened=not long)
+    header = summary_header(units)
     page.table(
-        SUMMARY_HEADER,
-        [summary_row(s) for s in summaries],
+        header,
+        [summary_row(s, units) for s in summaries],
         row_classes=["" if s.status == "complete" else "aborted" for s in summaries],
-        numeric=[True] * (len(SUMMARY_HEADER) - 1) + [False],
+        numeric=[True] * (len(header) - 1) + [False],
     )
     page.close_details()
 
@@ -277,23 +297,27 @@ def _peaks_and_overlays(
     complete: list[plots.Curves],
     out_dir: Path,
     gas_force_n: float | None,
+    live: Interactive,
     cycles: list[repeatability.TestCycles],
 ) -> None:
+    units = live.units
     page.section("Peak force vs peak velocity")
     band = repeatability.peak_band(cycles)
-    page.figure(
-        plots.peak_curves([c.summary for c in complete], out_dir / "peaks.png", band).name,
+    peaks = plots.peak_curves([c.summary for c in complete], out_dir / "peaks.png", band, units)
+    caption = (
         "One curve per click through its test frequencies; complete tests only. Bars: ±2 SD "
-        "of the test's per-cycle peak force (cycle-to-cycle band).",
+        "of the test's per-cycle peak force (cycle-to-cycle band)."
     )
+    page.raw(live.figure(peaks.name, caption, live.peaks(complete)))
     page.section("Overlays across clicks")
     by_freq: dict[float, list[plots.Curves]] = {}
     for c in complete:
         by_freq.setdefault(round(c.test.meta.frequency_hz, 6), []).append(c)
     for k, (f, group) in enumerate(sorted(by_freq.items())):
         page.details(f"{f:g} Hz: every click", opened=k == 0)
-        png = plots.frequency_overlay(group, f, out_dir / _freq_name(f), gas_force_n)
-        page.figure(png.name, f"{f:g} Hz: every click, colour by clicks; complete tests.")
+        png = plots.frequency_overlay(group, f, out_dir / _freq_name(f), gas_force_n, units)
+        caption = f"{f:g} Hz: every click, named in the legend; complete tests."
+        page.raw(live.figure(png.name, caption, live.overlay(group, gas_force_n)))
     page.close_details()
 
 
@@ -310,7 +334,9 @@ def shown_path(text: str) -> str:
         return str(Path("…", *p.parts[-2:])) if len(p.parts) > 2 else text
 
 
-def _fit_section(page: Page, fit: FitResult, tests: list[TestData], out_dir: Path) -> None:
+def _fit_section(
+    page: Page, fit: FitResult, tests: list[TestData], out_dir: Path, units: Units
+) -> None:
     from shockdyno.fit.display import globals_rows
     from shockdyno.fit.plots import fit_figures
     from shockdyno.fit.validate import table4_rows
@@ -325,18 +351,23 @@ def _fit_section(page: Page, fit: FitResult, tests: list[TestData], out_dir: Pat
     header, rows = table4_rows(fit)
     if rows:
         page.table(header, rows, numeric=[False, False, True, True, True])
-    header, rows = globals_rows(fit)  # engineering units: bar, mm, mm²; the JSON stays SI
+    header, rows = globals_rows(fit, units)  # engineering units: bar, mm, mm²; JSON stays SI
     if rows:
         page.paragraph("Calibrated globals (±1σ) beside the spec's values:")
         page.table(header, rows, numeric=[False, True, True, True, False, True])
     page.definitions(ERROR_MEASURES)
-    for caption, png in fit_figures(fit, tests, out_dir):
+    for caption, png in fit_figures(fit, tests, out_dir, units):
         page.figure(_link_extra(out_dir, png, 0), caption)
 
 
 def _loops_section(
-    page: Page, drawable: list[plots.Curves], out_dir: Path, gas_force_n: float | None
+    page: Page,
+    drawable: list[plots.Curves],
+    out_dir: Path,
+    gas_force_n: float | None,
+    live: Interactive,
 ) -> None:
+    units = live.units
     page.section(
         "Loops per click",
         "Force-displacement and force-velocity over the measured cycles, one click's "
@@ -353,6 +384,9 @@ def _loops_section(
         if aborted:
             label += f" ({aborted} not complete)"
         page.details(label, opened=len(by_click) == 1)
-        png = plots.click_loops(group, out_dir / f"loops_c{clicks:02d}_g{gas:02d}.png", gas_force_n)
-        page.figure(png.name, f"clicks {clicks}, gas clicks {gas}")
+        png = plots.click_loops(
+            group, out_dir / f"loops_c{clicks:02d}_g{gas:02d}.png", gas_force_n, units
+        )
+        caption = f"clicks {clicks}, gas clicks {gas}"
+        page.raw(live.figure(png.name, caption, live.click_loops(group, gas_force_n)))
     page.close_details()

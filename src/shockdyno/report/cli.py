@@ -10,6 +10,8 @@ from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.outputs import check_report_dir
 from shockdyno.report import temperature
 from shockdyno.result_files import read_result
+from shockdyno.units import add_argument as add_units_argument
+from shockdyno.units import get as get_units
 
 
 def register(sub: Any) -> None:
@@ -35,6 +37,7 @@ def register(sub: Any) -> None:
         help="replace an existing DIR/index.html; show a result made from another recording "
         "(the page says so) (default: refuse both)",
     )
+    add_units_argument(p, "the page's numbers, tables and plots")
     p.set_defaults(func=run_report)
 
 
@@ -128,6 +131,7 @@ def run_report(args: argparse.Namespace) -> int:
             ),
             reference_temperature_c=reference_c,
             diagnose_dir=Path(args.diagnose).parent if args.diagnose else None,
+            units=get_units(args.units),
         )
     print(f"report: {index}")
     return 0

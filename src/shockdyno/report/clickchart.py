@@ -35,13 +35,14 @@ from shockdyno.model import DamperSpec, damper_force
 from shockdyno.model.quarter_car import quasi_static_force
 from shockdyno.record.types import TestData
 from shockdyno.report.summary import velocity
+from shockdyno.units import SI, Units
 
 if TYPE_CHECKING:  # only its methods are called: no import of the fit package at run time
     from shockdyno.fit.result import FitResult
 
 FloatArray = NDArray[np.float64]
 
-STANDARD_VELOCITIES_M_S = (0.025, 0.05, 0.1, 0.15, 0.2, 0.3)
+STANDARD_VELOCITIES_M_S = SI.standard_velocities_m_s  # imperial: units.IMPERIAL's
 EXTRAPOLATION_SPAN = 0.3  # share of the branch's top speed the straight line is fitted over
 MIN_BRANCH_SAMPLES = 5
 
@@ -176,15 +177,22 @@ def click_chart(
     return ClickChart(targets, settings, measured, model, curve)
 
 
-def velocity_label(v_m_s: float) -> str:
+def velocity_label(v_m_s: float, units: Units = SI) -> str:
     word = "comp" if v_m_s > 0 else "reb"
-    return f"{word} {abs(v_m_s) * 1e3:g}"
+    return f"{word} {units.velocity(abs(v_m_s)):.3g}"
 
 
-def table_rows(chart: ClickChart, source: str) -> tuple[list[str], list[list[str]]]:
-    """(header, rows) for the page: one row per setting, forces in N; '*' = extrapolated."""
+def table_rows(
+    chart: ClickChart, source: str, units: Units = SI
+) -> tuple[list[str], list[list[str]]]:
+    """(header, rows) for the page: one row per setting, forces in ``units``; '*' =
+    extrapolated. Velocities in the header are ``units``' (mm/s or in/s)."""
     gas = len({g for _, g in chart.settings}) > 1
-    header = ["clicks", *(["gas"] if gas else []), *map(velocity_label, chart.velocities_m_s)]
+    header = [
+        "clicks",
+        *(["gas"] if gas else []),
+        *(velocity_label(v, units) for v in chart.velocities_m_s),
+    ]
     rows = []
     for key in chart.settings:
         cells = [str(key[0]), *([str(key[1])] if gas else [])]
@@ -194,13 +202,14 @@ def table_rows(chart: ClickChart, source: str) -> tuple[list[str], list[list[str
                 continue
             for t in chart.velocities_m_s:
                 r = row[t]
-                text = "–" if not math.isfinite(r.force_n) else f"{r.force_n:.0f}"
+                f = units.force(r.force_n)
+                text = "–" if not math.isfinite(f) else f"{f:.0f}"
                 cells.append(text + ("*" if r.extrapolated and math.isfinite(r.force_n) else ""))
         else:
             mrow = chart.model.get(key)
             if mrow is None:
                 continue
-            cells += [f"{mrow[t]:.0f}" for t in chart.velocities_m_s]
+            cells += [f"{units.force(mrow[t]):.0f}" for t in chart.velocities_m_s]
         rows.append(cells)
     return header, rows
 
@@ -216,20 +225,42 @@ CSV_HEADER = [
 ]
 
 
-def to_csv(chart: ClickChart) -> str:
-    """Long format, one row per setting, velocity and source (measured, model)."""
+def csv_header(units: Units = SI) -> list[str]:
+    """The CSV's columns; velocity and force name their units (SI: the columns of old)."""
+    if not units.imperial:
+        return CSV_HEADER
+    return [
+        "clicks",
+        "gas_clicks",
+        "velocity_in_s",
+        "source",
+        "force_lbf",
+        "extrapolated",
+        "n_tests",
+    ]
+
+
+def to_csv(chart: ClickChart, units: Units = SI) -> str:
+    """Long format, one row per setting, velocity and source (measured, model); velocity
+    and force in ``units`` (the header says which)."""
     text = io.StringIO()
     w = csv.writer(text, lineterminator="\n")
-    w.writerow(CSV_HEADER)
+    w.writerow(csv_header(units))
+    # SI keeps its m/s column; imperial's in/s at the 1, 2, 3 ... of its chart.
+
+    def speed(t: float) -> str:
+        return f"{units.velocity(t):.4g}" if units.imperial else f"{t:g}"
+
     for key in chart.settings:
         for t in chart.velocities_m_s:
             r = chart.measured.get(key, {}).get(t)
             if r is not None:
-                force = f"{r.force_n:.2f}" if math.isfinite(r.force_n) else ""
-                w.writerow([*key, f"{t:g}", "measured", force, int(r.extrapolated), r.n_tests])
+                f = units.force(r.force_n)
+                force = f"{f:.2f}" if math.isfinite(f) else ""
+                w.writerow([*key, speed(t), "measured", force, int(r.extrapolated), r.n_tests])
             mf = chart.model.get(key, {}).get(t)
             if mf is not None:
-                w.writerow([*key, f"{t:g}", "model", f"{mf:.2f}", 0, ""])
+                w.writerow([*key, speed(t), "model", f"{units.force(mf):.2f}", 0, ""])
     return text.getvalue()
 
 

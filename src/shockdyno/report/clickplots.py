@@ -15,10 +15,14 @@ from matplotlib.ticker import MaxNLocator
 
 from shockdyno.report.clickchart import ClickChart, Setting
 from shockdyno.report.plots import DPI, readable_colours
+from shockdyno.units import SI, Units
 
 
 def force_vs_clicks(
-    chart: ClickChart, path: Path, band: dict[Setting, dict[float, float]] | None = None
+    chart: ClickChart,
+    path: Path,
+    band: dict[Setting, dict[float, float]] | None = None,
+    units: Units = SI,
 ) -> Path:
     """``band``: per setting and signed velocity, the half-width (N) of the cycle-to-cycle
     band, drawn as error bars on the measured points (report/repeatability.py)."""
@@ -35,11 +39,17 @@ def force_vs_clicks(
             pts = sorted((c, row[target]) for (c, g), row in chart.measured.items() if g == gas)
             pts = [(c, r) for c, r in pts if math.isfinite(r.force_n)]
             if pts:
-                ax.plot([c for c, _ in pts], [r.force_n for _, r in pts], "-", color=colour, lw=1.4)
+                ax.plot(
+                    [c for c, _ in pts],
+                    [units.force(r.force_n) for _, r in pts],
+                    "-",
+                    color=colour,
+                    lw=1.4,
+                )
                 for c, r in pts:
                     ax.plot(
                         c,
-                        r.force_n,
+                        units.force(r.force_n),
                         "o",
                         ms=5,
                         color=colour,
@@ -47,24 +57,31 @@ def force_vs_clicks(
                     )
                     half = (band or {}).get((c, gas), {}).get(target, math.nan)
                     if math.isfinite(half) and not r.extrapolated:
-                        ax.errorbar(c, r.force_n, yerr=half, color=colour, capsize=3, lw=1.0)
+                        ax.errorbar(
+                            c,
+                            units.force(r.force_n),
+                            yerr=units.force(half),
+                            color=colour,
+                            capsize=3,
+                            lw=1.0,
+                        )
             if chart.model_curve:
                 clicks = sorted(chart.model_curve)
                 ax.plot(
                     clicks,
-                    [chart.model_curve[c][target] for c in clicks],
+                    [units.force(chart.model_curve[c][target]) for c in clicks],
                     "--",
                     color=colour,
                     lw=1.1,
                 )
         ax.set_title(f"{title} (velocity {'+' if sign > 0 else '−'}, force at each speed)")
         ax.set_xlabel("rod clicks (open →)")
-        ax.set_ylabel("force F (N)")
+        ax.set_ylabel(f"force F ({units.force_label})")
         ax.xaxis.set_major_locator(MaxNLocator(integer=True, nbins=8))
         ax.yaxis.set_major_locator(MaxNLocator(nbins=7))
         ax.grid(True, alpha=0.3)
     handles = [
-        Line2D([], [], color=colours[s], marker="o", lw=1.4, label=f"{s * 1e3:g} mm/s")
+        Line2D([], [], color=colours[s], marker="o", lw=1.4, label=units.speed_text(s))
         for s in speeds
     ]
     handles.append(Line2D([], [], color="0.3", marker="o", mfc="white", lw=0, label="extrapolated"))

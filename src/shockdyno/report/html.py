@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from html import escape
 
 from shockdyno.report.summary import TestSummary
+from shockdyno.units import SI, Units
 
 CSS = """
 body { font-family: system-ui, sans-serif; margin: 1.2em auto; max-width: 1200px;
@@ -96,25 +97,46 @@ SUMMARY_LEGEND = (
 )
 
 
+def summary_header(units: Units = SI) -> list[str]:
+    """SUMMARY_HEADER, or its imperial twin (in, lbf, in/s, °F)."""
+    if not units.imperial:
+        return SUMMARY_HEADER
+    head = list(SUMMARY_HEADER)
+    head[4:10] = [
+        f"A ({units.length_label})",
+        f"F comp ({units.force_label})",
+        f"F reb ({units.force_label})",
+        f"v comp ({units.velocity_label})",
+        f"v reb ({units.velocity_label})",
+        f"T ({units.temperature_label})",
+    ]
+    return head
+
+
 def _num(value: float | None, spec: str) -> str:
     if value is None or math.isnan(value):
         return "–"
     return format(value, spec)
 
 
-def summary_row(s: TestSummary) -> list[str]:
-    """The summary table's cells for one test, formatted as displayed."""
+def summary_row(s: TestSummary, units: Units = SI) -> list[str]:
+    """The summary table's cells for one test, formatted as displayed (SI: m/s as of old;
+    imperial: in, lbf, in/s, °F)."""
+    # m/s to 4 decimals resolves 0.1 mm/s; in/s to 3 resolves 0.025 mm/s.
+    v_scale, v_spec = (units.velocity_per_m_s, ".3f") if units.imperial else (1.0, ".4f")
+    length = ".2f" if units.imperial else ".1f"
+    temp = None if s.temperature_c is None else units.temperature(s.temperature_c)
     return [
         str(s.index),
         str(s.clicks),
         str(s.gas_clicks),
         _num(s.frequency_hz, ".3g"),
-        _num(s.amplitude_m * 1e3, ".1f"),
-        _num(s.peak_compression_force_n, ".1f"),
-        _num(s.peak_rebound_force_n, ".1f"),
-        _num(s.peak_compression_velocity_m_s, ".4f"),
-        _num(s.peak_rebound_velocity_m_s, ".4f"),
-        _num(s.temperature_c, ".1f"),
+        _num(units.length(s.amplitude_m), length),
+        _num(units.force(s.peak_compression_force_n), ".1f"),
+        _num(units.force(s.peak_rebound_force_n), ".1f"),
+        _num(v_scale * s.peak_compression_velocity_m_s, v_spec),
+        _num(v_scale * s.peak_rebound_velocity_m_s, v_spec),
+        _num(temp, ".1f"),
         "–" if s.dropped_frames is None else str(s.dropped_frames),
         str(s.n_samples),
         s.status,
@@ -160,6 +182,10 @@ class Page:
             f'<figure><a href="{src}"><img src="{src}" alt="{escape(caption, quote=True)}"'
             f' loading="lazy"></a><figcaption>{escape(caption)}</figcaption></figure>'
         )
+
+    def raw(self, fragment: str) -> None:
+        """Markup made elsewhere (report/interactive.py's figures and script), as it is."""
+        self.parts.append(fragment)
 
     def table(
         self,

@@ -10,11 +10,11 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib import colormaps
 from matplotlib.axes import Axes
-from matplotlib.cm import ScalarMappable
 from matplotlib.colors import Colormap, ListedColormap, Normalize
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 
 from shockdyno.record.types import TestData
 from shockdyno.report.summary import TestSummary, velocity
+from shockdyno.units import SI, Units
 
 FloatArray = NDArray[np.float64]
 
@@ -33,8 +34,25 @@ MAX_POINTS = 1500
 CMAP: Colormap = ListedColormap(colormaps["viridis"](np.linspace(0.0, 0.85, 256)), "viridis_dark")
 # Distinct colours that read on white (tab10 without its olive and grey).
 PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf")
-VELOCITY_LABEL = "velocity v (m/s, + compression)"
-DISPLACEMENT_LABEL = "displacement x (mm, + compression)"
+# More clicks than this in one legend column make it taller than the plot.
+LEGEND_ROWS = 12
+
+
+def velocity_label(units: Units = SI) -> str:
+    return f"velocity v ({units.velocity_label}, + compression)"
+
+
+def displacement_label(units: Units = SI) -> str:
+    return f"displacement x ({units.length_label}, + compression)"
+
+
+def force_label(units: Units = SI) -> str:
+    return f"force F ({units.force_label})"
+
+
+def click_label(clicks: int, gas_clicks: int, several_gas: bool) -> str:
+    """How an overlay names a curve: 'click 3' (or 'click 3 / gas 2' when gas varies)."""
+    return f"click {clicks}" + (f" / gas {gas_clicks}" if several_gas else "")
 
 
 def readable_colours(n: int) -> list[str | tuple[float, float, float, float]]:
@@ -46,7 +64,8 @@ def readable_colours(n: int) -> list[str | tuple[float, float, float, float]]:
 
 @dataclass(frozen=True)
 class Curves:
-    """One test's measured cycles, thinned for drawing (x in mm, v in m/s, F in N)."""
+    """One test's measured cycles, thinned for drawing (x in mm, v in m/s, F in N; the
+    figures convert to the page's units)."""
 
     test: TestData
     summary: TestSummary
@@ -77,22 +96,25 @@ def _ticks(ax: Axes) -> None:
     ax.yaxis.set_major_locator(MaxNLocator(nbins=7))
 
 
-def _label_loops(ax_x: Axes, ax_v: Axes, gas_force_n: float | None = None) -> None:
-    ax_x.set_xlabel(DISPLACEMENT_LABEL)
-    ax_x.set_ylabel("force F (N)")
-    ax_v.set_xlabel(VELOCITY_LABEL)
-    ax_v.set_ylabel("force F (N)")
+def _label_loops(
+    ax_x: Axes, ax_v: Axes, gas_force_n: float | None = None, units: Units = SI
+) -> None:
+    ax_x.set_xlabel(displacement_label(units))
+    ax_x.set_ylabel(force_label(units))
+    ax_v.set_xlabel(velocity_label(units))
+    ax_v.set_ylabel(force_label(units))
+    gas = units.force(gas_force_n) if gas_force_n is not None else math.nan
     for ax in (ax_x, ax_v):
         ax.grid(True, alpha=0.3)
         ax.axhline(0.0, color="0.6", lw=0.6)
         ax.axvline(0.0, color="0.6", lw=0.6)
         _ticks(ax)
-        if gas_force_n is not None and math.isfinite(gas_force_n):
-            ax.axhline(gas_force_n, color="0.25", lw=0.9, ls=":")
-    if gas_force_n is not None and math.isfinite(gas_force_n):
+        if math.isfinite(gas):
+            ax.axhline(gas, color="0.25", lw=0.9, ls=":")
+    if math.isfinite(gas):
         ax_v.annotate(
-            f"static gas force {gas_force_n:.0f} N",
-            xy=(0.02, gas_force_n),
+            f"static gas force {gas:.0f} {units.force_label}",
+            xy=(0.02, gas),
             xycoords=("axes fraction", "data"),
             xytext=(0, 3),
             textcoords="offset points",
@@ -105,7 +127,9 @@ def _status_suffix(c: Curves) -> str:
     return f" ({c.test.meta.status.upper()})" if c.aborted else ""
 
 
-def click_loops(curves: Sequence[Curves], path: Path, gas_force_n: float | None = None) -> Path:
+def click_loops(
+    curves: Sequence[Curves], path: Path, gas_force_n: float | None = None, units: Units = SI
+) -> Path:
     """One click setting: its frequencies overlaid on one F-x and one F-v plot.
 
     A colour per frequency; an aborted test is dashed and labelled in the legend.
@@ -123,11 +147,14 @@ def click_loops(curves: Sequence[Curves], path: Path, gas_force_n: float | None 
         c, colour = rows[k], colours[k]
         meta = c.test.meta
         style = "--" if c.aborted else "-"
-        label = f"{meta.frequency_hz:g} Hz, {meta.amplitude_m * 1e3:g} mm{_status_suffix(c)}"
+        label = f"{meta.frequency_hz:g} Hz, {_length_text(meta.amplitude_m, units)}" + (
+            _status_suffix(c)
+        )
         width = 2.4 - 1.4 * rank / max(1, len(rows) - 1)
-        ax_x.plot(c.x_mm, c.force, style, color=colour, lw=width, label=label)
-        ax_v.plot(c.v, c.force, style, color=colour, lw=width)
-    _label_loops(ax_x, ax_v, gas_force_n)
+        x, v, f = _in_units(c, units)
+        ax_x.plot(x, f, style, color=colour, lw=width, label=label)
+        ax_v.plot(v, f, style, color=colour, lw=width)
+    _label_loops(ax_x, ax_v, gas_force_n, units)
     handles, labels = ax_x.get_legend_handles_labels()
     fig.legend(
         handles[::-1],  # drawn fastest first; listed slowest first
@@ -140,6 +167,68 @@ def click_loops(curves: Sequence[Curves], path: Path, gas_force_n: float | None 
     return _save(fig, path)
 
 
+def _length_text(length_m: float, units: Units) -> str:
+    return f"{units.length(length_m):.3g} {units.length_label}"
+
+
+def _in_units(c: Curves, units: Units) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """x, v, F of a curve in the page's units."""
+    return (
+        units.length_per_m * 1e-3 * c.x_mm,
+        units.velocity_per_m_s * c.v,
+        units.force_per_n * c.force,
+    )
+
+
+def _click_legend(fig: Figure, axes: Sequence[Axes], n: int) -> None:
+    """The curves' labels beside the plot: clicks told apart by name, not only by shade."""
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(
+        handles,
+        labels,
+        loc="outside right center",
+        ncol=max(1, math.ceil(n / LEGEND_ROWS)),
+        fontsize=8,
+        frameon=False,
+        handlelength=1.2,
+        columnspacing=0.8,
+    )
+
+
+def _direct_labels(ax: Axes, ends: Sequence[tuple[float, float, str, Any]]) -> None:
+    """Name each curve at its end, right of it; labels of curves that end close together
+    are pushed apart vertically (a leader line back to the point) so none overlaps."""
+    ends = [e for e in ends if math.isfinite(e[0]) and math.isfinite(e[1])]
+    if not ends:
+        return
+    lo, hi = ax.get_ylim()
+    gap = 0.035 * (hi - lo)  # about one 7-pt label on the 5.6 in tall figure
+    left, right = ax.get_xlim()
+    shift = 0.015 * (right - left)
+    ends = sorted(ends, key=lambda e: e[1])
+    placed: list[float] = []
+    for _, y, _, _ in ends:
+        placed.append(max(y, placed[-1] + gap) if placed else y)
+    # Pushed apart upwards only, the stack would climb out of the axes: centre it on the
+    # points it names, and keep it inside.
+    offset = float(np.mean([e[1] for e in ends]) - np.mean(placed))
+    offset = min(offset, hi - 0.5 * gap - (placed[-1] + offset))
+    placed = [p + offset for p in placed]
+    for (x, y, text, colour), at in zip(ends, placed, strict=True):
+        ax.annotate(
+            text,
+            xy=(x, y),
+            xytext=(x + 2 * shift, at),
+            fontsize=7,
+            va="center",
+            ha="left",
+            color=colour,
+            annotation_clip=False,
+            arrowprops={"arrowstyle": "-", "color": colour, "lw": 0.5, "shrinkA": 0, "shrinkB": 2},
+        )
+    ax.set_xlim(left, right + 6 * shift)
+
+
 def _click_norm(clicks: Sequence[int]) -> Normalize:
     lo, hi = min(clicks), max(clicks)
     if lo == hi:  # a colorbar over an empty range would be degenerate
@@ -147,28 +236,29 @@ def _click_norm(clicks: Sequence[int]) -> Normalize:
     return Normalize(lo, hi)
 
 
-def _click_colorbar(fig: Figure, norm: Normalize, axes: list[Axes]) -> None:
-    bar = fig.colorbar(ScalarMappable(norm=norm, cmap=CMAP), ax=axes, label="clicks")
-    bar.locator = MaxNLocator(integer=True)
-    bar.update_ticks()
-
-
 def frequency_overlay(
-    curves: Sequence[Curves], frequency_hz: float, path: Path, gas_force_n: float | None = None
+    curves: Sequence[Curves],
+    frequency_hz: float,
+    path: Path,
+    gas_force_n: float | None = None,
+    units: Units = SI,
 ) -> Path:
-    """Loops of every click at one frequency, coloured by clicks."""
+    """Loops of every click at one frequency, coloured by clicks and named in a legend."""
     norm = _click_norm([c.test.meta.clicks for c in curves])
     cmap = CMAP
     fig = Figure(figsize=(11.0, 4.4), layout="constrained")
     ax_x, ax_v = fig.subplots(1, 2)
-    for c in sorted(curves, key=lambda c: c.test.meta.clicks):
-        colour = cmap(norm(c.test.meta.clicks))
-        ax_x.plot(c.x_mm, c.force, color=colour, lw=0.8)
-        ax_v.plot(c.v, c.force, color=colour, lw=0.8)
-    _label_loops(ax_x, ax_v, gas_force_n)
     gas = sorted({c.test.meta.gas_clicks for c in curves})
+    ordered = sorted(curves, key=lambda c: (c.test.meta.clicks, c.test.meta.gas_clicks))
+    for c in ordered:
+        colour = cmap(norm(c.test.meta.clicks))
+        label = click_label(c.test.meta.clicks, c.test.meta.gas_clicks, len(gas) > 1)
+        x, v, f = _in_units(c, units)
+        ax_x.plot(x, f, color=colour, lw=0.8, label=label)
+        ax_v.plot(v, f, color=colour, lw=0.8)
+    _label_loops(ax_x, ax_v, gas_force_n, units)
     fig.suptitle(f"{frequency_hz:g} Hz, every click (gas clicks {', '.join(map(str, gas))})")
-    _click_colorbar(fig, norm, [ax_x, ax_v])
+    _click_legend(fig, [ax_x, ax_v], len(ordered))
     return _save(fig, path)
 
 
@@ -176,10 +266,12 @@ def peak_curves(
     summaries: Sequence[TestSummary],
     path: Path,
     band: dict[int, tuple[float, float]] | None = None,
+    units: Units = SI,
 ) -> Path:
     """Peak force vs peak velocity, one curve per click through its frequencies.
 
-    Compression peaks sit in the upper right, rebound peaks (signed) in the lower left.
+    Compression peaks sit in the upper right, rebound peaks (signed) in the lower left;
+    each click is named in the legend and at the fast end of its compression curve.
     ``band``: per test index, the half-width (N) of the cycle-to-cycle band of its peak
     compression and rebound force, drawn as error bars (report/repeatability.py).
     """
@@ -192,18 +284,39 @@ def peak_curves(
         by_click.setdefault((s.clicks, s.gas_clicks), []).append(s)
     markers = "osD^v<>"
     gas_values = sorted({g for _, g in by_click})
+    ends: list[tuple[float, float, str, Any]] = []  # fast end of each compression curve
     for (clicks, gas), group in sorted(by_click.items()):
         group = sorted(group, key=lambda s: s.frequency_hz)
         colour = cmap(norm(clicks))
         marker = markers[gas_values.index(gas) % len(markers)]
-        for vel, force in (
+        branches = (
             (
                 [s.peak_compression_velocity_m_s for s in group],
                 [s.peak_compression_force_n for s in group],
             ),
             ([s.peak_rebound_velocity_m_s for s in group], [s.peak_rebound_force_n for s in group]),
-        ):
-            ax.plot(vel, force, "-", marker=marker, ms=4, color=colour, lw=1.0)
+        )
+        for branch, (vel, force) in enumerate(branches):
+            ax.plot(
+                [units.velocity(v) for v in vel],
+                [units.force(f) for f in force],
+                "-",
+                marker=marker,
+                ms=4,
+                color=colour,
+                lw=1.0,
+                # One legend entry per click: its compression branch.
+                label=None if branch else click_label(clicks, gas, len(gas_values) > 1),
+            )
+        fast = group[-1]
+        ends.append(
+            (
+                units.velocity(fast.peak_compression_velocity_m_s),
+                units.force(fast.peak_compression_force_n),
+                str(clicks),
+                colour,
+            )
+        )
         for s in group if band else ():
             half = band.get(s.index) if band else None
             if half is None:
@@ -213,13 +326,21 @@ def peak_curves(
                 (s.peak_rebound_velocity_m_s, s.peak_rebound_force_n, half[1]),
             ):
                 if math.isfinite(h):
-                    ax.errorbar(vel1, f1, yerr=h, color=colour, capsize=3, lw=1.0)
+                    ax.errorbar(
+                        units.velocity(vel1),
+                        units.force(f1),
+                        yerr=units.force(h),
+                        color=colour,
+                        capsize=3,
+                        lw=1.0,
+                    )
     ax.axhline(0.0, color="0.6", lw=0.6)
     ax.axvline(0.0, color="0.6", lw=0.6)
     ax.grid(True, alpha=0.3)
     _ticks(ax)
-    ax.set_xlabel("peak velocity (m/s, + compression, − rebound)")
-    ax.set_ylabel("peak force (N)")
+    _direct_labels(ax, ends)
+    ax.set_xlabel(f"peak velocity ({units.velocity_label}, + compression, − rebound)")
+    ax.set_ylabel(f"peak force ({units.force_label})")
     title = "peak force vs peak velocity per click"
     if len(gas_values) > 1:
         title += (
@@ -228,5 +349,5 @@ def peak_curves(
             + ")"
         )
     ax.set_title(title, fontsize=10)
-    _click_colorbar(fig, norm, [ax])
+    _click_legend(fig, [ax], len(by_click))
     return _save(fig, path)

@@ -12,6 +12,7 @@ import statistics
 from typing import Any
 
 from shockdyno.report.html import Page
+from shockdyno.units import SI, Units
 
 PAPER_EXPLANATION = (
     "Why ours are several times the paper's: the paper's values cannot come from the "
@@ -107,8 +108,9 @@ def car_sentence(car: dict[str, Any]) -> str:
     return "The car: " + ", ".join(parts) + " (the paper's Table 5 unless set on the command line)."
 
 
-def render_ride(page: Page, doc: Any) -> None:
-    """Append the ride section for ``doc`` (the parsed ride JSON)."""
+def render_ride(page: Page, doc: Any, units: Units = SI) -> None:
+    """Append the ride section for ``doc`` (the parsed ride JSON); the damper's travel in
+    ``units`` (accelerations stay m/s², as ISO 2631 and the paper give them)."""
     page.section(
         "Ride study",
         "Quarter car with the fitted damper on ISO 8608 roads: RMS of the sprung-mass "
@@ -144,7 +146,7 @@ def render_ride(page: Page, doc: Any) -> None:
     if flagged:
         tyre = sum("T" in run_flags(e) for e in flagged)
         stroke = sum("S" in run_flags(e) for e in flagged)
-        limit = f" (±{travel * 1e3:g} mm)" if travel is not None else ""
+        limit = f" (±{units.length(travel):.3g} {units.length_label})" if travel is not None else ""
         page.paragraph(
             f"{len(flagged)} of {len(entries)} runs are outside the model's validity: the tyre "
             f"leaves the road in {tyre}, the stroke exceeds the damper's travel{limit} in "

@@ -28,8 +28,9 @@ def test_sweep_by_velocity_then_report(tmp_path: Path) -> None:
     tests = open_recording(rec).load_all()
     peaks = sorted(summarise(t).peak_compression_velocity_m_s for t in tests)
     # A peak is the largest of many noisy velocity samples, so it reads a little high; at
-    # 25 mm/s that was up to 3 % in runs on a loaded machine.
-    assert peaks == [pytest.approx(0.025, rel=0.05), pytest.approx(0.1, rel=0.03)]
+    # 25 mm/s that was up to 3 % in runs on a loaded machine. The fastest target is planned
+    # 10 % over (run/plan.py), so that it is passed, not only touched at the peak.
+    assert peaks == [pytest.approx(0.025, rel=0.05), pytest.approx(0.11, rel=0.03)]
 
     out = tmp_path / "report"
     res = subprocess.run([*CLI, "report", str(rec), "-o", str(out)], cwd=REPO,
@@ -41,9 +42,8 @@ def test_sweep_by_velocity_then_report(tmp_path: Path) -> None:
         for r in rows
         if r["source"] == "measured"
     }
-    # Measured up to the fastest test's 100 mm/s (just below it: a sine only touches its
-    # peak), extrapolated beyond; both directions.
-    for v in (0.025, 0.05):
+    # Measured up to the fastest target, 100 mm/s, extrapolated beyond; both directions.
+    for v in (0.025, 0.05, 0.1):
         assert not extrapolated[v] and not extrapolated[-v]
     for v in (0.15, 0.2, 0.3):
         assert extrapolated[v] and extrapolated[-v]

@@ -351,6 +351,61 @@ class RigSession:
             stop_sweep=stop_sweep,
         )
 
+    def hold_at(
+        self, offset_m: float, velocity_m_s: float, dwell_s: float, on_block: BlockSink
+    ) -> tuple[float, float]:
+        """Move at `velocity_m_s` to `offset_m` from the stroke centre (+ compression), then
+        hold still for `dwell_s` of DAQ time; every sample of the move and the hold goes to
+        `on_block`. Returns the DAQ times (arrived, end of the hold).
+
+        The same limits on every sample, heartbeat and teardown as a sine: a trip makes the
+        controlled stop and raises RigFault (the sweep stops, as after an aborted test).
+        """
+        lim = self.rig.limits
+        for name, value in (("offset", offset_m), ("velocity", velocity_m_s), ("dwell", dwell_s)):
+            if not (isinstance(value, int | float) and math.isfinite(value)):
+                raise ConfigError(f"hold: {name} must be a finite number, got {value!r}")
+        if abs(offset_m) > lim.travel_m:
+            raise ConfigError(
+                f"hold at {offset_m * 1e3:+g} mm exceeds the rig's travel of "
+                f"±{lim.travel_m * 1e3:g} mm ({self.rig.source} limits.travel_m)"
+            )
+        if not 0 < velocity_m_s <= min(lim.velocity_m_s, self.rig.ramp.move_velocity_m_s):
+            raise ConfigError(
+                f"hold: move velocity must be > 0 and at most the rig's move velocity "
+                f"{self.rig.ramp.move_velocity_m_s:g} m/s, got {velocity_m_s:g}"
+            )
+        if dwell_s <= 0:
+            raise ConfigError(f"hold: dwell must be > 0 s, got {dwell_s:g}")
+        if not self._armed:
+            raise RigFault(f"actuator is not enabled (disarmed by: {self._disarm_reason})")
+        act = self._act()
+        target = self.rig.stroke_centre_m + offset_m
+        try:
+            self._catch_up(check=True)
+            self._on_block = on_block
+            st = act.status()
+            act.set_mode("hold")
+            act.write({"move_velocity": velocity_m_s, "position_command": target})
+            distance = abs(st.position_m - target)
+            self._wait(
+                lambda s: s.target_reached and abs(s.position_m - target) < CENTRE_TOLERANCE_M,
+                daq_budget_s=distance / velocity_m_s + 2.0,
+                what=f"move to {offset_m * 1e3:+g} mm",
+            )
+            arrived = self._t
+            self._wait(lambda s: self._t >= arrived + dwell_s, daq_budget_s=dwell_s + 2.0,
+                       what="hold")  # fmt: skip
+            return arrived, self._t
+        except (RigFault, SafetyTrip) as exc:
+            ev = exc.event if isinstance(exc, SafetyTrip) else self._event("fault", str(exc))
+            if isinstance(exc, SafetyTrip):
+                self._record(ev)
+            self._safe_stop(ev.message)
+            raise RigFault(ev.message) from None
+        finally:
+            self._on_block = None
+
     def _verify(
         self,
         blocks: list[SampleBlock],

@@ -24,10 +24,13 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from shockdyno.errors import ConfigError
 from shockdyno.record.atomic import write_text_atomic
 from shockdyno.record.types import TestData
 from shockdyno.report import clickchart, plots
+from shockdyno.report import gas as gas_force
 from shockdyno.report.clickplots import force_vs_clicks
 from shockdyno.report.diagnose_section import render_diagnose
 from shockdyno.report.html import SUMMARY_HEADER, SUMMARY_LEGEND, Page, summary_row
@@ -107,12 +110,16 @@ def build_report(
     ride: dict[str, Any] | None = None,
     gas_force_n: float | None = None,
     progress: Callable[[str], None] | None = None,
+    raw_force: bool = False,
 ) -> Path:
     """Write the report into ``out_dir``; returns the path of index.html.
 
     Every part is optional: no tests (a ride-only page), no fit (measured click chart
     only), ``diagnose`` and ``ride`` as the JSON documents of those commands.
-    ``gas_force_n``: the static gas force to mark on loops (taken from the fit if given).
+    ``gas_force_n``: the static gas force to mark on loops (taken from the fit if given,
+    else the recording's). The click chart, the summary table and the peak-force plot show
+    damping force, the gas force removed (report/gas.py), unless ``raw_force``; the loops
+    show the force as measured.
     """
     say = progress or (lambda _: None)
     out_dir = Path(out_dir)
@@ -121,7 +128,8 @@ def build_report(
     out_dir.mkdir(parents=True, exist_ok=True)
 
     say("summaries")
-    summaries = [summarise(t) for t in tests]
+    tests = gas_force.with_gas_force(tests)  # measured, else estimated from the reversals
+    summaries = [summarise(t, gas_force_n=None if raw_force else t.meta.gas_force_n) for t in tests]
     drawable = [
         plots.prepare(t, s)
         for t, s in zip(tests, summaries, strict=True)
@@ -130,6 +138,10 @@ def build_report(
     complete = [c for c in drawable if not c.aborted and _finite(c.summary)]
     if fit is not None and gas_force_n is None:
         gas_force_n = clickchart.static_force_n(fit)
+    known = [t.meta.gas_force_n for t in tests if t.meta.gas_force_n is not None]
+    if gas_force_n is None and known:
+        gas_force_n = float(np.median(known))
+    force_note = "raw force (gas force included)" if raw_force else gas_force.describe(tests)
 
     page = Page(title)
     if metadata:
@@ -138,10 +150,10 @@ def build_report(
 
     if complete:
         say("click chart")
-        _click_chart_section(page, [c.test for c in complete], fit, out_dir)
+        _click_chart_section(page, [c.test for c in complete], fit, out_dir, raw_force)
 
     if tests:
-        _summary_section(page, summaries)
+        _summary_section(page, summaries, force_note)
 
     for heading, header, rows in tables:
         page.section(heading)
@@ -149,7 +161,7 @@ def build_report(
 
     if complete:
         say("peak and overlay figures")
-        _peaks_and_overlays(page, complete, out_dir, gas_force_n)
+        _peaks_and_overlays(page, complete, out_dir, gas_force_n, force_note)
 
     if fit is not None:
         say("fit figures")
@@ -176,15 +188,22 @@ def build_report(
 
 
 def _click_chart_section(
-    page: Page, tests: list[TestData], fit: FitResult | None, out_dir: Path
+    page: Page, tests: list[TestData], fit: FitResult | None, out_dir: Path, raw_force: bool
 ) -> None:
-    chart = clickchart.click_chart(tests, fit)
+    chart = clickchart.click_chart(tests, fit, raw_force=raw_force)
+    what = (
+        "Force (raw, gas force included: --raw-force)"
+        if raw_force
+        else f"Damping force ({chart.gas_note}"
+        + ("; the model's own force at rest removed from its values alike" if fit else "")
+        + "; --raw-force shows the force as measured)"
+    )
     page.section(
         "Click chart",
-        "Force at standard velocities per click, compression (comp, velocity > 0) and rebound "
-        "(reb, velocity < 0), in N. Measured: the force of each test's force-velocity branch "
-        "where it passes the velocity (every crossing of the measured cycles averaged), then "
-        "averaged over the click's frequencies.",
+        f"{what} at standard velocities per click, compression (comp, velocity > 0) and "
+        "rebound (reb, velocity < 0), in N. Measured: the force of each test's force-velocity "
+        "branch where it passes the velocity (every crossing of the measured cycles "
+        "averaged), then averaged over the click's frequencies.",
     )
     page.figure(
         force_vs_clicks(chart, out_dir / "click_chart.png").name,
@@ -209,11 +228,12 @@ def _click_chart_section(
         page.table(header, rows, numeric=[True] * len(header))
         page.close_details()
     also = " and the model's" if chart.model else ""
-    page.link("click_chart.csv", "click_chart.csv", f": the measured values{also} as CSV.")
+    held = "raw force" if raw_force else "damping force, gas force removed (column gas_force_n)"
+    page.link("click_chart.csv", "click_chart.csv", f": the measured values{also} as CSV ({held}).")
 
 
-def _summary_section(page: Page, summaries: list[TestSummary]) -> None:
-    page.section("Summary", SUMMARY_LEGEND)
+def _summary_section(page: Page, summaries: list[TestSummary], force_note: str) -> None:
+    page.section("Summary", f"{SUMMARY_LEGEND} F comp / F reb: {force_note}.")
     n_aborted = sum(s.status != "complete" for s in summaries)
     if n_aborted:
         page.paragraph(f"{n_aborted} of {len(summaries)} tests did not complete (marked).")
@@ -229,12 +249,16 @@ def _summary_section(page: Page, summaries: list[TestSummary]) -> None:
 
 
 def _peaks_and_overlays(
-    page: Page, complete: list[plots.Curves], out_dir: Path, gas_force_n: float | None
+    page: Page,
+    complete: list[plots.Curves],
+    out_dir: Path,
+    gas_force_n: float | None,
+    force_note: str,
 ) -> None:
     page.section("Peak force vs peak velocity")
     page.figure(
         plots.peak_curves([c.summary for c in complete], out_dir / "peaks.png").name,
-        "One curve per click through its test frequencies; complete tests only.",
+        f"One curve per click through its test frequencies; complete tests only; {force_note}.",
     )
     page.section("Overlays across clicks")
     by_freq: dict[float, list[plots.Curves]] = {}

@@ -28,6 +28,13 @@ def register(sub: Any) -> None:
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="report directory")
     p.add_argument("--title", help="page title (default: from the recording's metadata)")
     p.add_argument(
+        "--raw-force",
+        action="store_true",
+        help="click chart, summary and peak-force plot in raw force, gas force included "
+        "(default: damping force, the gas force measured at mid-stroke, or estimated from "
+        "the reversals, removed)",
+    )
+    p.add_argument(
         "--force",
         action="store_true",
         help="replace an existing DIR/index.html; show a result made from another recording "
@@ -120,6 +127,7 @@ def run_report(args: argparse.Namespace) -> int:
             ride=ride,
             gas_force_n=gas,
             progress=progress,
+            raw_force=args.raw_force,
         )
     print(f"report: {index}")
     return 0

@@ -52,7 +52,7 @@ def force_vs_clicks(chart: ClickChart, path: Path) -> Path:
                 )
         ax.set_title(f"{title} (velocity {'+' if sign > 0 else '−'}, force at each speed)")
         ax.set_xlabel("rod clicks (open →)")
-        ax.set_ylabel("force F (N)")
+        ax.set_ylabel("force F (N)" if chart.raw_force else "damping force (N, gas removed)")
         ax.xaxis.set_major_locator(MaxNLocator(integer=True, nbins=8))
         ax.yaxis.set_major_locator(MaxNLocator(nbins=7))
         ax.grid(True, alpha=0.3)

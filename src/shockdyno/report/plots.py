@@ -203,8 +203,9 @@ def peak_curves(summaries: Sequence[TestSummary], path: Path) -> Path:
     ax.grid(True, alpha=0.3)
     _ticks(ax)
     ax.set_xlabel("peak velocity (m/s, + compression, − rebound)")
-    ax.set_ylabel("peak force (N)")
-    title = "peak force vs peak velocity per click"
+    removed = bool(summaries) and all(s.gas_force_n is not None for s in summaries)
+    ax.set_ylabel("peak damping force (N, gas force removed)" if removed else "peak force (N)")
+    title = f"peak {'damping ' if removed else ''}force vs peak velocity per click"
     if len(gas_values) > 1:
         title += (
             " (marker: gas clicks "

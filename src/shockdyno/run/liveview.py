@@ -258,13 +258,16 @@ class LiveView:
         """Close the running test with its final metadata; prints and returns its summary.
 
         The summary is :func:`summarise` of the samples received, so a dropped-frame count
-        stored in ``meta.dropped_frames`` counts too.
+        stored in ``meta.dropped_frames`` counts too. A gas force the sweep measured
+        (``meta.gas_force_n``) is removed from the peak forces, and the line says so.
         """
         if self.current is None:
             raise RuntimeError("LiveView.end_test() before start_test()")
         data = SampleBlock.concat(self._blocks)
         test = TestData(meta, data.t_s, data.displacement_m, data.force_n, data.temperature_c)
-        summary = summarise(test, dropped_frames=self.stats.dropped_frames)
+        summary = summarise(
+            test, dropped_frames=self.stats.dropped_frames, gas_force_n=meta.gas_force_n
+        )
         self.done += 1
         self.summaries.append(summary)
         self.current = None

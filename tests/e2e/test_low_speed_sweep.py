@@ -11,7 +11,10 @@ from pathlib import Path
 import pytest
 
 from shockdyno.record import open_recording
+from shockdyno.model import load_spec
 from shockdyno.report import summarise
+from shockdyno.report.clickchart import spec_static_force_n
+from shockdyno.report.gas import with_gas_force
 
 REPO = Path(__file__).resolve().parents[2]
 CLI = [sys.executable, "-m", "shockdyno.cli"]
@@ -22,10 +25,16 @@ def test_sweep_by_velocity_then_report(tmp_path: Path) -> None:
     sweep = [*CLI, "sweep", "--rig", str(REPO / "rigs" / "sim.toml"), "--start-sim",
              "--speed", "50", "--clicks", "12", "--velocities-mm-s", "25,100",
              "--amplitude-mm", "10", "--cycles", "2", "--warmup-cycles", "1",
-             "-o", str(rec)]  # fmt: skip
+             "--no-gas-measure", "-o", str(rec)]  # fmt: skip
     res = subprocess.run(sweep, cwd=REPO, capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr
     tests = open_recording(rec).load_all()
+    # No gas measurement: none stored, and the report estimates it from the reversals, which
+    # on the simulated rig agrees with the damper's force at rest at mid-stroke.
+    assert all(t.meta.gas_force_n is None for t in tests)
+    for t in with_gas_force(tests):
+        assert t.meta.gas_force_source == "estimated"
+        assert t.meta.gas_force_n == pytest.approx(spec_static_force_n(load_spec()), abs=3.0)
     peaks = sorted(summarise(t).peak_compression_velocity_m_s for t in tests)
     # A peak is the largest of many noisy velocity samples, so it reads a little high; at
     # 25 mm/s that was up to 3 % in runs on a loaded machine. The fastest target is planned

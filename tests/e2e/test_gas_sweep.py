@@ -13,6 +13,7 @@ from shockdyno.fit.result import FitResult
 from shockdyno.model import default_spec_path, load_spec
 from shockdyno.record import open_recording
 from shockdyno.report.clickchart import click_chart, spec_static_force_n
+from shockdyno.report.gas import with_gas_force
 
 REPO = Path(__file__).resolve().parents[2]
 CLICKS = (6, 18)
@@ -74,3 +75,25 @@ def test_damping_force_is_the_models_and_raw_differs_by_the_measured_gas(
         gas = float(r["gas_force_n"])
         assert gas == pytest.approx(truth, abs=1.0)
         assert float(other["force_n"]) - float(r["force_n"]) == pytest.approx(gas, abs=0.011)
+
+
+def test_a_shut_bleed_with_aerated_oil_lends_its_tests_another_clicks_gas_force(
+    tmp_path: Path,
+) -> None:
+    rec = tmp_path / "aerated.mcap"
+    code = main(["sweep", "--rig", str(REPO / "rigs" / "sim.toml"), "--start-sim",
+                 "--speed", "50", "--clicks", "0,12", "--freq", "1", "--cycles", "2",
+                 "--warmup-cycles", "1", "--scenario",
+                 str(REPO / "sim" / "scenarios" / "aerated-oil.toml"), "-o", str(rec)])  # fmt: skip
+    assert code == 0
+    recording = open_recording(rec)
+    # At click 0 oil is trapped behind the shut valves: the two rests are hundreds of N
+    # apart, the measurement is refused and click 0's test has none of its own.
+    events = [m for _, kind, m in recording.events if kind == "gas_force"]
+    assert len(events) == 2 and "not used" in events[0] and "not used" not in events[1]
+    metas = recording.tests
+    assert metas[0].gas_force_n is None
+    truth = spec_static_force_n(load_spec())
+    assert metas[1].gas_force_n == pytest.approx(truth, abs=1.0)
+    lent = with_gas_force(recording.load_all())[0].meta
+    assert (lent.gas_force_n, lent.gas_force_source) == (metas[1].gas_force_n, "measured")

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from shockdyno.record import open_recording
 from shockdyno.model import load_spec
+from shockdyno.record import open_recording
 from shockdyno.report import summarise
 from shockdyno.report.clickchart import spec_static_force_n
 from shockdyno.report.gas import with_gas_force

@@ -51,7 +51,7 @@ class Holder(Protocol):
     def hold_at(
         self,
         offset_m: float,
-        velocity_m_s: float,
+        velocity_m_s: float | None,
         dwell_s: float,
         on_block: Callable[[SampleBlock], None],
     ) -> tuple[float, float]: ...
@@ -111,7 +111,8 @@ def measure_gas_force(
     forces: list[float] = []
     t_end = math.nan
     for side in (-1.0, 1.0):  # from the extended side (compression), then the compressed
-        session.hold_at(side * offset_m, velocity_m_s, START_DWELL_S, _sink(on_block, []))
+        # To the start at the rig's move velocity; only the approach itself is slow.
+        session.hold_at(side * offset_m, None, START_DWELL_S, _sink(on_block, []))
         blocks: list[SampleBlock] = []
         arrived, t_end = session.hold_at(0.0, velocity_m_s, dwell_s, _sink(on_block, blocks))
         forces.append(rest_force(blocks, arrived + min(SETTLE_S, dwell_s / 2), t_end))

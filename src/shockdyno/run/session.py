@@ -352,16 +352,19 @@ class RigSession:
         )
 
     def hold_at(
-        self, offset_m: float, velocity_m_s: float, dwell_s: float, on_block: BlockSink
+        self, offset_m: float, velocity_m_s: float | None, dwell_s: float, on_block: BlockSink
     ) -> tuple[float, float]:
-        """Move at `velocity_m_s` to `offset_m` from the stroke centre (+ compression), then
-        hold still for `dwell_s` of DAQ time; every sample of the move and the hold goes to
-        `on_block`. Returns the DAQ times (arrived, end of the hold).
+        """Move at `velocity_m_s` (None: the rig's ramp.move_velocity_m_s) to `offset_m` from
+        the stroke centre (+ compression), then hold still for `dwell_s` of DAQ time; every
+        sample of the move and the hold goes to `on_block`. Returns the DAQ times (arrived,
+        end of the hold).
 
         The same limits on every sample, heartbeat and teardown as a sine: a trip makes the
         controlled stop and raises RigFault (the sweep stops, as after an aborted test).
         """
         lim = self.rig.limits
+        if velocity_m_s is None:
+            velocity_m_s = self.rig.ramp.move_velocity_m_s
         for name, value in (("offset", offset_m), ("velocity", velocity_m_s), ("dwell", dwell_s)):
             if not (isinstance(value, int | float) and math.isfinite(value)):
                 raise ConfigError(f"hold: {name} must be a finite number, got {value!r}")

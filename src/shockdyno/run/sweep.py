@@ -38,7 +38,7 @@ class Session(Protocol):
     def hold_at(
         self,
         offset_m: float,
-        velocity_m_s: float,
+        velocity_m_s: float | None,
         dwell_s: float,
         on_block: Callable[[SampleBlock], None],
     ) -> tuple[float, float]: ...

@@ -385,8 +385,10 @@ class RigSession:
         act = self._act()
         target = self.rig.stroke_centre_m + offset_m
         try:
-            self._catch_up(check=True)
+            # Unlike a sine's, the backlog goes to on_block: consecutive holds (the gas-force
+            # measurement's) then stream every sample between them too.
             self._on_block = on_block
+            self._catch_up(check=True)
             st = act.status()
             act.set_mode("hold")
             act.write({"move_velocity": velocity_m_s, "position_command": target})

@@ -48,6 +48,12 @@ def register(sub: Any) -> None:
         "click chart), and table4.csv beside it",
     )
     p.add_argument(
+        "--raw-force",
+        action="store_true",
+        help="with --report: click chart and peaks in raw force, gas force included "
+        "(default: damping force, gas force removed; docs/report.md)",
+    )
+    p.add_argument(
         "--optimizer",
         choices=("fast", "ga"),
         default="fast",
@@ -286,6 +292,7 @@ def run_fit(args: argparse.Namespace) -> int:
                 metadata={"recording": str(args.recording), **rec.metadata},
                 fit=result,
                 progress=lambda stage: status.update(f"fit report: {stage}"),
+                raw_force=args.raw_force,
             )
         say(f"report: {index}")
         header, rows = table4_rows(result)

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from shockdyno.errors import ConfigError, RigFault
 from shockdyno.rig.config import load_rig
-from shockdyno.run.gas_measure import MAX_HYSTERESIS_N, GasMeasurement
+from shockdyno.rig.types import SampleBlock
+from shockdyno.run.gas_measure import MAX_HYSTERESIS_N, GasMeasurement, rest_force
 from shockdyno.run.session import RigSession
 
 SIM = Path(__file__).resolve().parents[2] / "rigs" / "sim.toml"
@@ -43,3 +45,20 @@ def test_rests_far_apart_are_not_a_gas_force() -> None:
     trapped = GasMeasurement(69.5, 643.0, -504.0, 1.0)
     assert not trapped.usable and trapped.hysteresis_n > MAX_HYSTERESIS_N
     assert "not used" in trapped.message() and "not used" not in friction.message()
+
+
+def test_the_rest_starts_when_the_samples_stop_moving_not_when_the_drive_says() -> None:
+    # A fast simulated rig's samples lag the drive: told "arrived" at 0.8 s, the stream
+    # still shows the ram coming in at 4 mm/s until 1.0 s, with a shut bleed's -280 N of
+    # rebound damping on top of the 230.7 N gas force. (A demo run averaged that in:
+    # 110.5 N at rest after rebound.)
+    t = np.arange(0.0, 1.6, 1e-3)
+    moving = t < 1.0
+    x = np.where(moving, 0.004 * (1.0 - t), 0.0)
+    force = np.where(moving, 230.7 - 280.0, 230.7)
+    n = t.size
+    block = SampleBlock(np.arange(n), t, x, force, np.full(n, 40.0), np.zeros(n, np.uint16))
+    assert rest_force([block], 0.8, 1.6) == pytest.approx(230.7, abs=1e-9)
+    # Too short a rest is an error, not a number.
+    with pytest.raises(RigFault, match="samples at rest"):
+        rest_force([block.slice(0, 1100)], 0.8, 1.1)

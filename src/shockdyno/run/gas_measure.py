@@ -40,10 +40,11 @@ from shockdyno.rig.types import SampleBlock
 
 OFFSET_M = 0.005  # the approach: from 5 mm either side of mid-stroke
 VELOCITY_M_S = 0.004  # at 4 mm/s
-DWELL_S = 0.5  # at rest this long (DAQ time) each time
+DWELL_S = 0.6  # at rest this long (DAQ time) each time
 START_DWELL_S = 0.05  # a pause before the approach, so it starts from rest
 SETTLE_S = 0.15  # the first part of the dwell is the servo settling: not averaged
 MIN_SAMPLES = 50
+REST_TOLERANCE_M = 50e-6  # still: within this of the final position (LVDT noise ~1-10 µm)
 MAX_HYSTERESIS_N = 100.0  # half the difference of the two rests, beyond which it is not gas
 
 
@@ -86,8 +87,16 @@ class GasMeasurement:
 
 
 def rest_force(blocks: list[SampleBlock], start_s: float, end_s: float) -> float:
-    """Mean force of the samples in [start_s, end_s] (the settled part of a dwell)."""
+    """Mean force of the samples in [start_s, end_s] once the ram is still: after the last
+    sample more than REST_TOLERANCE_M from where it ends, plus SETTLE_S (the samples, not
+    the drive's word, say when it stopped: near an instant after, a shut bleed's force at a
+    fraction of a mm/s is hundreds of N)."""
     run = SampleBlock.concat(blocks) if blocks else SampleBlock.empty()
+    if len(run):
+        x_end = float(np.median(run.displacement_m[-MIN_SAMPLES:]))
+        away = np.flatnonzero(np.abs(run.displacement_m - x_end) > REST_TOLERANCE_M)
+        if away.size:
+            start_s = max(start_s, float(run.t_s[away[-1]]) + SETTLE_S)
     keep = (run.t_s >= start_s) & (run.t_s <= end_s) & np.isfinite(run.force_n)
     if np.count_nonzero(keep) < MIN_SAMPLES:
         raise RigFault(

@@ -36,6 +36,7 @@ from shockdyno.run.safety import LimitMonitor, SafetyEvent, SafetyTrip
 from shockdyno.run.verify import cycle_mismatch, frame_loss, measure_sine, plan_mismatch
 
 CENTRE_TOLERANCE_M = 0.001
+HOLD_TOLERANCE_M = 0.0001  # a hold has arrived when the DAQ's displacement is this close
 # A command's round trip takes wall time, which a fast simulated rig turns into seconds of
 # DAQ time: no DAQ-time deadline is called before this much host time has passed too.
 MIN_WALL_S = 0.5
@@ -124,6 +125,7 @@ class RigSession:
         self._disarm_reason = ""
         self._t = 0.0  # DAQ time of the latest sample
         self._temp = math.nan
+        self._x = math.nan  # displacement at the latest sample (m from the stroke centre)
         self._motion = False  # the motion output at the latest sample
         self._seq: int | None = None  # sequence number of the latest sample
         self._last_sample_wall = clock()
@@ -393,8 +395,14 @@ class RigSession:
             act.set_mode("hold")
             act.write({"move_velocity": velocity_m_s, "position_command": target})
             distance = abs(st.position_m - target)
+            # Arrived when the drive says so and the DAQ's samples show it: at a fast
+            # simulated rig's speed the stream lags the drive by a good part of a second.
             self._wait(
-                lambda s: s.target_reached and abs(s.position_m - target) < CENTRE_TOLERANCE_M,
+                lambda s: (
+                    s.target_reached
+                    and abs(s.position_m - target) < CENTRE_TOLERANCE_M
+                    and abs(self._x - offset_m) < HOLD_TOLERANCE_M
+                ),
                 daq_budget_s=distance / velocity_m_s + 2.0,
                 what=f"move to {offset_m * 1e3:+g} mm",
             )
@@ -549,6 +557,7 @@ class RigSession:
             gap = self._largest_gap(block)
             self._t = float(block.t_s[-1])
             self._temp = float(block.temperature_c[-1])
+            self._x = float(block.displacement_m[-1])
             self._motion = bool(block.status[-1] & STATUS_MOTION)
             if self._on_block is not None:
                 self._on_block(block)

@@ -36,7 +36,9 @@ from shockdyno.run.safety import LimitMonitor, SafetyEvent, SafetyTrip
 from shockdyno.run.verify import cycle_mismatch, frame_loss, measure_sine, plan_mismatch
 
 CENTRE_TOLERANCE_M = 0.001
-HOLD_TOLERANCE_M = 0.0001  # a hold has arrived when the DAQ's displacement is this close
+HOLD_TOLERANCE_M = 0.0005  # a hold has arrived when the DAQ's displacement is this close
+# (loose enough for a servo's steady error under the gas load; the rest itself is found
+# from the samples, run/gas_measure.py)
 # A command's round trip takes wall time, which a fast simulated rig turns into seconds of
 # DAQ time: no DAQ-time deadline is called before this much host time has passed too.
 MIN_WALL_S = 0.5

@@ -295,3 +295,24 @@ def test_glitched_samples_do_not_stop_the_sweep() -> None:
     s = view.end_test(test.meta)
     assert np.isnan(s.peak_compression_velocity_m_s)
     assert "vc=nanm/s" in s.line()
+
+
+def test_live_line_removes_the_measured_gas_force_like_the_end_line() -> None:
+    test = make_test(0, 6, 1.5)
+    meta = replace(test.meta, gas_force_n=230.7, gas_force_source="measured")
+    lines = []
+    for m in (test.meta, meta):
+        buf = io.StringIO()
+        console = Console(file=buf, force_terminal=True, width=200, color_system=None)
+        with LiveView(1, console=console) as view:
+            view.start_test(m)
+            for block in blocks_of(test, [200]):
+                view.update(block)
+            assert view._live is not None
+            view._live.refresh()
+            lines.append(buf.getvalue())
+            view.end_test(m)
+    raw = re.findall(r"F ([+-]\d+) / ([+-]\d+) N", lines[0])[-1]
+    damping = re.findall(r"F ([+-]\d+) / ([+-]\d+) N \(gas removed\)", lines[1])[-1]
+    for r, d in zip(raw, damping, strict=True):
+        assert abs(int(r) - 231 - int(d)) <= 1  # rounding of each

@@ -100,8 +100,11 @@ class _LiveLine:
         line = Text(no_wrap=True, overflow="ellipsis")
         if s.n_samples:
             line.append(f"t {s.t_last_s - s.t_first_s:5.1f} s  ")
+            # Damping force when the sweep measured the gas force, as the end-of-test line.
+            gas = meta.gas_force_n or 0.0
             line.append(
-                f"F {s.peak_compression_force_n:+.0f} / {s.peak_rebound_force_n:+.0f} N  ",
+                f"F {s.peak_compression_force_n - gas:+.0f} / "
+                f"{s.peak_rebound_force_n - gas:+.0f} N{' (gas removed)' if gas else ''}  ",
                 style="cyan",
             )
             if math.isfinite(s.peak_compression_velocity_m_s):

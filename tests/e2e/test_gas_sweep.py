@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
 
 import pytest
@@ -54,6 +55,12 @@ def test_damping_force_is_the_models_and_raw_differs_by_the_measured_gas(
     assert {t.meta.gas_force_source for t in tests} == {"measured"}
     for t in tests:
         assert t.meta.gas_force_n == pytest.approx(truth, abs=1.0)
+    info = tmp_path / "info.json"
+    assert main(["info", str(planned), "--json", str(info)]) == 0
+    rows = json.loads(info.read_text())["tests"]
+    assert [(r["gas_force_n"], r["gas_force_source"]) for r in rows] == [
+        (t.meta.gas_force_n, "measured") for t in tests
+    ]
     fit = FitResult.from_spec(default_spec_path(), CLICKS)  # the simulated damper itself
     damping = click_chart(tests, fit)
     for c in CLICKS:

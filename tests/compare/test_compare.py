@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from shockdyno.cli import main
@@ -132,8 +133,10 @@ def test_a_recording_against_a_fit(sims: dict[str, Path], tmp_path: Path) -> Non
     assert [i["kind"] for i in doc["inputs"]] == ["recording", "fit"]
     fit = FitResult.load(sims["fit"])
     for r in doc["rows"]:
+        # damping force: the model's own force at rest removed, as from the recording's
         model = clickchart.model_forces(fit, r["clicks"], (r["velocity_m_s"],), 0)
-        assert r["force_b_n"] == pytest.approx(model[r["velocity_m_s"]], abs=1e-3)
+        at_rest = clickchart.model_static_force_n(fit, r["clicks"], 0)
+        assert r["force_b_n"] == pytest.approx(model[r["velocity_m_s"]] - at_rest, abs=1e-3)
     assert doc["bleed_areas"] and {e["clicks"] for e in doc["bleed_areas"]} == set(CLICKS)
     html = (tmp_path / "page" / "index.html").read_text(encoding="utf-8")
     assert "Fitted bleed areas" in html and "Fits have no loops" in html
@@ -200,3 +203,26 @@ def test_two_fits_compare_their_bleed_areas(sims: dict[str, Path], tmp_path: Pat
     assert by_click[CHANGED]["bigger"]["A_bt_m2"] == by_click[CHANGED]["fit"]["A_bt_m2"]
     html = (tmp_path / "page" / "index.html").read_text(encoding="utf-8")
     assert "A_bc bigger vs fit (%)" in html and "+50.0" in html
+
+
+def test_damping_force_by_default_and_raw_force_on_request(
+    sims: dict[str, Path], tmp_path: Path
+) -> None:
+    """The table compares damping force (the sweep's measured gas force removed) and says
+    so; --raw-force compares the force as measured: every value higher by that gas force."""
+    (tmp_path / "d").mkdir()
+    (tmp_path / "r").mkdir()
+    damping = _compare(tmp_path / "d", str(sims["a"]), str(sims["a2"]))
+    raw = _compare(tmp_path / "r", str(sims["a"]), str(sims["a2"]), "--raw-force")
+    assert (damping["force"], raw["force"]) == ("damping", "raw")
+    from shockdyno.record import open_recording
+
+    gas = {t.meta.gas_force_n for t in open_recording(sims["a"]).load_all()}
+    assert len(gas) >= 1 and all(g is not None and 200 < g < 260 for g in gas), gas
+    pairs = zip(raw["rows"], damping["rows"], strict=True)
+    shift = [r["force_a_n"] - d["force_a_n"] for r, d in pairs
+             if r["force_a_n"] is not None and d["force_a_n"] is not None]  # fmt: skip
+    assert len(shift) >= 20
+    assert np.allclose(shift, np.median(sorted(g for g in gas if g is not None)), atol=0.5)
+    html = (tmp_path / "d" / "page" / "index.html").read_text(encoding="utf-8")
+    assert "gas force removed" in html and "measured at mid-stroke" in html

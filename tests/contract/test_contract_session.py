@@ -11,6 +11,7 @@ import pytest
 from contract_helpers import Backend, Collector, drive_status, sine_fit
 
 from shockdyno.errors import ConfigError
+from shockdyno.run.gas_measure import MAX_HYSTERESIS_N, OFFSET_M, measure_gas_force
 from shockdyno.run.session import RigSession
 
 BACKENDS = ["sim-socket", "sim-pty", pytest.param("hardware", marks=pytest.mark.hardware)]
@@ -125,3 +126,23 @@ def test_rtu_driver_runs_a_session(sim_rig_factory) -> None:
     assert out.status == "complete", out.reason
     st = drive_status(rig)
     assert not st.enabled and st.position_m == pytest.approx(rig.stroke_centre_m, abs=1e-3)
+
+
+def test_gas_force_measurement_holds_still_where_it_says(backend: Backend) -> None:
+    """The gas-force step of a sweep on every backend: it moves to ±5 mm and rests at
+    mid-stroke, streaming every sample, and both rests read the same force within the
+    refusal band (a sim has no friction at rest; a real damper's seals stay well inside)."""
+    rig = backend.rig
+    rec = Collector()
+    with RigSession(rig) as session:
+        gas = measure_gas_force(session, rec.block)
+        st = drive_status(rig)
+        assert st.enabled and st.position_m == pytest.approx(rig.stroke_centre_m, abs=1e-3)
+    b = rec.all
+    assert np.all(np.diff(b.seq) == 1)  # the measurement's samples are all there
+    assert b.displacement_m.min() == pytest.approx(-OFFSET_M, abs=5e-4)
+    assert b.displacement_m.max() == pytest.approx(OFFSET_M, abs=5e-4)
+    assert gas.usable and abs(gas.hysteresis_n) < MAX_HYSTERESIS_N
+    assert gas.force_n == pytest.approx(np.mean([gas.after_compression_n, gas.after_rebound_n]))
+    if backend.sim is not None:  # the simulated damper's force at rest at mid-stroke
+        assert gas.force_n == pytest.approx(230.7, abs=1.0)

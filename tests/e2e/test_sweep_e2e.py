@@ -14,8 +14,9 @@ import pytest
 
 from shockdyno.errors import RecordingError
 from shockdyno.fit import fit_sweep
-from shockdyno.model.spec import default_spec_path
+from shockdyno.model.spec import default_spec_path, load_spec
 from shockdyno.record import RecordingWriter, open_recording
+from shockdyno.report.clickchart import spec_static_force_n
 from shockdyno.rig.types import SampleBlock
 from shockdyno.run.liveview import LiveView
 from shockdyno.run.plan import SweepPlan
@@ -33,10 +34,11 @@ class TeeWriter(RecordingWriter):
 
     def __init__(self, *args, **kwargs):  # type: ignore[no-untyped-def]
         super().__init__(*args, **kwargs)
-        self.sent: list[SampleBlock] = []
+        self.sent: list[SampleBlock] = []  # inside tests
+        self.outside: list[SampleBlock] = []  # between tests: the gas-force measurements
 
     def write_samples(self, block: SampleBlock) -> None:
-        self.sent.append(block)
+        (self.sent if self._open is not None else self.outside).append(block)
         super().write_samples(block)
 
 
@@ -54,11 +56,11 @@ def swept(tmp_path_factory):
             RigSession(rig) as session,
         ):
             result = run_sweep(session, plan, writer, view, sample_rate_hz=rig.sample_rate_hz)
-    return out, plan, writer.sent, result, truth
+    return out, plan, writer.sent, result, truth, writer.outside
 
 
 def test_recording_reads_back_exactly_what_the_rig_sent(swept):
-    path, plan, sent, result, _ = swept
+    path, plan, sent, result, *_ = swept
     rec = open_recording(path)
     assert not rec.truncated
     assert [(m.clicks, m.frequency_hz) for m in rec.tests] == [p.key[::2] for p in plan.points()]
@@ -83,6 +85,23 @@ def test_recording_reads_back_exactly_what_the_rig_sent(swept):
     assert rec.metadata["damper_id"] == "e2e"
 
 
+def test_sweep_measures_the_gas_force_at_each_click_change(swept):
+    path, plan, _, _, _, outside = swept
+    rec = open_recording(path)
+    # The simulated damper's force at rest at mid-stroke: (p_gas - p_atm) A_rod.
+    truth = spec_static_force_n(load_spec())
+    assert truth == pytest.approx(230.7, abs=0.1)
+    for meta in rec.tests:
+        assert meta.gas_force_source == "measured"
+        assert meta.gas_force_n == pytest.approx(truth, abs=1.0)  # noise 2 N over 350 samples
+    # Once per click setting, each from its own rests (the samples are in the recording,
+    # outside any test), and the two approaches agree: nothing hysteretic in this damper.
+    events = [e for e in rec.events if e[1] == "gas_force"]
+    assert len(events) == len(plan.clicks)
+    moved = SampleBlock.concat(outside)
+    assert np.ptp(moved.displacement_m) == pytest.approx(0.010, abs=0.001)  # ±5 mm
+
+
 def test_measured_cycles_are_the_commanded_sine(swept):
     path, *_ = swept
     rec = open_recording(path)
@@ -97,7 +116,7 @@ def test_measured_cycles_are_the_commanded_sine(swept):
 
 
 def test_fit_of_a_simulated_sweep_recovers_the_true_bleed_areas(swept):
-    path, _, _, _, truth = swept
+    path, _, _, _, truth, _ = swept
     tests = open_recording(path).load_all()
     result = fit_sweep(tests, default_spec_path(), optimizer="fast", seed=0)
     for c in result.clicks:

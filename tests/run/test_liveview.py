@@ -193,7 +193,11 @@ def test_disabled_view_prints_nothing_and_misuse_is_an_error() -> None:
 def test_end_of_test_line_agrees_with_the_report_of_the_recording(tmp_path: Path) -> None:
     """Live view and MCAP writer fed as the sweep runner feeds them; the report of the
     recording read back shows the numbers the engineer saw when each test ended."""
+    # As a sweep records them: the gas force it measured at mid-stroke with each test, which
+    # the line and the report both remove from the peak forces.
     tests = [make_test(0, 3, 1.5), make_test(1, 15, 1.0, t0=5.0)]
+    tests = [replace(t, meta=replace(t.meta, gas_force_n=230.7, gas_force_source="measured"))
+             for t in tests]  # fmt: skip
     gappy = blocks_of(tests[1], [64], seq0=5000)
     del gappy[10]  # 64 frames lost on the way from the DAQ
     buf = io.StringIO()
@@ -212,8 +216,10 @@ def test_end_of_test_line_agrees_with_the_report_of_the_recording(tmp_path: Path
             writer.end_test(test.meta)
             view.end_test(test.meta)
     rec = open_recording(path)
-    assert [summarise(t) for t in rec.load_all()] == view.summaries
+    assert [summarise(t, gas_force_n=t.meta.gas_force_n) for t in rec.load_all()] == view.summaries
     assert view.summaries[1].dropped_frames == 64
+    assert all(s.gas_force_n == 230.7 for s in view.summaries)
+    assert "gas_removed=231N" in buf.getvalue()
     index = build_report(rec.load_all(), tmp_path / "report", title="t1")
     html = index.read_text(encoding="utf-8")
     for s in view.summaries:
@@ -314,3 +320,24 @@ def test_imperial_end_of_test_line_is_the_si_line_converted() -> None:
     assert s.temperature_c is not None
     assert float(got["T"]) == pytest.approx(s.temperature_c * 1.8 + 32, abs=0.05)
     assert "lbf" in line and "in/s" in line and "F " in line and "N " not in line
+
+
+def test_live_line_removes_the_measured_gas_force_like_the_end_line() -> None:
+    test = make_test(0, 6, 1.5)
+    meta = replace(test.meta, gas_force_n=230.7, gas_force_source="measured")
+    lines = []
+    for m in (test.meta, meta):
+        buf = io.StringIO()
+        console = Console(file=buf, force_terminal=True, width=200, color_system=None)
+        with LiveView(1, console=console) as view:
+            view.start_test(m)
+            for block in blocks_of(test, [200]):
+                view.update(block)
+            assert view._live is not None
+            view._live.refresh()
+            lines.append(buf.getvalue())
+            view.end_test(m)
+    raw = re.findall(r"F ([+-]\d+) / ([+-]\d+) N", lines[0])[-1]
+    damping = re.findall(r"F ([+-]\d+) / ([+-]\d+) N \(gas removed\)", lines[1])[-1]
+    for r, d in zip(raw, damping, strict=True):
+        assert abs(int(r) - 231 - int(d)) <= 1  # rounding of each

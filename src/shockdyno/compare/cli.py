@@ -38,6 +38,11 @@ def register(sub: Any) -> None:
     p.add_argument("--json", metavar="FILE", help="write the difference table (SI) here; - stdout")
     p.add_argument("--title", default="Comparison", help="page title")
     units_mod.add_argument(p, "the page's tables and plots")
+    p.add_argument(
+        "--raw-force",
+        action="store_true",
+        help="compare the force as measured (default: damping force, the gas force removed)",
+    )
     p.add_argument("--force", action="store_true", help="replace an existing page or --json file")
     p.set_defaults(func=run_compare)
 
@@ -58,7 +63,7 @@ def run_compare(args: argparse.Namespace) -> int:
     labels = default_labels(paths, args.label)
     flags = ["input"] * len(args.inputs) + ["--fit"] * len(args.fit)
     inputs = [
-        load_input(Path(p), label, units.standard_velocities_m_s, flag)
+        load_input(Path(p), label, units.standard_velocities_m_s, flag, args.raw_force)
         for p, label, flag in zip(paths, labels, flags, strict=True)
     ]
     if not shared_settings(inputs):

@@ -17,7 +17,7 @@ from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.fit.result import FitResult
 from shockdyno.record import open_recording
 from shockdyno.record.types import TestData
-from shockdyno.report import clickchart, repeatability
+from shockdyno.report import clickchart, gas, repeatability
 from shockdyno.report.summary import TestSummary, summarise
 from shockdyno.result_files import MCAP_MAGIC
 
@@ -45,6 +45,7 @@ class Input:
     summaries: list[TestSummary] = field(default_factory=list)
     cycles: list[repeatability.TestCycles] = field(default_factory=list)
     fit: FitResult | None = None
+    raw_force: bool = False  # True: force as measured; else damping force, gas removed
 
     @property
     def settings(self) -> list[Setting]:
@@ -84,25 +85,34 @@ def _is_mcap(path: Path) -> bool:
         raise ConfigError(f"{path} is a folder; expected a recording (.mcap) or a fit") from None
 
 
-def load_input(path: Path, label: str, speeds_m_s: Sequence[float], flag: str = "input") -> Input:
+def load_input(
+    path: Path,
+    label: str,
+    speeds_m_s: Sequence[float],
+    flag: str = "input",
+    raw_force: bool = False,
+) -> Input:
     """Read one input; a one-line error for anything that is neither kind."""
     if flag == "input" and _is_mcap(path):
-        return _recording(path, label, speeds_m_s)
+        return _recording(path, label, speeds_m_s, raw_force)
     try:
         fit = FitResult.load(path, flag=flag).require_usable(f"{flag} {path}")
     except ConfigError as exc:
         if flag != "input":
             raise
         raise ConfigError(f"{exc} or a recording (.mcap)") from None
-    return _fit(path, label, fit, speeds_m_s)
+    return _fit(path, label, fit, speeds_m_s, raw_force)
 
 
-def _recording(path: Path, label: str, speeds_m_s: Sequence[float]) -> Input:
+def _recording(path: Path, label: str, speeds_m_s: Sequence[float], raw_force: bool) -> Input:
     rec = open_recording(path).require_recording()
     tests = [t for t in rec.load_all() if t.meta.status == "complete"]
     if not tests:
         raise RecordingError(f"{path}: no complete test to compare")
-    chart = clickchart.click_chart(tests, None, speeds_m_s)
+    if not raw_force:  # each test's gas force: measured, else estimated from its reversals
+        tests = gas.with_gas_force(tests)
+    chart = clickchart.click_chart(tests, None, speeds_m_s, raw_force=raw_force)
+    # the scatter is of single cycles about their mean: the gas force, a constant, drops out
     cycles = repeatability.sweep_cycles(tests, speeds_m_s)
     scatter = repeatability.chart_scatter(cycles, chart.velocities_m_s)
     values: dict[Setting, dict[float, Value]] = {}
@@ -112,12 +122,13 @@ def _recording(path: Path, label: str, speeds_m_s: Sequence[float]) -> Input:
             s = scatter.get(key, {}).get(t)
             sd = s.sd_of_mean_n if s is not None and not r.extrapolated else math.nan
             values[key][t] = Value(r.force_n, sd, r.extrapolated)
-    return Input(
-        label, path, "recording", chart, values, tests, [summarise(t) for t in tests], cycles
-    )
+    summaries = [summarise(t, gas_force_n=None if raw_force else t.meta.gas_force_n) for t in tests]
+    return Input(label, path, "recording", chart, values, tests, summaries, cycles, None, raw_force)
 
 
-def _fit(path: Path, label: str, fit: FitResult, speeds_m_s: Sequence[float]) -> Input:
-    chart = clickchart.click_chart([], fit, speeds_m_s)
+def _fit(
+    path: Path, label: str, fit: FitResult, speeds_m_s: Sequence[float], raw_force: bool
+) -> Input:
+    chart = clickchart.click_chart([], fit, speeds_m_s, raw_force=raw_force)
     values = {key: {t: Value(f, 0.0) for t, f in row.items()} for key, row in chart.model.items()}
-    return Input(label, path, "fit", chart, values, fit=fit)
+    return Input(label, path, "fit", chart, values, fit=fit, raw_force=raw_force)

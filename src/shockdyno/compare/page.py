@@ -24,7 +24,7 @@ from shockdyno.compare.table import (
     bleed_rows,
 )
 from shockdyno.record.atomic import write_text_atomic
-from shockdyno.report import plots, repeatability
+from shockdyno.report import gas, plots, repeatability
 from shockdyno.report.build import shown_path
 from shockdyno.report.clickplots import force_vs_clicks
 from shockdyno.report.html import Page
@@ -99,6 +99,7 @@ def render(
         ],
     )  # fmt: skip
 
+    page.paragraph(force_note(inputs, units))
     _difference_section(page, inputs, rows, units)
 
     page.section(
@@ -146,7 +147,7 @@ def render(
         band = repeatability.chart_band(
             repeatability.chart_scatter(inp.cycles, inp.chart.velocities_m_s)
         )
-        png = force_vs_clicks(inp.chart, out_dir / f"chart_{n + 1}.png", band)
+        png = force_vs_clicks(inp.chart, out_dir / f"chart_{n + 1}.png", band, units)
         page.figure(png.name, f"{inp.label}: force against clicks")
 
     header, bleed, _ = bleed_rows(list(inputs))
@@ -157,6 +158,26 @@ def render(
     index = out_dir / "index.html"
     write_text_atomic(index, page.render())
     return index
+
+
+def force_note(inputs: Sequence[Input], units: Units) -> str:
+    """What force the tables and peak plots hold, per input (loops are always raw)."""
+    if any(i.raw_force for i in inputs):
+        return "Force as measured, gas force included (--raw-force), in tables and plots."
+    parts = [
+        f"{i.label}: "
+        + (
+            gas.describe(i.tests, units)
+            if i.kind == "recording"
+            else "the model's own force at rest removed"
+        )
+        for i in inputs
+    ]
+    return (
+        "Damping force: the difference table, click charts and peak-force plot have the "
+        "static gas force removed (" + "; ".join(parts) + "); the loops show the force as "
+        "measured. --raw-force compares the force as measured."
+    )
 
 
 def _difference_section(

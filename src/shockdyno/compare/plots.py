@@ -65,6 +65,9 @@ def peak_overlay(inputs: Sequence[Input], path: Path, units: Units) -> Path:
             grid = tuple(np.linspace(-top, top, 81))
             for key in inp.settings:
                 f = clickchart.model_forces(inp.fit, key[0], grid, key[1])
+                if not inp.raw_force:  # damping force, as the recordings' peaks
+                    at_rest = clickchart.model_static_force_n(inp.fit, key[0], key[1])
+                    f = {v: force - at_rest for v, force in f.items()}
                 ax.plot(
                     [units.velocity(v) for v in grid],
                     [units.force(f[v]) for v in grid],
@@ -76,7 +79,9 @@ def peak_overlay(inputs: Sequence[Input], path: Path, units: Units) -> Path:
     ax.axvline(0.0, color="0.6", lw=0.6)
     ax.grid(True, alpha=0.3)
     ax.set_xlabel(f"peak velocity ({units.velocity_label}, + compression)")
-    ax.set_ylabel(f"peak force ({units.force_label})")
+    raw = any(i.raw_force for i in inputs)
+    what = "peak force" if raw else "peak damping force"
+    ax.set_ylabel(f"{what} ({units.force_label}{'' if raw else ', gas force removed'})")
     handles = [
         Line2D([], [], color=colour[i.label], ls="--" if i.kind == "fit" else "-",
                label=f"{i.label} ({'fit: model' if i.kind == 'fit' else 'measured'})")

@@ -195,6 +195,9 @@ def to_json(inputs: list[Input], rows: list[Row]) -> dict[str, Any]:
         "schema": "shockdyno.compare/1",
         "reference": inputs[0].label,
         "inputs": [{"label": i.label, "path": str(i.path), "kind": i.kind} for i in inputs],
+        # "damping": forces with the static gas force removed (each recording's measured or
+        # estimated one, each fit's model force at rest); "raw": as measured (--raw-force)
+        "force": "raw" if any(i.raw_force for i in inputs) else "damping",
         "rule": {"k_scatter": K_SCATTER, "floor_share": FLOOR_SHARE, "floor_n": FLOOR_N},
         "rows": [r.to_json() for r in rows],
         "bleed_areas": bleed,

@@ -54,6 +54,12 @@ def register(sub: Any) -> None:
 
     add_reference_temperature(p)
     p.add_argument(
+        "--raw-force",
+        action="store_true",
+        help="with --report: click chart and peaks in raw force, gas force included "
+        "(default: damping force, gas force removed; docs/report.md)",
+    )
+    p.add_argument(
         "--optimizer",
         choices=("fast", "ga"),
         default="fast",
@@ -296,6 +302,7 @@ def run_fit(args: argparse.Namespace) -> int:
                 progress=lambda stage: status.update(f"fit report: {stage}"),
                 reference_temperature_c=reference,
                 units=units_mod.get(args.units),
+                raw_force=args.raw_force,
             )
         say(f"report: {index}")
         header, rows = table4_rows(result)

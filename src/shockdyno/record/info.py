@@ -31,6 +31,8 @@ def _test_row(rec: Recording, meta: TestMeta) -> dict[str, Any]:
         "duration_s": None if t0 is None or t1 is None else t1 - t0,
         "dropped_frames": meta.dropped_frames,
         "corrupt_frames": meta.corrupt_frames,
+        "gas_force_n": meta.gas_force_n,  # as stored (None: not measured)
+        "gas_force_source": meta.gas_force_source,
     }
 
 

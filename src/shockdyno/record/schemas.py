@@ -202,6 +202,8 @@ TEST_SCHEMA = _json_schema(
         "gas_pressure_pa": {**_OPT_NUM, "description": "gas charge, absolute Pa"},
         "abort_reason": {"type": ["string", "null"]},
         "start_temperature_c": _OPT_NUM,
+        "gas_force_n": {**_OPT_NUM, "description": "static gas force at mid-stroke, N"},
+        "gas_force_source": {"enum": ["measured", "estimated", None]},
     },
     required=["phase", "test", "index", "clicks", "gas_clicks", "frequency_hz", "amplitude_m"],
 )

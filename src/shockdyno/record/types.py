@@ -37,6 +37,11 @@ class TestMeta:
     gas_pressure_pa: float | None = None  # measured gas charge (absolute), when known
     abort_reason: str | None = None  # why a test stopped early (status "aborted")
     start_temperature_c: float | None = None  # oil temperature when the test began
+    # Static gas force on the rod at mid-stroke (N) and where it came from: "measured" (the
+    # sweep's hold at mid-stroke, run/gas_measure.py) or "estimated" (report/gas.py, from
+    # the sine's reversals); None when unknown. Older recordings have neither.
+    gas_force_n: float | None = None
+    gas_force_source: str | None = None
 
 
 @dataclass(frozen=True)

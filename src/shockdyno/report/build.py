@@ -25,10 +25,13 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from shockdyno.errors import ConfigError
 from shockdyno.record.atomic import write_text_atomic
 from shockdyno.record.types import TestData
 from shockdyno.report import clickchart, plots, repeatability, temperature
+from shockdyno.report import gas as gas_force
 from shockdyno.report.clickplots import force_vs_clicks
 from shockdyno.report.diagnose_section import render_diagnose, render_figures
 from shockdyno.report.html import SUMMARY_LEGEND, Page, summary_header, summary_row
@@ -114,12 +117,16 @@ def build_report(
     reference_temperature_c: float = temperature.DEFAULT_REFERENCE_C,
     diagnose_dir: Path | None = None,
     units: Units = SI,
+    raw_force: bool = False,
 ) -> Path:
     """Write the report into ``out_dir``; returns the path of index.html.
 
     Every part is optional: no tests (a ride-only page), no fit (measured click chart
     only), ``diagnose`` and ``ride`` as the JSON documents of those commands.
-    ``gas_force_n``: the static gas force to mark on loops (taken from the fit if given).
+    ``gas_force_n``: the static gas force to mark on loops (taken from the fit if given,
+    else the recording's). The click chart, the summary table and the peak-force plot show
+    damping force, the gas force removed (report/gas.py), unless ``raw_force``; the loops
+    show the force as measured.
     ``warn``: called with each drift warning (one line), e.g. to print it on the terminal.
     ``reference_temperature_c``: oil temperature of the corrected click chart
     (report/temperature.py). ``diagnose_dir``: the folder of the diagnose JSON, whose
@@ -134,7 +141,8 @@ def build_report(
     out_dir.mkdir(parents=True, exist_ok=True)
 
     say("summaries")
-    summaries = [summarise(t) for t in tests]
+    tests = gas_force.with_gas_force(tests)  # measured, else estimated from the reversals
+    summaries = [summarise(t, gas_force_n=None if raw_force else t.meta.gas_force_n) for t in tests]
     drawable = [
         plots.prepare(t, s)
         for t, s in zip(tests, summaries, strict=True)
@@ -143,6 +151,10 @@ def build_report(
     complete = [c for c in drawable if not c.aborted and _finite(c.summary)]
     if fit is not None and gas_force_n is None:
         gas_force_n = clickchart.static_force_n(fit)
+    known = [t.meta.gas_force_n for t in tests if t.meta.gas_force_n is not None]
+    if gas_force_n is None and known:
+        gas_force_n = float(np.median(known))
+    force_note = "raw force (gas force included)" if raw_force else gas_force.describe(tests, units)
 
     page = Page(title)
     live = Interactive(units)  # the interactive twins of the figures, and their script
@@ -152,11 +164,13 @@ def build_report(
 
     if complete:
         say("click chart")
-        _click_chart_section(page, [c.test for c in complete], fit, out_dir, live)
-        temperature.render(page, [c.test for c in complete], fit, reference_temperature_c, out_dir)
+        _click_chart_section(page, [c.test for c in complete], fit, out_dir, live, raw_force)
+        temperature.render(
+            page, [c.test for c in complete], fit, reference_temperature_c, out_dir, raw_force
+        )
 
     if tests:
-        _summary_section(page, summaries, units)
+        _summary_section(page, summaries, units, force_note)
 
     peak_cycles = repeatability.sweep_cycles([c.test for c in complete], ())
     if complete:
@@ -168,7 +182,7 @@ def build_report(
 
     if complete:
         say("peak and overlay figures")
-        _peaks_and_overlays(page, complete, out_dir, gas_force_n, live, peak_cycles)
+        _peaks_and_overlays(page, complete, out_dir, gas_force_n, live, peak_cycles, force_note)
 
     if fit is not None:
         say("fit figures")
@@ -198,10 +212,15 @@ def build_report(
 
 
 def _click_chart_section(
-    page: Page, tests: list[TestData], fit: FitResult | None, out_dir: Path, live: Interactive
+    page: Page,
+    tests: list[TestData],
+    fit: FitResult | None,
+    out_dir: Path,
+    live: Interactive,
+    raw_force: bool,
 ) -> None:
     units = live.units
-    chart = clickchart.click_chart(tests, fit, units.standard_velocities_m_s)
+    chart = clickchart.click_chart(tests, fit, units.standard_velocities_m_s, raw_force=raw_force)
     u = f"{units.force_label}; velocity in {units.velocity_label}"
     speeds = sorted({abs(v) for v in chart.velocities_m_s})
     scatter = repeatability.chart_scatter(
@@ -209,12 +228,19 @@ def _click_chart_section(
     )
     band = repeatability.chart_band(scatter)
     widest = repeatability.widest(band)
+    what = (
+        "Force (raw, gas force included: --raw-force)"
+        if raw_force
+        else f"Damping force ({gas_force.describe(tests, units)}"
+        + ("; the model's own force at rest removed from its values alike" if fit else "")
+        + "; --raw-force shows the force as measured)"
+    )
     page.section(
         "Click chart",
-        "Force at standard velocities per click, compression (comp, velocity > 0) and rebound "
-        f"(reb, velocity < 0), in {units.force_label}. Measured: the force of each test's "
-        "force-velocity branch where it passes the velocity (every crossing of the measured "
-        "cycles averaged), then averaged over the click's frequencies.",
+        f"{what} at standard velocities per click, compression (comp, velocity > 0) and "
+        f"rebound (reb, velocity < 0), in {units.force_label}. Measured: the force of each "
+        "test's force-velocity branch where it passes the velocity (every crossing of the "
+        "measured cycles averaged), then averaged over the click's frequencies.",
     )
     png = force_vs_clicks(chart, out_dir / "click_chart.png", band, units).name
     caption = (
@@ -246,15 +272,19 @@ def _click_chart_section(
         page.table(header, rows, numeric=[True] * len(header))
         page.close_details()
     also = " and the model's" if chart.model else ""
+    held = "raw force" if raw_force else "damping force, gas force removed (column gas_force)"
     page.link(
         "click_chart.csv",
         "click_chart.csv",
-        f": the measured values{also} as CSV ({units.velocity_label}, {units.force_label}).",
+        f": the measured values{also} as CSV ({units.velocity_label}, {units.force_label}; "
+        f"{held}).",
     )
 
 
-def _summary_section(page: Page, summaries: list[TestSummary], units: Units) -> None:
-    page.section("Summary", SUMMARY_LEGEND)
+def _summary_section(
+    page: Page, summaries: list[TestSummary], units: Units, force_note: str
+) -> None:
+    page.section("Summary", f"{SUMMARY_LEGEND} F comp / F reb: {force_note}.")
     n_aborted = sum(s.status != "complete" for s in summaries)
     if n_aborted:
         page.paragraph(f"{n_aborted} of {len(summaries)} tests did not complete (marked).")
@@ -299,14 +329,15 @@ def _peaks_and_overlays(
     gas_force_n: float | None,
     live: Interactive,
     cycles: list[repeatability.TestCycles],
+    force_note: str,
 ) -> None:
     units = live.units
     page.section("Peak force vs peak velocity")
     band = repeatability.peak_band(cycles)
     peaks = plots.peak_curves([c.summary for c in complete], out_dir / "peaks.png", band, units)
     caption = (
-        "One curve per click through its test frequencies; complete tests only. Bars: ±2 SD "
-        "of the test's per-cycle peak force (cycle-to-cycle band)."
+        f"One curve per click through its test frequencies; complete tests only; {force_note}. "
+        "Bars: ±2 SD of the test's per-cycle peak force (cycle-to-cycle band)."
     )
     page.raw(live.figure(peaks.name, caption, live.peaks(complete)))
     page.section("Overlays across clicks")

@@ -32,6 +32,13 @@ def register(sub: Any) -> None:
     p.add_argument("--title", help="page title (default: from the recording's metadata)")
     temperature.add_argument(p)
     p.add_argument(
+        "--raw-force",
+        action="store_true",
+        help="click chart, summary and peak-force plot in raw force, gas force included "
+        "(default: damping force, the gas force measured at mid-stroke, or estimated from "
+        "the reversals, removed)",
+    )
+    p.add_argument(
         "--force",
         action="store_true",
         help="replace an existing DIR/index.html; show a result made from another recording "
@@ -132,6 +139,7 @@ def run_report(args: argparse.Namespace) -> int:
             reference_temperature_c=reference_c,
             diagnose_dir=Path(args.diagnose).parent if args.diagnose else None,
             units=get_units(args.units),
+            raw_force=args.raw_force,
         )
     print(f"report: {index}")
     return 0

@@ -16,6 +16,11 @@ terms, no sensor terms, lags at their steady state) with the click's areas
 (``FitResult.areas``) at mid-stroke (x = 0) and zero acceleration: the damper's steady
 characteristic. It differs from the measured value by what the branch average
 carries and the characteristic does not (gas spring over the stroke, inertia, hysteresis).
+
+**Gas force removed** (the default): measured values are read from the damping force,
+force minus each test's gas force (measured at mid-stroke, else estimated: report/gas.py),
+and model values have the model's own force at rest at mid-stroke removed, so both show
+damping alone and agree. ``raw_force=True`` keeps the force as measured (gas included).
 """
 
 from __future__ import annotations
@@ -24,7 +29,7 @@ import csv
 import io
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -34,6 +39,7 @@ from shockdyno.errors import FitError
 from shockdyno.model import DamperSpec, damper_force
 from shockdyno.model.quarter_car import quasi_static_force
 from shockdyno.record.types import TestData
+from shockdyno.report import gas as gas_force
 from shockdyno.report.summary import velocity
 from shockdyno.units import SI, Units
 
@@ -65,6 +71,11 @@ class ClickChart:
     measured: dict[Setting, dict[float, Reading]]
     model: dict[Setting, dict[float, float]]  # empty without a fit
     model_curve: dict[int, dict[float, float]]  # every click of the fit's range (trend)
+    # Gas force removed from the values above (N, per setting; empty when raw_force):
+    gas_force_n: dict[Setting, float] = field(default_factory=dict)  # measured/estimated
+    model_gas_force_n: dict[Setting, float] = field(default_factory=dict)  # model at rest
+    raw_force: bool = True
+    gas_note: str = ""  # 'gas force removed: 231 N measured at mid-stroke at rest'
 
     @property
     def any_extrapolated(self) -> bool:
@@ -154,27 +165,58 @@ def static_force_n(fit: FitResult) -> float:
     return float(np.asarray(quasi_static_force(car, 0.0, 0.0, 0.0, a_bc, a_bt)).reshape(-1)[0])
 
 
+def model_static_force_n(fit: FitResult, clicks: int, gas_clicks: int | None = None) -> float:
+    """The fitted model's force at rest at mid-stroke with this click's areas: its gas force."""
+    return model_forces(fit, clicks, (0.0,), gas_clicks)[0.0]
+
+
+def _minus(values: dict[float, float], amount: float) -> dict[float, float]:
+    return {v: f - amount for v, f in values.items()}
+
+
 def click_chart(
     tests: Sequence[TestData],
     fit: FitResult | None = None,
     speeds_m_s: Sequence[float] = STANDARD_VELOCITIES_M_S,
+    *,
+    raw_force: bool = False,
 ) -> ClickChart:
+    """The chart, gas force removed from measured and model values unless `raw_force`."""
     targets = signed_velocities(speeds_m_s)
+    gas: dict[Setting, float] = {}
+    model_gas: dict[Setting, float] = {}
+    note = ""
+    if not raw_force:
+        tests = gas_force.with_gas_force(tests)
+        note = gas_force.describe(tests)
+        per_setting: dict[Setting, list[float]] = {}
+        for t in tests:
+            if t.meta.gas_force_n is not None:
+                key = (t.meta.clicks, t.meta.gas_clicks)
+                per_setting.setdefault(key, []).append(t.meta.gas_force_n)
+        gas = {k: float(np.mean(v)) for k, v in per_setting.items()}
+        tests = gas_force.remove_gas(tests)
     measured = measured_chart(tests, targets)
     model: dict[Setting, dict[float, float]] = {}
     curve: dict[int, dict[float, float]] = {}
     if fit is not None and fit.clicks:
         for c in fit.clicks:
-            model[(c.clicks, c.gas_clicks)] = model_forces(fit, c.clicks, targets, c.gas_clicks)
-        gas = fit.main_gas_clicks()  # the trend's curve is at the main gas setting
-        fitted = sorted({c.clicks for c in fit.clicks if c.gas_clicks == gas})
+            key = (c.clicks, c.gas_clicks)
+            model[key] = model_forces(fit, c.clicks, targets, c.gas_clicks)
+            if not raw_force:
+                model_gas[key] = model_static_force_n(fit, c.clicks, c.gas_clicks)
+                model[key] = _minus(model[key], model_gas[key])
+        main_gas = fit.main_gas_clicks()  # the trend's curve is at the main gas setting
+        fitted = sorted({c.clicks for c in fit.clicks if c.gas_clicks == main_gas})
         for n in range(fitted[0], fitted[-1] + 1):
             try:
                 curve[n] = model_forces(fit, n, targets)
+                if not raw_force:
+                    curve[n] = _minus(curve[n], model_static_force_n(fit, n))
             except FitError:  # no trend to interpolate between fitted clicks
                 continue
     settings = sorted(set(measured) | set(model))
-    return ClickChart(targets, settings, measured, model, curve)
+    return ClickChart(targets, settings, measured, model, curve, gas, model_gas, raw_force, note)
 
 
 def velocity_label(v_m_s: float, units: Units = SI) -> str:
@@ -222,6 +264,8 @@ CSV_HEADER = [
     "force_n",
     "extrapolated",
     "n_tests",
+    "gas_removed",  # 1: force_n is damping force (gas force removed); 0: raw force
+    "gas_force_n",  # the gas force removed from this row (empty when raw)
 ]
 
 
@@ -237,19 +281,27 @@ def csv_header(units: Units = SI) -> list[str]:
         "force_lbf",
         "extrapolated",
         "n_tests",
+        "gas_removed",
+        "gas_force_lbf",
     ]
 
 
 def to_csv(chart: ClickChart, units: Units = SI) -> str:
     """Long format, one row per setting, velocity and source (measured, model); velocity
-    and force in ``units`` (the header says which)."""
+    and force in ``units`` (the header says which); each row says whether its force is
+    damping force (gas removed) and the gas force it removed."""
     text = io.StringIO()
     w = csv.writer(text, lineterminator="\n")
     w.writerow(csv_header(units))
-    # SI keeps its m/s column; imperial's in/s at the 1, 2, 3 ... of its chart.
+    removed = int(not chart.raw_force)
 
+    # SI keeps its m/s column; imperial's in/s at the 1, 2, 3 ... of its chart.
     def speed(t: float) -> str:
         return f"{units.velocity(t):.4g}" if units.imperial else f"{t:g}"
+
+    def gas(values: dict[Setting, float], key: Setting) -> str:
+        g = values.get(key)
+        return "" if chart.raw_force or g is None else f"{units.force(g):.2f}"
 
     for key in chart.settings:
         for t in chart.velocities_m_s:
@@ -257,10 +309,12 @@ def to_csv(chart: ClickChart, units: Units = SI) -> str:
             if r is not None:
                 f = units.force(r.force_n)
                 force = f"{f:.2f}" if math.isfinite(f) else ""
-                w.writerow([*key, speed(t), "measured", force, int(r.extrapolated), r.n_tests])
+                w.writerow([*key, speed(t), "measured", force, int(r.extrapolated), r.n_tests,
+                            removed, gas(chart.gas_force_n, key)])  # fmt: skip
             mf = chart.model.get(key, {}).get(t)
             if mf is not None:
-                w.writerow([*key, speed(t), "model", f"{units.force(mf):.2f}", 0, ""])
+                w.writerow([*key, speed(t), "model", f"{units.force(mf):.2f}", 0, "", removed,
+                            gas(chart.model_gas_force_n, key)])  # fmt: skip
     return text.getvalue()
 
 

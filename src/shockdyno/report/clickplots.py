@@ -76,7 +76,11 @@ def force_vs_clicks(
                 )
         ax.set_title(f"{title} (velocity {'+' if sign > 0 else '−'}, force at each speed)")
         ax.set_xlabel("rod clicks (open →)")
-        ax.set_ylabel(f"force F ({units.force_label})")
+        ax.set_ylabel(
+            f"force F ({units.force_label})"
+            if chart.raw_force
+            else f"damping force ({units.force_label}, gas removed)"
+        )
         ax.xaxis.set_major_locator(MaxNLocator(integer=True, nbins=8))
         ax.yaxis.set_major_locator(MaxNLocator(nbins=7))
         ax.grid(True, alpha=0.3)

@@ -340,8 +340,12 @@ def peak_curves(
     _ticks(ax)
     _direct_labels(ax, ends)
     ax.set_xlabel(f"peak velocity ({units.velocity_label}, + compression, − rebound)")
-    ax.set_ylabel(f"peak force ({units.force_label})")
-    title = "peak force vs peak velocity per click"
+    removed = bool(summaries) and all(s.gas_force_n is not None for s in summaries)
+    fl = units.force_label
+    ax.set_ylabel(
+        f"peak damping force ({fl}, gas force removed)" if removed else f"peak force ({fl})"
+    )
+    title = f"peak {'damping ' if removed else ''}force vs peak velocity per click"
     if len(gas_values) > 1:
         title += (
             " (marker: gas clicks "

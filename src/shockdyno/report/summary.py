@@ -9,7 +9,9 @@ Definitions (all over the measured cycles, ``test.measured()``):
 - peak compression / rebound velocity: max(v) and min(v), with v from
   :func:`shockdyno.model.differentiate` (Savitzky–Golay, 25 ms window);
 - temperature: mean over the measured cycles (None when the test has no temperature);
-- dropped frames: over the whole test, not only the measured cycles (see :func:`summarise`).
+- dropped frames: over the whole test, not only the measured cycles (see :func:`summarise`);
+- with ``gas_force_n`` given, the peak forces are damping forces: force minus that static
+  gas force (report/gas.py), and the line says ``gas_removed=231N``.
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ class TestSummary:
     peak_rebound_velocity_m_s: float
     temperature_c: float | None
     dropped_frames: int | None
+    gas_force_n: float | None = None  # removed from the peak forces (None: raw force)
 
     def line(self, done: int | None = None, total: int | None = None, units: Units = SI) -> str:
         """One plain ASCII line (no control codes) for logs, pipes and CI; imperial units
@@ -68,7 +71,12 @@ class TestSummary:
             f" A={amp}"
             f" Fc={_fmt(units.force(self.peak_compression_force_n), '+.0f')}{f_unit}"
             f" Fr={_fmt(units.force(self.peak_rebound_force_n), '+.0f')}{f_unit}"
-            f" vc={_fmt(self.peak_compression_velocity_m_s * v_scale, v_spec)}{v_unit}"
+            + (
+                ""
+                if self.gas_force_n is None
+                else f" gas_removed={units.force(self.gas_force_n):.0f}{f_unit}"
+            )
+            + f" vc={_fmt(self.peak_compression_velocity_m_s * v_scale, v_spec)}{v_unit}"
             f" vr={_fmt(self.peak_rebound_velocity_m_s * v_scale, v_spec)}{v_unit}"
             f" T={temp} dropped={dropped} {self.status}"
         )
@@ -113,7 +121,9 @@ def dropped_from_time(t: FloatArray, sample_rate_hz: float) -> int:
     return int(np.sum(np.clip(steps - 1, 0, None)))
 
 
-def summarise(test: TestData, dropped_frames: int | None = None) -> TestSummary:
+def summarise(
+    test: TestData, dropped_frames: int | None = None, gas_force_n: float | None = None
+) -> TestSummary:
     """Headline numbers of ``test`` (see the module docstring for the definitions).
 
     Dropped frames: the largest of the counts known: ``dropped_frames`` (what the live
@@ -131,7 +141,8 @@ def summarise(test: TestData, dropped_frames: int | None = None) -> TestSummary:
     nan = float("nan")
     f_max = f_min = v_max = v_min = nan
     if m.force.size:
-        f_max, f_min = float(np.max(m.force)), float(np.min(m.force))
+        gas = 0.0 if gas_force_n is None else gas_force_n
+        f_max, f_min = float(np.max(m.force)) - gas, float(np.min(m.force)) - gas
     v = velocity(m.t, m.x)
     if v.size and not np.all(np.isnan(v)):
         v_max, v_min = float(np.nanmax(v)), float(np.nanmin(v))
@@ -152,4 +163,5 @@ def summarise(test: TestData, dropped_frames: int | None = None) -> TestSummary:
         peak_rebound_velocity_m_s=v_min,
         temperature_c=temp,
         dropped_frames=dropped,
+        gas_force_n=gas_force_n,
     )

@@ -140,9 +140,11 @@ def correct(
     temperatures_c: dict[Setting, float],
     fit: FitResult,
     reference_c: float,
+    damping_only: bool = False,
 ) -> dict[Setting, dict[float, float]]:
     """The measured values moved to ``reference_c`` (module docstring); a setting the fit
-    has no areas for, or without a temperature, is left out."""
+    has no areas for, or without a temperature, is left out. ``damping_only``: the values
+    are damping force (the gas force already removed), scaled by D(T_ref) / D(T) alone."""
     out: dict[Setting, dict[float, float]] = {}
     for key, row in measured.items():
         if key not in temperatures_c:
@@ -158,15 +160,22 @@ def correct(
         for k, v in enumerate(targets):
             value = row[v]
             ok = math.isfinite(value) and abs(d_t[k]) > 1e-9
-            corrected[v] = g_ref + (value - g_t) * d_ref[k] / d_t[k] if ok else math.nan
+            if not ok:
+                corrected[v] = math.nan
+            elif damping_only:
+                corrected[v] = value * d_ref[k] / d_t[k]
+            else:
+                corrected[v] = g_ref + (value - g_t) * d_ref[k] / d_t[k]
         out[key] = corrected
     return out
 
 
 def corrected_chart(
-    tests: Sequence[TestData], fit: FitResult, reference_c: float
+    tests: Sequence[TestData], fit: FitResult, reference_c: float, raw_force: bool = True
 ) -> CorrectedChart:
-    chart = clickchart.click_chart(tests)
+    """``raw_force``: correct the force as measured (gas force included); else the click
+    chart's damping force (its gas force removed), scaled by the model's damping ratio."""
+    chart = clickchart.click_chart(tests, raw_force=raw_force)
     measured = {k: {v: r.force_n for v, r in row.items()} for k, row in chart.measured.items()}
     temps = setting_temperatures(tests)
     return CorrectedChart(
@@ -174,7 +183,7 @@ def corrected_chart(
         chart.velocities_m_s,
         temps,
         measured,
-        correct(measured, temps, fit, reference_c),
+        correct(measured, temps, fit, reference_c, damping_only=not raw_force),
     )
 
 
@@ -210,6 +219,7 @@ def render(
     fit: FitResult | None,
     reference_c: float,
     out_dir: Path | None = None,
+    raw_force: bool = True,
 ) -> None:
     """The section after the click chart: the corrected chart (and, given ``out_dir``, its
     CSV there), or one line saying why there is none."""
@@ -220,14 +230,20 @@ def render(
         if out_dir is not None:  # a re-run's page must not sit beside an earlier one's CSV
             (Path(out_dir) / CSV_NAME).unlink(missing_ok=True)
         return
-    c = corrected_chart(tests, fit, reference_c)
+    c = corrected_chart(tests, fit, reference_c, raw_force)
+    formula = (
+        "F = G(T_ref) + (F_measured − G(T)) × D(T_ref) / D(T)"
+        if raw_force
+        else "D = D_measured × D_model(T_ref) / D_model(T) (damping force, the gas force "
+        "removed as in the table above)"
+    )
     temps = sorted(c.temperatures_c.values())
     page.section(
         heading,
         "A model-based correction, not a measurement: each measured value (the table above) "
         f"moved from its tests' mean oil temperature to {reference_c:g} °C by the fitted "
-        "thermal term: F = G(T_ref) + (F_measured − G(T)) × D(T_ref) / D(T), with G the "
-        "model's static (gas) force and D its damping force at that click and velocity. "
+        f"thermal term: {formula}, with G the model's static (gas) force and D its damping "
+        "force at that click and velocity. "
         f"Tests' mean temperatures: {temps[0]:.1f} to {temps[-1]:.1f} °C; reference "
         f"{reference_c:g} °C (--reference-temperature-c). Only what the thermal term models "
         "is corrected.",

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import math
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -98,6 +99,12 @@ def register(sub: Any) -> None:
         help="the damper's gas charge as set, bar absolute: stored with every test, so "
         "diagnose can tell air (its lag falls as the charge rises) from a sensor lag",
     )
+    s.add_argument(
+        "--no-gas-measure",
+        action="store_true",
+        help="skip the static gas-force measurement at mid-stroke at the start and after each "
+        "click change (reports then estimate it from the sine's reversals)",
+    )
     s.add_argument("--warmup-cycles", type=int, default=2, help="cycles before the measured ones")
     s.add_argument("--cycles", type=int, default=5, help="measured cycles per test")
     s.add_argument("--temp-band-c", type=_band, help="wait until LOW <= T <= HIGH before each test")
@@ -144,17 +151,24 @@ def _frequencies(args: argparse.Namespace, rig: RigConfig | None) -> list[float]
                 f"--velocities-mm-s: {too_fast[0] * 1e3:g} mm/s exceeds the rig's limit of "
                 f"{limit * 1e3:g} mm/s ({rig.source} limits.velocity_m_s)"
             )
-    freqs = frequencies_for_velocities(velocities, amplitude_m)
     if rig is not None:
         f_max = rig.daq.sample_rate_hz / 20
-        for v, f in zip(velocities, freqs, strict=True):
+        exact = [float(f"{v / (2 * math.pi * amplitude_m):.5g}") for v in velocities]
+        for v, f in zip(velocities, exact, strict=True):
             if f > f_max:
                 raise ConfigError(
                     f"--velocities-mm-s: {v * 1e3:g} mm/s at {amplitude_m * 1e3:g} mm needs "
                     f"{f:g} Hz, above the {f_max:g} Hz the DAQ's {rig.daq.sample_rate_hz:g} Hz "
                     "allows (20 samples per cycle); use a larger --amplitude-mm"
                 )
-    return freqs
+    # The top target gets its margin (run/plan.py), within the rig's velocity and the
+    # DAQ's 20 samples per cycle.
+    cap = math.inf
+    if rig is not None:
+        f_max = rig.daq.sample_rate_hz / 20
+        # 5 % under the limit: the safety monitor watches measured, noisy velocities.
+        cap = 0.95 * min(rig.limits.velocity_m_s, 2 * math.pi * amplitude_m * f_max)
+    return frequencies_for_velocities(velocities, amplitude_m, cap)
 
 
 def _plan(
@@ -174,6 +188,7 @@ def _plan(
         gas_pressure_pa=(
             None if getattr(args, "gas_pressure_bar", None) is None else args.gas_pressure_bar * 1e5
         ),
+        measure_gas=not getattr(args, "no_gas_measure", False),
     )
 
 

@@ -101,8 +101,11 @@ class _LiveLine:
         line = Text(no_wrap=True, overflow="ellipsis")
         if s.n_samples:
             line.append(f"t {s.t_last_s - s.t_first_s:5.1f} s  ")
+            # Damping force when the sweep measured the gas force, as the end-of-test line.
+            gas = meta.gas_force_n or 0.0
             line.append(
-                f"F {s.peak_compression_force_n:+.0f} / {s.peak_rebound_force_n:+.0f} N  ",
+                f"F {s.peak_compression_force_n - gas:+.0f} / "
+                f"{s.peak_rebound_force_n - gas:+.0f} N{' (gas removed)' if gas else ''}  ",
                 style="cyan",
             )
             if math.isfinite(s.peak_compression_velocity_m_s):
@@ -261,13 +264,16 @@ class LiveView:
         """Close the running test with its final metadata; prints and returns its summary.
 
         The summary is :func:`summarise` of the samples received, so a dropped-frame count
-        stored in ``meta.dropped_frames`` counts too.
+        stored in ``meta.dropped_frames`` counts too. A gas force the sweep measured
+        (``meta.gas_force_n``) is removed from the peak forces, and the line says so.
         """
         if self.current is None:
             raise RuntimeError("LiveView.end_test() before start_test()")
         data = SampleBlock.concat(self._blocks)
         test = TestData(meta, data.t_s, data.displacement_m, data.force_n, data.temperature_c)
-        summary = summarise(test, dropped_frames=self.stats.dropped_frames)
+        summary = summarise(
+            test, dropped_frames=self.stats.dropped_frames, gas_force_n=meta.gas_force_n
+        )
         self.done += 1
         self.summaries.append(summary)
         self.current = None

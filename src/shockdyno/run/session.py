@@ -36,6 +36,9 @@ from shockdyno.run.safety import LimitMonitor, SafetyEvent, SafetyTrip
 from shockdyno.run.verify import cycle_mismatch, frame_loss, measure_sine, plan_mismatch
 
 CENTRE_TOLERANCE_M = 0.001
+HOLD_TOLERANCE_M = 0.0005  # a hold has arrived when the DAQ's displacement is this close
+# (loose enough for a servo's steady error under the gas load; the rest itself is found
+# from the samples, run/gas_measure.py)
 # A command's round trip takes wall time, which a fast simulated rig turns into seconds of
 # DAQ time: no DAQ-time deadline is called before this much host time has passed too.
 MIN_WALL_S = 0.5
@@ -124,6 +127,7 @@ class RigSession:
         self._disarm_reason = ""
         self._t = 0.0  # DAQ time of the latest sample
         self._temp = math.nan
+        self._x = math.nan  # displacement at the latest sample (m from the stroke centre)
         self._motion = False  # the motion output at the latest sample
         self._seq: int | None = None  # sequence number of the latest sample
         self._last_sample_wall = clock()
@@ -351,6 +355,72 @@ class RigSession:
             stop_sweep=stop_sweep,
         )
 
+    def hold_at(
+        self, offset_m: float, velocity_m_s: float | None, dwell_s: float, on_block: BlockSink
+    ) -> tuple[float, float]:
+        """Move at `velocity_m_s` (None: the rig's ramp.move_velocity_m_s) to `offset_m` from
+        the stroke centre (+ compression), then hold still for `dwell_s` of DAQ time; every
+        sample of the move and the hold goes to `on_block`. Returns the DAQ times (arrived,
+        end of the hold).
+
+        The same limits on every sample, heartbeat and teardown as a sine: a trip makes the
+        controlled stop and raises RigFault (the sweep stops, as after an aborted test).
+        """
+        lim = self.rig.limits
+        if velocity_m_s is None:
+            velocity_m_s = self.rig.ramp.move_velocity_m_s
+        for name, value in (("offset", offset_m), ("velocity", velocity_m_s), ("dwell", dwell_s)):
+            if not (isinstance(value, int | float) and math.isfinite(value)):
+                raise ConfigError(f"hold: {name} must be a finite number, got {value!r}")
+        if abs(offset_m) > lim.travel_m:
+            raise ConfigError(
+                f"hold at {offset_m * 1e3:+g} mm exceeds the rig's travel of "
+                f"±{lim.travel_m * 1e3:g} mm ({self.rig.source} limits.travel_m)"
+            )
+        if not 0 < velocity_m_s <= min(lim.velocity_m_s, self.rig.ramp.move_velocity_m_s):
+            raise ConfigError(
+                f"hold: move velocity must be > 0 and at most the rig's move velocity "
+                f"{self.rig.ramp.move_velocity_m_s:g} m/s, got {velocity_m_s:g}"
+            )
+        if dwell_s <= 0:
+            raise ConfigError(f"hold: dwell must be > 0 s, got {dwell_s:g}")
+        if not self._armed:
+            raise RigFault(f"actuator is not enabled (disarmed by: {self._disarm_reason})")
+        act = self._act()
+        target = self.rig.stroke_centre_m + offset_m
+        try:
+            # Unlike a sine's, the backlog goes to on_block: consecutive holds (the gas-force
+            # measurement's) then stream every sample between them too.
+            self._on_block = on_block
+            self._catch_up(check=True)
+            st = act.status()
+            act.set_mode("hold")
+            act.write({"move_velocity": velocity_m_s, "position_command": target})
+            distance = abs(st.position_m - target)
+            # Arrived when the drive says so and the DAQ's samples show it: at a fast
+            # simulated rig's speed the stream lags the drive by a good part of a second.
+            self._wait(
+                lambda s: (
+                    s.target_reached
+                    and abs(s.position_m - target) < CENTRE_TOLERANCE_M
+                    and abs(self._x - offset_m) < HOLD_TOLERANCE_M
+                ),
+                daq_budget_s=distance / velocity_m_s + 2.0,
+                what=f"move to {offset_m * 1e3:+g} mm",
+            )
+            arrived = self._t
+            self._wait(lambda s: self._t >= arrived + dwell_s, daq_budget_s=dwell_s + 2.0,
+                       what="hold")  # fmt: skip
+            return arrived, self._t
+        except (RigFault, SafetyTrip) as exc:
+            ev = exc.event if isinstance(exc, SafetyTrip) else self._event("fault", str(exc))
+            if isinstance(exc, SafetyTrip):
+                self._record(ev)
+            self._safe_stop(ev.message)
+            raise RigFault(ev.message) from None
+        finally:
+            self._on_block = None
+
     def _verify(
         self,
         blocks: list[SampleBlock],
@@ -489,6 +559,7 @@ class RigSession:
             gap = self._largest_gap(block)
             self._t = float(block.t_s[-1])
             self._temp = float(block.temperature_c[-1])
+            self._x = float(block.displacement_m[-1])
             self._motion = bool(block.status[-1] & STATUS_MOTION)
             if self._on_block is not None:
                 self._on_block(block)

@@ -17,6 +17,7 @@ from shockdyno.errors import RigFault
 from shockdyno.record.types import TestMeta
 from shockdyno.rig.types import SampleBlock
 from shockdyno.run import signals
+from shockdyno.run.gas_measure import measure_gas_force
 from shockdyno.run.plan import SweepPlan, SweepPoint
 from shockdyno.run.signals import Terminated
 
@@ -33,6 +34,14 @@ class _Outcome(Protocol):
 
 class Session(Protocol):
     def set_clicks(self, rod_clicks: int, gas_clicks: int) -> None: ...
+
+    def hold_at(
+        self,
+        offset_m: float,
+        velocity_m_s: float | None,
+        dwell_s: float,
+        on_block: Callable[[SampleBlock], None],
+    ) -> tuple[float, float]: ...
 
     def read_temperature_c(self) -> float: ...
 
@@ -116,14 +125,29 @@ def run_sweep(
     result = SweepResult()
     index = first_index
     current_clicks: tuple[int, int] | None = None
+    gas_force_n: float | None = None
+    good_gas: dict[int, float] = {}  # the last usable measurement per gas setting
     last_t = [0.0]  # DAQ time of the newest sample: events are stamped on the rig's clock
     for point in plan.remaining(done or set()):
-        if current_clicks != (point.clicks, point.gas_clicks):
+        clicks_changed = current_clicks != (point.clicks, point.gas_clicks)
+        if clicks_changed:
             session.set_clicks(point.clicks, point.gas_clicks)
             current_clicks = (point.clicks, point.gas_clicks)
         if plan.temperature_band_c is not None:
             wait_for_temperature(session, plan.temperature_band_c, temperature_timeout_s, log)
+        if clicks_changed and plan.measure_gas:
+            # At every click change, at the tests' temperature (run/gas_measure.py says why).
+            gas = measure_gas_force(session, writer.write_samples)  # samples outside any test
+            writer.write_event(gas.t_s, "gas_force", gas.message())
+            last_t[0] = gas.t_s
+            if gas.usable:
+                good_gas[point.gas_clicks] = round(gas.force_n, 2)
+            else:
+                log(f"clicks {point.clicks}: {gas.message()}")
+            gas_force_n = good_gas.get(point.gas_clicks)
         meta = _meta(index, point, plan, sample_rate_hz, session.read_temperature_c())
+        if gas_force_n is not None:
+            meta = replace(meta, gas_force_n=gas_force_n, gas_force_source="measured")
         index += 1
         writer.begin_test(meta)
         view.start_test(meta)

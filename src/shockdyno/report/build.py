@@ -166,7 +166,13 @@ def build_report(
         say("click chart")
         _click_chart_section(page, [c.test for c in complete], fit, out_dir, live, raw_force)
         temperature.render(
-            page, [c.test for c in complete], fit, reference_temperature_c, out_dir, raw_force
+            page,
+            [c.test for c in complete],
+            fit,
+            reference_temperature_c,
+            out_dir,
+            raw_force,
+            units,
         )
 
     if tests:

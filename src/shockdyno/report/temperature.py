@@ -39,6 +39,7 @@ from shockdyno.record.atomic import write_text_atomic
 from shockdyno.record.types import TestData
 from shockdyno.report import clickchart
 from shockdyno.report.html import Page
+from shockdyno.units import SI, Units
 
 if TYPE_CHECKING:
     from shockdyno.fit.result import FitResult
@@ -171,11 +172,15 @@ def correct(
 
 
 def corrected_chart(
-    tests: Sequence[TestData], fit: FitResult, reference_c: float, raw_force: bool = True
+    tests: Sequence[TestData],
+    fit: FitResult,
+    reference_c: float,
+    raw_force: bool = True,
+    speeds_m_s: Sequence[float] = clickchart.STANDARD_VELOCITIES_M_S,
 ) -> CorrectedChart:
     """``raw_force``: correct the force as measured (gas force included); else the click
     chart's damping force (its gas force removed), scaled by the model's damping ratio."""
-    chart = clickchart.click_chart(tests, raw_force=raw_force)
+    chart = clickchart.click_chart(tests, None, speeds_m_s, raw_force=raw_force)
     measured = {k: {v: r.force_n for v, r in row.items()} for k, row in chart.measured.items()}
     temps = setting_temperatures(tests)
     return CorrectedChart(
@@ -220,17 +225,23 @@ def render(
     reference_c: float,
     out_dir: Path | None = None,
     raw_force: bool = True,
+    units: Units = SI,
 ) -> None:
     """The section after the click chart: the corrected chart (and, given ``out_dir``, its
-    CSV there), or one line saying why there is none."""
+    CSV there, SI), or one line saying why there is none; the page's numbers in ``units``."""
     reason = why_not(tests, fit)
-    heading = f"Click chart at {reference_c:g} °C oil"
+    tl = units.temperature_label
+
+    def temp(t_c: float, spec: str = "g") -> str:
+        return f"{units.temperature(t_c):{spec}} {tl}"
+
+    heading = f"Click chart at {temp(reference_c)} oil"
     if reason or fit is None:
         page.paragraph(reason)  # in the click chart's section: one line, no heading
         if out_dir is not None:  # a re-run's page must not sit beside an earlier one's CSV
             (Path(out_dir) / CSV_NAME).unlink(missing_ok=True)
         return
-    c = corrected_chart(tests, fit, reference_c, raw_force)
+    c = corrected_chart(tests, fit, reference_c, raw_force, units.standard_velocities_m_s)
     formula = (
         "F = G(T_ref) + (F_measured − G(T)) × D(T_ref) / D(T)"
         if raw_force
@@ -241,26 +252,33 @@ def render(
     page.section(
         heading,
         "A model-based correction, not a measurement: each measured value (the table above) "
-        f"moved from its tests' mean oil temperature to {reference_c:g} °C by the fitted "
+        f"moved from its tests' mean oil temperature to {temp(reference_c)} by the fitted "
         f"thermal term: {formula}, with G the model's static (gas) force and D its damping "
         "force at that click and velocity. "
-        f"Tests' mean temperatures: {temps[0]:.1f} to {temps[-1]:.1f} °C; reference "
-        f"{reference_c:g} °C (--reference-temperature-c). Only what the thermal term models "
+        f"Tests' mean temperatures: {temp(temps[0], '.1f')} to {temp(temps[-1], '.1f')}; "
+        f"reference {temp(reference_c)} (--reference-temperature-c, °C). Only what the "
+        "thermal term models "
         "is corrected.",
     )
     gas = len({g for _, g in c.measured}) > 1
     header = [
         "clicks",
         *(["gas"] if gas else []),
-        "T test (°C)",
-        *map(clickchart.velocity_label, c.velocities_m_s),
+        f"T test ({tl})",
+        *(clickchart.velocity_label(v, units) for v in c.velocities_m_s),
     ]
     rows = []
     for key, row in sorted(c.corrected.items()):
-        cells = [str(key[0]), *([str(key[1])] if gas else []), f"{c.temperatures_c[key]:.1f}"]
-        cells += [f"{row[v]:.0f}" if math.isfinite(row[v]) else "–" for v in c.velocities_m_s]
+        t_c = units.temperature(c.temperatures_c[key])
+        cells = [str(key[0]), *([str(key[1])] if gas else []), f"{t_c:.1f}"]
+        cells += [
+            f"{units.force(row[v]):.0f}" if math.isfinite(row[v]) else "–" for v in c.velocities_m_s
+        ]
         rows.append(cells)
-    page.subheading(f"Corrected to {reference_c:g} °C (N; velocity in mm/s)")
+    page.subheading(
+        f"Corrected to {temp(reference_c)} "
+        f"({units.force_label}; velocity in {units.velocity_label})"
+    )
     page.table(header, rows, numeric=[True] * len(header))
     if out_dir is not None:
         write_text_atomic(Path(out_dir) / CSV_NAME, to_csv(c))

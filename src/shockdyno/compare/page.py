@@ -167,7 +167,7 @@ def force_note(inputs: Sequence[Input], units: Units) -> str:
     parts = [
         f"{i.label}: "
         + (
-            gas.describe(i.tests, units)
+            gas.describe(i.tests, units).removeprefix("gas force removed: ")
             if i.kind == "recording"
             else "the model's own force at rest removed"
         )

@@ -226,3 +226,18 @@ def test_damping_force_by_default_and_raw_force_on_request(
     assert np.allclose(shift, np.median(sorted(g for g in gas if g is not None)), atol=0.5)
     html = (tmp_path / "d" / "page" / "index.html").read_text(encoding="utf-8")
     assert "gas force removed" in html and "measured at mid-stroke" in html
+
+
+def test_side_by_side_click_charts_share_one_force_scale(sims: dict[str, Path]) -> None:
+    """Each stroke's range covers every input's values (before and after on one scale)."""
+    from shockdyno.compare.inputs import load_input
+    from shockdyno.compare.page import _shared_limits
+
+    speeds = clickchart.STANDARD_VELOCITIES_M_S
+    inputs = [load_input(sims[k], k, speeds) for k in ("a", "b")]
+    (c_lo, c_hi), (r_lo, r_hi) = _shared_limits(inputs)
+    for inp in inputs:
+        for row in inp.values.values():
+            for v, val in row.items():
+                lo, hi = (c_lo, c_hi) if v > 0 else (r_lo, r_hi)
+                assert lo < val.force_n < hi, (inp.label, v, val.force_n)

@@ -137,9 +137,11 @@ def render(
         "Click charts side by side",
         f"Force ({f_unit}) at the standard velocities ({v_unit}); measured values ± 2 SD of "
         "the value (cycle-to-cycle and test-to-test scatter); * extrapolated. Figures: "
-        "force against clicks (N, mm/s); measured solid with the cycle-to-cycle band, "
-        "a fit's model dashed.",
+        f"force against clicks ({f_unit}, {v_unit}), every input on the same force scale "
+        "so they read side by side; measured solid with the cycle-to-cycle band, a fit's "
+        "model dashed.",
     )
+    ylims = _shared_limits(inputs)
     for n, inp in enumerate(inputs):
         page.subheading(f"{inp.label} ({inp.kind})")
         header, table = _chart_table(inp, units)
@@ -147,7 +149,7 @@ def render(
         band = repeatability.chart_band(
             repeatability.chart_scatter(inp.cycles, inp.chart.velocities_m_s)
         )
-        png = force_vs_clicks(inp.chart, out_dir / f"chart_{n + 1}.png", band, units)
+        png = force_vs_clicks(inp.chart, out_dir / f"chart_{n + 1}.png", band, units, ylims)
         page.figure(png.name, f"{inp.label}: force against clicks")
 
     header, bleed, _ = bleed_rows(list(inputs))
@@ -158,6 +160,24 @@ def render(
     index = out_dir / "index.html"
     write_text_atomic(index, page.render())
     return index
+
+
+def _shared_limits(inputs: Sequence[Input]) -> tuple[tuple[float, float], tuple[float, float]]:
+    """One force range per stroke (compression, rebound) over every input's chart (N), with
+    a margin, so the side-by-side figures share their scales."""
+    ranges = []
+    for sign in (1.0, -1.0):
+        values = [
+            f
+            for inp in inputs
+            for row in inp.values.values()
+            for v, val in row.items()
+            if v * sign > 0 and math.isfinite(f := val.force_n)
+        ]
+        lo, hi = (min(values), max(values)) if values else (0.0, 1.0)
+        pad = 0.05 * max(hi - lo, 1.0)
+        ranges.append((lo - pad, hi + pad))
+    return ranges[0], ranges[1]
 
 
 def force_note(inputs: Sequence[Input], units: Units) -> str:

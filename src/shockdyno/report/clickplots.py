@@ -23,16 +23,23 @@ def force_vs_clicks(
     path: Path,
     band: dict[Setting, dict[float, float]] | None = None,
     units: Units = SI,
+    ylims_n: tuple[tuple[float, float], tuple[float, float]] | None = None,
 ) -> Path:
     """``band``: per setting and signed velocity, the half-width (N) of the cycle-to-cycle
-    band, drawn as error bars on the measured points (report/repeatability.py)."""
+    band, drawn as error bars on the measured points (report/repeatability.py).
+    ``ylims_n``: the (compression, rebound) force ranges in N, to share scales between
+    figures (compare's side by side); default: each axis its own."""
     speeds = sorted({abs(v) for v in chart.velocities_m_s})
     colours = dict(zip(speeds, readable_colours(len(speeds)), strict=True))
     fig = Figure(figsize=(10.0, 4.6), layout="constrained")
     axes = fig.subplots(1, 2, sharex=True)
     gas_values = sorted({g for _, g in chart.settings})
     gas = gas_values[0] if gas_values else 0  # the curves follow one gas setting
-    for ax, sign, title in ((axes[0], 1.0, "compression"), (axes[1], -1.0, "rebound")):
+    for k, (ax, sign, title) in enumerate(
+        ((axes[0], 1.0, "compression"), (axes[1], -1.0, "rebound"))
+    ):
+        if ylims_n is not None:
+            ax.set_ylim(*(units.force(f) for f in ylims_n[k]))
         for speed in speeds:
             target = sign * speed
             colour = colours[speed]

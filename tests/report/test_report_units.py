@@ -192,6 +192,13 @@ def test_interactive_data_is_inline_decimated_and_in_page_units(imperial_report:
     units = {(c["x_unit"], c["y_unit"]) for c in data["charts"]}
     assert units <= {("in", "lbf"), ("in/s", "lbf"), ("", "lbf")}
     assert IMPERIAL.force_label == "lbf"
+    # The interactive click chart and peak plot show damping force (gas removed, as their
+    # PNGs) and read out each value's cycle-to-cycle band on hover, in lbf.
+    assert '<div class="sd-ylab">damping force (lbf, gas removed)</div>' in html
+    assert '<div class="sd-ylab">peak damping force (lbf, gas removed)</div>' in html
+    notes = [n for c in data["charts"] for s in c["series"] for n in s.get("notes") or []]
+    spreads = [float(m) for n in notes for m in re.findall(r"±([0-9.]+) lbf \(2 SD, cycles\)", n)]
+    assert len(spreads) >= 20 and all(0 <= s < 50 for s in spreads)
 
 
 def test_si_page_keeps_si(full_report: Path) -> None:

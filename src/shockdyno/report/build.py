@@ -259,7 +259,7 @@ def _click_chart_section(
             else "; none known)."
         )
     )
-    page.raw(live.figure(png, caption, live.click_chart(chart)))
+    page.raw(live.figure(png, caption, live.click_chart(chart, band)))
     write_text_atomic(out_dir / "click_chart.csv", clickchart.to_csv(chart, units))
     header, rows = clickchart.table_rows(chart, "measured", units)
     page.subheading(f"Measured ({u})")
@@ -278,7 +278,7 @@ def _click_chart_section(
         page.table(header, rows, numeric=[True] * len(header))
         page.close_details()
     also = " and the model's" if chart.model else ""
-    held = "raw force" if raw_force else "damping force, gas force removed (column gas_force)"
+    held = "raw force" if raw_force else "damping force, the gas force removed: see gas_force"
     page.link(
         "click_chart.csv",
         "click_chart.csv",
@@ -345,7 +345,7 @@ def _peaks_and_overlays(
         f"One curve per click through its test frequencies; complete tests only; {force_note}. "
         "Bars: ±2 SD of the test's per-cycle peak force (cycle-to-cycle band)."
     )
-    page.raw(live.figure(peaks.name, caption, live.peaks(complete)))
+    page.raw(live.figure(peaks.name, caption, live.peaks(complete, band)))
     page.section("Overlays across clicks")
     by_freq: dict[float, list[plots.Curves]] = {}
     for c in complete:

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from matplotlib.colors import to_hex
 
-from shockdyno.report.clickchart import ClickChart
+from shockdyno.report.clickchart import ClickChart, Setting
 from shockdyno.report.plots import (
     CMAP,
     Curves,
@@ -288,14 +288,25 @@ class Interactive:
             )
         ]
 
-    def click_chart(self, chart: ClickChart) -> list[Chart]:
-        """Force against clicks at each standard speed, compression and rebound."""
+    def click_chart(
+        self, chart: ClickChart, band: dict[Setting, dict[float, float]] | None = None
+    ) -> list[Chart]:
+        """Force against clicks at each standard speed, compression and rebound; ``band``
+        (N, half-widths per setting and signed speed) is read out on hover, as ±2 SD."""
         u = self.units
+
         speeds = sorted({abs(v) for v in chart.velocities_m_s})
         colours = [css_colour(c) for c in readable_colours(len(speeds))]
         gas_values = sorted({g for _, g in chart.settings})
         gas = gas_values[0] if gas_values else 0  # as the PNG: the first gas setting
+
+        def spread(c: int, target: float) -> str:
+            h = (band or {}).get((c, gas), {}).get(target, math.nan)
+            return f", ±{u.force(h):.1f} {u.force_label} (2 SD, cycles)" if math.isfinite(h) else ""
+
         y_label, y_name, y_unit = self._force_axis()
+        if not chart.raw_force:
+            y_label = f"damping force ({u.force_label}, gas removed)"
         out = []
         for sign, title in ((1.0, "compression"), (-1.0, "rebound")):
             series: list[Series] = []
@@ -318,8 +329,10 @@ class Interactive:
                             [_num(u.force(r.force_n)) for _, r in pts],
                             points=True,
                             notes=[
-                                " (extrapolated)" if r.extrapolated else f", {r.n_tests} test(s)"
-                                for _, r in pts
+                                " (extrapolated)"
+                                if r.extrapolated
+                                else f", {r.n_tests} test(s){spread(c, target)}"
+                                for c, r in pts
                             ],
                         )
                     )
@@ -366,9 +379,17 @@ class Interactive:
             )
         return out
 
-    def peaks(self, curves: Sequence[Curves]) -> list[Chart]:
-        """Peak force against peak velocity, one curve per click through its frequencies."""
+    def peaks(
+        self, curves: Sequence[Curves], band: dict[int, tuple[float, float]] | None = None
+    ) -> list[Chart]:
+        """Peak force against peak velocity, one curve per click through its frequencies;
+        ``band`` (N, per test index: compression, rebound half-widths) read out on hover."""
         u = self.units
+
+        def spread(c: Curves, branch: int) -> str:
+            h = (band or {}).get(c.summary.index, (math.nan, math.nan))[branch]
+            return f", ±{u.force(h):.1f} {u.force_label} (2 SD, cycles)" if math.isfinite(h) else ""
+
         by_click: dict[tuple[int, int], list[Curves]] = {}
         for c in curves:
             by_click.setdefault((c.test.meta.clicks, c.test.meta.gas_clicks), []).append(c)
@@ -381,17 +402,19 @@ class Interactive:
             frac = 0.0 if norm_hi == norm_lo else (click - norm_lo) / (norm_hi - norm_lo)
             colour = css_colour(CMAP(frac))
             label = click_label(click, gas, several_gas)
-            notes = [f" at {c.test.meta.frequency_hz:g} Hz" for c in group]
-            for vel, force in (
+            for branch, (vel, force) in enumerate(
                 (
-                    [c.summary.peak_compression_velocity_m_s for c in group],
-                    [c.summary.peak_compression_force_n for c in group],
-                ),
-                (
-                    [c.summary.peak_rebound_velocity_m_s for c in group],
-                    [c.summary.peak_rebound_force_n for c in group],
-                ),
+                    (
+                        [c.summary.peak_compression_velocity_m_s for c in group],
+                        [c.summary.peak_compression_force_n for c in group],
+                    ),
+                    (
+                        [c.summary.peak_rebound_velocity_m_s for c in group],
+                        [c.summary.peak_rebound_force_n for c in group],
+                    ),
+                )
             ):
+                notes = [f" at {c.test.meta.frequency_hz:g} Hz{spread(c, branch)}" for c in group]
                 series.append(
                     Series(
                         label,
@@ -403,11 +426,13 @@ class Interactive:
                         notes=notes,
                     )
                 )
+        removed = bool(curves) and all(c.summary.gas_force_n is not None for c in curves)
+        what = "peak damping force" if removed else "peak force"
         return [
             Chart(
-                "peak force vs peak velocity per click",
+                f"{what} vs peak velocity per click",
                 f"peak velocity ({u.velocity_label}, + compression, − rebound)",
-                f"peak force ({u.force_label})",
+                f"{what} ({u.force_label}{', gas removed' if removed else ''})",
                 "v",
                 u.velocity_label,
                 "F",

@@ -87,6 +87,10 @@ def test_imperial_section_has_no_si_label_and_the_imperial_verdict(
     assert "lbf" in imperial and " in," in imperial and "in/s" in imperial
     assert _si_left(imperial) == {}
     assert "predates the imperial text" not in imperial
+    # The figures are copied as drawn (by diagnose --units imperial): the SI page says so.
+    assert json.loads(diagnosed.read_text())["info"]["figures_units"] == "imperial"
+    assert "drawn in in, in/s, lbf, as diagnose --units imperial drew them" in si
+    assert "are drawn in" not in imperial
     # The section is not the only thing that could be empty of SI: the SI page has them.
     assert _si_left(si)
 

@@ -188,6 +188,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
         from shockdyno.diagnose.report import figure_paths
 
         doc["info"]["figures"] = figure_paths(Path(args.report), args.json)
+        doc["info"]["figures_units"] = args.units  # report says so if its page's differ
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
     # Written before the figures are drawn: a plotting failure must not lose the diagnosis.
     write_output(args.json, text, force=args.force, inputs=inputs)

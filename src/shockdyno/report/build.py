@@ -196,7 +196,9 @@ def build_report(
 
     if diagnose is not None:
         render_diagnose(page, diagnose, units)
-        render_figures(page, diagnose, diagnose_dir, lambda png, n: _link_extra(out_dir, png, n))
+        render_figures(
+            page, diagnose, diagnose_dir, lambda png, n: _link_extra(out_dir, png, n), units
+        )
     if ride is not None:
         render_ride(page, ride, units)
 

@@ -13,6 +13,7 @@ missing or malformed part is skipped (and said so), never an error. Keys read:
 - ``tests``: [{index, clicks, frequency_hz, E_t_before, E_t_after}]
 - ``info.figures``: {residual_maps, loops}: the PNGs `diagnose --report DIR` drew, relative
   to the JSON's folder; copied into the report's directory (`render_figures`)
+- ``info.figures_units``: "si" or "imperial", the units they were drawn in (absent: SI)
 
 To show a new key, add a ``_render_<key>`` function and call it from ``render_diagnose``.
 Forces, lengths, speeds and temperatures are shown in the page's `Units`; speeds in SI stay in
@@ -321,11 +322,16 @@ FIGURE_CAPTIONS = {
 
 
 def render_figures(
-    page: Page, doc: Any, base_dir: Path | None, link: Callable[[Path, int], str]
+    page: Page,
+    doc: Any,
+    base_dir: Path | None,
+    link: Callable[[Path, int], str],
+    units: Units = SI,
 ) -> None:
     """The residual maps and loops `diagnose --report` drew, named in ``info.figures``
     relative to ``base_dir`` (the JSON's folder); ``link`` copies one into the report's
-    directory and returns its href, so the page links nothing outside it."""
+    directory and returns its href, so the page links nothing outside it. Copied as drawn:
+    a note when they were drawn in other units than the page's ``units``."""
     info = doc.get("info") if isinstance(doc, dict) else None
     named = info.get("figures") if isinstance(info, dict) else None
     if not isinstance(named, dict) or not named or base_dir is None:
@@ -334,7 +340,7 @@ def render_figures(
             "(shockdyno diagnose ... --report DIR draws them, and DIAG.json then names them)."
         )
         return
-    missing = []
+    missing, shown = [], 0
     for n, (key, caption) in enumerate(FIGURE_CAPTIONS.items()):
         rel = named.get(key)
         if not isinstance(rel, str):
@@ -344,6 +350,14 @@ def render_figures(
             missing.append(rel)
             continue
         page.figure(link(png, 50 + n), caption)
+        shown += 1
+    drawn = info.get("figures_units", "si") if isinstance(info, dict) else "si"
+    if shown and drawn != units.name and drawn in ("si", "imperial"):
+        axes = "in, in/s, lbf" if drawn == "imperial" else "mm, m/s, N"
+        page.paragraph(
+            f"The residual maps and loops are drawn in {axes}, as diagnose --units {drawn} "
+            "drew them; the rest of the page is converted."
+        )
     if missing:
         page.paragraph(
             f"Figures of the diagnosis not found beside its JSON: {', '.join(missing)} "

@@ -59,9 +59,12 @@ def in_units(text: str, u: Units = SI) -> str:
 
     def convert(m: re.Match[str]) -> str:
         value = float(m.group(1))
+        # As many significant digits as the SI text gave: no more precision than it had.
+        digits = re.sub(r"e.*|[-.]", "", m.group(1)).lstrip("0")
+        spec = f".{max(len(digits), 1)}g"
         if m.group(2) == "N":
-            return f"{u.force(value):.2g} {u.force_label}"
-        return f"{u.velocity(value / 1e3):.2g} {u.velocity_label}"
+            return f"{format(u.force(value), spec)} {u.force_label}"
+        return f"{format(u.velocity(value / 1e3), spec)} {u.velocity_label}"
 
     return _SI_QUANTITY.sub(convert, text)
 
@@ -242,7 +245,7 @@ def verdict_text(d: Diagnosis, units: Units = SI) -> str:
         text = f"{text} {short_text(d)}"
     cal = in_units(calibration_text(d), units)  # a Coulomb friction fitted in N
     text = f"{text} {cal}" if cal else text
-    return text + "".join(f" Sensor, not physics: {line}." for line in d.sensor)
+    return text + "".join(f" Sensor, not physics: {in_units(line, units)}." for line in d.sensor)
 
 
 def _physics_text(d: Diagnosis, u: Units = SI) -> str:

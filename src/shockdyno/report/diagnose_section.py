@@ -180,12 +180,13 @@ def _in_units(unit: str, units: Units) -> tuple[float, float, str]:
     if not units.imperial:
         return 1.0, 0.0, unit
     fn, ln, vn = units.force_per_n, units.length_per_m, units.velocity_per_m_s
+    zero = units.temperature(0.0)  # °C is affine: a spread (sd) takes the scale only
     return {
         "N": (fn, 0.0, units.force_label),
         "m": (ln, 0.0, units.length_label),
         "m/s": (vn, 0.0, units.velocity_label),
         "N·s/m": (fn / ln, 0.0, f"{units.force_label}·s/{units.length_label}"),
-        "°C": (9.0 / 5.0, 32.0, units.temperature_label),
+        "°C": (units.temperature(1.0) - zero, zero, units.temperature_label),
     }.get(unit, (1.0, 0.0, unit))
 
 

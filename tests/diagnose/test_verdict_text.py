@@ -126,3 +126,26 @@ def test_the_verdict_judges_significance_at_the_search_s_alpha() -> None:
     assert "Nothing claimed" not in loose and "Claimed seal friction" in loose
     strict = verdict_text(diagnosis(0.01))  # type: ignore[arg-type]
     assert "No mismatch beyond noise" in strict
+
+
+def test_the_engine_s_si_sentences_convert_their_forces_and_speeds() -> None:
+    """The sentences the engine writes in SI (a spike count, a why-not, what separates two
+    terms) shown in imperial: each force and speed the SI one over 4.448 N/lbf and
+    25.4 mm/in; every other number left alone; SI untouched."""
+    from shockdyno.diagnose.engine import SEPARATE_BY
+    from shockdyno.diagnose.spikes import Spikes
+    from shockdyno.diagnose.verdict import in_units
+    from shockdyno.units import IMPERIAL
+
+    spikes = Spikes(count=217, samples=12000, tests=6, largest_n=1234.0).sentence()
+    assert "up to 1.23e+03 N off" in spikes
+    text = in_units(spikes, IMPERIAL)
+    assert "up to 277 lbf off" in text  # 1230 N / 4.448 N/lbf, to the 3 digits given
+    assert "217 isolated spikes in 6 tests (18.1 per 1000 samples" in text
+    assert in_units(spikes) == spikes
+    why = "its own force peaks at 0.017 N, too small to matter: p = 0.3 ≥ 0.01"
+    assert in_units(why, IMPERIAL) == (
+        "its own force peaks at 0.0038 lbf, too small to matter: p = 0.3 ≥ 0.01"
+    )
+    slow = SEPARATE_BY[frozenset({"sensor_lag", "friction"})]
+    assert in_units(slow, IMPERIAL) == slow.replace("25 mm/s", "0.98 in/s")

@@ -57,8 +57,8 @@ def test_diagnose_section_renders_the_documented_keys(full_report: Path) -> None
     rows = {cells[0]: (cls, cells) for cls, cells in findings[1:]}
     assert set(rows) == {"compressibility", "thermal"}
     cls, cells = rows["compressibility"]
-    assert cls == "" and cells[1] == "yes" and cells[5] == "sensor_lag"
-    assert "bulk_modulus_pa = 1.2e+09 ± 1e+08 Pa" in cells[4]
+    assert cls == "" and cells[1] == "yes" and cells[6] == "sensor_lag"
+    assert "bulk_modulus_pa = 1.2e+09 ± 1e+08 Pa" in cells[5]
     assert rows["thermal"][0] == "dim"  # not claimed: shown, but greyed
     where = next(t for t in page.tables if t[0][1][0] == "stroke")
     assert where[1][1][1] == "-30 to -10 mm"

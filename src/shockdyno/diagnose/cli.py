@@ -51,7 +51,7 @@ def register(sub: Any) -> None:
         help="overwrite an existing DIAG.json or --report page; accept a --fit made from "
         "another recording (DIAG.json says so)",
     )
-    units_mod.add_argument(p, "the terminal text and table")
+    units_mod.add_argument(p, "the terminal text, table and --report page")
     p.set_defaults(func=run_diagnose)
 
 
@@ -74,13 +74,15 @@ def _candidates(text: str) -> tuple[str, ...]:
 def _summary(doc: dict[str, Any], units: units_mod.Units = units_mod.SI) -> Any:
     from rich.table import Table
 
+    from shockdyno.diagnose.verdict import in_units
+
     table = Table(title="Candidate physics (refitted with globals and areas)")
     effect = f"peak effect {units.force_label}"
     for name in ("round", "physics", "claimed", "p", "held-out gain", effect, "note"):
         table.add_column(name, justify="left" if name in ("physics", "note") else "right")
     for f in doc["findings"]:
         gain = f["heldout_gain"]
-        note = f["why_not"] or (
+        note = in_units(f["why_not"], units) or (
             "alike: " + ", ".join(f["ambiguous_with"]) if f["ambiguous_with"] else ""
         )
         table.add_row(
@@ -186,6 +188,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
         from shockdyno.diagnose.report import figure_paths
 
         doc["info"]["figures"] = figure_paths(Path(args.report), args.json)
+        doc["info"]["figures_units"] = args.units  # report says so if its page's differ
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
     # Written before the figures are drawn: a plotting failure must not lose the diagnosis.
     write_output(args.json, text, force=args.force, inputs=inputs)
@@ -216,17 +219,12 @@ def run_diagnose(args: argparse.Namespace) -> int:
         )
     if m["significant"]:
         shown.print(_summary(doc, units))
-    if units.imperial:  # DIAG.json's text stays SI; the terminal's is in the units asked
-        from shockdyno.diagnose.verdict import verdict_text
-
-        text = verdict_text(d, units)
-    else:
-        text = doc["verdict"]["text"]
+    text = doc["verdict"]["text_imperial" if units.imperial else "text"]
     shown.print(f"[bold]verdict:[/] {text}")
     if args.report:
         from shockdyno.diagnose.report import write_report
 
-        index = write_report(d, doc, Path(args.report))
+        index = write_report(d, doc, Path(args.report), units)
         shown.print(f"report: {index}")
     if out is not None:
         shown.print(f"wrote {out} in {d.wall_s:.1f} s")

@@ -14,10 +14,21 @@ from numpy.typing import NDArray
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.engine import Diagnosis
 from shockdyno.diagnose.fitting import Fitted, full_rate_force
+from shockdyno.units import SI, Units
 
 FloatArray = NDArray[np.float64]
 COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#e377c2")
 DPI = 100
+
+
+def _velocity(v_m_s: FloatArray, u: Units) -> FloatArray:
+    """Velocity as the figures plot it: m/s in SI (the verdict's words use m/s too), in/s
+    in imperial."""
+    return v_m_s * u.velocity_per_m_s if u.imperial else v_m_s
+
+
+def _velocity_label(u: Units) -> str:
+    return u.velocity_label if u.imperial else "m/s"
 
 
 def _phase_means(
@@ -30,7 +41,7 @@ def _phase_means(
     return xv[:, 0], xv[:, 1], res, freq
 
 
-def residual_maps(d: Diagnosis, path: Path) -> Path:
+def residual_maps(d: Diagnosis, path: Path, u: Units = SI) -> Path:
     fig = Figure(figsize=(10, 7), layout="constrained")
     axes = fig.subplots(2, 2, sharey=True)
     freqs = sorted({round(p.data.meta.frequency_hz, 3) for p in d.data.prepared})
@@ -38,25 +49,26 @@ def residual_maps(d: Diagnosis, path: Path) -> Path:
         if fitted.residual.size != d.data.prob.size:
             continue
         x, v, r, f = _phase_means(d.data, fitted)
+        x, v, r = x * u.length_per_m, _velocity(v, u), r * u.force_per_n
         for k, fr in enumerate(freqs):
             sel = np.isclose(f, fr, atol=1e-3)
             c = COLOURS[k % len(COLOURS)]
-            axes[row, 0].plot(x[sel] * 1e3, r[sel], ".", ms=3, color=c, label=f"{fr:g} Hz")
+            axes[row, 0].plot(x[sel], r[sel], ".", ms=3, color=c, label=f"{fr:g} Hz")
             axes[row, 1].plot(v[sel], r[sel], ".", ms=3, color=c, label=f"{fr:g} Hz")
         names = ", ".join(t.name for t in fitted.model.terms) or "paper's model"
-        axes[row, 0].set_ylabel(f"residual {label} (N)\n{names}")
+        axes[row, 0].set_ylabel(f"residual {label} ({u.force_label})\n{names}")
         for ax in axes[row]:
             ax.axhline(0.0, color="0.5", lw=0.8)
             ax.grid(alpha=0.3)
-    axes[1, 0].set_xlabel("displacement (mm, + compression)")
-    axes[1, 1].set_xlabel("velocity (m/s, + compression)")
+    axes[1, 0].set_xlabel(f"displacement ({u.length_label}, + compression)")
+    axes[1, 1].set_xlabel(f"velocity ({_velocity_label(u)}, + compression)")
     axes[0, 1].legend(loc="best", fontsize=8)
     fig.suptitle("Phase-locked residual (measured − model) per test, before and after")
     fig.savefig(path, dpi=DPI, format="png")
     return path
 
 
-def loops(d: Diagnosis, path: Path, n_tests: int = 3) -> Path:
+def loops(d: Diagnosis, path: Path, u: Units = SI, n_tests: int = 3) -> Path:
     """The tests with the most structure: measured loop, baseline and augmented model,
     with the F–v loop also zoomed near reversal (where most missing physics shows)."""
     data = d.data
@@ -69,27 +81,28 @@ def loops(d: Diagnosis, path: Path, n_tests: int = 3) -> Path:
         p = data.prepared[i]
         m = p.data.meta
         step = max(1, p.data.t.size // 4000)
-        v, x_mm, f_meas = p.v[::step], p.data.x[::step] * 1e3, p.data.force[::step]
+        v = _velocity(p.v[::step], u)
+        x_shown, f_meas = p.data.x[::step] * u.length_per_m, p.data.force[::step] * u.force_per_n
         near = np.abs(v) < 0.25 * float(np.max(np.abs(v)))
         for ax, xs, sel in ((axes[row, 0], v, slice(None)), (axes[row, 1], v, near)):
             ax.plot(xs[sel], f_meas[sel], ".", ms=1.5, color="0.35", label="measured")
-        axes[row, 2].plot(x_mm, f_meas, ".", ms=1.5, color="0.35", label="measured")
+        axes[row, 2].plot(x_shown, f_meas, ".", ms=1.5, color="0.35", label="measured")
         for label, fitted, colour, ls in (
             ("paper's model", d.baseline, "#d62728", "--"),
             ("with the claimed physics", d.final, "#2ca02c", "-"),
         ):
-            f = full_rate_force(fitted, p)[::step]
+            f = full_rate_force(fitted, p)[::step] * u.force_per_n
             axes[row, 0].plot(v, f, ls, color=colour, lw=1.1, label=label)
             axes[row, 1].plot(v[near], f[near], ".", color=colour, ms=1.5, label=label)
-            axes[row, 2].plot(x_mm, f, ls, color=colour, lw=1.1, label=label)
+            axes[row, 2].plot(x_shown, f, ls, color=colour, lw=1.1, label=label)
         axes[row, 0].set_title(f"test {m.index}: {m.clicks} clicks, {m.frequency_hz:g} Hz: F–v")
         axes[row, 1].set_title("F–v near reversal")
         axes[row, 2].set_title("F–x")
         for ax in axes[row, :2]:
-            ax.set_xlabel("velocity (m/s, + compression)")
-        axes[row, 2].set_xlabel("displacement (mm, + compression)")
+            ax.set_xlabel(f"velocity ({_velocity_label(u)}, + compression)")
+        axes[row, 2].set_xlabel(f"displacement ({u.length_label}, + compression)")
         for ax in axes[row]:
-            ax.set_ylabel("force (N)")
+            ax.set_ylabel(f"force ({u.force_label})")
             ax.grid(alpha=0.3)
     axes[0, 0].legend(loc="best", fontsize=8, markerscale=4)
     fig.savefig(path, dpi=DPI, format="png")

@@ -8,9 +8,11 @@ from typing import Any
 
 from shockdyno.diagnose.engine import Diagnosis
 from shockdyno.diagnose.plots import loops, residual_maps
+from shockdyno.diagnose.verdict import in_units
 from shockdyno.record.atomic import write_text_atomic
 from shockdyno.report.diagnose_section import spec_shown
 from shockdyno.report.html import Page
+from shockdyno.units import SI, Units
 
 # The figures' names in DIR and their keys in DIAG.json's info.figures.
 FIGURES = {"residual_maps": "diagnose-residual-maps.png", "loops": "diagnose-loops.png"}
@@ -27,13 +29,14 @@ def figure_paths(report_dir: Path, json_path: str) -> dict[str, str]:
     }
 
 
-def write_report(d: Diagnosis, doc: dict[str, Any], out: Path) -> Path:
+def write_report(d: Diagnosis, doc: dict[str, Any], out: Path, units: Units = SI) -> Path:
+    """The page and its figures, forces, lengths and speeds in ``units``."""
     out.mkdir(parents=True, exist_ok=True)
-    maps = residual_maps(d, out / FIGURES["residual_maps"])
-    lp = loops(d, out / FIGURES["loops"])
+    maps = residual_maps(d, out / FIGURES["residual_maps"], units)
+    lp = loops(d, out / FIGURES["loops"], units)
     page = Page("Diagnosis: where the model and the recording differ, and why")
     page.section("Verdict")
-    page.paragraph(doc["verdict"]["text"])
+    page.paragraph(doc["verdict"]["text_imperial" if units.imperial else "text"])
     used = doc.get("info", {}).get("spec")
     if isinstance(used, dict):
         page.paragraph(f"Damper spec: {spec_shown(used)}.")
@@ -52,9 +55,9 @@ def write_report(d: Diagnosis, doc: dict[str, Any], out: Path) -> Path:
                 "yes" if f["claimed"] else "",
                 f"{f['p_value']:.3g}",
                 "–" if gain is None else f"{gain:.2f}",
-                f"{f['effect_peak_n']:.3g}",
+                f"{units.force(f['effect_peak_n']):.3g}",
                 ", ".join(f["ambiguous_with"]),
-                f["why_not"],
+                in_units(f["why_not"], units),
             ]
         )
     page.table(
@@ -64,7 +67,7 @@ def write_report(d: Diagnosis, doc: dict[str, Any], out: Path) -> Path:
             "claimed",
             "p",
             "held-out gain",
-            "peak effect (N)",
+            f"peak effect ({units.force_label})",
             "alike",
             "why not",
         ],

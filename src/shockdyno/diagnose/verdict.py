@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
+import re
 from itertools import pairwise
 from typing import Any
 
 from shockdyno.diagnose.engine import CalibrationRow, Diagnosis, Finding
 from shockdyno.diagnose.locate import Location
 from shockdyno.model.terms import LIBRARY
-from shockdyno.units import SI, Units
+from shockdyno.units import IMPERIAL, SI, Units
 
 
 def _v(f: Finding, name: str) -> float:
@@ -44,6 +45,28 @@ def _sd_ms(f: Finding, name: str) -> str:
 def _sd_pct(f: Finding, name: str) -> str:
     sd = f.parameters.get(name, {}).get("sd")
     return f" ± {100 * sd:.2g}" if isinstance(sd, int | float) and math.isfinite(sd) else ""
+
+
+# A force or speed inside a sentence the engine wrote in SI (a finding's why_not, what
+# separates two terms): "0.017 N", "25 mm/s". Nothing else there carries a display unit.
+_SI_QUANTITY = re.compile(r"(-?\d+(?:\.\d+)?(?:e[-+]?\d+)?) (N|mm/s)\b")
+
+
+def in_units(text: str, u: Units = SI) -> str:
+    """An SI sentence of the engine with its forces and speeds in `u`."""
+    if not u.imperial:
+        return text
+
+    def convert(m: re.Match[str]) -> str:
+        value = float(m.group(1))
+        # As many significant digits as the SI text gave: no more precision than it had.
+        digits = re.sub(r"e.*|[-.]", "", m.group(1)).lstrip("0")
+        spec = f".{max(len(digits), 1)}g"
+        if m.group(2) == "N":
+            return f"{format(u.force(value), spec)} {u.force_label}"
+        return f"{format(u.velocity(value / 1e3), spec)} {u.velocity_label}"
+
+    return _SI_QUANTITY.sub(convert, text)
 
 
 def _signature(loc: Location) -> str:
@@ -220,9 +243,9 @@ def verdict_text(d: Diagnosis, units: Units = SI) -> str:
     text = short_text(d) if not d.testable else _physics_text(d, units)
     if d.testable and d.short_tests:
         text = f"{text} {short_text(d)}"
-    cal = calibration_text(d)
+    cal = in_units(calibration_text(d), units)  # a Coulomb friction fitted in N
     text = f"{text} {cal}" if cal else text
-    return text + "".join(f" Sensor, not physics: {line}." for line in d.sensor)
+    return text + "".join(f" Sensor, not physics: {in_units(line, units)}." for line in d.sensor)
 
 
 def _physics_text(d: Diagnosis, u: Units = SI) -> str:
@@ -256,7 +279,8 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
             f"{100 * f.heldout_gain:.0f} % of the held-out structure."
         )
     for g in d.indistinguishable:
-        lines.append(f"To separate {' and '.join(g['group'])}: {g['separate_by']}.")  # type: ignore[arg-type]
+        by = in_units(str(g["separate_by"]), u)
+        lines.append(f"To separate {' and '.join(g['group'])}: {by}.")  # type: ignore[arg-type]
     if d.single_frequency:
         lines.append(
             "One frequency only: a lag, a delay and compressibility all open the loop alike "
@@ -328,6 +352,9 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
             ],
             "sensor": list(d.sensor),
             "text": verdict_text(d),
+            # The same words in in/s, lbf, in: a report in imperial units shows them
+            # (report may not import diagnose to write them itself).
+            "text_imperial": verdict_text(d, IMPERIAL),
             "remaining_rms_n": _num(d.remaining.structured_rms_n),
             "remaining_p_value": _num(d.remaining.p_value),
         },

@@ -195,8 +195,10 @@ def build_report(
         _fit_section(page, fit, tests, out_dir, units)
 
     if diagnose is not None:
-        render_diagnose(page, diagnose)
-        render_figures(page, diagnose, diagnose_dir, lambda png, n: _link_extra(out_dir, png, n))
+        render_diagnose(page, diagnose, units)
+        render_figures(
+            page, diagnose, diagnose_dir, lambda png, n: _link_extra(out_dir, png, n), units
+        )
     if ride is not None:
         render_ride(page, ride, units)
 

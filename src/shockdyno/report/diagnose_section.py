@@ -7,12 +7,17 @@ missing or malformed part is skipped (and said so), never an error. Keys read:
   where: [{stroke, x_range_m, v_range_m_s, frequencies_hz, share}]}
 - ``findings``: [{physics, claimed, p_value, heldout_gain,
   parameters: {name: {value, sd, unit}}, ambiguous_with}]
-- ``verdict``: {physics: [...], unexplained: [...], text}
+- ``verdict``: {physics: [...], unexplained: [...], text, text_imperial}: the verdict's words
+  in SI and in imperial units (``text_imperial`` is newer: an older file's page in imperial
+  shows ``text`` and says its numbers are SI)
 - ``tests``: [{index, clicks, frequency_hz, E_t_before, E_t_after}]
 - ``info.figures``: {residual_maps, loops}: the PNGs `diagnose --report DIR` drew, relative
   to the JSON's folder; copied into the report's directory (`render_figures`)
+- ``info.figures_units``: "si" or "imperial", the units they were drawn in (absent: SI)
 
 To show a new key, add a ``_render_<key>`` function and call it from ``render_diagnose``.
+Forces, lengths, speeds and temperatures are shown in the page's `Units`; speeds in SI stay in
+m/s, as the verdict's own words give them. Other parameters (Pa, s, 1/K, ...) as stored.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno.report.html import Page
+from shockdyno.units import SI, Units
 
 
 def _num(value: Any, spec: str = ".3g") -> str:
@@ -58,16 +64,34 @@ def _range(value: Any, scale: float, unit: str) -> str:
     return "–"
 
 
+def _times(value: Any, scale: float) -> Any:
+    """A number of DIAG.json scaled into display units; anything else as it is (for `_num`)."""
+    return value * scale if _finite(value) is not None else value
+
+
+def _speed(units: Units) -> tuple[float, str]:
+    """Scale and label of a speed: m/s in SI, as the verdict's own words give it; in/s."""
+    return (units.velocity_per_m_s, units.velocity_label) if units.imperial else (1.0, "m/s")
+
+
 def _dicts(value: Any) -> list[dict[str, Any]]:
     return [v for v in value if isinstance(v, dict)] if isinstance(value, list) else []
 
 
-def _render_verdict(page: Page, verdict: Any) -> bool:
+def _render_verdict(page: Page, verdict: Any, units: Units) -> bool:
     if not isinstance(verdict, dict):
         return False
     text = verdict.get("text")
-    if isinstance(text, str) and text.strip():
+    imperial = verdict.get("text_imperial")
+    if units.imperial and isinstance(imperial, str) and imperial.strip():
+        page.paragraph(imperial.strip())
+    elif isinstance(text, str) and text.strip():
         page.paragraph(text.strip())
+        if units.imperial:  # a DIAG.json older than text_imperial: its words are SI only
+            page.paragraph(
+                "The verdict above is in the diagnosis's own words, in SI units (N, mm, m/s): "
+                "its DIAG.json predates the imperial text. The tables below are converted."
+            )
     physics = verdict.get("physics")
     unexplained = verdict.get("unexplained")
     if physics is not None:
@@ -75,17 +99,18 @@ def _render_verdict(page: Page, verdict: Any) -> bool:
     regions = _dicts(unexplained)
     if regions:
         page.paragraph(
-            "Still unexplained: " + "; ".join(region_text(r) for r in regions) + ".", warn=True
+            "Still unexplained: " + "; ".join(region_text(r, units) for r in regions) + ".",
+            warn=True,
         )
     elif unexplained:
         page.paragraph(f"Still unexplained: {_text(unexplained)}.", warn=True)
     return True
 
 
-def region_text(r: dict[str, Any]) -> str:
+def region_text(r: dict[str, Any], units: Units = SI) -> str:
     """A region of DIAG.json in words: "in rebound at 15.6 to 29.2 mm, -0.097 to -0.036 m/s,
-    near reversal (1, 1.5 Hz; 25 % of the structure, 19 N RMS)"."""
-    x = _range(r.get("x_range_m"), 1e3, "mm")
+    near reversal (1, 1.5 Hz; 25 % of the structure, 19 N RMS)", in ``units``."""
+    x = _range(r.get("x_range_m"), units.length_per_m, units.length_label)
     head = " ".join(
         w
         for w in (
@@ -96,7 +121,7 @@ def region_text(r: dict[str, Any]) -> str:
     )
     where = [
         head,
-        _range(r.get("v_range_m_s"), 1.0, "m/s"),
+        _range(r.get("v_range_m_s"), *_speed(units)),
         "near reversal" if r.get("near_reversal") is True else "",
     ]
     extra = []
@@ -108,12 +133,12 @@ def region_text(r: dict[str, Any]) -> str:
         extra.append(f"{100 * share:.0f} % of the structure")
     rms = _finite(r.get("rms_n"))
     if rms is not None:
-        extra.append(f"{rms:.3g} N RMS")
+        extra.append(f"{units.force(rms):.3g} {units.force_label} RMS")
     text = ", ".join(w for w in where if w and w != "–")
     return text + (f" ({'; '.join(extra)})" if extra else "")
 
 
-def _render_mismatch(page: Page, mismatch: Any) -> bool:
+def _render_mismatch(page: Page, mismatch: Any, units: Units) -> bool:
     if not isinstance(mismatch, dict):
         return False
     significant = mismatch.get("significant")
@@ -125,7 +150,8 @@ def _render_mismatch(page: Page, mismatch: Any) -> bool:
     page.paragraph(
         f"Mismatch between model and measurement: {head} "
         f"(p = {_num(mismatch.get('p_value'))}; noise floor "
-        f"{_num(mismatch.get('noise_floor_n'))} N; structured share "
+        f"{_num(_times(mismatch.get('noise_floor_n'), units.force_per_n))} "
+        f"{units.force_label}; structured share "
         f"{_num(mismatch.get('structured_share'))})."
     )
     where = _dicts(mismatch.get("where"))
@@ -135,8 +161,8 @@ def _render_mismatch(page: Page, mismatch: Any) -> bool:
             [
                 [
                     _text(w.get("stroke")),
-                    _range(w.get("x_range_m"), 1e3, "mm"),
-                    _range(w.get("v_range_m_s"), 1.0, "m/s"),
+                    _range(w.get("x_range_m"), units.length_per_m, units.length_label),
+                    _range(w.get("v_range_m_s"), *_speed(units)),
                     _text(w.get("frequencies_hz")),
                     _num(w.get("share")),
                 ]
@@ -147,39 +173,70 @@ def _render_mismatch(page: Page, mismatch: Any) -> bool:
     return True
 
 
-def _parameters(value: Any) -> str:
+def _in_units(unit: str, units: Units) -> tuple[float, float, str]:
+    """(scale, offset, label) of a parameter stored in SI ``unit``, shown in ``units``: the
+    forces, lengths, speeds, damping coefficients and temperatures the units module converts;
+    anything else (Pa, s, 1/K, ...) and everything in SI as stored."""
+    if not units.imperial:
+        return 1.0, 0.0, unit
+    fn, ln, vn = units.force_per_n, units.length_per_m, units.velocity_per_m_s
+    zero = units.temperature(0.0)  # °C is affine: a spread (sd) takes the scale only
+    return {
+        "N": (fn, 0.0, units.force_label),
+        "m": (ln, 0.0, units.length_label),
+        "m/s": (vn, 0.0, units.velocity_label),
+        "N·s/m": (fn / ln, 0.0, f"{units.force_label}·s/{units.length_label}"),
+        "°C": (units.temperature(1.0) - zero, zero, units.temperature_label),
+    }.get(unit, (1.0, 0.0, unit))
+
+
+def _parameters(value: Any, units: Units) -> str:
     if not isinstance(value, dict):
         return "–"
     out = []
     for name, p in value.items():
         if isinstance(p, dict):
-            unit = f" {p['unit']}" if isinstance(p.get("unit"), str) and p["unit"] else ""
-            out.append(f"{name} = {_num(p.get('value'), '.4g')} ± {_num(p.get('sd'), '.2g')}{unit}")
+            stored = p["unit"] if isinstance(p.get("unit"), str) else ""
+            scale, offset, label = _in_units(stored, units)
+            v = _finite(p.get("value"))
+            shown = v * scale + offset if v is not None else None
+            unit = f" {label}" if label else ""
+            sd = _num(_times(p.get("sd"), scale), ".2g")  # a spread: no offset
+            out.append(f"{name} = {_num(shown, '.4g')} ± {sd}{unit}")
         else:
             out.append(f"{name} = {_text(p)}")
     return "; ".join(out) or "–"
 
 
-def _render_findings(page: Page, findings: Any) -> bool:
+def _render_findings(page: Page, findings: Any, units: Units) -> bool:
     rows = _dicts(findings)
     if not rows:
         return False
     page.subheading("Findings: candidate physics")
     page.table(
-        ["physics", "claimed", "p", "held-out gain", "parameters (± 1σ)", "ambiguous with"],
+        [
+            "physics",
+            "claimed",
+            "p",
+            "held-out gain",
+            f"peak effect ({units.force_label})",
+            "parameters (± 1σ)",
+            "ambiguous with",
+        ],
         [
             [
                 _text(f.get("physics")),
                 _text(f.get("claimed")),
                 _num(f.get("p_value")),
                 _num(f.get("heldout_gain")),
-                _parameters(f.get("parameters")),
+                _num(_times(f.get("effect_peak_n"), units.force_per_n)),
+                _parameters(f.get("parameters"), units),
                 _text(f.get("ambiguous_with")),
             ]
             for f in rows
         ],
         row_classes=["" if f.get("claimed") is True else "dim" for f in rows],
-        numeric=[False, False, True, True, False, False],
+        numeric=[False, False, True, True, True, False, False],
     )
     return True
 
@@ -227,8 +284,8 @@ def spec_shown(used: dict[str, Any]) -> str:
     return f"{text}, the base spec of the fit {shown_path(str(fit))}" if fit else text
 
 
-def render_diagnose(page: Page, doc: Any) -> None:
-    """Append the diagnose section for ``doc`` (the parsed diagnose JSON)."""
+def render_diagnose(page: Page, doc: Any, units: Units = SI) -> None:
+    """Append the diagnose section for ``doc`` (the parsed diagnose JSON), in ``units``."""
     page.section(
         "Diagnosis",
         "Where the fitted model and the measurement disagree, which extra physics explains "
@@ -243,9 +300,9 @@ def render_diagnose(page: Page, doc: Any) -> None:
     if isinstance(info, dict) and isinstance(info.get("spec"), dict):
         page.paragraph(f"Damper spec of the diagnosis: {spec_shown(info['spec'])}.")
     shown = [
-        _render_verdict(page, doc.get("verdict")),
-        _render_mismatch(page, doc.get("mismatch")),
-        _render_findings(page, doc.get("findings")),
+        _render_verdict(page, doc.get("verdict"), units),
+        _render_mismatch(page, doc.get("mismatch"), units),
+        _render_findings(page, doc.get("findings"), units),
         _render_tests(page, doc.get("tests")),
     ]
     missing = [
@@ -266,11 +323,16 @@ FIGURE_CAPTIONS = {
 
 
 def render_figures(
-    page: Page, doc: Any, base_dir: Path | None, link: Callable[[Path, int], str]
+    page: Page,
+    doc: Any,
+    base_dir: Path | None,
+    link: Callable[[Path, int], str],
+    units: Units = SI,
 ) -> None:
     """The residual maps and loops `diagnose --report` drew, named in ``info.figures``
     relative to ``base_dir`` (the JSON's folder); ``link`` copies one into the report's
-    directory and returns its href, so the page links nothing outside it."""
+    directory and returns its href, so the page links nothing outside it. Copied as drawn:
+    a note when they were drawn in other units than the page's ``units``."""
     info = doc.get("info") if isinstance(doc, dict) else None
     named = info.get("figures") if isinstance(info, dict) else None
     if not isinstance(named, dict) or not named or base_dir is None:
@@ -279,7 +341,7 @@ def render_figures(
             "(shockdyno diagnose ... --report DIR draws them, and DIAG.json then names them)."
         )
         return
-    missing = []
+    missing, shown = [], 0
     for n, (key, caption) in enumerate(FIGURE_CAPTIONS.items()):
         rel = named.get(key)
         if not isinstance(rel, str):
@@ -289,6 +351,14 @@ def render_figures(
             missing.append(rel)
             continue
         page.figure(link(png, 50 + n), caption)
+        shown += 1
+    drawn = info.get("figures_units", "si") if isinstance(info, dict) else "si"
+    if shown and drawn != units.name and drawn in ("si", "imperial"):
+        axes = "in, in/s, lbf" if drawn == "imperial" else "mm, m/s, N"
+        page.paragraph(
+            f"The residual maps and loops are drawn in {axes}, as diagnose --units {drawn} "
+            "drew them; the rest of the page is converted."
+        )
     if missing:
         page.paragraph(
             f"Figures of the diagnosis not found beside its JSON: {', '.join(missing)} "

@@ -70,3 +70,29 @@ def test_clicks_out_of_range_are_refused():
         spec.bleed_areas(22)
     with pytest.raises(ConfigError, match="gas-bottle clicks"):
         spec.bleed_areas(3, -1)
+
+
+@pytest.mark.parametrize(
+    ("key", "line", "message"),
+    [
+        (
+            "oil_viscosity_cst",
+            'oil_viscosity_cst = "ten"',
+            "oil_viscosity_cst: a number, not 'ten'",
+        ),
+        ("n_shims", "n_shims = 6.5", "n_shims: a whole number, not 6.5"),
+        ("max_clicks", 'max_clicks = "24"', "max_clicks: a whole number, not '24'"),
+        ("friction_n", "friction_n = true", "friction_n: a number, not True"),
+    ],
+)
+def test_a_value_of_the_wrong_type_is_one_line_naming_the_key(tmp_path, key, line, message):
+    """A quoted number, a fraction where a count goes, a true/false: refused on reading
+    (a fit with "ten" crashed in the flow solve; 6.5 shims ran as 6.5)."""
+    lines = default_spec_path().read_text().splitlines()
+    at = next(i for i, text in enumerate(lines) if text.strip().startswith(key))
+    lines[at] = line
+    bad = tmp_path / "bad.toml"
+    bad.write_text("\n".join(lines))
+    with pytest.raises(ConfigError) as err:
+        load_spec(bad)
+    assert message in str(err.value) and "\n" not in str(err.value)

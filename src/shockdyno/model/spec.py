@@ -165,15 +165,33 @@ def _section(doc: dict[str, Any], key: str, path: Path) -> dict[str, Any]:
 
 
 def _build(cls: type, data: dict[str, Any], where: str) -> Any:
-    names = {f.name for f in fields(cls)}
-    unknown = sorted(set(data) - names)
+    kinds = {f.name: str(f.type) for f in fields(cls)}
+    unknown = sorted(set(data) - set(kinds))
     if unknown:
         raise ConfigError(f"{where}: unknown key {unknown[0]!r}")
+    data = {k: _typed(v, kinds[k], f"{where} {k}") for k, v in data.items()}
     try:
         return cls(**data)
     except TypeError as exc:  # a required key is missing
         missing = str(exc).split("argument")[-1].strip(": ")
         raise ConfigError(f"{where}: missing {missing}") from None
+
+
+def _typed(value: Any, kind: str, where: str) -> Any:
+    """A TOML value checked against its field's type: a float field takes any number, an
+    int field a whole number (``n_shims = 6.5`` is an error, not 6), a str field a string;
+    a quoted number or a true/false is an error naming the key."""
+    if kind == "float":
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"{where}: a number, not {value!r}")
+        return float(value)
+    if kind == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{where}: a whole number, not {value!r}")
+        return value
+    if kind == "str" and not isinstance(value, str):
+        raise ConfigError(f"{where}: a text in quotes, not {value!r}")
+    return value
 
 
 def load_spec(path: str | Path | None = None) -> DamperSpec:
@@ -200,9 +218,6 @@ def load_spec(path: str | Path | None = None) -> DamperSpec:
     damper["rebound_bleed"] = _build(
         BleedLaw, _section(bleed, "rebound", p), f"{p} [bleed.rebound]"
     )
-    for key, value in list(damper.items()):
-        if isinstance(value, int) and not isinstance(value, bool) and key != "max_gas_clicks":
-            damper[key] = float(value)
     spec: DamperSpec = _build(DamperSpec, damper, f"{p} [damper]")
     spec.validate()
     return spec

@@ -60,6 +60,16 @@ def test_a_shut_bleed_is_outvoted_by_the_other_clicks() -> None:
     assert describe(tests) == "gas force removed: 233 N estimated from the sine's reversals"
 
 
+def test_half_shut_bleeds_do_not_pull_the_estimate() -> None:
+    """One shut-bleed test against one open: a median of the two midpoints would sit
+    between them (a review's sweep of clicks 0 and 21 read 132 N against 231 N); the test
+    whose reversal ends are closest (the bleed lets the force relax) gives the estimate."""
+    shut, open_ = make_test(0, 0, 1.5), make_test(1, 21, 1.5)
+    assert abs(reversal_estimate(shut) - gas_truth()) > 20
+    for t in with_gas_force([shut, open_]):
+        assert t.meta.gas_force_n == pytest.approx(gas_truth(), abs=3.0)
+
+
 def test_a_measured_gas_force_is_kept_and_lent_to_a_click_without_one() -> None:
     a = make_test(0, 9, 1.0)
     a = replace(a, meta=replace(a.meta, gas_force_n=200.0, gas_force_source="measured"))

@@ -17,6 +17,7 @@ import numpy as np
 from shockdyno import units as units_mod
 from shockdyno.errors import FitError
 from shockdyno.fit.display import Shown, bound_hit, bound_text, globals_rows, shown
+from shockdyno.fit.prepare import FITTED_ANYWAY
 from shockdyno.lists import seed_arg
 from shockdyno.outputs import check_output, check_report_dir, write_output
 from shockdyno.units import SI, Units
@@ -284,7 +285,7 @@ def run_fit(args: argparse.Namespace) -> int:
         f"wrote {'stdout' if out is None else out}"
     )
     for note in info.get("skipped", []):
-        say(f"skipped {note}")
+        say(f"note: {note}" if note.endswith(FITTED_ANYWAY) else f"skipped {note}")
     if args.report:
         from shockdyno.fit.validate import table4_rows
         from shockdyno.record.atomic import write_text_atomic

@@ -31,6 +31,9 @@ MIN_SAMPLES = 20
 # 0.1 mm stroke on a 1 µm LVDT does.
 MOTION_SNR = 20.0
 
+# A short test still constrains the fit; only a check between cycles needs two of them.
+FITTED_ANYWAY = "fitted anyway, with no second cycle to check it against"
+
 
 def lvdt_noise_m(x: FloatArray) -> float:
     """The displacement channel's noise σ from its third differences (robust MAD): a
@@ -126,7 +129,7 @@ def prepare_tests(
         if cycles < 2:
             notes.append(
                 f"test {m.index} ({m.clicks} clicks, {m.frequency_hz:g} Hz): "
-                f"only {cycles:.2g} cycles measured (fewer than two)"
+                f"only {cycles:.2g} cycles measured (fewer than two); {FITTED_ANYWAY}"
             )
         v, a = differentiate(d.t, d.x)
         dt = float(d.t[1] - d.t[0])

@@ -181,3 +181,31 @@ def test_the_corrected_table_in_imperial_is_the_si_table_converted(tests_and_fit
         for cell, v in zip(cells[2:], si.velocities_m_s, strict=True):
             if math.isfinite(values[v]):
                 assert float(cell) == pytest.approx(values[v] / 4.4482216152605, abs=0.51)
+
+
+def test_the_page_warns_of_an_extrapolated_reference_and_keeps_the_stars(thermal):
+    """90 °C against tests at ~41-49 °C: the page says the thermal term is extrapolated
+    ~40 K; a value the click chart extrapolated keeps its * and its CSV flag."""
+    html = thermal["page"].read_text()
+    assert "from the nearest tested oil temperature" in html and "extrapolated" in html
+    page_dir = thermal["page"].parent
+    rows = list(csv.DictReader((page_dir / "click_chart_reference.csv").read_text().splitlines()))
+    main_rows = list(csv.DictReader((page_dir / "click_chart.csv").read_text().splitlines()))
+    flags = {
+        (r["clicks"], r["velocity_m_s"]): r["extrapolated"]
+        for r in main_rows
+        if r["source"] == "measured"
+    }
+    assert {r["extrapolated"] for r in rows} == {"0", "1"}  # 1.5 Hz x 30 mm: 300 mm/s is not met
+    for r in rows:
+        assert r["extrapolated"] == flags[(r["clicks"], r["velocity_m_s"])], r
+
+
+def test_a_thermal_term_that_moves_nothing_is_said_so() -> None:
+    same = {(3, 0): {0.1: 200.0, -0.1: -900.0}}
+    chart = temperature.CorrectedChart(40.0, (0.1, -0.1), {(3, 0): 41.0}, same, same)
+    notes = temperature._caveats(chart)
+    assert len(notes) == 1 and "moves no value" in notes[0]
+    moved = {(3, 0): {0.1: 190.0, -0.1: -900.0}}
+    far = temperature.CorrectedChart(90.0, (0.1, -0.1), {(3, 0): 41.0}, same, moved)
+    assert [("49 K" in n) for n in temperature._caveats(far)] == [True]

@@ -280,12 +280,12 @@ def _click_chart_section(
         page.table(header, rows, numeric=[True] * len(header))
         page.close_details()
     also = " and the model's" if chart.model else ""
-    held = "raw force" if raw_force else "damping force, the gas force removed: see gas_force"
+    cols = clickchart.csv_header(units)
+    held = "raw force" if raw_force else f"damping force, the gas force removed in {cols[-1]}"
     page.link(
         "click_chart.csv",
         "click_chart.csv",
-        f": the measured values{also} as CSV ({units.velocity_label}, {units.force_label}; "
-        f"{held}).",
+        f": the measured values{also} as CSV ({cols[2]}, {cols[4]}; {held}).",
     )
 
 

@@ -27,7 +27,7 @@ import csv
 import io
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -85,6 +85,7 @@ class CorrectedChart:
     temperatures_c: dict[Setting, float]  # mean oil temperature of each setting's tests
     measured: dict[Setting, dict[float, float]]
     corrected: dict[Setting, dict[float, float]]
+    extrapolated: dict[Setting, dict[float, bool]] = field(default_factory=dict)
 
 
 def setting_temperatures(tests: Sequence[TestData]) -> dict[Setting, float]:
@@ -182,6 +183,9 @@ def corrected_chart(
     chart's damping force (its gas force removed), scaled by the model's damping ratio."""
     chart = clickchart.click_chart(tests, None, speeds_m_s, raw_force=raw_force)
     measured = {k: {v: r.force_n for v, r in row.items()} for k, row in chart.measured.items()}
+    extrapolated = {
+        k: {v: r.extrapolated for v, r in row.items()} for k, row in chart.measured.items()
+    }
     temps = setting_temperatures(tests)
     return CorrectedChart(
         reference_c,
@@ -189,6 +193,7 @@ def corrected_chart(
         temps,
         measured,
         correct(measured, temps, fit, reference_c, damping_only=not raw_force),
+        extrapolated,
     )
 
 
@@ -201,6 +206,7 @@ CSV_HEADER = [
     "reference_c",
     "measured_n",
     "corrected_n",
+    "extrapolated",  # 1: the measured value is the click chart's extrapolation (its *)
 ]
 
 
@@ -214,8 +220,39 @@ def to_csv(c: CorrectedChart) -> str:
             cells = (c.measured[key][v], row[v])
             values = [f"{f:.2f}" if math.isfinite(f) else "" for f in cells]
             temp = f"{c.temperatures_c[key]:.2f}"
-            w.writerow([*key, f"{v:g}", temp, f"{c.reference_c:g}", *values])
+            ext = int(c.extrapolated.get(key, {}).get(v, False))
+            w.writerow([*key, f"{v:g}", temp, f"{c.reference_c:g}", *values, ext])
     return text.getvalue()
+
+
+EXTRAPOLATION_K = 15.0  # a reference further than this from every test is flagged
+
+
+def _caveats(c: CorrectedChart) -> list[str]:
+    """What a reader must know before trusting the table: a reference far outside the
+    tested temperatures, a thermal term that moves nothing."""
+    notes = []
+    temps = list(c.temperatures_c.values())
+    gap = min(abs(c.reference_c - t) for t in temps)
+    if gap > EXTRAPOLATION_K:
+        notes.append(
+            f"The reference is {gap:.0f} K from the nearest tested oil temperature "
+            f"({min(temps):.1f} to {max(temps):.1f} °C): the thermal term is extrapolated "
+            "that far beyond what this recording shows."
+        )
+    moved = [
+        abs(row[v] - c.measured[key][v])
+        for key, row in c.corrected.items()
+        for v in row
+        if math.isfinite(row[v]) and math.isfinite(c.measured[key][v])
+    ]
+    if moved and max(moved) < 0.5:
+        notes.append(
+            f"The correction moves no value by as much as 0.5 N (largest {max(moved):.2g} N): "
+            "the fit's thermal term has no force change with temperature (see the fit's "
+            "thermal parameters, e.g. at a bound of 0), so these are the measured values."
+        )
+    return notes
 
 
 def render(
@@ -257,9 +294,10 @@ def render(
         "force at that click and velocity. "
         f"Tests' mean temperatures: {temp(temps[0], '.1f')} to {temp(temps[-1], '.1f')}; "
         f"reference {temp(reference_c)} (--reference-temperature-c, °C). Only what the "
-        "thermal term models "
-        "is corrected.",
+        "thermal term models is corrected.",
     )
+    for note in _caveats(c):
+        page.paragraph(note, warn=True)
     gas = len({g for _, g in c.measured}) > 1
     header = [
         "clicks",
@@ -271,8 +309,12 @@ def render(
     for key, row in sorted(c.corrected.items()):
         t_c = units.temperature(c.temperatures_c[key])
         cells = [str(key[0]), *([str(key[1])] if gas else []), f"{t_c:.1f}"]
+        star = c.extrapolated.get(key, {})
         cells += [
-            f"{units.force(row[v]):.0f}" if math.isfinite(row[v]) else "–" for v in c.velocities_m_s
+            f"{units.force(row[v]):.0f}{'*' if star.get(v) else ''}"
+            if math.isfinite(row[v])
+            else "–"
+            for v in c.velocities_m_s
         ]
         rows.append(cells)
     page.subheading(

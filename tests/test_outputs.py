@@ -149,3 +149,24 @@ def test_an_existing_report_is_refused_before_any_work(capsys, rec, tmp_path, co
     afile.write_text("x")
     assert main([*args, "--json", str(out), "--report", str(afile)]) == 2
     assert "not a directory" in capsys.readouterr().err and not out.exists()
+
+
+def test_a_folder_of_someone_elses_figures_is_not_written_over(capsys, rec, tmp_path):
+    """report -o into a folder that is not a report but holds a peaks.png and a
+    click_chart.csv of its own: refused in one line, both kept; --force writes."""
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "peaks.png").write_bytes(b"my own plot")
+    (mine / "click_chart.csv").write_text("my,own\n")
+    (mine / "notes.txt").write_text("unrelated files are no obstacle")
+    assert main(["report", str(rec), "-o", str(mine)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "would write over (click_chart.csv, peaks.png)" in err
+    assert (mine / "peaks.png").read_bytes() == b"my own plot"
+    assert not (mine / "index.html").exists()
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "notes.txt").write_text("x")
+    assert main(["report", str(rec), "-o", str(other)]) == 0
+    assert main(["report", str(rec), "-o", str(mine), "--force"]) == 0
+    assert (mine / "peaks.png").read_bytes() != b"my own plot"

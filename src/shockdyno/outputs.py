@@ -87,6 +87,18 @@ def check_report_dir(
     index = out / "index.html"
     if index.is_file() and index.stat().st_size > 0 and not force:
         raise ConfigError(f"{flag}: {index} exists (use --force to replace it)")
+    if out.is_dir() and not index.is_file() and not force:
+        # not a report (yet), but holding files a report would write over: someone's own
+        clash = sorted(
+            p.name
+            for p in out.iterdir()
+            if p.is_file() and (p.name in REPORT_FILES or p.suffix in (".png", ".csv"))
+        )
+        if clash:
+            raise ConfigError(
+                f"{flag}: {out} holds files a report would write over ({', '.join(clash[:3])}"
+                f"{', ...' if len(clash) > 3 else ''}); use --force or another directory"
+            )
     own = {(out / name).resolve() for name in REPORT_FILES}
     for source in inputs:
         path = Path(source)

@@ -106,7 +106,11 @@ def test_bad_velocities_are_refused_in_one_line(text):
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
-        (["--velocities-mm-s", "25,700"], "700 mm/s exceeds the rig's limit of 600 mm/s"),
+        (["--velocities-mm-s", "25,700"], "700 mm/s exceeds 570 mm/s, 95 % of the rig's limit"),
+        # at the limit itself: refused here, not by the session after the rig is started
+        (["--velocities-mm-s", "600"], "600 mm/s exceeds 570 mm/s, 95 % of the rig's limit"),
+        (["--velocities-mm-s", "0.001"], "a cycle of 52.4 h"),
+        (["--velocities-mm-s", ""], "velocities must be > 0 mm/s"),
         (["--velocities-mm-s", "500", "--amplitude-mm", "0.5"], "above the 50 Hz"),
         (["--velocities-mm-s", "25", "--freq", "1"], "not allowed with argument"),
     ],

@@ -136,20 +136,34 @@ def register(sub: Any) -> None:
     r.set_defaults(func=cmd_replay)
 
 
+MIN_PLANNED_HZ = 1 / 600  # one cycle in 10 min: slower is a mistyped velocity, not a test
+SAFETY_SHARE = 0.95  # of the rig's velocity limit a planned sine may reach
+
+
 def _frequencies(args: argparse.Namespace, rig: RigConfig | None) -> list[float]:
     """--freq as given, or the frequencies that reach --velocities-mm-s at the amplitude."""
     text = getattr(args, "velocities_mm_s", None)
-    if not text:
+    if text is None:
         return parse_frequencies(getattr(args, "freq", "0.5,1,1.5"))
     amplitude_m = getattr(args, "amplitude_mm", 30.0) / 1e3
     velocities = parse_velocities_mm_s(text)
+    slowest = min(velocities) / (2 * math.pi * amplitude_m)
+    if slowest < MIN_PLANNED_HZ:
+        raise ConfigError(
+            f"--velocities-mm-s: {min(velocities) * 1e3:g} mm/s at {amplitude_m * 1e3:g} mm "
+            f"needs {slowest:.3g} Hz, a cycle of {1 / slowest / 3600:.3g} h; the slowest "
+            "planned is one cycle in 10 min (use a smaller --amplitude-mm)"
+        )
     if rig is not None:
-        limit = rig.limits.velocity_m_s
+        # 5 % under the limit: the safety monitor watches measured, noisy velocities, and
+        # a sine planned at the limit itself is refused by the session at its start.
+        limit = SAFETY_SHARE * rig.limits.velocity_m_s
         too_fast = [v for v in velocities if v > limit]
         if too_fast:
             raise ConfigError(
-                f"--velocities-mm-s: {too_fast[0] * 1e3:g} mm/s exceeds the rig's limit of "
-                f"{limit * 1e3:g} mm/s ({rig.source} limits.velocity_m_s)"
+                f"--velocities-mm-s: {too_fast[0] * 1e3:g} mm/s exceeds "
+                f"{limit * 1e3:g} mm/s, 95 % of the rig's limit of "
+                f"{rig.limits.velocity_m_s * 1e3:g} mm/s ({rig.source} limits.velocity_m_s)"
             )
     if rig is not None:
         f_max = rig.daq.sample_rate_hz / 20
@@ -167,7 +181,7 @@ def _frequencies(args: argparse.Namespace, rig: RigConfig | None) -> list[float]
     if rig is not None:
         f_max = rig.daq.sample_rate_hz / 20
         # 5 % under the limit: the safety monitor watches measured, noisy velocities.
-        cap = 0.95 * min(rig.limits.velocity_m_s, 2 * math.pi * amplitude_m * f_max)
+        cap = SAFETY_SHARE * min(rig.limits.velocity_m_s, 2 * math.pi * amplitude_m * f_max)
     return frequencies_for_velocities(velocities, amplitude_m, cap)
 
 

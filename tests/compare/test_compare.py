@@ -241,3 +241,19 @@ def test_side_by_side_click_charts_share_one_force_scale(sims: dict[str, Path]) 
             for v, val in row.items():
                 lo, hi = (c_lo, c_hi) if v > 0 else (r_lo, r_hi)
                 assert lo < val.force_n < hi, (inp.label, v, val.force_n)
+
+
+def test_the_same_recording_twice_is_refused_and_two_fits_are_not_called_alike(
+    sims: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    args = ["compare", str(sims["a"]), str(sims["a"]), "-o", str(tmp_path / "p")]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "given twice" in err
+    # Two fits have no scatter: the terminal says their values are not judged, rather
+    # than that everything is "within the scatter".
+    fit_b = tmp_path / "fit-b.json"
+    FitResult.from_spec(sims["spec_b"], CLICKS).save(fit_b)
+    assert main(["compare", str(sims["fit"]), str(fit_b), "-o", str(tmp_path / "q")]) == 0
+    err = capsys.readouterr().err
+    assert "no difference beyond the scatter; 24 of 24 values not judged" in err

@@ -56,6 +56,11 @@ def run_compare(args: argparse.Namespace) -> int:
     paths = [*args.inputs, *args.fit]
     if len(paths) < 2:
         raise ConfigError("give two or more inputs to compare (recordings or fits)")
+    seen: dict[Path, str] = {}
+    for p in paths:
+        again = seen.setdefault(Path(p).resolve(), p)
+        if again != p or paths.count(p) > 1:
+            raise ConfigError(f"{p}: given twice (as {again}); compare needs different inputs")
     out = Path(args.output)
     check_report_dir(out, paths, args.force, flag="-o")
     if args.json:
@@ -82,7 +87,17 @@ def run_compare(args: argparse.Namespace) -> int:
     for r in found[:10]:
         print(f"compare: {r.b} vs {r.a}, clicks {r.clicks}: {r.text(units)}", file=sys.stderr)
     if not found:
-        print("compare: every value within the scatter or not judged", file=sys.stderr)
+        unjudged = sum(r.verdict == "not judged" for r in rows)
+        print(
+            "compare: no difference beyond the scatter"
+            + (
+                f"; {unjudged} of {len(rows)} values not judged (extrapolated, or two fits "
+                "with no scatter to judge against: see the table's differences)"
+                if unjudged
+                else ""
+            ),
+            file=sys.stderr,
+        )
     # With --json - the table owns standard output.
     print(f"compare: {index}", file=sys.stderr if args.json == "-" else sys.stdout)
     return 0

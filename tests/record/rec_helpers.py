@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -47,8 +48,13 @@ def seq_range(k: int) -> tuple[int, int]:
     return lo, lo + SAMPLES_PER_TEST
 
 
-def write_small(path: Path, block_sizes: tuple[int, ...] = (17, 250, 3, 1000)) -> None:
-    """Three tests of 2500 samples in irregular blocks, with events and actuator records."""
+def write_small(
+    path: Path,
+    block_sizes: tuple[int, ...] = (17, 250, 3, 1000),
+    gas_force_n: tuple[float | None, ...] = (),
+) -> None:
+    """Three tests of 2500 samples in irregular blocks, with events and actuator records;
+    ``gas_force_n``: per test, a measured gas force to store with it."""
     with RecordingWriter(
         path,
         metadata={"damper_id": "S46-0042", "operator": "ana", "notes": "new shims, ä ok"},
@@ -56,7 +62,10 @@ def write_small(path: Path, block_sizes: tuple[int, ...] = (17, 250, 3, 1000)) -
     ) as w:
         for k, (index, clicks, freq) in enumerate(TESTS):
             lo, hi = seq_range(k)
+            gas = gas_force_n[k] if k < len(gas_force_n) else None
             m = meta(index, clicks, freq)
+            if gas is not None:
+                m = replace(m, gas_force_n=gas, gas_force_source="measured")
             w.begin_test(m)
             w.write_actuator(lo / RATE, {"enable": True, "amplitude_m": 0.03, "mode": "sine"})
             s, i = lo, 0

@@ -377,3 +377,22 @@ def test_a_rig_recording_exports_at_its_channels_resolution_with_the_analysis_ve
     assert main(["export", str(rec), "--csv", str(tmp_path / "x"), "--units", "imperial"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--csv writes SI units" in err
+
+
+def test_a_measured_gas_force_survives_export_and_import(tmp_path: Path) -> None:
+    """The manifest carries each test's gas force and its source: a review found a
+    re-imported sweep estimated 236 N where the sweep had measured 231 N. A test without
+    one stays without; the manifest of a recording with none has no such columns."""
+    src = tmp_path / "sweep.mcap"
+    write_small(src, gas_force_n=(230.7, None, 231.25))
+    assert main(["export", str(src), "--csv", str(tmp_path / "csv")]) == 0
+    header = (tmp_path / "csv" / "manifest.csv").read_text().splitlines()[0].split(",")
+    assert "gas_force_n" in header and "gas_force_source" in header
+    again = tmp_path / "again.mcap"
+    assert main(["import", str(tmp_path / "csv" / "manifest.csv"), "-o", str(again)]) == 0
+    got = [(t.meta.gas_force_n, t.meta.gas_force_source) for t in open_recording(again).load_all()]
+    assert got == [(230.7, "measured"), (None, None), (231.25, "measured")]
+    plain = tmp_path / "plain.mcap"
+    write_small(plain)
+    assert main(["export", str(plain), "--csv", str(tmp_path / "csv2")]) == 0
+    assert "gas_force" not in (tmp_path / "csv2" / "manifest.csv").read_text()

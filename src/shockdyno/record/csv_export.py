@@ -113,6 +113,9 @@ def _write_manifest(path: Path, tests: list[TestMeta], names: list[str]) -> None
     gas = any(m.gas_pressure_pa is not None for m in tests)
     reasons = any(m.abort_reason for m in tests)
     header += ["gas_pressure_pa"] * gas + ["abort_reason"] * reasons
+    # only when a test has one, so an imported recording without it exports as it came
+    gas_force = any(m.gas_force_n is not None for m in tests)
+    header += ["gas_force_n", "gas_force_source"] * gas_force
     header += extras
     with open(path, "w", encoding="utf-8", newline="") as out:
         w = csv.writer(out, lineterminator="\n")
@@ -127,6 +130,9 @@ def _write_manifest(path: Path, tests: list[TestMeta], names: list[str]) -> None
                 row.append(_num(m.gas_pressure_pa))
             if reasons:
                 row.append(m.abort_reason or "")
+            if gas_force:
+                known = m.gas_force_n is not None
+                row += [_num(m.gas_force_n) if known else "", (m.gas_force_source or "") * known]
             row += [m.extra.get(k, "") for k in extras]
             w.writerow(row)
 

@@ -59,7 +59,10 @@ MANIFEST_KNOWN = (
     "status",
     "gas_pressure_pa",
     "abort_reason",
+    "gas_force_n",  # the static gas force at mid-stroke, as the sweep measured it
+    "gas_force_source",  # "measured" | "estimated"
 )
+GAS_FORCE_SOURCES = ("measured", "estimated")
 SOURCE_KEY = "csv_file"  # TestMeta.extra key: the data file a test was imported from
 VELOCITY_COLUMN = "velocity_m_s"  # written by export; read only for its decimal places
 DECIMALS_KEY = "csv_decimals"  # TestMeta.extra key: "time_s=3,force_N=2": fixed decimal places
@@ -518,9 +521,25 @@ def read_manifest(
                 else None
             ),
             abort_reason=cell("abort_reason") or None,
+            **_gas_force(table, i, cols, cell),
         )
         tests.append(ImportedTest(meta, block))
     return tests
+
+
+def _gas_force(
+    table: _Table, i: int, cols: dict[str, int], cell: Callable[[str], str]
+) -> dict[str, Any]:
+    """The manifest's gas force of a test (export writes the recording's), with its source:
+    a number alone is taken as measured."""
+    if not cell("gas_force_n"):
+        return {}
+    value = _float_cell(table, i, cols["gas_force_n"])
+    source = cell("gas_force_source") or "measured"
+    if source not in GAS_FORCE_SOURCES:
+        where = table.where(i, cols["gas_force_source"])
+        raise RecordingError(f"{where}: {source!r} is not one of {', '.join(GAS_FORCE_SOURCES)}")
+    return {"gas_force_n": value, "gas_force_source": source}
 
 
 def _data_path(manifest: Path, name: str, allow_outside: bool, where: str) -> Path:

@@ -153,6 +153,7 @@ def test_a_value_pressed_against_a_bound_reads_which_bound() -> None:
             "load_cell_lag_s": Estimate(1.7e-28, 2e-5, "s", at_bound=True),
         },
         "compressibility": {"air_fraction": Estimate(0.3, 0.01, "1", at_bound=True)},
+        "thermal": {"cooling_time_s": Estimate(300.0, 12.0, "s")},
     }
     console = Console(width=200, record=True)
     console.print(terms_table(terms))
@@ -162,6 +163,9 @@ def test_a_value_pressed_against_a_bound_reads_which_bound() -> None:
     assert "at lower bound (0 ms)" in lag and " ms " in lag
     delay = next(line for line in text.splitlines() if "delay_s" in line)
     assert " 2.1 " in delay and " 0.1 " in delay  # 0.0021 s ± 1e-4 s in ms
+    # a time constant of minutes in s (it read 3e+05 ms), a delay in ms
+    cooling = next(line for line in text.splitlines() if "cooling_time_s" in line)
+    assert " 300 " in cooling and " s " in cooling and " ms " not in cooling
     air = next(line for line in text.splitlines() if "air_fraction" in line)
     assert "at upper bound (0.3)" in air  # compressibility's air fraction tops out at 0.3
     mm2 = shown("m²", SI)

@@ -62,8 +62,8 @@ def shown(unit: str, units: Units, magnitude: float = math.inf) -> Shown:
         return Shown(units.length_label, length)
     if unit == "m/s":
         return Shown(units.velocity_label, units.velocity_per_m_s)
-    if unit == "s":
-        return Shown("ms", 1e3)
+    if unit == "s":  # a delay in ms, a thermal time constant (minutes) in s
+        return Shown("ms", 1e3) if abs(magnitude) < 1.0 else Shown("s")
     if unit == "°C":
         return Shown(units.temperature_label, 1.8, 32.0) if units.imperial else Shown("°C")
     if units.imperial:
@@ -133,7 +133,7 @@ def globals_rows(result: FitResult, units: Units = SI) -> tuple[list[str], list[
         rows.append([key, fitted, sd_text, show.text(base) if known else "?", show.label, change])
     if "force_delay_s" in cal:
         delay, delay_sd = cal["force_delay_s"], cal.get("force_delay_sd_s")
-        ms = shown("s", units)
+        ms = shown("s", units, 0.0)  # a delay: always ms
         sd_ms = ms.text(delay_sd) if isinstance(delay_sd, int | float) else "?"
         rows.append(["force delay", ms.text(delay), sd_ms, "0", "ms", ""])
     return header, rows

@@ -20,7 +20,7 @@ from shockdyno.lists import parse_floats, parse_ints
 from shockdyno.model.kinematics import differentiate
 from shockdyno.outputs import check_output
 from shockdyno.record.csv_export import export_csv
-from shockdyno.ride.damper_table import UNITS, click_tables, write_tables
+from shockdyno.ride.damper_table import IMPERIAL_SPEEDS_M_S, UNITS, click_tables, write_tables
 
 MCAP_MAGIC = b"\x89MCAP"
 
@@ -49,7 +49,8 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--velocities-mm-s",
         metavar="LIST",
-        help="--damper-table: speeds of the grid, both directions (default: 2.5 to 1000 mm/s)",
+        help="--damper-table: speeds of the grid, both directions (default: 2.5 to 1000 mm/s; "
+        "with --units imperial 0.1 to 40 in/s in round steps)",
     )
     p.add_argument(
         "--units",
@@ -113,6 +114,8 @@ def _damper_table(args: argparse.Namespace) -> int:
         speeds = [v * 1e-3 for v in parse_floats(args.velocities_mm_s, "--velocities-mm-s")]
         if any(not 0 < abs(v) <= 20 for v in speeds):
             raise ConfigError("--velocities-mm-s: speeds must be non-zero and at most 20000")
+    elif args.units == "imperial":
+        speeds = list(IMPERIAL_SPEEDS_M_S)
     tables = click_tables(fit, clicks, speeds)
     if out.is_dir():  # every target refused before anything is written
         for t in tables:

@@ -90,11 +90,19 @@ def test_the_table_is_the_damper_the_ride_study_drives(fit_json: Path, tmp_path:
 
 
 def test_imperial_units_are_the_same_curve(fit_json: Path, tmp_path: Path) -> None:
+    """The imperial table's grid is round in/s (1, 2, 3, 5, 10 ... not 0.984252), and at
+    those speeds the forces are the SI table's at the same speeds, converted."""
     si, imp = tmp_path / "si", tmp_path / "imp"
-    assert main(["export", str(fit_json), "--damper-table", str(si)]) == 0
     assert main(["export", str(fit_json), "--damper-table", str(imp), "--units", "imperial"]) == 0
-    a = read_teimorbit((si / "clicks_21.dpr").read_text())
     b = read_teimorbit((imp / "clicks_21.dpr").read_text())
+    speeds_in_s = sorted({abs(float(v)) for v in b.velocity if v != 0})
+    assert {1.0, 2.0, 3.0, 5.0, 10.0} <= set(speeds_in_s)
+    assert all(float(f"{v:.2f}") == v for v in speeds_in_s)  # no 0.984252
+    mm_s = ",".join(f"{v * M_PER_IN * 1e3:.10g}" for v in speeds_in_s)
+    assert (
+        main(["export", str(fit_json), "--damper-table", str(si), "--velocities-mm-s", mm_s]) == 0
+    )
+    a = read_teimorbit((si / "clicks_21.dpr").read_text())
     assert b.units["LENGTH"] == "inch" and b.units["FORCE"] == "pound_force"
     assert np.allclose(b.velocity * M_PER_IN * 1e3, a.velocity, rtol=1e-5)
     assert np.allclose(b.force * N_PER_LBF, a.force, rtol=1e-5, atol=1e-4)

@@ -96,6 +96,14 @@ class ClickTable:
         return self.force_n - self.gas_force_n
 
 
+# The imperial default: round in/s values over the same span (0.1 to 40 in/s, 2.5 to
+# 1016 mm/s), so an imperial table's rows read 1, 2, 3, 5, 10 in/s, not 0.984252.
+IMPERIAL_SPEEDS_IN_S: tuple[float, ...] = (
+    0.1, 0.2, 0.3, 0.4, 0.5, 0.75, 1, 1.25, 1.5, 2, 2.5, 3, 4, 5, 6, 8, 10, 12, 15, 20, 25, 30, 40,
+)  # fmt: skip
+IMPERIAL_SPEEDS_M_S: tuple[float, ...] = tuple(v * M_PER_IN for v in IMPERIAL_SPEEDS_IN_S)
+
+
 def velocity_grid(speeds_m_s: Sequence[float] = DEFAULT_SPEEDS_M_S) -> FloatArray:
     s = np.asarray(sorted({abs(float(v)) for v in speeds_m_s if v != 0}), dtype=float)
     if s.size == 0 or not np.all(np.isfinite(s)):

@@ -87,6 +87,12 @@ def check_report_dir(
     index = out / "index.html"
     if index.is_file() and index.stat().st_size > 0 and not force:
         raise ConfigError(f"{flag}: {index} exists (use --force to replace it)")
+    own = {(out / name).resolve() for name in REPORT_FILES}
+    for source in inputs:
+        path = Path(source)
+        drawn = path.suffix == ".png" and path.resolve().parent == out.resolve()
+        if path.resolve() in own or drawn:
+            raise ConfigError(f"{flag}: the report would overwrite its input {path}")
     if out.is_dir() and not index.is_file() and not force:
         # not a report (yet), but holding files a report would write over: someone's own
         clash = sorted(
@@ -99,12 +105,6 @@ def check_report_dir(
                 f"{flag}: {out} holds files a report would write over ({', '.join(clash[:3])}"
                 f"{', ...' if len(clash) > 3 else ''}); use --force or another directory"
             )
-    own = {(out / name).resolve() for name in REPORT_FILES}
-    for source in inputs:
-        path = Path(source)
-        drawn = path.suffix == ".png" and path.resolve().parent == out.resolve()
-        if path.resolve() in own or drawn:
-            raise ConfigError(f"{flag}: the report would overwrite its input {path}")
     base = out
     while not base.exists():  # the nearest existing ancestor must take new files
         base = base.parent

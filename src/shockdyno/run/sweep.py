@@ -17,7 +17,7 @@ from shockdyno.errors import RigFault
 from shockdyno.record.types import TestMeta
 from shockdyno.rig.types import SampleBlock
 from shockdyno.run import signals
-from shockdyno.run.gas_measure import measure_gas_force
+from shockdyno.run.gas_measure import Holder, measure_gas_force
 from shockdyno.run.plan import SweepPlan, SweepPoint
 from shockdyno.run.signals import Terminated
 
@@ -32,16 +32,8 @@ class _Outcome(Protocol):
     stop_sweep: bool
 
 
-class Session(Protocol):
+class Session(Holder, Protocol):  # Holder: hold_at, for the gas-force measurement
     def set_clicks(self, rod_clicks: int, gas_clicks: int) -> None: ...
-
-    def hold_at(
-        self,
-        offset_m: float,
-        velocity_m_s: float | None,
-        dwell_s: float,
-        on_block: Callable[[SampleBlock], None],
-    ) -> tuple[float, float]: ...
 
     def read_temperature_c(self) -> float: ...
 

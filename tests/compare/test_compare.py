@@ -5,6 +5,7 @@ an input; refusals and wrong files in one line."""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -257,3 +258,13 @@ def test_the_same_recording_twice_is_refused_and_two_fits_are_not_called_alike(
     assert main(["compare", str(sims["fit"]), str(fit_b), "-o", str(tmp_path / "q")]) == 0
     err = capsys.readouterr().err
     assert "no difference beyond the scatter; 24 of 24 values not judged" in err
+
+
+def test_the_loops_that_differ_are_the_ones_opened(sims: dict[str, Path], tmp_path: Path) -> None:
+    """Before/after with the change at 8 clicks: the page opens the 8-click loops, not the
+    unchanged 0-click ones a reader would otherwise meet first."""
+    _compare(tmp_path, str(sims["a"]), str(sims["b"]))
+    html = (tmp_path / "page" / "index.html").read_text(encoding="utf-8")
+    opened = re.findall(r"<details open><summary>(clicks \d+), gas", html)
+    assert opened == ["clicks 8"], opened
+    assert "<details><summary>clicks 0, gas 0, 2 Hz" in html

@@ -118,11 +118,22 @@ def render(
         "F-x and F-v over the measured cycles of the tests two or more recordings share "
         "(same rod and gas clicks, same frequency), one colour per input.",
     )
-    for k, (key, group) in enumerate(sorted(matched.items())):
+    # Open the loops of the settings where the table found a difference (the first two),
+    # else the first two: the loops that show something first.
+    differing = {(r.clicks, r.gas_clicks) for r in rows if r.verdict == DIFFERENCE}
+    keys = sorted(matched)
+    shown_first = [k for k in keys if (k[0], k[1]) in differing][:2] or keys[:2]
+    if differing:
+        page.paragraph(
+            "Opened: the loops of click settings where the table finds a difference; "
+            "the others are collapsed below."
+        )
+    for key in keys:
+        group = matched[key]
         label = f"clicks {key[0]}, gas {key[1]}, {key[2]:g} Hz: " + ", ".join(
             i.label for i, _ in group
         )
-        page.details(label, opened=k < 2)
+        page.details(label, opened=key in shown_first)
         name = f"loops_c{key[0]:02d}_g{key[1]:02d}_{key[2]:g}Hz.png"
         page.figure(cplots.loops_overlay(group, label, out_dir / name, units).name, label)
     page.close_details()

@@ -386,27 +386,21 @@ class RigSession:
             raise ConfigError(f"hold: dwell must be > 0 s, got {dwell_s:g}")
         if not self._armed:
             raise RigFault(f"actuator is not enabled (disarmed by: {self._disarm_reason})")
-        act = self._act()
+        self._act()  # not connected: refused here, before the stop a failed move makes
         target = self.rig.stroke_centre_m + offset_m
         try:
             # Unlike a sine's, the backlog goes to on_block: consecutive holds (the gas-force
             # measurement's) then stream every sample between them too.
             self._on_block = on_block
             self._catch_up(check=True)
-            st = act.status()
-            act.set_mode("hold")
-            act.write({"move_velocity": velocity_m_s, "position_command": target})
-            distance = abs(st.position_m - target)
             # Arrived when the drive says so and the DAQ's samples show it: at a fast
             # simulated rig's speed the stream lags the drive by a good part of a second.
-            self._wait(
-                lambda s: (
-                    s.target_reached
-                    and abs(s.position_m - target) < CENTRE_TOLERANCE_M
-                    and abs(self._x - offset_m) < HOLD_TOLERANCE_M
-                ),
-                daq_budget_s=distance / velocity_m_s + 2.0,
+            self._move(
+                target,
+                check=True,
                 what=f"move to {offset_m * 1e3:+g} mm",
+                velocity_m_s=velocity_m_s,
+                settled=lambda: abs(self._x - offset_m) < HOLD_TOLERANCE_M,
             )
             arrived = self._t
             self._wait(lambda s: self._t >= arrived + dwell_s, daq_budget_s=dwell_s + 2.0,
@@ -709,8 +703,18 @@ class RigSession:
         distance, _ = self._move(self.rig.stroke_centre_m, check=check, what="ramp to centre")
         self._event("centre", f"at stroke centre ({distance * 1e3:.1f} mm ramp)")
 
-    def _move(self, target_m: float, *, check: bool, what: str) -> tuple[float, ActuatorStatus]:
-        """Ramp to the absolute position `target_m`: the distance ramped, the status on arrival."""
+    def _move(
+        self,
+        target_m: float,
+        *,
+        check: bool,
+        what: str,
+        velocity_m_s: float | None = None,
+        settled: Callable[[], bool] = lambda: True,
+    ) -> tuple[float, ActuatorStatus]:
+        """Ramp to the absolute position `target_m` at `velocity_m_s` (None: the rig's
+        ramp.move_velocity_m_s): the distance ramped, the status on arrival. Arrival is the
+        drive's, and `settled()` besides (a hold also waits for the DAQ's samples)."""
         act = self._act()
         st = act.status()
         if not check and not st.enabled:
@@ -722,11 +726,13 @@ class RigSession:
                 "not re-enabled to centre it"
             )
         distance = abs(st.position_m - target_m)
-        v = self.rig.ramp.move_velocity_m_s
+        v = self.rig.ramp.move_velocity_m_s if velocity_m_s is None else velocity_m_s
         act.set_mode("hold")
         act.write({"move_velocity": v, "position_command": target_m})
         arrived = self._wait(
-            lambda s: s.target_reached and abs(s.position_m - target_m) < CENTRE_TOLERANCE_M,
+            lambda s: (
+                s.target_reached and abs(s.position_m - target_m) < CENTRE_TOLERANCE_M and settled()
+            ),
             daq_budget_s=distance / v + 2.0,
             what=what,
             check=check,

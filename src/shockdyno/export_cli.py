@@ -20,9 +20,8 @@ from shockdyno.lists import parse_floats, parse_ints
 from shockdyno.model.kinematics import differentiate
 from shockdyno.outputs import check_output
 from shockdyno.record.csv_export import export_csv
+from shockdyno.result_files import MCAP_MAGIC
 from shockdyno.ride.damper_table import IMPERIAL_SPEEDS_M_S, UNITS, click_tables, write_tables
-
-MCAP_MAGIC = b"\x89MCAP"
 
 
 def register(subparsers: Any) -> None:

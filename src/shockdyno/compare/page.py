@@ -24,7 +24,7 @@ from shockdyno.compare.table import (
     bleed_rows,
 )
 from shockdyno.record.atomic import write_text_atomic
-from shockdyno.report import gas, plots, repeatability
+from shockdyno.report import clickchart, gas, plots, repeatability
 from shockdyno.report.build import shown_path
 from shockdyno.report.clickplots import force_vs_clicks
 from shockdyno.report.html import Page
@@ -63,9 +63,7 @@ def _matched_loops(inputs: Sequence[Input]) -> tuple[dict, list[str]]:  # type: 
 
 def _chart_table(inp: Input, units: Units) -> tuple[list[str], list[list[str]]]:
     velocities = inp.chart.velocities_m_s
-    header = ["clicks", "gas"] + [
-        f"{'comp' if v > 0 else 'reb'} {units.velocity(abs(v)):.3g}" for v in velocities
-    ]
+    header = ["clicks", "gas"] + [clickchart.velocity_label(v, units) for v in velocities]
     rows = []
     for key, row in sorted(inp.values.items()):
         cells = [str(key[0]), str(key[1])]

@@ -82,9 +82,11 @@ class ModelInputs:
         return ModelInputs(xs, vs, acc, np.zeros(1, dtype=np.intp), np.array([float(dt_s)]), temp)
 
     @staticmethod
-    def points(x: FloatArray, v: FloatArray, a: FloatArray) -> ModelInputs:
+    def points(
+        x: FloatArray, v: FloatArray, a: FloatArray, temperature_c: FloatArray | None = None
+    ) -> ModelInputs:
         """Every sample its own segment: states, not a time series (stateful terms sit
-        at their steady state)."""
+        at their steady state); `temperature_c` per sample, or none."""
         n = x.size
         return ModelInputs(
             np.ascontiguousarray(x),
@@ -92,6 +94,7 @@ class ModelInputs:
             np.ascontiguousarray(a),
             np.arange(n, dtype=np.intp),
             np.full(n, 1e-3),
+            temperature_c=temperature_c,
         )
 
     @staticmethod

@@ -124,15 +124,8 @@ def model_forces_at(
     temperature: mid-stroke, zero acceleration, each point its own state."""
     a_bc, a_bt = fit.areas(key[0], gas_clicks=key[1])
     v = np.concatenate([[0.0], np.asarray(velocities, dtype=float)])
-    n = v.size
-    inputs = ModelInputs(
-        np.zeros(n),
-        v,
-        np.zeros(n),
-        np.arange(n, dtype=np.intp),
-        np.full(n, 1e-3),
-        temperature_c=np.full(n, float(temperature_c)),
-    )
+    zeros = np.zeros(v.size)
+    inputs = ModelInputs.points(zeros, v, zeros, np.full(v.size, float(temperature_c)))
     force = fit.model().vehicle().force(inputs, a_bc, a_bt)
     return float(force[0]), np.asarray(force[1:], dtype=float)
 

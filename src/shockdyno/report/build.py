@@ -162,9 +162,13 @@ def build_report(
         page.section("Recording")
         page.table(["key", "value"], [[k, shown_path(str(v))] for k, v in metadata.items()])
 
+    # Per-cycle peaks and chart readings, once: the chart's bands, drift, the peak bands.
+    cycles = repeatability.sweep_cycles([c.test for c in complete], units.standard_velocities_m_s)
     if complete:
         say("click chart")
-        _click_chart_section(page, [c.test for c in complete], fit, out_dir, live, raw_force)
+        _click_chart_section(
+            page, [c.test for c in complete], fit, out_dir, live, raw_force, cycles
+        )
         temperature.render(
             page,
             [c.test for c in complete],
@@ -178,9 +182,8 @@ def build_report(
     if tests:
         _summary_section(page, summaries, units, force_note)
 
-    peak_cycles = repeatability.sweep_cycles([c.test for c in complete], ())
     if complete:
-        _drift_section(page, peak_cycles, warn)
+        _drift_section(page, cycles, warn)
 
     for heading, header, rows in tables:
         page.section(heading)
@@ -188,7 +191,7 @@ def build_report(
 
     if complete:
         say("peak and overlay figures")
-        _peaks_and_overlays(page, complete, out_dir, gas_force_n, live, peak_cycles, force_note)
+        _peaks_and_overlays(page, complete, out_dir, gas_force_n, live, cycles, force_note)
 
     if fit is not None:
         say("fit figures")
@@ -226,14 +229,12 @@ def _click_chart_section(
     out_dir: Path,
     live: Interactive,
     raw_force: bool,
+    cycles: list[repeatability.TestCycles],
 ) -> None:
     units = live.units
     chart = clickchart.click_chart(tests, fit, units.standard_velocities_m_s, raw_force=raw_force)
     u = f"{units.force_label}; velocity in {units.velocity_label}"
-    speeds = sorted({abs(v) for v in chart.velocities_m_s})
-    scatter = repeatability.chart_scatter(
-        repeatability.sweep_cycles(tests, speeds), chart.velocities_m_s
-    )
+    scatter = repeatability.chart_scatter(cycles, chart.velocities_m_s)
     band = repeatability.chart_band(scatter)
     widest = repeatability.widest(band)
     what = (

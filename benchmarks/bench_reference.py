@@ -23,13 +23,17 @@ and what the claimed terms report against the plant's own numbers. Seeds from
 from __future__ import annotations
 
 import argparse
+import hashlib
+import json
 import math
 import os
+import pickle
 import sys
 import time
 import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -136,6 +140,18 @@ def _reported(d: dict[str, Any], charge_pa: float) -> dict[str, float]:
     return out
 
 
+def _cache_path(case: Case) -> Path | None:
+    """A sweep depends only on its plant parameters and seed (and this code's version):
+    kept under --cache, a re-run diagnoses the same recordings without integrating them
+    again."""
+    cache_dir = os.environ.get("BENCH_REFERENCE_CACHE", "")
+    if not cache_dir:
+        return None
+    key = json.dumps([case.seed, sorted(case.params.items()), CLICKS], default=str)
+    digest = hashlib.sha256(key.encode()).hexdigest()[:16]
+    return Path(cache_dir) / f"{digest}.pkl"
+
+
 def run_case(case: Case) -> Row:
     row = Row(case)
     try:
@@ -146,8 +162,20 @@ def run_case(case: Case) -> Row:
 
         spec = load_spec()
         t0 = time.perf_counter()
-        tests, truth = reference_sweep(spec, PlantParams(**case.params), CLICKS, seed=case.seed)
+        cached = _cache_path(case)
+        if cached is not None and cached.exists():
+            with cached.open("rb") as fh:
+                tests, truth = pickle.load(fh)
+        else:
+            tests, truth = reference_sweep(spec, PlantParams(**case.params), CLICKS, seed=case.seed)
+            if cached is not None:
+                tmp = cached.with_suffix(".tmp")
+                with tmp.open("wb") as fh:
+                    pickle.dump((tests, truth), fh)
+                tmp.replace(cached)
         row.sweep_s = time.perf_counter() - t0
+        if os.environ.get("BENCH_REFERENCE_SWEEP_ONLY"):
+            return row
         real = set(case.asked)
         if "cavitation" in real and truth.max_vapour_m3 < VAPOUR_M3:
             real.discard("cavitation")  # the chamber never made vapour: nothing to find
@@ -247,7 +275,14 @@ def main() -> None:
     ap.add_argument("--first-seed", type=int, default=101)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--only", help="comma-separated case-name prefixes")
+    ap.add_argument("--cache", help="keep each sweep here and read it back on a re-run")
+    ap.add_argument("--sweep-only", action="store_true", help="make (and cache) the sweeps")
     args = ap.parse_args()
+    if args.cache:  # read by run_case in the pool's processes, which inherit the environment
+        Path(args.cache).mkdir(parents=True, exist_ok=True)
+        os.environ["BENCH_REFERENCE_CACHE"] = args.cache
+    if args.sweep_only:
+        os.environ["BENCH_REFERENCE_SWEEP_ONLY"] = "1"
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
     cases = make_cases(seeds)
     if args.only:

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import cast
 
@@ -35,6 +35,7 @@ from shockdyno.diagnose.candidates import (
     heldout_gain,
     try_candidate,
 )
+from shockdyno.diagnose.consistency import SENSOR, delay_spread, inconsistent
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.fitting import Fitted, full_rate_force, refit
 from shockdyno.diagnose.locate import Location, locate
@@ -128,6 +129,13 @@ class Settings:
     objective_rate_hz: float = 100.0
     full_rate_hz: float | None = None  # fast lags at up to this rate (None: the recording's)
     candidates: tuple[str, ...] = tuple(LIBRARY)
+    # A sensor's delay is one time for the sweep (diagnose/consistency.py): a sensor-lag
+    # candidate whose per-test delays spread more than this (s, plus a share of their
+    # median) is the damper's lag, not a sensor's. Tests place a delay when it removes
+    # this share of their squared error.
+    sensor_delay_spread_s: float = 0.001
+    sensor_delay_spread_share: float = 0.25
+    sensor_delay_min_gain: float = 0.3
 
 
 @dataclass
@@ -266,10 +274,14 @@ def why_not(
     min_effect_n: float,
     shapes: Sequence[tuple[str, FloatArray]] = (),
     x: FloatArray | None = None,
+    refused: Mapping[str, str] | None = None,
 ) -> str:
     """Why a candidate is not claimable ("" when it is). `shapes`: what each claimed term
     explained; a later term that explains the same shape again refines that physics (a
-    lag model's residual looks like more lag), it is not a second one."""
+    lag model's residual looks like more lag), it is not a second one. `refused`: what a
+    consistency check (consistency.py) found against a candidate."""
+    if refused and refused.get(c.name):
+        return refused[c.name]
     for name, shape in shapes:
         if _cosine(c.explained, shape) > SAME_SHAPE:
             return f"the same shape as {name}, already claimed"
@@ -550,7 +562,16 @@ def diagnose(
         limit = max(s.min_effect_share * force_peak, 3 * mean_noise)
 
         x = search.prob.inputs.x
-        passing = [c for c in screened if not why_not(c, scored, s, limit, shapes, x)]
+        refused = {
+            c.name: inconsistent(
+                delay_spread(search, c.fitted, s.sensor_delay_min_gain),
+                s.sensor_delay_spread_s,
+                s.sensor_delay_spread_share,
+            )
+            for c in top
+            if c.name == SENSOR
+        }
+        passing = [c for c in screened if not why_not(c, scored, s, limit, shapes, x, refused)]
         named = [c for c in passing if c.name != OPEN_SET]
         pool = named or passing
         # Of the claimable, the one the full refit says explains most (its LR): held-out
@@ -579,7 +600,10 @@ def diagnose(
                     ambiguous_with=amb,
                     why_not=""
                     if c is best
-                    else (why_not(c, scored, s, limit, shapes, x) or "another term explained more"),
+                    else (
+                        why_not(c, scored, s, limit, shapes, x, refused)
+                        or "another term explained more"
+                    ),
                 )
             )
         if best is None:

@@ -1,0 +1,95 @@
+"""Is a claimed sensor lag one time for the whole sweep, as a sensor's is?
+
+A channel delay or a load cell's lag shifts every test by the same time. Oil that gives
+(aerated oil, a compliant chamber) delays the force too, but by a time that grows with
+the chamber's pressure and the click's resistance: on reference-plant sweeps with 0.5 %
+and 2 % air, the delay that best fitted each test alone ran 2-11 ms and 17-43 ms from
+test to test, where a 2, 4 or 7 ms channel skew gave the same time within a millisecond
+on every test. A sensor-lag candidate whose per-test delay spreads more than that is not
+a sensor, whatever it explains.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from shockdyno.diagnose.data import Data
+from shockdyno.diagnose.fitting import Fitted
+
+SENSOR = "sensor_lag"
+TIMES = ("delay_s", "load_cell_lag_s", "lvdt_lag_s")
+SCALES = np.linspace(0.0, 3.0, 61)  # the fitted sensor's times × these, tried on each test
+MIN_SHIFT_S = 5e-4  # a sensor that shifts less than this has no time to compare
+
+
+@dataclass(frozen=True)
+class DelaySpread:
+    delays_s: list[float]  # the best delay of each test that places one
+    lo_s: float
+    hi_s: float
+    median_s: float
+
+    def sentence(self) -> str:
+        return (
+            f"the delay that fits each test alone runs {1e3 * self.lo_s:.3g}-"
+            f"{1e3 * self.hi_s:.3g} ms from test to test: a sensor's is one time for the "
+            "sweep, a lag that changes with the test is the damper's"
+        )
+
+
+def _best_delay(times: np.ndarray, sse: np.ndarray) -> float:
+    """The grid's least-squares point, refined by the parabola through its neighbours."""
+    k = int(np.argmin(sse))
+    if 0 < k < len(sse) - 1:
+        a, b, c = sse[k - 1], sse[k], sse[k + 1]
+        den = a - 2 * b + c
+        if den > 0:
+            return float(times[k] + 0.5 * (a - c) / den * (times[1] - times[0]))
+    return float(times[k])
+
+
+def delay_spread(data: Data, fitted: Fitted, min_gain: float) -> DelaySpread | None:
+    """The time that fits each test alone: the fitted sensor's delay and lags scaled
+    together (a sensor's form kept, so a load cell's lag is not read as a delay at a
+    closed bleed's sharp reversal), everything else the fit found held. The time of a
+    test is the scale × the sensor's net shift (delay + load-cell lag - LVDT lag). Only
+    tests where their best scale removes at least `min_gain` of the squared error place
+    it. None when the sensor shifts by less than MIN_SHIFT_S or fewer than three tests
+    place it."""
+    model = fitted.model
+    term = model.term(SENSOR)
+    if term is None:
+        return None
+    values = {t: model.value(term.qualified(t)) for t in TIMES}
+    shift = values["delay_s"] + values["load_cell_lag_s"] - values["lvdt_lag_s"]
+    if abs(shift) < MIN_SHIFT_S:
+        return None
+    delays: list[float] = []
+    for i in range(len(data.prepared)):
+        one = data.subset([i])
+        bc, bt = fitted.area_vectors(one)
+        if not (np.all(np.isfinite(bc)) and np.all(np.isfinite(bt))):
+            continue
+        one.prob.set_model(model, fitted.free)
+        sse = np.empty(SCALES.size)
+        for j, k in enumerate(SCALES):
+            m = model.with_values({term.qualified(t): float(k) * v for t, v in values.items()})
+            r = one.prob.force(m, bc, bt) - one.prob.f
+            sse[j] = float(r @ r)
+        if sse[0] > 0 and float(np.min(sse)) <= (1 - min_gain) * sse[0]:
+            delays.append(_best_delay(SCALES, sse) * shift)
+    if len(delays) < 3:
+        return None
+    arr = np.asarray(delays)
+    return DelaySpread(delays, float(np.min(arr)), float(np.max(arr)), float(np.median(arr)))
+
+
+def inconsistent(spread: DelaySpread | None, abs_s: float, share: float) -> str:
+    """Why the per-test delays are not one sensor's ("" when they are, or cannot say)."""
+    if spread is None:
+        return ""
+    if spread.hi_s - spread.lo_s > abs_s + share * abs(spread.median_s):
+        return spread.sentence()
+    return ""

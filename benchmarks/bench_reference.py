@@ -2,6 +2,10 @@
 
 Run: .venv/bin/python benchmarks/bench_reference.py                 (2 seeds, ~40 sweeps)
      .venv/bin/python benchmarks/bench_reference.py --seeds 3 --first-seed 201
+     ... --cache DIR   keep each sweep (a pickle named by its parameters and seed) and
+                       read it back on a re-run, so only the diagnosis runs again
+                       (empty it after changing the plant: the key is not its code);
+                       --sweep-only makes the sweeps and stops
 
 Every recording is a click sweep of `simrig/reference.py` (clicks 2/5/10/15/20 x
 0.5/1/1.5 Hz, 30 mm, 1 kHz, 1 warm-up + 3 measured cycles, 2 s rests, a body temperature
@@ -141,9 +145,9 @@ def _reported(d: dict[str, Any], charge_pa: float) -> dict[str, float]:
 
 
 def _cache_path(case: Case) -> Path | None:
-    """A sweep depends only on its plant parameters and seed (and this code's version):
-    kept under --cache, a re-run diagnoses the same recordings without integrating them
-    again."""
+    """Where --cache keeps a sweep: a re-run diagnoses the same recordings without
+    integrating them again. A sweep depends on its plant parameters and seed, and on the
+    plant's code, which the key does not hold."""
     cache_dir = os.environ.get("BENCH_REFERENCE_CACHE", "")
     if not cache_dir:
         return None

@@ -149,6 +149,11 @@ def describe(f: Finding, spec_gas_pa: float, u: Units = SI) -> str:
             if _moved(f, key):
                 what = "viscosity" if key.startswith("visc") else "damping"
                 parts.append(f"{what} falls {100 * _v(f, key):.2g}{_sd_pct(f, key)} %/K")
+        if parts and _moved(f, "oil_lead_s"):
+            parts.append(
+                f"the oil ahead of the measured body by {_v(f, 'oil_lead_s'):.3g}"
+                f"{_sd(f, 'oil_lead_s')} s × its rate of rise"
+            )
         return "temperature: " + (", ".join(parts) or "the force drifts with the oil temperature")
     if p == "cavitation":
         return (

@@ -4,7 +4,14 @@
     p_c × (1 + g ((T + 273.15)/(T_ref + 273.15) - 1))     (gas at the oil's temperature)
     Δp × exp(-d (T - T_ref))                               (damping fades as the oil thins)
 
-T is the measured temperature channel when the recording has one. Otherwise an energy
+T is the oil's temperature. A recording's temperature channel is the body's (a sensor on
+the outside of the tube), and the oil that heats the body runs ahead of it: the body's heat
+balance C_b dT_b/dt = G (T_oil - T_b) - (loss to ambient) gives T_oil ≈ T_b + L dT_b/dt with
+the lead L = C_b/G (the loss folds into the coefficients' reference), dT_b/dt each test's
+slope of the channel. On a reference-plant sweep whose oil heated 5x its dissipated power
+the fit found L = 377 s (the plant's C_b/G: 150 s, with its body also warmed from a 40 °C
+ambient) and the viscosity falling 3.5 %/K where the plant's fell 3 %/K. Off: L = 0, the
+channel as the oil's. Without a channel an energy
 balance estimates it, C dT/dt = c_eq v² - h (T - T_ref), written as a first-order lag of
 k τ v² with τ = C/h and k = c_eq/C, starting each test at T_ref (the sim-rig carries it
 across a whole session). Off: b = g = d = 0. The leak's share of the flow is small, so b
@@ -47,6 +54,16 @@ class Thermal(Term):
             free=False,
             doc="Δp falls d per K",
         ),
+        Param(
+            "oil_lead_s",
+            "s",
+            0.0,  # on as off: a simulated rig's channel is its oil's own
+            0.0,
+            1000.0,
+            50.0,
+            0.0,
+            doc="oil over a measured body: T_oil = T_body + lead · dT_body/dt",
+        ),
         Param("reference_c", "°C", 40.0, -40.0, 150.0, 10.0, 40.0, free=False),
         Param("heat_rate_k_s_m2", "K·s/m²", 3.33, 0.0, 100.0, 1.0, 3.33, free=False),
         Param("cooling_time_s", "s", 300.0, 1.0, 1.0e5, 100.0, 300.0, free=False),
@@ -56,7 +73,7 @@ class Thermal(Term):
         return False  # minutes of thermal lag: the fit's 5 ms samples resolve it
 
     def nesting_free(self) -> tuple[str, ...]:
-        return ("gas_coupling", "viscosity_coeff_per_k", "damping_coeff_per_k")
+        return ("gas_coupling", "viscosity_coeff_per_k", "damping_coeff_per_k", "oil_lead_s")
 
     def vehicle_values(self) -> dict[str, float]:
         # No heating on the car: a ride run is seconds, the oil's warm-up minutes.
@@ -75,11 +92,19 @@ class Thermal(Term):
         )
         temp = ref + rise
         if measured is not None:
-            for lo, hi in segment_bounds(w.starts, w.x.size):
+            lead = p["oil_lead_s"]
+            for k, (lo, hi) in enumerate(segment_bounds(w.starts, w.x.size)):
                 seg = measured[lo:hi]
                 ok = np.isfinite(seg)
-                if np.any(ok):
-                    temp[lo:hi] = np.where(ok, seg, float(np.mean(seg[ok])))
+                if not np.any(ok):
+                    continue
+                temp[lo:hi] = np.where(ok, seg, float(np.mean(seg[ok])))
+                if lead and np.count_nonzero(ok) > 2:
+                    # The channel is the body's; the oil that heats it is ahead of it by
+                    # C_body/G(oil→body) × its rate of rise (the body's heat balance).
+                    t = np.arange(hi - lo, dtype=float)[ok] * float(w.dt_s[k])
+                    slope = float(np.polyfit(t, seg[ok], 1)[0])
+                    temp[lo:hi] += lead * slope
         return temp, state
 
     def apply(

@@ -101,9 +101,10 @@ def own_force(data: Data, fitted: Fitted, name: str) -> FloatArray | None:
     moved the force by 586 N.) None when the term is absent or the fit has no areas for
     some of these clicks."""
     term = fitted.model.term(name)
-    bc, bt = fitted.area_vectors(data)
-    if term is None or not (np.all(np.isfinite(bc)) and np.all(np.isfinite(bt))):
+    areas = fitted.covered_areas(data)
+    if term is None or areas is None:
         return None
+    bc, bt = areas
     off = fitted.model.with_values({term.qualified(p.name): p.off for p in term.params()})
     prob = data.prob
     prob.set_model(fitted.model, fitted.free)  # one sample rate for both

@@ -39,15 +39,15 @@ class DelaySpread:
         )
 
 
-def _best_delay(times: np.ndarray, sse: np.ndarray) -> float:
+def _refined_minimum(points: np.ndarray, sse: np.ndarray) -> float:
     """The grid's least-squares point, refined by the parabola through its neighbours."""
     k = int(np.argmin(sse))
     if 0 < k < len(sse) - 1:
         a, b, c = sse[k - 1], sse[k], sse[k + 1]
         den = a - 2 * b + c
         if den > 0:
-            return float(times[k] + 0.5 * (a - c) / den * (times[1] - times[0]))
-    return float(times[k])
+            return float(points[k] + 0.5 * (a - c) / den * (points[1] - points[0]))
+    return float(points[k])
 
 
 def delay_spread(data: Data, fitted: Fitted, min_gain: float) -> DelaySpread | None:
@@ -69,9 +69,10 @@ def delay_spread(data: Data, fitted: Fitted, min_gain: float) -> DelaySpread | N
     delays: list[float] = []
     for i in range(len(data.prepared)):
         one = data.subset([i])
-        bc, bt = fitted.area_vectors(one)
-        if not (np.all(np.isfinite(bc)) and np.all(np.isfinite(bt))):
+        areas = fitted.covered_areas(one)
+        if areas is None:
             continue
+        bc, bt = areas
         one.prob.set_model(model, fitted.free)
         sse = np.empty(SCALES.size)
         for j, k in enumerate(SCALES):
@@ -79,7 +80,7 @@ def delay_spread(data: Data, fitted: Fitted, min_gain: float) -> DelaySpread | N
             r = one.prob.force(m, bc, bt) - one.prob.f
             sse[j] = float(r @ r)
         if sse[0] > 0 and float(np.min(sse)) <= (1 - min_gain) * sse[0]:
-            delays.append(_best_delay(SCALES, sse) * shift)
+            delays.append(_refined_minimum(SCALES, sse) * shift)
     if len(delays) < 3:
         return None
     arr = np.asarray(delays)

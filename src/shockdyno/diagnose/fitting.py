@@ -40,13 +40,19 @@ class Fitted:
         bt = np.array([self.areas.get(k, (np.nan, np.nan))[1] for k in keys])
         return bc, bt
 
+    def covered_areas(self, data: Data) -> tuple[FloatArray, FloatArray] | None:
+        """The area vectors when the fit has areas for every click of `data`, else None."""
+        bc, bt = self.area_vectors(data)
+        return (bc, bt) if np.all(np.isfinite(bc)) and np.all(np.isfinite(bt)) else None
+
 
 def evaluate(data: Data, fitted: Fitted) -> Evaluation | None:
     """The fitted model on `data`'s objective samples with the fit's own areas (None
     when the fit has no areas for some of these clicks)."""
-    bc, bt = fitted.area_vectors(data)
-    if not (np.all(np.isfinite(bc)) and np.all(np.isfinite(bt))):
+    areas = fitted.covered_areas(data)
+    if areas is None:
         return None
+    bc, bt = areas
     prob = data.prob
     return fitted.model.evaluate(prob.inputs, bc[prob.group], bt[prob.group])
 

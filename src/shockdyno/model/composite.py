@@ -26,12 +26,14 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from shockdyno.errors import ConfigError
+from shockdyno.model.filters import segment_bounds
 from shockdyno.model.flow import solve_pressure_drop
 from shockdyno.model.gas import compression_pressure
 from shockdyno.model.params import Param
@@ -49,7 +51,8 @@ BASE_COMPONENTS = ("inertia", "gas", "hydraulic", "coulomb")  # never a term's n
 class ModelInputs:
     """Motion per sample, in segments (tests) with their own sample step.
 
-    `temperature_c` is the measured oil temperature per sample (NaN where unknown);
+    `temperature_c` is the measured temperature per sample (NaN where unknown; on a rig,
+    the body's: the thermal term puts the oil ahead of it);
     `gas_pressure_pa` the measured gas charge per segment, absolute (NaN: unknown).
     `periodic`: every segment is whole cycles of a periodic motion in its steady state
     (a sweep's measured cycles): fast lags start in the state they end in.
@@ -63,6 +66,28 @@ class ModelInputs:
     temperature_c: FloatArray | None = None
     gas_pressure_pa: FloatArray | None = None
     periodic: bool = False
+
+    @cached_property
+    def channel_temperature(self) -> tuple[FloatArray, FloatArray] | None:
+        """The temperature channel per sample, its gaps filled with its segment's mean (NaN
+        in a segment with no reading), and each segment's rate of rise per sample (°C/s,
+        least squares; 0 with fewer than three readings). None without a channel. Data, not
+        parameters: worked out once per inputs, not at every evaluation of the model."""
+        measured = self.temperature_c
+        if measured is None:
+            return None
+        filled = np.full(measured.shape, np.nan)
+        slope = np.zeros(measured.shape)
+        for k, (lo, hi) in enumerate(segment_bounds(self.starts, measured.size)):
+            seg = measured[lo:hi]
+            ok = np.isfinite(seg)
+            if not np.any(ok):
+                continue
+            filled[lo:hi] = np.where(ok, seg, float(np.mean(seg[ok])))
+            if np.count_nonzero(ok) > 2:
+                t = np.arange(hi - lo, dtype=float)[ok] * float(self.dt_s[k])
+                slope[lo:hi] = float(np.polyfit(t, seg[ok], 1)[0])
+        return filled, slope
 
     @staticmethod
     def single(

@@ -28,7 +28,7 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 
 from shockdyno.model.composite import CHAMBER, PRESSURE, FloatArray, Term, Work
-from shockdyno.model.filters import first_order_lag, segment_bounds
+from shockdyno.model.filters import first_order_lag
 from shockdyno.model.params import Param
 
 KELVIN = 273.15
@@ -83,7 +83,6 @@ class Thermal(Term):
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None
     ) -> tuple[FloatArray, FloatArray | None]:
         ref = p["reference_c"]
-        measured = w.inputs.temperature_c
         tau = p["cooling_time_s"]
         # The rise starts at nothing (the oil at T_ref), not at the first sample's
         # steady state: a test that starts at speed would otherwise start 80 K hot.
@@ -91,20 +90,13 @@ class Thermal(Term):
             p["heat_rate_k_s_m2"] * tau * w.v**2, tau, w.starts, w.dt_s, carry, from_rest=True
         )
         temp = ref + rise
-        if measured is not None:
-            lead = p["oil_lead_s"]
-            for k, (lo, hi) in enumerate(segment_bounds(w.starts, w.x.size)):
-                seg = measured[lo:hi]
-                ok = np.isfinite(seg)
-                if not np.any(ok):
-                    continue
-                temp[lo:hi] = np.where(ok, seg, float(np.mean(seg[ok])))
-                if lead and np.count_nonzero(ok) > 2:
-                    # The channel is the body's; the oil that heats it is ahead of it by
-                    # C_body/G(oil→body) × its rate of rise (the body's heat balance).
-                    t = np.arange(hi - lo, dtype=float)[ok] * float(w.dt_s[k])
-                    slope = float(np.polyfit(t, seg[ok], 1)[0])
-                    temp[lo:hi] += lead * slope
+        channel = w.inputs.channel_temperature
+        if channel is not None:
+            # The channel is the body's; the oil that heats it is ahead of it by
+            # C_body/G(oil→body) × its rate of rise (the body's heat balance).
+            body, rise_c_s = channel
+            known = np.isfinite(body)
+            temp = np.where(known, body + p["oil_lead_s"] * rise_c_s, temp)
         return temp, state
 
     def apply(

@@ -311,6 +311,10 @@ def main() -> None:
     ap.add_argument("--fresh", action="store_true", help="the FRESH cases instead")
     ap.add_argument("--sweep-only", action="store_true", help="make (and cache) the sweeps")
     args = ap.parse_args()
+    if args.seeds < 1 or args.jobs < 1:
+        ap.error("--seeds and --jobs: at least 1")
+    if args.cache and Path(args.cache).exists() and not Path(args.cache).is_dir():
+        ap.error(f"--cache {args.cache}: not a directory")
     if args.cache:  # read by run_case in the pool's processes, which inherit the environment
         Path(args.cache).mkdir(parents=True, exist_ok=True)
         os.environ["BENCH_REFERENCE_CACHE"] = args.cache
@@ -320,6 +324,8 @@ def main() -> None:
     cases = fresh_cases(seeds) if args.fresh else make_cases(seeds)
     if args.only:
         cases = [c for c in cases if c.name.startswith(tuple(args.only.split(",")))]
+        if not cases:
+            ap.error(f"--only {args.only}: no case's name starts with that")
     print(
         f"{len(cases)} reference-plant sweeps, seeds {seeds}, {args.jobs} in parallel; clicks "
         f"{CLICKS} x 0.5/1/1.5 Hz; cpus {os.cpu_count()}, load {os.getloadavg()[0]:.1f}",

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from shockdyno.model.shims import ShimStack
@@ -36,15 +37,6 @@ def valve_area(dp_pa: FloatArray, valve: ShimStack) -> FloatArray:
     k = valve.stiffness_n_per_m
     lift = np.clip((dp_pa * valve.face_area_m2 - valve.preload_n) / k, 0.0, valve.max_lift_m)
     return np.asarray(valve.perimeter_m * lift, dtype=float)
-
-
-def _valve_area_and_slope(s2: FloatArray, valve: ShimStack) -> tuple[FloatArray, FloatArray]:
-    k = valve.stiffness_n_per_m
-    raw = (s2 * valve.face_area_m2 - valve.preload_n) / k
-    opening = (raw > 0) & (raw < valve.max_lift_m)
-    area = valve.perimeter_m * np.clip(raw, 0.0, valve.max_lift_m)
-    d_area_d_dp = np.where(opening, valve.perimeter_m * valve.face_area_m2 / k, 0.0)
-    return area, d_area_d_dp
 
 
 def passed_flow(
@@ -73,39 +65,67 @@ def solve_pressure_drop(
     q = np.abs(np.asarray(q_m3_s, dtype=float))
     a_b = np.broadcast_to(np.asarray(bleed_area_m2, dtype=float), q.shape)
     kl = np.broadcast_to(np.asarray(k_leak, dtype=float), q.shape)
-    c = cd * math.sqrt(2 / rho)
+    s = _solve_s(
+        np.ascontiguousarray(q).ravel(),
+        np.ascontiguousarray(a_b).ravel(),
+        np.ascontiguousarray(kl).ravel(),
+        cd * math.sqrt(2 / rho),
+        valve.perimeter_m,
+        valve.face_area_m2,
+        valve.preload_n,
+        valve.stiffness_n_per_m,
+        valve.max_lift_m,
+    )
+    return np.asarray((s * s).reshape(q.shape), dtype=float)
 
-    def h_and_slope(s: FloatArray) -> tuple[FloatArray, FloatArray]:
-        s2 = s * s
-        a_v, da = _valve_area_and_slope(s2, valve)
-        h = c * (a_b + a_v) * s + kl * s2 - q
-        dh = c * (a_b + a_v) + c * s * da * 2 * s + 2 * kl * s
-        return h, dh
 
+# error_model="numpy": a zero slope gives an infinite step (then bisected), not an exception.
+@njit(cache=True, error_model="numpy")
+def _solve_s(
+    q: FloatArray,
+    a_b: FloatArray,
+    kl: FloatArray,
+    c: float,
+    perim: float,
+    face: float,
+    preload: float,
+    k: float,
+    max_lift: float,
+) -> FloatArray:
+    """s = √Δp per sample: Newton inside a bracket each step keeps (module docstring)."""
+    out = np.empty(q.size)
     # Upper bracket: each path alone needs at least the true Δp, so the bleed-alone and
     # leak-alone drops bound it; so does the drop that passes q with the stack at full lift
     # (or the full-lift pressure, if higher). With every path shut the damper is
     # hydraulically locked: Δp is capped at S_MAX² rather than infinity.
-    a_full = a_b + valve.perimeter_m * valve.max_lift_m
-    p_full = (valve.stiffness_n_per_m * valve.max_lift_m + valve.preload_n) / valve.face_area_m2
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+    p_full = (k * max_lift + preload) / face
+    slope_open = perim * face / k
+    for i in range(q.size):
+        qi, ab, kli = q[i], a_b[i], kl[i]
+        a_full = ab + perim * max_lift
         # Test the divisor itself: c·A_b can underflow to 0 for a subnormal area.
-        s_bleed = np.where(c * a_b > 0, q / (c * a_b), np.inf)
-        s_leak = np.where(kl > 0, np.sqrt(q / kl), np.inf)
-        s_valve = np.where(c * a_full > 0, np.maximum(q / (c * a_full), math.sqrt(p_full)), np.inf)
-    hi = np.minimum(np.minimum(s_bleed, s_leak), np.minimum(s_valve, S_MAX))
-    lo = np.zeros_like(q)
-    s = 0.5 * hi
-    tol = REL_TOL * q + 1e-18
-    for _ in range(MAX_ITER):
-        h, dh = h_and_slope(s)
-        done = np.abs(h) <= tol
-        if np.all(done):
-            break
-        lo = np.where(h < 0, s, lo)
-        hi = np.where(h > 0, s, hi)
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        s_bleed = qi / (c * ab) if c * ab > 0 else math.inf
+        s_leak = math.sqrt(qi / kli) if kli > 0 else math.inf
+        s_valve = max(qi / (c * a_full), math.sqrt(p_full)) if c * a_full > 0 else math.inf
+        hi = min(min(s_bleed, s_leak), min(s_valve, S_MAX))
+        lo = 0.0
+        s = 0.5 * hi
+        tol = REL_TOL * qi + 1e-18
+        for _ in range(MAX_ITER):
+            s2 = s * s
+            raw = (s2 * face - preload) / k
+            area = perim * min(max(raw, 0.0), max_lift)
+            da = slope_open if 0 < raw < max_lift else 0.0
+            h = c * (ab + area) * s + kli * s2 - qi
+            if abs(h) <= tol:
+                break
+            dh = c * (ab + area) + c * s * da * 2 * s + 2 * kli * s
+            if h < 0:
+                lo = s
+            if h > 0:
+                hi = s
             step = s - h / dh  # a non-finite step is caught below and bisected
-        bad = ~np.isfinite(step) | (step <= lo) | (step >= hi)
-        s = np.where(done, s, np.where(bad, 0.5 * (lo + hi), step))
-    return np.asarray(s * s, dtype=float)
+            bad = not math.isfinite(step) or step <= lo or step >= hi
+            s = 0.5 * (lo + hi) if bad else step
+        out[i] = s
+    return out

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -37,7 +38,7 @@ class ShimStack:
     youngs_modulus_pa: float = 206e9
     poisson: float = 0.3
 
-    @property
+    @cached_property  # a 3×3 solve; the flow solve asks for it at every evaluation
     def stiffness_n_per_m(self) -> float:
         return self.n_shims * annular_plate_edge_stiffness(
             self.thickness_m,

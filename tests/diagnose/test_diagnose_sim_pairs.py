@@ -1,0 +1,57 @@
+"""Concealed effects, second half: seal friction, sensor lag, a bump stop and two effects
+at once (the cases and checks are in concealed.py; the first half is in
+test_diagnose_sim.py)."""
+
+from __future__ import annotations
+
+import pytest
+from concealed import (
+    Diagnoses,
+    Recordings,
+    check_library_fits,
+    check_named,
+    check_names_hidden,
+    claimed,
+)
+
+# Slow (2-3 min on one core): `pytest -m "not slow"` leaves it out; `make test` runs it.
+pytestmark = [pytest.mark.timeout(400), pytest.mark.slow]  # diagnosed with the whole library
+NAMES = ["s-seal", "s-lag", "s-bump", "s-two"]
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory: pytest.TempPathFactory) -> Recordings:
+    return Recordings(tmp_path_factory.mktemp("concealed"))
+
+
+@pytest.fixture(scope="module")
+def diagnoses(recordings: Recordings) -> Diagnoses:
+    return Diagnoses(recordings)
+
+
+def test_the_recordings_do_not_name_their_physics(recordings: Recordings) -> None:
+    check_names_hidden(recordings, NAMES)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_a_concealed_effect_is_named(diagnoses: Diagnoses, name: str) -> None:
+    check_named(diagnoses, name)
+
+
+def test_the_recovered_parameters_are_the_simulated_ones(diagnoses: Diagnoses) -> None:
+    assert claimed(diagnoses, "s-seal", "friction")["breakaway_n"]["value"] == pytest.approx(
+        25.0, rel=0.2
+    )
+    bump = claimed(diagnoses, "s-bump", "contact")
+    assert bump["bump_onset_m"]["value"] == pytest.approx(0.021, abs=0.001)
+    assert bump["bump_force_n"]["value"] == pytest.approx(200.0, rel=0.1)
+    lag = claimed(diagnoses, "s-lag", "sensor_lag")
+    shift = lag["delay_s"]["value"] + lag["load_cell_lag_s"]["value"] - lag["lvdt_lag_s"]["value"]
+    assert shift == pytest.approx(0.002 - 0.001, abs=0.0006)  # load cell lag less LVDT lag
+
+
+@pytest.mark.parametrize("name", ["s-seal", "s-two", "s-bump"])
+def test_the_library_at_the_simulated_values_fits_the_recording_to_noise(
+    recordings: Recordings, name: str
+) -> None:
+    check_library_fits(recordings, name)

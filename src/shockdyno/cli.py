@@ -18,17 +18,17 @@ from shockdyno.errors import ShockdynoError
 
 # Modules with `register(subparsers)`; each subcommand sets `func(args) -> int`.
 COMMAND_MODULES = [
-    "shockdyno.run.cli",  # demo, sweep, replay
-    "shockdyno.simrig.cli",  # sim-rig
-    "shockdyno.run.rig_cli",  # rig check | jog | tare
-    "shockdyno.record.cli",  # info, import
-    "shockdyno.export_cli",  # export (a recording to CSV, a fit to damper tables)
-    "shockdyno.fit.cli",  # fit
-    "shockdyno.ride.cli",  # ride
-    "shockdyno.diagnose.cli",  # diagnose
-    "shockdyno.report.cli",  # report
-    "shockdyno.compare.cli",  # compare
-    "shockdyno.batch.cli",  # batch
+    "shockdyno.commands.run",  # demo, sweep, replay
+    "shockdyno.commands.simrig",  # sim-rig
+    "shockdyno.commands.rig",  # rig check | jog | tare
+    "shockdyno.commands.record",  # info, import
+    "shockdyno.commands.export",  # export (a recording to CSV, a fit to damper tables)
+    "shockdyno.commands.fit",  # fit
+    "shockdyno.commands.ride",  # ride
+    "shockdyno.commands.diagnose",  # diagnose
+    "shockdyno.commands.report",  # report
+    "shockdyno.commands.compare",  # compare
+    "shockdyno.commands.batch",  # batch
 ]
 
 

@@ -126,7 +126,7 @@ def write_output(
         sys.stdout.write(text)
         sys.stdout.flush()
         return None
-    from shockdyno.record.atomic import write_text_atomic
+    from shockdyno.atomic import write_text_atomic
 
     try:
         write_text_atomic(out, text)

@@ -142,7 +142,7 @@ def test_a_value_pressed_against_a_bound_reads_which_bound() -> None:
     small value or an unflagged one is printed as it is, in display units."""
     from rich.console import Console
 
-    from shockdyno.fit.cli import _area, terms_table
+    from shockdyno.commands.fit import _area, terms_table
     from shockdyno.fit.display import shown
     from shockdyno.model.params import Estimate
     from shockdyno.units import SI

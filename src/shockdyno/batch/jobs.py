@@ -18,8 +18,8 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno import __version__
+from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ShockdynoError
-from shockdyno.record.atomic import write_text_atomic
 
 KINDS = ("fit", "diagnose", "report")
 SUFFIX = {"fit": ".fit.json", "diagnose": ".diag.json", "report": "/index.html"}
@@ -108,7 +108,7 @@ def run_job(job: Job) -> dict[str, Any]:
 
 
 def _fit(job: Job, row: Row) -> None:
-    from shockdyno.fit.cli import fit_file, result_json
+    from shockdyno.fit.file import fit_file, result_json
 
     o = job.options
     result, tests = fit_file(
@@ -128,7 +128,7 @@ def _fit(job: Job, row: Row) -> None:
 
 
 def _diagnose(job: Job, row: Row) -> None:
-    from shockdyno.diagnose.cli import diagnose_file
+    from shockdyno.diagnose.file import diagnose_file
     from shockdyno.diagnose.plots import loops, residual_maps
     from shockdyno.diagnose.report import FIGURES, figure_paths
 

@@ -10,6 +10,7 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
+from shockdyno.atomic import write_text_atomic
 from shockdyno.compare import plots as cplots
 from shockdyno.compare.inputs import Input
 from shockdyno.compare.table import (
@@ -23,7 +24,6 @@ from shockdyno.compare.table import (
     Row,
     bleed_rows,
 )
-from shockdyno.record.atomic import write_text_atomic
 from shockdyno.report import clickchart, gas, plots, repeatability
 from shockdyno.report.build import shown_path
 from shockdyno.report.clickplots import force_vs_clicks

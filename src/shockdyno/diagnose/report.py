@@ -6,10 +6,10 @@ import os
 from pathlib import Path
 from typing import Any
 
+from shockdyno.atomic import write_text_atomic
 from shockdyno.diagnose.engine import Diagnosis
 from shockdyno.diagnose.plots import loops, residual_maps
 from shockdyno.diagnose.verdict import in_units
-from shockdyno.record.atomic import write_text_atomic
 from shockdyno.report.diagnose_section import spec_shown
 from shockdyno.report.html import Page
 from shockdyno.units import SI, Units

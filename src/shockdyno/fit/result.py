@@ -17,13 +17,13 @@ from typing import Any
 
 import numpy as np
 
+from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError, FitError
 from shockdyno.fit.trend import AreaTrend
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, load_spec
 from shockdyno.model.terms import LIBRARY, make_term
-from shockdyno.record.atomic import write_text_atomic
 from shockdyno.result_files import read_result
 
 

@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from shockdyno.atomic import atomic_dir
 from shockdyno.errors import RecordingError
-from shockdyno.record.atomic import atomic_dir
 from shockdyno.record.csv_import import DECIMALS_KEY, SOURCE_KEY, VELOCITY_COLUMN
 from shockdyno.record.reader import Recording, open_recording
 from shockdyno.record.types import TestData, TestMeta

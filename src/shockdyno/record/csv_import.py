@@ -22,8 +22,8 @@ from typing import IO, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from shockdyno.atomic import atomic_file
 from shockdyno.errors import RecordingError
-from shockdyno.record.atomic import atomic_file
 from shockdyno.record.layout import part_paths
 from shockdyno.record.lock import recording_lock
 from shockdyno.record.plausible import (

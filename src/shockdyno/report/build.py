@@ -27,8 +27,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError
-from shockdyno.record.atomic import write_text_atomic
 from shockdyno.record.types import TestData
 from shockdyno.report import clickchart, plots, repeatability, temperature
 from shockdyno.report import gas as gas_force

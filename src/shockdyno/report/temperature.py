@@ -33,9 +33,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError, FitError
 from shockdyno.model.composite import ModelInputs
-from shockdyno.record.atomic import write_text_atomic
 from shockdyno.record.types import TestData
 from shockdyno.report import clickchart
 from shockdyno.report.html import Page

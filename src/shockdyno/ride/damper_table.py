@@ -27,10 +27,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError, FitError
 from shockdyno.fit.result import FitResult
 from shockdyno.model.quarter_car import quasi_static_force
-from shockdyno.record.atomic import write_text_atomic
 from shockdyno.units import M_PER_IN, N_PER_LBF
 
 FloatArray = NDArray[np.float64]

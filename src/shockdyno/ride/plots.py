@@ -13,8 +13,8 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError
-from shockdyno.record.atomic import write_text_atomic
 from shockdyno.report.ride_section import FLAG_LEGEND, PAPER_EXPLANATION, paper_ratios
 from shockdyno.ride.study import RideResult, Run, paper_rms
 

@@ -6,25 +6,18 @@ import argparse
 import csv
 import functools
 import io
-import json
 import math
 import sys
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from shockdyno import units as units_mod
-from shockdyno.errors import FitError
 from shockdyno.fit.display import Shown, bound_hit, bound_text, globals_rows, shown
+from shockdyno.fit.file import fit_file, result_json
 from shockdyno.fit.prepare import FITTED_ANYWAY
 from shockdyno.lists import seed_arg
 from shockdyno.outputs import check_output, check_report_dir, write_output
 from shockdyno.units import SI, Units
-
-# Beyond these a recording is not of a damper on a dyno (a unit mix-up or a corrupt file).
-MAX_DISPLACEMENT_M = 1.0
-MAX_FORCE_N = 1e6
 
 
 def register(sub: Any) -> None:
@@ -150,39 +143,6 @@ def _clicks_table(result: Any, units: Units = SI) -> Any:
     return table
 
 
-def check_fit_input(tests: list[Any], source: str) -> None:
-    """Refuse a recording whose samples a fit cannot use (non-finite or absurd values)."""
-    for test in tests:
-        for name, values in (("time", test.t), ("displacement", test.x), ("force", test.force)):
-            if values.size == 0:
-                continue
-            finite = np.isfinite(values)
-            if not finite.all():
-                raise FitError(
-                    f"{source}: test {test.meta.index} has {int((~finite).sum())} non-finite "
-                    f"{name} values; nothing written"
-                )
-        peak_x, peak_f = _peak(test.x), _peak(test.force)
-        if peak_x > MAX_DISPLACEMENT_M or peak_f > MAX_FORCE_N:
-            raise FitError(
-                f"{source}: test {test.meta.index} is beyond any damper dyno "
-                f"(|x| up to {peak_x:.3g} m, |F| up to {peak_f:.3g} N); nothing written"
-            )
-
-
-def _peak(values: Any) -> float:
-    return float(np.max(np.abs(values))) if values.size else 0.0
-
-
-def result_json(result: Any) -> str:
-    try:
-        return json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"
-    except (TypeError, ValueError) as exc:
-        raise FitError(
-            f"the fit result cannot be written as JSON ({exc}); nothing written"
-        ) from None
-
-
 def _globals_table(result: Any, units: Units = SI) -> Any:
     from rich.table import Table
 
@@ -193,43 +153,6 @@ def _globals_table(result: Any, units: Units = SI) -> Any:
     for row in rows:
         table.add_row(*row)
     return table
-
-
-def fit_file(
-    recording: Path,
-    *,
-    spec: str | None = None,
-    optimizer: str = "fast",
-    seed: int = 0,
-    terms: str | None = None,
-    progress: Any = None,
-    warn: Any = None,
-) -> tuple[Any, list[Any]]:
-    """`shockdyno fit` on one recording, as `batch fit` runs it too: the FitResult (with
-    `info.recording` and any `info.recording_loss`) and the tests it read."""
-    from shockdyno.fit.sweep import fit_sweep
-    from shockdyno.fit.terms import parse_terms
-    from shockdyno.record import open_recording
-    from shockdyno.record.identity import recording_info
-
-    rec = open_recording(recording).require_recording()
-    loss = rec.loss_note()
-    if loss and warn is not None:
-        warn(f"warning: {recording}: {loss}")
-    tests = rec.load_all()
-    check_fit_input(tests, str(recording))
-    result = fit_sweep(
-        tests,
-        spec_path=spec,
-        optimizer=optimizer,
-        seed=seed,
-        progress=progress,
-        terms=parse_terms(terms),
-    )
-    result.info["recording"] = recording_info(recording)
-    if loss:
-        result.info["recording_loss"] = loss
-    return result, tests
 
 
 def run_fit(args: argparse.Namespace) -> int:
@@ -287,8 +210,8 @@ def run_fit(args: argparse.Namespace) -> int:
     for note in info.get("skipped", []):
         say(f"note: {note}" if note.endswith(FITTED_ANYWAY) else f"skipped {note}")
     if args.report:
+        from shockdyno.atomic import write_text_atomic
         from shockdyno.fit.validate import table4_rows
-        from shockdyno.record.atomic import write_text_atomic
         from shockdyno.report.build import build_report
 
         report = Path(args.report)

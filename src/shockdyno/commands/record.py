@@ -1,4 +1,4 @@
-"""Commands `info` and `import` (`export` is in shockdyno.export_cli)."""
+"""Commands `info` and `import` (`export` is in commands/export.py)."""
 
 from __future__ import annotations
 

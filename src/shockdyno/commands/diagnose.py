@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno import units as units_mod
+from shockdyno.diagnose.file import diagnose_file, parse_candidates
 from shockdyno.errors import ConfigError
 from shockdyno.lists import seed_arg
 
@@ -55,22 +56,6 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run_diagnose)
 
 
-def _candidates(text: str) -> tuple[str, ...]:
-    from shockdyno.fit.terms import split_terms
-    from shockdyno.model.terms import LIBRARY
-
-    items = split_terms(text)
-    if items == ["all"]:
-        return tuple(LIBRARY)
-    if "none" in items:
-        raise ConfigError("--terms none: diagnose needs at least one candidate term (or all)")
-    names = tuple(dict.fromkeys(items))
-    for n in names:
-        if n not in LIBRARY:
-            raise ConfigError(f"--terms: unknown term {n!r} (one of {', '.join(LIBRARY)})")
-    return names
-
-
 def _summary(doc: dict[str, Any], units: units_mod.Units = units_mod.SI) -> Any:
     from rich.table import Table
 
@@ -97,61 +82,6 @@ def _summary(doc: dict[str, Any], units: units_mod.Units = units_mod.SI) -> Any:
     return table
 
 
-def diagnose_file(
-    recording: Path,
-    *,
-    fit_path: str | None = None,
-    spec: str | None = None,
-    alpha: float = 0.01,
-    seed: int = 0,
-    terms: str = "all",
-    force: bool = False,
-    progress: Any = None,
-    warn: Any = None,
-) -> tuple[Any, dict[str, Any]]:
-    """`shockdyno diagnose` on one recording, as `batch diagnose` runs it too: the
-    Diagnosis and its DIAG.json document (with `info.recording` and the fit's
-    provenance)."""
-    from shockdyno.diagnose.engine import Settings, diagnose
-    from shockdyno.diagnose.verdict import to_json
-    from shockdyno.fit.result import FitResult
-    from shockdyno.model import load_spec
-    from shockdyno.model.spec import spec_used
-    from shockdyno.record import open_recording
-    from shockdyno.record.identity import provenance, recording_info, stored_sha256
-
-    if not 0 < alpha < 1:
-        raise ConfigError(f"--alpha must be between 0 and 1, got {alpha}")
-    settings = Settings(alpha=alpha, seed=seed, candidates=_candidates(terms))
-    fit = FitResult.load(fit_path).require_usable(f"--fit {fit_path}") if fit_path else None
-    if fit is None:
-        load_spec(spec)  # a bad spec fails before reading the recording
-    info = recording_info(recording)
-    fit_from = None
-    if fit is not None:
-        stored = stored_sha256(fit.info, "recording", "sha256")
-        fit_from = provenance(stored, info["sha256"], "the fit", "--fit", force)
-    rec = open_recording(recording).require_recording()
-    loss = rec.loss_note()
-    if loss and warn is not None:
-        warn(f"warning: {recording}: {loss}")
-    tests = rec.load_all()
-    if not tests:
-        raise ConfigError(f"{recording}: no tests to diagnose")
-    d = diagnose(tests, fit, settings, progress, spec_path=spec)
-    doc = to_json(d)
-    doc["info"]["recording"] = info
-    # Which damper spec the model started from: --spec, the fit's base spec, or the default.
-    doc["info"]["spec"] = spec_used(fit.spec_path if fit is not None else spec)
-    if fit is not None:
-        doc["info"]["spec"]["from_fit"] = str(fit_path)
-    if loss:
-        doc["info"]["recording_loss"] = loss
-    if fit_from is not None:
-        doc["info"]["fit_provenance"] = fit_from
-    return d, doc
-
-
 def run_diagnose(args: argparse.Namespace) -> int:
 
     from shockdyno.model import load_spec
@@ -171,7 +101,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
         raise ConfigError(f"--alpha must be between 0 and 1, got {args.alpha}")
     if args.fit is None:
         load_spec(args.spec)  # a bad spec fails before reading the recording
-    _candidates(args.terms)  # a bad list fails before anything is read
+    parse_candidates(args.terms)  # a bad list fails before anything is read
     with StageProgress("diagnose") as progress:
         d, doc = diagnose_file(
             Path(args.recording),

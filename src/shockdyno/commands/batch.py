@@ -65,13 +65,13 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
             parse_terms(args.terms)  # refused now, not once per recording
             opts["terms"] = args.terms
     if args.kind == "diagnose":
-        from shockdyno.diagnose.cli import _candidates
+        from shockdyno.diagnose.file import parse_candidates
 
         if not 0 < args.alpha < 1:
             raise ConfigError(f"--alpha must be between 0 and 1, got {args.alpha}")
         opts["alpha"] = args.alpha
         opts["terms"] = args.terms or "all"
-        _candidates(opts["terms"])
+        parse_candidates(opts["terms"])
     return opts
 
 

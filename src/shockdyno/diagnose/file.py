@@ -1,0 +1,81 @@
+"""`shockdyno diagnose` on one recording file, as the command and `batch diagnose` both
+run it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from shockdyno.errors import ConfigError
+
+
+def parse_candidates(text: str) -> tuple[str, ...]:
+    """--terms of `diagnose`: `all` or a list of library terms."""
+    from shockdyno.fit.terms import split_terms
+    from shockdyno.model.terms import LIBRARY
+
+    items = split_terms(text)
+    if items == ["all"]:
+        return tuple(LIBRARY)
+    if "none" in items:
+        raise ConfigError("--terms none: diagnose needs at least one candidate term (or all)")
+    names = tuple(dict.fromkeys(items))
+    for n in names:
+        if n not in LIBRARY:
+            raise ConfigError(f"--terms: unknown term {n!r} (one of {', '.join(LIBRARY)})")
+    return names
+
+
+def diagnose_file(
+    recording: Path,
+    *,
+    fit_path: str | None = None,
+    spec: str | None = None,
+    alpha: float = 0.01,
+    seed: int = 0,
+    terms: str = "all",
+    force: bool = False,
+    progress: Any = None,
+    warn: Any = None,
+) -> tuple[Any, dict[str, Any]]:
+    """`shockdyno diagnose` on one recording, as `batch diagnose` runs it too: the
+    Diagnosis and its DIAG.json document (with `info.recording` and the fit's
+    provenance)."""
+    from shockdyno.diagnose.engine import Settings, diagnose
+    from shockdyno.diagnose.verdict import to_json
+    from shockdyno.fit.result import FitResult
+    from shockdyno.model import load_spec
+    from shockdyno.model.spec import spec_used
+    from shockdyno.record import open_recording
+    from shockdyno.record.identity import provenance, recording_info, stored_sha256
+
+    if not 0 < alpha < 1:
+        raise ConfigError(f"--alpha must be between 0 and 1, got {alpha}")
+    settings = Settings(alpha=alpha, seed=seed, candidates=parse_candidates(terms))
+    fit = FitResult.load(fit_path).require_usable(f"--fit {fit_path}") if fit_path else None
+    if fit is None:
+        load_spec(spec)  # a bad spec fails before reading the recording
+    info = recording_info(recording)
+    fit_from = None
+    if fit is not None:
+        stored = stored_sha256(fit.info, "recording", "sha256")
+        fit_from = provenance(stored, info["sha256"], "the fit", "--fit", force)
+    rec = open_recording(recording).require_recording()
+    loss = rec.loss_note()
+    if loss and warn is not None:
+        warn(f"warning: {recording}: {loss}")
+    tests = rec.load_all()
+    if not tests:
+        raise ConfigError(f"{recording}: no tests to diagnose")
+    d = diagnose(tests, fit, settings, progress, spec_path=spec)
+    doc = to_json(d)
+    doc["info"]["recording"] = info
+    # Which damper spec the model started from: --spec, the fit's base spec, or the default.
+    doc["info"]["spec"] = spec_used(fit.spec_path if fit is not None else spec)
+    if fit is not None:
+        doc["info"]["spec"]["from_fit"] = str(fit_path)
+    if loss:
+        doc["info"]["recording_loss"] = loss
+    if fit_from is not None:
+        doc["info"]["fit_provenance"] = fit_from
+    return d, doc

@@ -1,0 +1,85 @@
+"""`shockdyno fit` on one recording file, as the command and `batch fit` both run it."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from shockdyno.errors import FitError
+
+# Beyond these a recording is not of a damper on a dyno (a unit mix-up or a corrupt file).
+MAX_DISPLACEMENT_M = 1.0
+MAX_FORCE_N = 1e6
+
+
+def check_fit_input(tests: list[Any], source: str) -> None:
+    """Refuse a recording whose samples a fit cannot use (non-finite or absurd values)."""
+    for test in tests:
+        for name, values in (("time", test.t), ("displacement", test.x), ("force", test.force)):
+            if values.size == 0:
+                continue
+            finite = np.isfinite(values)
+            if not finite.all():
+                raise FitError(
+                    f"{source}: test {test.meta.index} has {int((~finite).sum())} non-finite "
+                    f"{name} values; nothing written"
+                )
+        peak_x, peak_f = _peak(test.x), _peak(test.force)
+        if peak_x > MAX_DISPLACEMENT_M or peak_f > MAX_FORCE_N:
+            raise FitError(
+                f"{source}: test {test.meta.index} is beyond any damper dyno "
+                f"(|x| up to {peak_x:.3g} m, |F| up to {peak_f:.3g} N); nothing written"
+            )
+
+
+def _peak(values: Any) -> float:
+    return float(np.max(np.abs(values))) if values.size else 0.0
+
+
+def result_json(result: Any) -> str:
+    try:
+        return json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"
+    except (TypeError, ValueError) as exc:
+        raise FitError(
+            f"the fit result cannot be written as JSON ({exc}); nothing written"
+        ) from None
+
+
+def fit_file(
+    recording: Path,
+    *,
+    spec: str | None = None,
+    optimizer: str = "fast",
+    seed: int = 0,
+    terms: str | None = None,
+    progress: Any = None,
+    warn: Any = None,
+) -> tuple[Any, list[Any]]:
+    """`shockdyno fit` on one recording, as `batch fit` runs it too: the FitResult (with
+    `info.recording` and any `info.recording_loss`) and the tests it read."""
+    from shockdyno.fit.sweep import fit_sweep
+    from shockdyno.fit.terms import parse_terms
+    from shockdyno.record import open_recording
+    from shockdyno.record.identity import recording_info
+
+    rec = open_recording(recording).require_recording()
+    loss = rec.loss_note()
+    if loss and warn is not None:
+        warn(f"warning: {recording}: {loss}")
+    tests = rec.load_all()
+    check_fit_input(tests, str(recording))
+    result = fit_sweep(
+        tests,
+        spec_path=spec,
+        optimizer=optimizer,
+        seed=seed,
+        progress=progress,
+        terms=parse_terms(terms),
+    )
+    result.info["recording"] = recording_info(recording)
+    if loss:
+        result.info["recording_loss"] = loss
+    return result, tests

@@ -132,7 +132,7 @@ def test_the_engine_s_si_sentences_convert_their_forces_and_speeds() -> None:
     """The sentences the engine writes in SI (a spike count, a why-not, what separates two
     terms) shown in imperial: each force and speed the SI one over 4.448 N/lbf and
     25.4 mm/in; every other number left alone; SI untouched."""
-    from shockdyno.diagnose.engine import SEPARATE_BY
+    from shockdyno.diagnose.engine import separate_by
     from shockdyno.diagnose.spikes import Spikes
     from shockdyno.diagnose.verdict import in_units
     from shockdyno.units import IMPERIAL
@@ -147,5 +147,5 @@ def test_the_engine_s_si_sentences_convert_their_forces_and_speeds() -> None:
     assert in_units(why, IMPERIAL) == (
         "its own force peaks at 0.0038 lbf, too small to matter: p = 0.3 ≥ 0.01"
     )
-    slow = SEPARATE_BY[frozenset({"sensor_lag", "friction"})]
+    slow = separate_by("friction", "sensor_lag")
     assert in_units(slow, IMPERIAL) == slow.replace("25 mm/s", "0.98 in/s")

@@ -44,6 +44,7 @@ def register(sub: Any) -> None:
         help="also write DIR/index.html: the report page with the fit (figures, Table 4, "
         "click chart), and table4.csv beside it",
     )
+    from shockdyno.model.terms import LIBRARY
     from shockdyno.report.temperature import add_argument as add_reference_temperature
 
     add_reference_temperature(p)
@@ -68,8 +69,7 @@ def register(sub: Any) -> None:
         default="sensor_lag",
         metavar="LIST",
         help=(
-            "physics terms fitted with the globals, comma-separated: compressibility, "
-            "thermal, friction, cavitation, sensor_lag, gas_spring, contact, position_force; "
+            f"physics terms fitted with the globals, comma-separated: {', '.join(LIBRARY)}; "
             "term.param frees a parameter the term holds; none: the paper's model alone "
             "(default: sensor_lag, the channel delay)"
         ),

@@ -56,23 +56,16 @@ Progress = Callable[[str, float], None]
 
 OPEN_SET = "position_force"
 SAME_SHAPE = 0.8  # cosine above which two explained structures are one shape
+
+
 # What separates two candidates that explain the same shape of residual.
-SEPARATE_BY = {
-    frozenset({"sensor_lag", "compressibility"}): (
-        "tests at other gas pressures (air's lag falls as the charge rises; a sensor's does "
-        "not) or a wider frequency range (a pure delay shifts every frequency by one time)"
-    ),
-    frozenset({"sensor_lag", "friction"}): "slow tests (below 25 mm/s) where friction dominates",
-    frozenset({"compressibility", "friction"}): "tests at other frequencies and gas pressures",
-    frozenset({"gas_spring", "position_force"}): "a test at another gas pressure",
-    frozenset({"gas_spring", "contact"}): (
-        "a test at another gas pressure (the gas spring scales with the charge, a bump stop "
-        "does not)"
-    ),
-    frozenset({"contact", "position_force"}): "a slow push through the end of the stroke",
-    frozenset({"gas_spring", "thermal"}): "a test held at constant temperature",
-    frozenset({"thermal", "position_force"}): "a test held at constant temperature",
-}
+def separate_by(a: str, b: str) -> str:
+    """What would tell terms a and b apart (Term.separated_by, written on one of the two)."""
+    ca, cb = LIBRARY.get(a), LIBRARY.get(b)
+    said = (ca.separated_by.get(b) if ca else None) or (cb.separated_by.get(a) if cb else None)
+    return said or DEFAULT_SEPARATE
+
+
 DEFAULT_SEPARATE = "tests at other frequencies, amplitudes and gas pressures"
 
 # The spec's own numbers that a sweep sees and a spec can only guess are calibrated in
@@ -613,7 +606,7 @@ def diagnose(
         if alike:
             best_f.ambiguous_with = alike
             group = sorted([best.name, *alike])
-            pairs = [SEPARATE_BY.get(frozenset({best.name, a}), DEFAULT_SEPARATE) for a in alike]
+            pairs = [separate_by(best.name, a) for a in alike]
             groups.append({"group": group, "separate_by": "; ".join(dict.fromkeys(pairs))})
         claimed.append(best.name)
         shapes.append((best.name, best.explained))

@@ -9,43 +9,9 @@ from typing import Any
 
 from shockdyno.diagnose.engine import CalibrationRow, Diagnosis, Finding
 from shockdyno.diagnose.locate import Location
+from shockdyno.model.reading import Reading
 from shockdyno.model.terms import LIBRARY
 from shockdyno.units import IMPERIAL, SI, Units
-
-
-def _v(f: Finding, name: str) -> float:
-    p = f.parameters.get(name, {})
-    value = p.get("value")
-    return float(value) if isinstance(value, int | float) else math.nan
-
-
-def _sd(f: Finding, name: str, scale: float = 1.0) -> str:
-    sd = f.parameters.get(name, {}).get("sd")
-    return f" ± {scale * sd:.2g}" if isinstance(sd, int | float) and math.isfinite(sd) else ""
-
-
-def _moved(f: Finding, name: str) -> bool:
-    """Whether a parameter moved off its off value by more than 3σ (and than a rounding
-    of its scale): a term's text names only what the data moved."""
-    cls = LIBRARY.get(f.physics)
-    param = next((p for p in cls.PARAMS if p.name == name), None) if cls else None
-    value = _v(f, name)
-    if param is None or not math.isfinite(value) or f.parameters.get(name, {}).get("fixed"):
-        return False
-    sd = f.parameters.get(name, {}).get("sd")
-    noise = 3 * float(sd) if isinstance(sd, int | float) and math.isfinite(sd) else 0.0
-    return abs(value - param.off) > max(noise, 1e-3 * param.scale)
-
-
-def _sd_ms(f: Finding, name: str) -> str:
-    sd = f.parameters.get(name, {}).get("sd")
-    return f" ± {1e3 * sd:.2g}" if isinstance(sd, int | float) and math.isfinite(sd) else ""
-
-
-def _sd_pct(f: Finding, name: str) -> str:
-    sd = f.parameters.get(name, {}).get("sd")
-    return f" ± {100 * sd:.2g}" if isinstance(sd, int | float) and math.isfinite(sd) else ""
-
 
 # A force or speed inside a sentence the engine wrote in SI (a finding's why_not, what
 # separates two terms): "0.017 N", "25 mm/s". Nothing else there carries a display unit.
@@ -95,101 +61,12 @@ def _signature(loc: Location) -> str:
 
 
 def describe(f: Finding, spec_gas_pa: float, u: Units = SI) -> str:
-    """One finding as physics with its numbers, forces, lengths and speeds in `u`."""
-    p = f.physics
-    fn, fl = u.force_per_n, u.force_label
-    ln, ll = u.length_per_m, u.length_label
-    vn, vl = u.velocity_per_m_s, u.velocity_label
-    cn, cl = (fn / ln, f"{fl}·s/{ll}") if u.imperial else (1.0, "N·s/m")  # damping coefficient
-    if p == "compressibility":
-        alpha = _v(f, "air_fraction")
-        c_oil = _v(f, "oil_compressibility_per_gpa") * 1e-9
-        comp = (1 - alpha) * c_oil + alpha / spec_gas_pa
-        beta = 1 / comp if comp > 0 else math.inf
-        sd = f.parameters.get("air_fraction", {}).get("sd")
-        pm = f" ± {100 * sd:.1g}" if isinstance(sd, int | float) and math.isfinite(sd) else ""
-        return (
-            f"compressibility: effective bulk modulus {beta / 1e6:.3g} MPa at the gas charge, "
-            f"about {100 * alpha:.2g}{pm} % free air"
-        )
-    if p == "sensor_lag":
-        d, lag = _v(f, "delay_s"), _v(f, "load_cell_lag_s")
-        parts = [
-            f"{label} {1e3 * _v(f, key):.2g}{_sd_ms(f, key)} ms"
-            for key, label in (
-                ("delay_s", "pure delay"),
-                ("load_cell_lag_s", "load-cell lag"),
-                ("lvdt_lag_s", "LVDT lag"),
-            )
-            if _moved(f, key)
-        ]
-        detail = f" ({', '.join(parts)})" if parts else ""
-        return f"sensor lag: force lags the motion by {1e3 * (d + lag):.3g} ms in all{detail}"
-    if p == "friction":
-        parts = []
-        if _moved(f, "breakaway_n"):
-            parts.append(
-                f"breakaway {fn * _v(f, 'breakaway_n'):.3g}{_sd(f, 'breakaway_n', fn)} {fl} "
-                f"above Coulomb, falling over {vn * _v(f, 'stribeck_velocity_m_s'):.2g}"
-                f"{_sd(f, 'stribeck_velocity_m_s', vn)} {vl} (Stribeck)"
-            )
-        if _moved(f, "viscous_n_s_m"):
-            parts.append(
-                f"viscous drag {cn * _v(f, 'viscous_n_s_m'):.3g}{_sd(f, 'viscous_n_s_m', cn)} {cl}"
-            )
-        return "seal friction: " + (", ".join(parts) or "beyond the spec's Coulomb friction")
-    if p == "thermal":
-        parts = []
-        if _moved(f, "gas_coupling"):
-            parts.append(
-                "gas force follows the oil temperature (coupling "
-                f"{_v(f, 'gas_coupling'):.2g}{_sd(f, 'gas_coupling')})"
-            )
-        for key in ("viscosity_coeff_per_k", "damping_coeff_per_k"):
-            if _moved(f, key):
-                what = "viscosity" if key.startswith("visc") else "damping"
-                parts.append(f"{what} falls {100 * _v(f, key):.2g}{_sd_pct(f, key)} %/K")
-        if parts and _moved(f, "oil_lead_s"):
-            parts.append(
-                f"the oil ahead of the measured body by {_v(f, 'oil_lead_s'):.3g}"
-                f"{_sd(f, 'oil_lead_s')} s × its rate of rise"
-            )
-        return "temperature: " + (", ".join(parts) or "the force drifts with the oil temperature")
-    if p == "cavitation":
-        return (
-            "cavitation: the rebound chamber holds at "
-            f"{_v(f, 'release_pressure_pa') / 1e3:.3g} kPa absolute; compression force saturates"
-        )
-    if p == "gas_spring":
-        return (
-            f"gas spring: gas volume {_v(f, 'volume_factor'):.3g}{_sd(f, 'volume_factor')} × the "
-            f"spec's (polytropic index {_v(f, 'polytropic_index'):.3g})"
-        )
-    if p == "contact":
-        sides = []
-        if _moved(f, "bump_force_n"):
-            sides.append(
-                f"a bump stop from x = {ln * _v(f, 'bump_onset_m'):+.3g}"
-                f"{_sd(f, 'bump_onset_m', ln)} {ll} ({fn * _v(f, 'bump_force_n'):.3g}"
-                f"{_sd(f, 'bump_force_n', fn)} {fl} {ln * 0.01:.2g} {ll} past it)"
-            )
-        if _moved(f, "topout_force_n"):
-            sides.append(
-                f"a top-out spring from x = {ln * _v(f, 'topout_onset_m'):+.3g}"
-                f"{_sd(f, 'topout_onset_m', ln)} {ll} ({fn * _v(f, 'topout_force_n'):.3g}"
-                f"{_sd(f, 'topout_force_n', fn)} {fl} {ln * 0.01:.2g} {ll} past it)"
-            )
-        return "contact: " + (" and ".join(sides) or "at the end of travel")
-    if p == "position_force":
-        knots = [_v(f, f"f{k}_n") for k in range(8)]
-        lo, hi = _v(f, "x_lo_m"), _v(f, "x_hi_m")
-        k = max(range(8), key=lambda i: abs(knots[i]))
-        x = lo + (hi - lo) * k / 7
-        return (
-            f"a force of position no named physics explains: up to {fn * knots[k]:+.3g} {fl} "
-            f"at x = {ln * x:+.3g} {ll} (bump stop, top-out or a seal that grips at one end?)"
-        )
-    return p
+    """One finding as physics with its numbers, forces, lengths and speeds in `u`: the
+    term's own words (Term.describe)."""
+    cls = LIBRARY.get(f.physics)
+    if cls is None:
+        return f.physics
+    return cls().describe(Reading(cls.PARAMS, f.parameters, u, spec_gas_pa))
 
 
 _CALIBRATION_WORDS = {

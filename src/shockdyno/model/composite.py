@@ -37,6 +37,7 @@ from shockdyno.model.filters import segment_bounds
 from shockdyno.model.flow import solve_pressure_drop
 from shockdyno.model.gas import compression_pressure
 from shockdyno.model.params import Param
+from shockdyno.model.reading import Reading
 from shockdyno.model.spec import DamperSpec
 
 FloatArray = NDArray[np.float64]
@@ -227,7 +228,15 @@ class Term:
     sensor: ClassVar[bool] = False  # measurement, not damper: left out of the vehicle
     stateful: ClassVar[bool] = False
     PARAMS: ClassVar[tuple[Param, ...]] = ()
-    summary: ClassVar[str] = ""
+    summary: ClassVar[str] = ""  # one line: `fit --help`, docs and a verdict with no words
+    # What would tell this term from a look-alike, by the look-alike's name: a diagnosis
+    # that cannot separate the two says so. Each pair is written on one of its terms.
+    separated_by: ClassVar[dict[str, str]] = {}
+
+    def describe(self, r: Reading) -> str:
+        """The fitted physics in words, naming only the parameters the data moved (with
+        their σ); a term without words of its own lists them."""
+        return r.plain(f"{self.name}: {self.summary}")
 
     def params(self) -> tuple[Param, ...]:
         return self.PARAMS

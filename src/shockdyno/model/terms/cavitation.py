@@ -21,6 +21,7 @@ import numpy as np
 from shockdyno.model.chamber import Chamber
 from shockdyno.model.composite import PRESSURE, Evaluation, FloatArray, Term, Work
 from shockdyno.model.params import Param
+from shockdyno.model.reading import Reading
 from shockdyno.model.terms.compressibility import run_chamber
 
 
@@ -41,6 +42,12 @@ class Cavitation(Term):
             doc="absolute pressure the rebound chamber cannot fall below",
         ),
     )
+
+    def describe(self, r: Reading) -> str:
+        return (
+            "cavitation: the rebound chamber holds at "
+            f"{r.v('release_pressure_pa') / 1e3:.3g} kPa absolute; compression force saturates"
+        )
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
         # Below the lowest pressure the data reach the floor does nothing (no gradient),

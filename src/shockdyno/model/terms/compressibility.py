@@ -17,12 +17,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 
 from shockdyno.model.chamber import Chamber, integrate
 from shockdyno.model.composite import PRESSURE, Evaluation, FloatArray, Term, Work
 from shockdyno.model.params import Param
+from shockdyno.model.reading import Reading
 from shockdyno.model.spec import DamperSpec
 
 MAX_BULK_MODULUS_PA = 2.2e9
@@ -68,6 +70,9 @@ class Compressibility(Term):
     stage = PRESSURE
     stateful = True
     summary = "oil bulk modulus with entrained air: Δp lags, the loop opens near reversal"
+    separated_by: ClassVar[dict[str, str]] = {
+        "friction": "tests at other frequencies and gas pressures"
+    }
     PARAMS = (
         Param("air_fraction", "1", 0.01, 0.0, 0.3, 0.01, 0.0, doc="free air by volume at p₀"),
         Param(
@@ -82,6 +87,18 @@ class Compressibility(Term):
             doc="1/β of the oil (mineral oil: 1/1.5 GPa)",
         ),
     )
+
+    def describe(self, r: Reading) -> str:
+        alpha = r.v("air_fraction")
+        c_oil = r.v("oil_compressibility_per_gpa") * 1e-9
+        comp = (1 - alpha) * c_oil + alpha / r.spec_gas_pa
+        beta = 1 / comp if comp > 0 else math.inf
+        sd = r.sd_value("air_fraction")
+        pm = f" ± {100 * sd:.1g}" if math.isfinite(sd) else ""
+        return (
+            f"compressibility: effective bulk modulus {beta / 1e6:.3g} MPa at the gas charge, "
+            f"about {100 * alpha:.2g}{pm} % free air"
+        )
 
     def nesting_free(self) -> tuple[str, ...]:
         # The oil alone lags (β = 1.5 GPa): only with its compressibility free too can the

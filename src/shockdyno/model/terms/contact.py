@@ -14,11 +14,13 @@ do nothing, and the data cannot place them: their σ is infinite).
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 
 from shockdyno.model.composite import FORCE, Evaluation, FloatArray, Term, Work
 from shockdyno.model.params import Param
+from shockdyno.model.reading import Reading
 
 REFERENCE_DEPTH_M = 0.010
 # A contact must reach this share of the stroke's half-length past its onset on the data:
@@ -31,6 +33,9 @@ class Contact(Term):
     name = "contact"
     stage = FORCE + 4
     summary = "bump stop / top-out spring: force past a free onset, F·(depth/10 mm)^n"
+    separated_by: ClassVar[dict[str, str]] = {
+        "position_force": "a slow push through the end of the stroke"
+    }
     PARAMS = (
         Param("bump_onset_m", "m", 0.02, 0.0, 0.2, 0.005, 0.2, doc="bump stop starts at x"),
         Param("bump_force_n", "N", 100.0, 0.0, 50000.0, 100.0, 0.0, doc="bump force 10 mm past"),
@@ -38,6 +43,18 @@ class Contact(Term):
         Param("topout_force_n", "N", 100.0, 0.0, 50000.0, 100.0, 0.0, doc="top-out 10 mm past"),
         Param("exponent", "1", 2.0, 1.0, 4.0, 0.5, 2.0, free=False, doc="1 linear, 2 progressive"),
     )
+
+    def describe(self, r: Reading) -> str:
+        (fn, fl), (ln, ll) = r.force, r.length
+        sides = []
+        for key, what in (("bump", "a bump stop"), ("topout", "a top-out spring")):
+            if r.moved(f"{key}_force_n"):
+                sides.append(
+                    f"{what} from x = {ln * r.v(f'{key}_onset_m'):+.3g}"
+                    f"{r.sd(f'{key}_onset_m', ln)} {ll} ({fn * r.v(f'{key}_force_n'):.3g}"
+                    f"{r.sd(f'{key}_force_n', fn)} {fl} {ln * 0.01:.2g} {ll} past it)"
+                )
+        return "contact: " + (" and ".join(sides) or "at the end of travel")
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
         # Past the onset the force grows fast, before it there is none: a start whose

@@ -16,6 +16,7 @@ import numpy as np
 
 from shockdyno.model.composite import FORCE, Evaluation, FloatArray, Term, Work
 from shockdyno.model.params import Param
+from shockdyno.model.reading import Reading
 from shockdyno.model.spec import DamperSpec
 
 
@@ -39,6 +40,21 @@ class Friction(Term):
         ),
         Param("viscous_n_s_m", "N·s/m", 40.0, 0.0, 5000.0, 50.0, 0.0, doc="viscous seal drag"),
     )
+
+    def describe(self, r: Reading) -> str:
+        (fn, fl), (vn, vl), (cn, cl) = r.force, r.speed, r.damping
+        parts = []
+        if r.moved("breakaway_n"):
+            parts.append(
+                f"breakaway {fn * r.v('breakaway_n'):.3g}{r.sd('breakaway_n', fn)} {fl} "
+                f"above Coulomb, falling over {vn * r.v('stribeck_velocity_m_s'):.2g}"
+                f"{r.sd('stribeck_velocity_m_s', vn)} {vl} (Stribeck)"
+            )
+        if r.moved("viscous_n_s_m"):
+            parts.append(
+                f"viscous drag {cn * r.v('viscous_n_s_m'):.3g}{r.sd('viscous_n_s_m', cn)} {cl}"
+            )
+        return "seal friction: " + (", ".join(parts) or "beyond the spec's Coulomb friction")
 
     def implausible(self, p: Mapping[str, float], spec: DamperSpec) -> str:
         # A breakaway that decays within the sign change of the Coulomb term lives where

@@ -10,21 +10,37 @@ p0 n A² / V, not n and V apart: the fit frees f and holds n unless asked
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 
 from shockdyno.model.composite import CHAMBER, Evaluation, FloatArray, Term, Work
 from shockdyno.model.params import Param
+from shockdyno.model.reading import Reading
 
 
 class GasSpring(Term):
     name = "gas_spring"
     stage = CHAMBER
     summary = "gas spring rate: polytropic index and gas volume"
+    separated_by: ClassVar[dict[str, str]] = {
+        "position_force": "a test at another gas pressure",
+        "contact": (
+            "a test at another gas pressure (the gas spring scales with the charge, a bump "
+            "stop does not)"
+        ),
+        "thermal": "a test held at constant temperature",
+    }
     PARAMS = (
         Param("volume_factor", "1", 1.0, 0.2, 5.0, 1.0, 1.0, doc="gas volume / the spec's"),
         Param("polytropic_index", "1", 1.0, 1.0, 1.67, 0.1, 1.0, free=False),
     )
+
+    def describe(self, r: Reading) -> str:
+        return (
+            f"gas spring: gas volume {r.v('volume_factor'):.3g}{r.sd('volume_factor')} × the "
+            f"spec's (polytropic index {r.v('polytropic_index'):.3g})"
+        )
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
         return [{"volume_factor": f} for f in (0.5, 1.0, 2.0)]

@@ -15,6 +15,7 @@ import numpy as np
 
 from shockdyno.model.composite import FORCE, FloatArray, Term, Work
 from shockdyno.model.params import Param
+from shockdyno.model.reading import Reading
 
 N_KNOTS = 8
 SMOOTHING = 0.3  # N of penalty residual per N of second difference
@@ -33,6 +34,17 @@ class PositionForce(Term):
             for k in range(N_KNOTS)
         ),
     )
+
+    def describe(self, r: Reading) -> str:
+        (fn, fl), (ln, ll) = r.force, r.length
+        knots = [r.v(f"f{k}_n") for k in range(8)]
+        lo, hi = r.v("x_lo_m"), r.v("x_hi_m")
+        k = max(range(8), key=lambda i: abs(knots[i]))
+        x = lo + (hi - lo) * k / 7
+        return (
+            f"a force of position no named physics explains: up to {fn * knots[k]:+.3g} {fl} "
+            f"at x = {ln * x:+.3g} {ll} (bump stop, top-out or a seal that grips at one end?)"
+        )
 
     @staticmethod
     def knot_values(p: Mapping[str, float]) -> np.ndarray:

@@ -14,12 +14,14 @@ frees δ and holds the lags unless named (`--terms sensor_lag.load_cell_lag_s`).
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from typing import ClassVar
 
 import numpy as np
 
 from shockdyno.model.composite import MOTION, SENSOR, Evaluation, FloatArray, Term, Work
 from shockdyno.model.filters import delayed, first_order_lag
 from shockdyno.model.params import Param
+from shockdyno.model.reading import Reading
 
 
 class SensorLag(Term):
@@ -29,12 +31,34 @@ class SensorLag(Term):
     sensor = True
     stateful = True
     summary = "measurement chain: channel delay, load-cell lag, LVDT lag"
+    separated_by: ClassVar[dict[str, str]] = {
+        "compressibility": (
+            "tests at other gas pressures (air's lag falls as the charge rises; a sensor's "
+            "does not) or a wider frequency range (a pure delay shifts every frequency by one "
+            "time)"
+        ),
+        "friction": "slow tests (below 25 mm/s) where friction dominates",
+    }
     PARAMS = (
         Param("delay_s", "s", 0.0, -0.05, 0.05, 1e-3, 0.0, doc="force behind motion"),
         # A load-cell amplifier slower than 20 ms (8 Hz) would not be on a damper dyno.
         Param("load_cell_lag_s", "s", 0.0, 0.0, 0.02, 1e-3, 0.0, free=False),
         Param("lvdt_lag_s", "s", 0.0, 0.0, 0.02, 1e-3, 0.0, free=False),
     )
+
+    def describe(self, r: Reading) -> str:
+        d, lag = r.v("delay_s"), r.v("load_cell_lag_s")
+        parts = [
+            f"{label} {1e3 * r.v(key):.2g}{r.sd(key, 1e3)} ms"
+            for key, label in (
+                ("delay_s", "pure delay"),
+                ("load_cell_lag_s", "load-cell lag"),
+                ("lvdt_lag_s", "LVDT lag"),
+            )
+            if r.moved(key)
+        ]
+        detail = f" ({', '.join(parts)})" if parts else ""
+        return f"sensor lag: force lags the motion by {1e3 * (d + lag):.3g} ms in all{detail}"
 
     def nesting_free(self) -> tuple[str, ...]:
         # A delay and a lag differ only at sharp events (the friction flip at reversal):

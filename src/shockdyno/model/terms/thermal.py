@@ -24,12 +24,14 @@ and shim-stack laminar flow that depend on viscosity): the fit holds it at 0 unl
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from typing import ClassVar
 
 import numpy as np
 
 from shockdyno.model.composite import CHAMBER, PRESSURE, FloatArray, Term, Work
 from shockdyno.model.filters import first_order_lag
 from shockdyno.model.params import Param
+from shockdyno.model.reading import Reading
 
 KELVIN = 273.15
 
@@ -40,6 +42,9 @@ class Thermal(Term):
     stages = (CHAMBER + 5, PRESSURE - 5)  # and Δp, before a lag or a clamp acts on it
     stateful = True
     summary = "temperature: viscosity falls, gas pressure rises with the oil's temperature"
+    separated_by: ClassVar[dict[str, str]] = {
+        "position_force": "a test held at constant temperature"
+    }
     PARAMS = (
         Param("gas_coupling", "1", 1.0, 0.0, 3.0, 1.0, 0.0, doc="1: gas at the oil's temperature"),
         Param("viscosity_coeff_per_k", "1/K", 0.025, 0.0, 0.1, 0.01, 0.0, doc="ν falls b per K"),
@@ -68,6 +73,24 @@ class Thermal(Term):
         Param("heat_rate_k_s_m2", "K·s/m²", 3.33, 0.0, 100.0, 1.0, 3.33, free=False),
         Param("cooling_time_s", "s", 300.0, 1.0, 1.0e5, 100.0, 300.0, free=False),
     )
+
+    def describe(self, r: Reading) -> str:
+        parts = []
+        if r.moved("gas_coupling"):
+            parts.append(
+                "gas force follows the oil temperature (coupling "
+                f"{r.v('gas_coupling'):.2g}{r.sd('gas_coupling')})"
+            )
+        for key in ("viscosity_coeff_per_k", "damping_coeff_per_k"):
+            if r.moved(key):
+                what = "viscosity" if key.startswith("visc") else "damping"
+                parts.append(f"{what} falls {100 * r.v(key):.2g}{r.sd(key, 100)} %/K")
+        if parts and r.moved("oil_lead_s"):
+            parts.append(
+                f"the oil ahead of the measured body by {r.v('oil_lead_s'):.3g}"
+                f"{r.sd('oil_lead_s')} s × its rate of rise"
+            )
+        return "temperature: " + (", ".join(parts) or "the force drifts with the oil temperature")
 
     def full_rate(self, p: Mapping[str, float], free: Iterable[str]) -> bool:
         return False  # minutes of thermal lag: the fit's 5 ms samples resolve it

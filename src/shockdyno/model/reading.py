@@ -1,0 +1,75 @@
+"""A fitted term's parameters as a person reads them: the values, their σ, which ones the
+data moved, in display units. A term's `describe` words its own physics from one."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from shockdyno.model.params import Param
+from shockdyno.units import SI, Units
+
+
+@dataclass(frozen=True)
+class Reading:
+    """`values`: parameter name -> {"value", "sd", "fixed", ...} as DIAG.json holds them."""
+
+    params: tuple[Param, ...]
+    values: Mapping[str, Mapping[str, object]]
+    units: Units = SI
+    spec_gas_pa: float = math.nan  # the spec's gas charge: the pressure air is counted at
+
+    def v(self, name: str) -> float:
+        value = self.values.get(name, {}).get("value")
+        return float(value) if isinstance(value, int | float) else math.nan
+
+    def sd_value(self, name: str) -> float:
+        """σ of a parameter (NaN when the fit gave none)."""
+        sd = self.values.get(name, {}).get("sd")
+        return float(sd) if isinstance(sd, int | float) and math.isfinite(sd) else math.nan
+
+    def sd(self, name: str, scale: float = 1.0) -> str:
+        """ " ± σ" in the value's scale, or "" when the fit gave none."""
+        sd = self.sd_value(name)
+        return f" ± {scale * sd:.2g}" if math.isfinite(sd) else ""
+
+    def moved(self, name: str) -> bool:
+        """Whether a parameter moved off its off value by more than 3σ (and than a rounding
+        of its scale): a term's text names only what the data moved."""
+        param = next((p for p in self.params if p.name == name), None)
+        value = self.v(name)
+        if param is None or not math.isfinite(value) or self.values.get(name, {}).get("fixed"):
+            return False
+        sd = self.sd_value(name)
+        noise = 3 * sd if math.isfinite(sd) else 0.0
+        return abs(value - param.off) > max(noise, 1e-3 * param.scale)
+
+    # Display units: force, length and speed factors and labels, and a damping coefficient.
+    @property
+    def force(self) -> tuple[float, str]:
+        return self.units.force_per_n, self.units.force_label
+
+    @property
+    def length(self) -> tuple[float, str]:
+        return self.units.length_per_m, self.units.length_label
+
+    @property
+    def speed(self) -> tuple[float, str]:
+        return self.units.velocity_per_m_s, self.units.velocity_label
+
+    @property
+    def damping(self) -> tuple[float, str]:
+        u = self.units
+        if u.imperial:
+            return u.force_per_n / u.length_per_m, f"{u.force_label}·s/{u.length_label}"
+        return 1.0, "N·s/m"
+
+    def plain(self, summary: str) -> str:
+        """The words of a term with no text of its own: each moved parameter, in SI."""
+        moved = [
+            f"{p.name} {self.v(p.name):.3g}{self.sd(p.name)} {p.unit}".rstrip()
+            for p in self.params
+            if self.moved(p.name)
+        ]
+        return summary + (f" ({', '.join(moved)})" if moved else "")

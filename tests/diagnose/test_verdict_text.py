@@ -96,6 +96,7 @@ def test_the_verdict_judges_significance_at_the_search_s_alpha() -> None:
     from types import SimpleNamespace
 
     from shockdyno.diagnose.locate import Location
+    from shockdyno.diagnose.settings import Settings
     from shockdyno.diagnose.stats import MismatchStat
     from shockdyno.diagnose.verdict import verdict_text
 
@@ -106,6 +107,7 @@ def test_the_verdict_judges_significance_at_the_search_s_alpha() -> None:
     def diagnosis(alpha: float) -> SimpleNamespace:
         return SimpleNamespace(
             alpha=alpha,
+            settings=Settings(alpha=alpha),
             mismatch=stat,
             location=Location([]),
             findings=[f],

@@ -21,7 +21,6 @@ from shockdyno.diagnose.fitting import Fitted
 SENSOR = "sensor_lag"
 TIMES = ("delay_s", "load_cell_lag_s", "lvdt_lag_s")
 SCALES = np.linspace(0.0, 3.0, 61)  # the fitted sensor's times × these, tried on each test
-MIN_SHIFT_S = 5e-4  # a sensor that shifts less than this has no time to compare
 
 
 @dataclass(frozen=True)
@@ -50,13 +49,16 @@ def _refined_minimum(points: np.ndarray, sse: np.ndarray) -> float:
     return float(points[k])
 
 
-def delay_spread(data: Data, fitted: Fitted, min_gain: float) -> DelaySpread | None:
+def delay_spread(
+    data: Data, fitted: Fitted, min_gain: float, min_shift_s: float = 5e-4
+) -> DelaySpread | None:
     """The time that fits each test alone: the fitted sensor's delay and lags scaled
     together (a sensor's form kept, so a load cell's lag is not read as a delay at a
     closed bleed's sharp reversal), everything else the fit found held. The time of a
     test is the scale × the sensor's net shift (delay + load-cell lag - LVDT lag). Only
     tests where their best scale removes at least `min_gain` of the squared error place
-    it. None when the sensor shifts by less than MIN_SHIFT_S or fewer than three tests
+    it. None when the sensor shifts by less than `min_shift_s` (no time to compare) or
+    fewer than three tests
     place it."""
     model = fitted.model
     term = model.term(SENSOR)
@@ -64,7 +66,7 @@ def delay_spread(data: Data, fitted: Fitted, min_gain: float) -> DelaySpread | N
         return None
     values = {t: model.value(term.qualified(t)) for t in TIMES}
     shift = values["delay_s"] + values["load_cell_lag_s"] - values["lvdt_lag_s"]
-    if abs(shift) < MIN_SHIFT_S:
+    if abs(shift) < min_shift_s:
         return None
     delays: list[float] = []
     for i in range(len(data.prepared)):

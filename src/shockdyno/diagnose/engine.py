@@ -39,6 +39,7 @@ from shockdyno.diagnose.consistency import SENSOR, delay_spread, inconsistent
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.fitting import Fitted, full_rate_force, refit
 from shockdyno.diagnose.locate import Location, locate
+from shockdyno.diagnose.settings import Settings as Settings
 from shockdyno.diagnose.spikes import remove_spikes
 from shockdyno.diagnose.stats import MismatchStat, mismatch_test, noise_draws
 from shockdyno.errors import FitError
@@ -55,7 +56,6 @@ FloatArray = NDArray[np.float64]
 Progress = Callable[[str, float], None]
 
 OPEN_SET = "position_force"
-SAME_SHAPE = 0.8  # cosine above which two explained structures are one shape
 
 
 # What separates two candidates that explain the same shape of residual.
@@ -85,50 +85,6 @@ GLOBAL_UNITS = {
     "rebound_valve.preload_m": "m",
     "rebound_valve.face_area_m2": "m²",
 }
-# A calibrated value is worth a sentence when it is off the spec's by more than this
-# share and by more than three of its σ.
-CALIBRATION_SHARE = 0.05
-
-
-@dataclass(frozen=True)
-class Settings:
-    alpha: float = 0.01
-    screen_alpha: float = 0.05
-    min_gain: float = 0.1  # share of the held-out structure a claimed term must remove
-    # ... and a term joining terms already claimed. Half: the library's form of a claimed
-    # physics is never exactly the damper's, and its misfit leaves structure where it
-    # acts. On sweeps with one effect, friction or thermal took 12-36 % of that misfit,
-    # held out, and were claimed as a second physics; a real second effect removed
-    # 96-100 % of what the first left. (In the first round two real effects share the
-    # structure, 40-46 % each on one pair, so the first claim keeps the lower bar.)
-    min_gain_joining: float = 0.5
-    # Too weak to matter: a term whose largest effect on a phase mean is below this share
-    # of the largest force, or below three noise-σ of a phase mean.
-    min_effect_share: float = 0.001
-    max_terms: int = 3
-    n_boot: int = 999
-    seed: int = 0
-    max_nfev: int = 15
-    final_nfev: int = 60  # the final model's refit, whose values the verdict reports
-    fold_nfev: int = 8
-    # The search for terms runs on at most this many click settings, spread over the
-    # sweep (the terms are the damper's, not a click's); the model it finds is then
-    # refitted to every test.
-    search_clicks: int = 8
-    # Candidates per round scored on held-out tests, largest LR first (None: every one
-    # with p < alpha). Two was too few: a second real effect ranked third behind two
-    # look-alikes of the first was never claimable.
-    heldout_top: int | None = None
-    objective_rate_hz: float = 100.0
-    full_rate_hz: float | None = None  # fast lags at up to this rate (None: the recording's)
-    candidates: tuple[str, ...] = tuple(LIBRARY)
-    # A sensor's delay is one time for the sweep (diagnose/consistency.py): a sensor-lag
-    # candidate whose per-test delays spread more than this (s, plus a share of their
-    # median) is the damper's lag, not a sensor's. Tests place a delay when it removes
-    # this share of their squared error.
-    sensor_delay_spread_s: float = 0.001
-    sensor_delay_spread_share: float = 0.25
-    sensor_delay_min_gain: float = 0.3
 
 
 @dataclass
@@ -156,12 +112,15 @@ class CalibrationRow:
     fitted: float
     sd: float
     unit: str
+    share: float = 0.05  # Settings.calibration_share
 
     @property
     def moved(self) -> bool:
+        """Worth a sentence: off the spec's value by more than `share` of it and by more
+        than three of its σ."""
         off = abs(self.fitted - self.spec_value)
         sd = self.sd if math.isfinite(self.sd) else 0.0
-        return off > CALIBRATION_SHARE * abs(self.spec_value) and off > 3 * sd
+        return off > self.share * abs(self.spec_value) and off > 3 * sd
 
 
 @dataclass
@@ -201,9 +160,13 @@ class Diagnosis:
     wall_s: float
     single_frequency: bool
     calibration: list[CalibrationRow] = field(default_factory=list)
-    alpha: float = 0.01  # the significance level the search used; the verdict reads it
+    settings: Settings = field(default_factory=Settings)  # what the search used; the verdict too
     sensor: list[str] = field(default_factory=list)  # faults of the sensors, not physics
     short_tests: list[ShortTest] = field(default_factory=list)  # left out, see ShortTest
+
+    @property
+    def alpha(self) -> float:
+        return self.settings.alpha
 
     @property
     def testable(self) -> bool:
@@ -276,7 +239,7 @@ def why_not(
     if refused and refused.get(c.name):
         return refused[c.name]
     for name, shape in shapes:
-        if _cosine(c.explained, shape) > SAME_SHAPE:
+        if _cosine(c.explained, shape) > s.same_shape:
             return f"the same shape as {name}, already claimed"
     term = c.fitted.model.term(c.name)
     if term is not None:
@@ -438,7 +401,7 @@ def _gas_spring_is_calibration(
 
 
 def calibration_rows(
-    spec: DamperSpec, fitted: Fitted, gas_calibrated: bool
+    spec: DamperSpec, fitted: Fitted, gas_calibrated: bool, share: float = 0.05
 ) -> list[CalibrationRow]:
     """The spec's values against what the recording calibrated them to; the gas volume
     when the baseline calibrated it (not when a claimed gas spring moved it)."""
@@ -450,6 +413,7 @@ def calibration_rows(
             nominal_value(got, key),
             fitted.globals_sd.get(key, math.nan),
             GLOBAL_UNITS.get(key, ""),
+            share,
         )
         for key in DEFAULT_GLOBALS
     ]
@@ -457,7 +421,9 @@ def calibration_rows(
         v0 = spec.gas_piston_area_m2 * spec.gas_length_m
         sd = fitted.term_sd.get(GAS_VOLUME, math.nan)
         rows.append(
-            CalibrationRow("gas_volume_m3", v0, v0 * fitted.model.value(GAS_VOLUME), v0 * sd, "m³")
+            CalibrationRow(
+                "gas_volume_m3", v0, v0 * fitted.model.value(GAS_VOLUME), v0 * sd, "m³", share
+            )
         )
     return rows
 
@@ -505,7 +471,7 @@ def diagnose(
     baseline = base
     base_means, binned = binned_means(data, base.residual)
     mismatch = mismatch_test(binned, rng, s.n_boot)
-    location = locate(data, binned)
+    location = locate(data, binned, s)
     search = search_subset(data, s.search_clicks)
     fold_list = folds(search)
     force_peak = float(np.max(np.abs(data.prob.f)))
@@ -557,7 +523,7 @@ def diagnose(
         x = search.prob.inputs.x
         refused = {
             c.name: inconsistent(
-                delay_spread(search, c.fitted, s.sensor_delay_min_gain),
+                delay_spread(search, c.fitted, s.sensor_delay_min_gain, s.sensor_delay_min_shift_s),
                 s.sensor_delay_spread_s,
                 s.sensor_delay_spread_share,
             )
@@ -576,7 +542,8 @@ def diagnose(
             if best is not None and c is not best and c.p_value < s.alpha:
                 # Alike: the same shape explained, and held out it leaves about as much.
                 rest, rest_best = 1 - gain, 1 - scored[best.name][0]
-                if _cosine(c.explained, best.explained) > 0.9 and rest <= 1.5 * rest_best + 0.05:
+                same = _cosine(c.explained, best.explained) > s.alike_cosine
+                if same and rest <= s.alike_rest_ratio * rest_best + s.alike_rest_margin:
                     amb.append(best.name)
             findings.append(
                 Finding(
@@ -652,7 +619,7 @@ def diagnose(
     _, final_binned = binned_means(data, base.residual)
     remaining_stat = mismatch_test(final_binned, rng, s.n_boot)
     unexplained = (
-        locate(data, final_binned) if remaining_stat.p_value < s.alpha else Location([], {})
+        locate(data, final_binned, s) if remaining_stat.p_value < s.alpha else Location([], {})
     )
     freqs = {round(p.data.meta.frequency_hz, 3) for p in data.prepared}
     report("done", 1.0)
@@ -672,9 +639,9 @@ def diagnose(
         wall_s=time.perf_counter() - wall0,
         single_frequency=len(freqs) == 1,
         calibration=calibration_rows(
-            load_spec(fit.spec_path) if fit else spec, base, gas_calibrated
+            load_spec(fit.spec_path) if fit else spec, base, gas_calibrated, s.calibration_share
         ),
-        alpha=s.alpha,
+        settings=s,
         sensor=sensor,
         short_tests=short,
     )
@@ -719,7 +686,7 @@ def _untestable(
         wall_s=time.perf_counter() - wall0,
         single_frequency=len(freqs) == 1,
         calibration=[],
-        alpha=s.alpha,
+        settings=s,
         sensor=sensor,
         short_tests=short,
     )

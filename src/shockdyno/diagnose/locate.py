@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from shockdyno.diagnose.cycles import N_BINS, BinnedTest
 from shockdyno.diagnose.data import Data
+from shockdyno.diagnose.settings import Settings
 
 FloatArray = NDArray[np.float64]
 
@@ -85,7 +86,8 @@ def _shares(e: FloatArray, labels: FloatArray) -> dict[str, float]:
     return out
 
 
-def locate(data: Data, binned: Sequence[BinnedTest], max_regions: int = 5) -> Location:
+def locate(data: Data, binned: Sequence[BinnedTest], s: Settings | None = None) -> Location:
+    s = s or Settings()
     e = _energy(binned)
     means = np.concatenate([b.mean for b in binned])
     feat = _bin_features(data)
@@ -95,7 +97,7 @@ def locate(data: Data, binned: Sequence[BinnedTest], max_regions: int = 5) -> Lo
     x, v = feat["x"], feat["v"]
     vmax = float(np.max(np.abs(v))) or 1.0
     speed = np.abs(v) / vmax
-    edges_v = [0.0, 0.1, 0.35, 0.7, 1.0001]
+    edges_v = [0.0, s.reversal_speed_share, 0.35, 0.7, 1.0001]
     xq = np.quantile(x, [0, 1 / 3, 2 / 3, 1])
     xq[-1] += 1e-9
     cells = []
@@ -114,7 +116,9 @@ def locate(data: Data, binned: Sequence[BinnedTest], max_regions: int = 5) -> Lo
                         stroke=stroke,
                         x_range_m=(float(np.min(x[m])), float(np.max(x[m]))),
                         v_range_m_s=(float(np.min(v[m])), float(np.max(v[m]))),
-                        frequencies_hz=sorted(float(f) for f, s in freqs.items() if s >= 0.15),
+                        frequencies_hz=sorted(
+                            float(f) for f, fs in freqs.items() if fs >= s.region_frequency_share
+                        ),
                         share=share,
                         rms_n=float(np.sqrt(np.mean(means[m] ** 2))),
                         near_reversal=j == 0,
@@ -124,11 +128,11 @@ def locate(data: Data, binned: Sequence[BinnedTest], max_regions: int = 5) -> Lo
     chosen: list[Region] = []
     acc = 0.0
     for r in cells:
-        if len(chosen) >= max_regions or acc >= 0.8 or r.share < 0.05:
+        if len(chosen) >= s.max_regions or acc >= s.region_cover or r.share < s.region_min_share:
             break
         chosen.append(r)
         acc += r.share
-    near = speed < 0.1
+    near = speed < s.reversal_speed_share
     axes = {
         "stroke": {
             "compression": float(np.sum(e[v > 0]) / total),
@@ -149,7 +153,7 @@ def locate(data: Data, binned: Sequence[BinnedTest], max_regions: int = 5) -> Lo
             "second_half": float(np.sum(e[order > half]) / total),
         }
     temp = feat["temperature"]
-    if np.sum(np.isfinite(temp)) > 1 and np.nanstd(temp) > 0.5:
+    if np.sum(np.isfinite(temp)) > 1 and np.nanstd(temp) > s.temperature_spread_k:
         cold = temp <= np.nanmedian(temp)
         axes["temperature"] = {
             "cooler_half": float(np.sum(e[cold]) / total),

@@ -9,6 +9,7 @@ from typing import Any
 
 from shockdyno.diagnose.engine import CalibrationRow, Diagnosis, Finding
 from shockdyno.diagnose.locate import Location
+from shockdyno.diagnose.settings import Settings
 from shockdyno.model.reading import Reading
 from shockdyno.model.terms import LIBRARY
 from shockdyno.units import IMPERIAL, SI, Units
@@ -35,27 +36,29 @@ def in_units(text: str, u: Units = SI) -> str:
     return _SI_QUANTITY.sub(convert, text)
 
 
-def _signature(loc: Location) -> str:
+def _signature(loc: Location, s: Settings) -> str:
     """How the located structure behaves: near reversal, with frequency, by stroke."""
     bits = []
     speed = loc.axes.get("speed", {})
-    if speed.get("near_reversal", 0) >= 0.3:
+    if speed.get("near_reversal", 0) >= s.near_reversal_share:
         bits.append("near velocity reversal")
     freq = loc.axes.get("frequency_hz", {})
     if len(freq) >= 2:
         ordered = sorted(freq.items(), key=lambda kv: float(kv[0]))
         shares = [s for _, s in ordered]
-        if all(b >= a for a, b in pairwise(shares)) and shares[-1] > 1.5 * shares[0]:
+        growth = s.frequency_growth
+        if all(b >= a for a, b in pairwise(shares)) and shares[-1] > growth * shares[0]:
             bits.append("growing with frequency")
-        elif all(b <= a for a, b in pairwise(shares)) and shares[0] > 1.5 * shares[-1]:
+        elif all(b <= a for a, b in pairwise(shares)) and shares[0] > growth * shares[-1]:
             bits.append("strongest at the lowest frequency")
     stroke = loc.axes.get("stroke", {})
-    if stroke.get("compression", 0) >= 0.75:
+    if stroke.get("compression", 0) >= s.stroke_share:
         bits.append("in compression")
-    elif stroke.get("rebound", 0) >= 0.75:
+    elif stroke.get("rebound", 0) >= s.stroke_share:
         bits.append("in rebound")
     order = loc.axes.get("test_order", {})
-    if order and abs(order.get("first_half", 0.5) - order.get("second_half", 0.5)) > 0.4:
+    drift = abs(order.get("first_half", 0.5) - order.get("second_half", 0.5)) if order else 0.0
+    if drift > s.session_change:
         bits.append("changing over the session")
     return ", ".join(bits)
 
@@ -140,7 +143,7 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
             f"{u.force(m.structured_rms_n):.2g} {fl} RMS against {u.force(m.noise_floor_n):.2g} "
             f"{fl} of noise (p = {m.p_value:.2g}). Nothing claimed."
         )
-    where = _signature(d.location)
+    where = _signature(d.location, d.settings)
     lines = [
         f"Mismatch: {u.force(m.structured_rms_n):.3g} {fl} RMS repeats every cycle "
         f"(noise {u.force(m.noise_floor_n):.2g} {fl})" + (f", {where}" if where else "") + "."

@@ -181,8 +181,8 @@ def check_library_fits(recordings: Recordings, name: str) -> None:
     bt = np.array([float(spec.bleed_areas(c, g)[1]) for c, g in data.prob.keys])
 
     def structure(model: DamperModel) -> tuple[float, float]:
-        data.prob.set_model(model)
-        means, binned = binned_means(data, data.prob.force(model, bc, bt) - data.prob.f)
+        prob = data.prob.for_model(model)
+        means, binned = binned_means(data, prob.force(model, bc, bt) - prob.f)
         return float(means @ means), float(np.sum(np.concatenate([b.mean_var for b in binned])))
 
     ss, noise = structure(DamperModel(spec, sc.terms, sc.values))

@@ -45,11 +45,11 @@ def best_start(data: Data, model: DamperModel, name: str, base: Fitted) -> Dampe
         return model  # one start (or none): nothing to choose, and no need to look
     grid = term.start_grid(evaluate(data, base))
     bc, bt = base.area_vectors(data)
-    data.prob.set_model(model)
+    prob = data.prob.for_model(model)
     best, best_sse = model, math.inf
     for start in grid:
         m = model.with_values({term.qualified(k): v for k, v in start.items()})
-        r = data.prob.force(m, bc, bt) - data.prob.f
+        r = prob.force(m, bc, bt) - prob.f
         sse = float(r @ r)
         if sse < best_sse:
             best, best_sse = m, sse
@@ -60,9 +60,8 @@ def binned_jacobian(data: Data, fitted: Fitted) -> tuple[FloatArray, int]:
     """d(force)/d(parameter) in the binned space at a fit: globals, the fit's free term
     parameters, then every (click, direction) area; and how many columns precede the
     areas. Columns are per unit of each parameter's scale."""
-    prob = data.prob
     model = fitted.model
-    prob.set_model(model)
+    prob = data.prob.for_model(model)
     bc, bt = fitted.area_vectors(data)
     f0 = fitted.force
     cols: list[FloatArray] = []
@@ -106,8 +105,7 @@ def own_force(data: Data, fitted: Fitted, name: str) -> FloatArray | None:
         return None
     bc, bt = areas
     off = fitted.model.with_values({term.qualified(p.name): p.off for p in term.params()})
-    prob = data.prob
-    prob.set_model(fitted.model, fitted.free)  # one sample rate for both
+    prob = data.prob.for_model(fitted.model, fitted.free)  # one sample rate for both
     on_force = prob.force(fitted.model, bc, bt)
     off_force = prob.force(off, bc, bt)
     return on_force - off_force

@@ -75,11 +75,11 @@ def delay_spread(
         if areas is None:
             continue
         bc, bt = areas
-        one.prob.set_model(model, fitted.free)
+        prob = one.prob.for_model(model, fitted.free)
         sse = np.empty(SCALES.size)
         for j, k in enumerate(SCALES):
             m = model.with_values({term.qualified(t): float(k) * v for t, v in values.items()})
-            r = one.prob.force(m, bc, bt) - one.prob.f
+            r = prob.force(m, bc, bt) - prob.f
             sse[j] = float(r @ r)
         if sse[0] > 0 and float(np.min(sse)) <= (1 - min_gain) * sse[0]:
             delays.append(_refined_minimum(SCALES, sse) * shift)

@@ -69,21 +69,20 @@ def predict(data: Data, fitted: Fitted) -> Fitted:
     them, else fitted on these tests with the globals and terms held."""
     bc, bt = fitted.area_vectors(data)
     missing = ~np.isfinite(bc) | ~np.isfinite(bt)
+    prob = data.prob.for_model(fitted.model)
     if np.any(missing):
-        data.prob.set_model(fitted.model)
-        sbc, sbt = start_areas(data.prob, fitted.model, fitted.model.spec.bleed_bore_area_m2)
+        sbc, sbt = start_areas(prob, fitted.model, fitted.model.spec.bleed_bore_area_m2)
         bc = np.where(missing, sbc, bc)
         bt = np.where(missing, sbt, bt)
-    data.prob.set_model(fitted.model)
-    force = data.prob.force(fitted.model, bc, bt)
-    areas = {k: (float(a), float(b)) for k, a, b in zip(data.prob.keys, bc, bt, strict=True)}
+    force = prob.force(fitted.model, bc, bt)
+    areas = {k: (float(a), float(b)) for k, a, b in zip(prob.keys, bc, bt, strict=True)}
     return Fitted(
         fitted.model,
         fitted.free,
         areas,
         fitted.term_sd,
         force,
-        force - data.prob.f,
+        force - prob.f,
         fitted.globals_sd,
     )
 
@@ -100,9 +99,8 @@ def refit(
     Warm start: the globals from `model.spec`, term values from `model.values`, areas
     from `start` (else a grid search).
     """
-    prob = data.prob
-    prob.base = model.spec  # the globals start (and are bounded) about these values
-    prob.set_model(model, free)
+    # The globals start (and are bounded) about model.spec's values.
+    prob = data.prob.with_base(model.spec).for_model(model, free)
     a_max = model.spec.bleed_bore_area_m2
     if start is not None:
         bc0, bt0 = start.area_vectors(data)
@@ -115,7 +113,7 @@ def refit(
     params = global_params(model.spec, DEFAULT_GLOBALS)
     cal = calibrate(prob, model, params, free, bc0, bt0, a_max, max_nfev=max_nfev, robust=False)
     fitted_model = cal.model(prob, model)
-    prob.set_model(fitted_model)
+    prob = prob.for_model(fitted_model)
     force = prob.force(fitted_model, cal.a_bc, cal.a_bt)
     areas = {k: (float(a), float(b)) for k, a, b in zip(prob.keys, cal.a_bc, cal.a_bt, strict=True)}
     return Fitted(

@@ -135,8 +135,7 @@ def ga_fitness(
             bc = a[:, g, 0].ravel()
             bt = a[:, g, 1].ravel()
             inputs = tiled[k] if k in tiled else base.tile(k)
-            prob.evaluations += 1
-            prob.samples_evaluated += k * mb
+            prob.count(k * mb)
             force = model.force(inputs, bc, bt).reshape(k, mb)[:, pick].ravel()
             r = np.abs(force - np.tile(prob.f, k))
             rows = np.repeat(np.arange(k), m) * n + np.tile(prob.group, k)
@@ -173,8 +172,7 @@ def bleed_shares(
     """Flow-weighted share of the bleed, per (click, direction) problem (paper's physics)."""
     x, v, a = model.motion(prob.inputs)
     bd = evaluate(model.spec, x, v, a, a_bc[prob.group], a_bt[prob.group])
-    prob.evaluations += 1
-    prob.samples_evaluated += prob.size
+    prob.count(prob.size)
     w = np.abs(prob.v)
     with np.errstate(invalid="ignore", divide="ignore"):
         return prob.per_problem(bd.bleed_share * w) / prob.per_problem(w)

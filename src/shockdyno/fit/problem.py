@@ -12,6 +12,7 @@ rebound samples.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -115,12 +116,29 @@ def prepared_inputs(
     return ModelInputs.stack(parts)
 
 
-class StackedProblem:
-    """All objective samples of a sweep, grouped by click setting.
+@dataclass
+class Counts:
+    """Model evaluations and samples evaluated, shared by a problem and every copy of it
+    (a count of work done, not state the result depends on)."""
 
-    `set_model` fixes which model's motion stage (a sensor delay) decides the
-    compression / rebound split of the samples.
+    evaluations: int = 0
+    samples_evaluated: int = 0
+
+
+class StackedProblem:
+    """All objective samples of a sweep, grouped by click setting, for one model.
+
+    Immutable: built from the tests, a base spec (where calibrated globals start, and
+    what they apply to) and a model, whose motion stage (a sensor delay) decides the
+    compression / rebound split of the samples and whose free parameters decide whether
+    it runs at the full rate. `for_model` and `with_base` give new problems that share
+    the samples.
     """
+
+    full_rate: bool
+    v: FloatArray
+    comp: NDArray[np.bool_]
+    problem: IntArray
 
     def __init__(
         self,
@@ -148,7 +166,6 @@ class StackedProblem:
         seg = self.full_inputs.segment_of_sample()
         pos = np.searchsorted(self.obj_in_full, np.arange(self.full_inputs.size), side="right") - 1
         self.full_to_obj: IntArray = np.maximum(pos, self.inputs.starts[seg]).astype(np.intp)
-        self.full_rate = False
         self.f = np.concatenate([p.data.force[p.obj] for p in tests])
         self.group: IntArray = np.concatenate(
             [np.full(p.obj.size, index[p.key], dtype=np.intp) for p in tests]
@@ -156,21 +173,53 @@ class StackedProblem:
         self.test_id: IntArray = np.concatenate(
             [np.full(p.obj.size, i, dtype=np.intp) for i, p in enumerate(tests)]
         )
-        self.evaluations = 0
-        self.samples_evaluated = 0
-        self.set_model(DamperModel(base))
+        self.counts = Counts()
+        self._bind(DamperModel(base), ())
+        self._frozen = True
 
-    def set_model(self, model: DamperModel, free: Sequence[str] = ()) -> None:
-        """The model whose motion splits the samples, and whether (with `free` varied) it
-        needs the full rate."""
-        self.full_rate = model.needs_full_rate(free)
+    def __setattr__(self, name: str, value: object) -> None:
+        if getattr(self, "_frozen", False):
+            raise AttributeError(f"StackedProblem is immutable (for_model, with_base): {name}")
+        object.__setattr__(self, name, value)
+
+    def _bind(self, model: DamperModel, free: Sequence[str]) -> None:
+        full_rate = model.needs_full_rate(free)
         n = len(self.keys)
-        _, self.v, _ = model.motion(self.inputs)
-        self.comp = self.v > 0
+        _, v, _ = model.motion(self.inputs)
+        comp = v > 0
         # Problem id per sample; samples at v == 0 exactly belong to neither (id 2n).
-        self.problem: IntArray = np.where(
-            self.comp, self.group, np.where(self.v < 0, self.group + n, 2 * n)
-        ).astype(np.intp)
+        problem = np.where(comp, self.group, np.where(v < 0, self.group + n, 2 * n))
+        object.__setattr__(self, "full_rate", full_rate)
+        object.__setattr__(self, "v", v)
+        object.__setattr__(self, "comp", comp)
+        object.__setattr__(self, "problem", problem.astype(np.intp))
+
+    def for_model(self, model: DamperModel, free: Sequence[str] = ()) -> StackedProblem:
+        """The same samples for `model`: its motion splits them, and (with `free`
+        varied) it may need the full rate."""
+        new = copy.copy(self)
+        new._bind(model, free)
+        return new
+
+    def with_base(self, base: DamperSpec) -> StackedProblem:
+        """The same samples and model with the globals starting from (and applied to)
+        `base`."""
+        new = copy.copy(self)
+        object.__setattr__(new, "base", base)
+        return new
+
+    @property
+    def evaluations(self) -> int:
+        return self.counts.evaluations
+
+    @property
+    def samples_evaluated(self) -> int:
+        return self.counts.samples_evaluated
+
+    def count(self, samples: int) -> None:
+        """One model evaluation over `samples` samples (by this problem or a caller)."""
+        self.counts.evaluations += 1
+        self.counts.samples_evaluated += samples
 
     @property
     def n_groups(self) -> int:
@@ -189,13 +238,12 @@ class StackedProblem:
         """Model force on every sample; a_bc and a_bt are per group (or per sample)."""
         m = model if isinstance(model, DamperModel) else DamperModel(model)
         per_group = a_bc.size == self.n_groups
-        self.evaluations += 1
         if not self.full_rate:
-            self.samples_evaluated += self.size
+            self.count(self.size)
             if per_group:
                 return m.force(self.inputs, a_bc[self.group], a_bt[self.group])
             return m.force(self.inputs, a_bc, a_bt)
-        self.samples_evaluated += self.full_inputs.size
+        self.count(self.full_inputs.size)
         if per_group:
             bc, bt = a_bc[self.full_group], a_bt[self.full_group]
         else:

@@ -248,7 +248,7 @@ def calibrate_never_worse(
     at its off value instead. Returns the calibration, the model it calibrated (its
     values apply on top) and which start won.
     """
-    prob, free = pb.prob, pb.selection.free
+    prob, free = pb.prob, pb.selection.free  # prob: for pb.model with `free` varied
     on = calibrate(prob, pb.model, pb.params, free, bc0, bt0, pb.a_max)
     off_model = pb.model.off()
     if not free or all(pb.model.value(q) == p.off for q, p in pb.model.param_list()):
@@ -256,18 +256,15 @@ def calibrate_never_worse(
         # delay): the plain start is the one just run.
         return on, on.model(prob, pb.model), "nominal"
     report("calibrate globals (plain start)", 0.3)
-    prob.set_model(off_model)
-    plain = calibrate(prob, off_model, pb.params, (), bc0, bt0, pb.a_max)
+    plain = calibrate(prob.for_model(off_model), off_model, pb.params, (), bc0, bt0, pb.a_max)
     from_plain_model = plain.model(prob, off_model)
     report("calibrate globals (terms from the plain fit)", 0.45)
-    prob.set_model(from_plain_model, free)
     # The globals start from the plain fit's (overrides are absolute values, so the
     # result applies to the original spec alike).
-    prob.base = from_plain_model.spec
-    try:
-        freed = calibrate(prob, from_plain_model, pb.params, free, plain.a_bc, plain.a_bt, pb.a_max)
-    finally:
-        prob.base = pb.model.spec
+    from_plain = prob.with_base(from_plain_model.spec).for_model(from_plain_model, free)
+    freed = calibrate(
+        from_plain, from_plain_model, pb.params, free, plain.a_bc, plain.a_bt, pb.a_max
+    )
     # The plain fit as a candidate: the free parameters at off, not estimated.
     plain_off = replace(
         plain,
@@ -323,9 +320,9 @@ def fit_sweep(
 
     report("prepare", 0.0)
     pb = prepare_problem(tests, spec_path, selection, global_keys, objective_rate_hz)
-    prob = pb.prob
+    prob = pb.prob.for_model(pb.model, selection.free)
+    pb = replace(pb, prob=prob)
     report("start areas", 0.05)
-    prob.set_model(pb.model, selection.free)
     bc0, bt0 = start_areas(prob, pb.model, pb.a_max)
     report("calibrate globals", 0.15)
     cal, model, start = calibrate_never_worse(pb, bc0, bt0, report)
@@ -335,7 +332,8 @@ def fit_sweep(
         for k, v in t.unseen(model.local_values(t), prob.inputs.x).items()
     }
     model = model.with_values(unseen)
-    prob.set_model(model)  # nothing is varied now but the areas
+    prob = prob.for_model(model)  # nothing is varied now but the areas
+    pb = replace(pb, prob=prob)
 
     # The GA takes most of a `ga` fit's time, the calibration most of a `fast` one's.
     areas_start = 0.6 if optimizer == "fast" else 0.2

@@ -96,7 +96,8 @@ def test_reading_a_csv_peaks_within_3x_the_file(tmp_path):
     """Parsing is what used to cost ~20x; writing adds only the writer's fixed 1 MiB chunk."""
     import tracemalloc
 
-    from shockdyno.record.csv_import import ImportOptions, read_manifest
+    from shockdyno.record.csv_table import ImportOptions
+    from shockdyno.record.manifest import read_manifest
 
     n = 30_000  # ~0.9 MB: tracemalloc slows every allocation
     t = np.arange(n) / 1000.0

@@ -15,7 +15,7 @@ from rec_helpers import SAMPLES_PER_TEST, block, seq_range, write_small
 
 from shockdyno.cli import main
 from shockdyno.record import open_recording
-from shockdyno.record.csv_import import LBF_N
+from shockdyno.record.csv_table import LBF_N
 
 
 def write_exchange(d: Path) -> dict[str, str]:

@@ -10,14 +10,14 @@ from typing import Any
 from shockdyno.errors import RecordingError
 from shockdyno.outputs import check_output, is_stdout, write_output
 from shockdyno.progress import StageProgress
-from shockdyno.record.csv_import import (
+from shockdyno.record.csv_import import import_csv
+from shockdyno.record.csv_table import (
     FORCE_UNITS,
     LENGTH_UNITS,
     MOTIONS,
     TEMPERATURE_UNITS,
     TIME_UNITS,
     ImportOptions,
-    import_csv,
 )
 from shockdyno.record.info import format_text, summarise
 from shockdyno.record.layout import set_paths

@@ -27,7 +27,8 @@ from numpy.typing import NDArray
 
 from shockdyno.atomic import atomic_dir
 from shockdyno.errors import RecordingError
-from shockdyno.record.csv_import import DECIMALS_KEY, SOURCE_KEY, VELOCITY_COLUMN
+from shockdyno.record.csv_table import DECIMALS_KEY, VELOCITY_COLUMN
+from shockdyno.record.manifest import SOURCE_KEY
 from shockdyno.record.reader import Recording, open_recording
 from shockdyno.record.types import TestData, TestMeta
 

@@ -36,6 +36,7 @@ from shockdyno.diagnose.candidates import (
     try_candidate,
 )
 from shockdyno.diagnose.consistency import SENSOR, delay_spread, inconsistent
+from shockdyno.diagnose.cycles import BinnedTest
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.fitting import Fitted, full_rate_force, refit
 from shockdyno.diagnose.locate import Location, locate
@@ -428,6 +429,134 @@ def calibration_rows(
     return rows
 
 
+def _round(
+    search: Data,
+    base: Fitted,
+    base_means: FloatArray,
+    binned: list[BinnedTest],
+    remaining: Sequence[str],
+    rnd: int,
+    s: Settings,
+    rng: np.random.Generator,
+    fold_list: list[Fold],
+    force_peak: float,
+    shapes: Sequence[tuple[str, FloatArray]],
+    report: Progress,
+) -> tuple[list[Finding], Candidate | None]:
+    """One round of the forward search: every remaining candidate refitted beside `base`
+    and tested (LR against the noise's draws), the significant ones scored held out, the
+    claim rules (why_not) applied. Returns the round's findings and the candidate it
+    claims (None: nothing claimable)."""
+    found: list[Finding] = []
+    noise = noise_draws(binned, rng, s.n_boot)
+    cands: list[Candidate] = []
+    for i, name in enumerate(remaining):
+        report(f"round {rnd}: {name}", 0.1 + 0.8 * (rnd - 1 + i / len(remaining)) / s.max_terms)
+        cands.append(try_candidate(search, base, base_means, name, noise, s.max_nfev))
+    screened = sorted(
+        (c for c in cands if c.p_value < s.screen_alpha and c.lr > 0), key=lambda c: -c.lr
+    )
+    scored: dict[str, tuple[float, str]] = {}
+    top = [c for c in screened if c.p_value < s.alpha][: s.heldout_top]
+    base_mse: list[float] = []
+    if top and fold_list:
+        report(f"round {rnd}: held-out baseline", 0.1 + 0.8 * (rnd - 0.3) / s.max_terms)
+        base_mse = baseline_folds(fold_list, base, s.fold_nfev)
+    for c in top:
+        report(f"round {rnd}: held-out {c.name}", 0.1 + 0.8 * (rnd - 0.2) / s.max_terms)
+        scored[c.name] = (
+            heldout_gain(fold_list, base_mse, c, s.fold_nfev)
+            if fold_list
+            else (0.0, "no held-out split")
+        )
+
+    # Noise of a phase mean under the current model (a misfit inflates the scatter).
+    mean_noise = float(np.sqrt(np.mean(np.concatenate([b.mean_var for b in binned]))))
+    limit = max(s.min_effect_share * force_peak, 3 * mean_noise)
+
+    x = search.prob.inputs.x
+    refused = {
+        c.name: inconsistent(
+            delay_spread(search, c.fitted, s.sensor_delay_min_gain, s.sensor_delay_min_shift_s),
+            s.sensor_delay_spread_s,
+            s.sensor_delay_spread_share,
+        )
+        for c in top
+        if c.name == SENSOR
+    }
+    passing = [c for c in screened if not why_not(c, scored, s, limit, shapes, x, refused)]
+    named = [c for c in passing if c.name != OPEN_SET]
+    pool = named or passing
+    # Of the claimable, the one the full refit says explains most (its LR): held-out
+    # gains of near-tied candidates come from short refits and are noisier.
+    best = max(pool, key=lambda c: c.lr) if pool else None
+    for c in cands:
+        gain, detail = scored.get(c.name, (math.nan, ""))
+        amb: list[str] = []
+        if best is not None and c is not best and c.p_value < s.alpha:
+            # Alike: the same shape explained, and held out it leaves about as much.
+            rest, rest_best = 1 - gain, 1 - scored[best.name][0]
+            same = _cosine(c.explained, best.explained) > s.alike_cosine
+            if same and rest <= s.alike_rest_ratio * rest_best + s.alike_rest_margin:
+                amb.append(best.name)
+        found.append(
+            Finding(
+                physics=c.name,
+                round=rnd,
+                claimed=c is best,
+                p_value=c.p_value,
+                lr_n2=c.lr,
+                heldout_gain=gain,
+                heldout_detail=detail,
+                effect_rms_n=c.effect_rms_n,
+                effect_peak_n=c.effect_peak_n,
+                parameters=_parameters(c.fitted, c.name),
+                ambiguous_with=amb,
+                why_not=""
+                if c is best
+                else (
+                    why_not(c, scored, s, limit, shapes, x, refused)
+                    or "another term explained more"
+                ),
+            )
+        )
+    return found, best
+
+
+def _final_refit(
+    data: Data,
+    base: Fitted,
+    claimed: list[str],
+    findings: list[Finding],
+    groups: list[dict[str, object]],
+    s: Settings,
+) -> Fitted:
+    """The model refitted on every test (not only the search's clicks), whose values the
+    verdict reports: a candidate's refit is cut at max_nfev, and with the gas spring
+    calibrated beside it a bump stop's onset stopped at 24.1 mm where it was 21. A claim
+    whose term, refitted to convergence, stays at its off values was the short refit's
+    gain, not the term's: it leaves the model and the verdict (`claimed`, `findings` and
+    `groups` are updated in place)."""
+    nfev = s.final_nfev if claimed else s.max_nfev
+    base = refit(data, base.model, base.free, base, max_nfev=nfev)
+    idle = [n for n in claimed if (t := base.model.term(n)) and not _moved_off(base, t)]
+    if idle:
+        for f in findings:
+            if f.claimed and f.physics in idle:
+                f.claimed = False
+                f.why_not = "refitted on every test it stays at its off values"
+        claimed[:] = [n for n in claimed if n not in idle]
+        groups[:] = [g for g in groups if not set(idle) & set(cast(list[str], g["group"]))]
+        kept = base.model.with_terms(t for t in base.model.terms if t.name not in idle)
+        own = {f"{n}." for n in idle}
+        free = tuple(q for q in base.free if not q.startswith(tuple(own)))
+        base = refit(data, kept, free, base, max_nfev=s.final_nfev if claimed else s.max_nfev)
+    for f in findings:
+        if f.claimed:
+            f.parameters = _parameters(base, f.physics)
+    return base
+
+
 def diagnose(
     tests: Sequence[TestData],
     fit: FitResult | None = None,
@@ -494,78 +623,21 @@ def diagnose(
             # beat more iterations of the model it would join, not a less converged one.
             base = refit(search, base.model, base.free, base, max_nfev=s.max_nfev)
             base_means, binned = binned_means(search, base.residual)
-        noise = noise_draws(binned, rng, s.n_boot)
-        cands: list[Candidate] = []
-        for i, name in enumerate(remaining):
-            report(f"round {rnd}: {name}", 0.1 + 0.8 * (rnd - 1 + i / len(remaining)) / s.max_terms)
-            cands.append(try_candidate(search, base, base_means, name, noise, s.max_nfev))
-        screened = sorted(
-            (c for c in cands if c.p_value < s.screen_alpha and c.lr > 0), key=lambda c: -c.lr
+        found, best = _round(
+            search,
+            base,
+            base_means,
+            binned,
+            remaining,
+            rnd,
+            s,
+            rng,
+            fold_list,
+            force_peak,
+            shapes,
+            report,
         )
-        scored: dict[str, tuple[float, str]] = {}
-        top = [c for c in screened if c.p_value < s.alpha][: s.heldout_top]
-        base_mse: list[float] = []
-        if top and fold_list:
-            report(f"round {rnd}: held-out baseline", 0.1 + 0.8 * (rnd - 0.3) / s.max_terms)
-            base_mse = baseline_folds(fold_list, base, s.fold_nfev)
-        for c in top:
-            report(f"round {rnd}: held-out {c.name}", 0.1 + 0.8 * (rnd - 0.2) / s.max_terms)
-            scored[c.name] = (
-                heldout_gain(fold_list, base_mse, c, s.fold_nfev)
-                if fold_list
-                else (0.0, "no held-out split")
-            )
-
-        # Noise of a phase mean under the current model (a misfit inflates the scatter).
-        mean_noise = float(np.sqrt(np.mean(np.concatenate([b.mean_var for b in binned]))))
-        limit = max(s.min_effect_share * force_peak, 3 * mean_noise)
-
-        x = search.prob.inputs.x
-        refused = {
-            c.name: inconsistent(
-                delay_spread(search, c.fitted, s.sensor_delay_min_gain, s.sensor_delay_min_shift_s),
-                s.sensor_delay_spread_s,
-                s.sensor_delay_spread_share,
-            )
-            for c in top
-            if c.name == SENSOR
-        }
-        passing = [c for c in screened if not why_not(c, scored, s, limit, shapes, x, refused)]
-        named = [c for c in passing if c.name != OPEN_SET]
-        pool = named or passing
-        # Of the claimable, the one the full refit says explains most (its LR): held-out
-        # gains of near-tied candidates come from short refits and are noisier.
-        best = max(pool, key=lambda c: c.lr) if pool else None
-        for c in cands:
-            gain, detail = scored.get(c.name, (math.nan, ""))
-            amb: list[str] = []
-            if best is not None and c is not best and c.p_value < s.alpha:
-                # Alike: the same shape explained, and held out it leaves about as much.
-                rest, rest_best = 1 - gain, 1 - scored[best.name][0]
-                same = _cosine(c.explained, best.explained) > s.alike_cosine
-                if same and rest <= s.alike_rest_ratio * rest_best + s.alike_rest_margin:
-                    amb.append(best.name)
-            findings.append(
-                Finding(
-                    physics=c.name,
-                    round=rnd,
-                    claimed=c is best,
-                    p_value=c.p_value,
-                    lr_n2=c.lr,
-                    heldout_gain=gain,
-                    heldout_detail=detail,
-                    effect_rms_n=c.effect_rms_n,
-                    effect_peak_n=c.effect_peak_n,
-                    parameters=_parameters(c.fitted, c.name),
-                    ambiguous_with=amb,
-                    why_not=""
-                    if c is best
-                    else (
-                        why_not(c, scored, s, limit, shapes, x, refused)
-                        or "another term explained more"
-                    ),
-                )
-            )
+        findings += found
         if best is None:
             break
         best_f = next(f for f in findings if f.physics == best.name and f.round == rnd)
@@ -586,28 +658,7 @@ def diagnose(
         base = _backward(search, base, claimed, findings, groups, fold_list, rng, s)
     report("scores", 0.95)
     if claimed or search is not data:
-        # The claimed terms' values are reported from this refit, run to convergence on
-        # every test: a candidate's refit is cut at max_nfev, and with the gas spring
-        # calibrated beside it a bump stop's onset stopped at 24.1 mm where it was 21.
-        nfev = s.final_nfev if claimed else s.max_nfev
-        base = refit(data, base.model, base.free, base, max_nfev=nfev)
-        # A claim whose term, refitted to convergence, stays at its off values was the
-        # short refit's gain, not the term's: it leaves the model and the verdict.
-        idle = [n for n in claimed if (t := base.model.term(n)) and not _moved_off(base, t)]
-        if idle:
-            for f in findings:
-                if f.claimed and f.physics in idle:
-                    f.claimed = False
-                    f.why_not = "refitted on every test it stays at its off values"
-            claimed[:] = [n for n in claimed if n not in idle]
-            groups[:] = [g for g in groups if not set(idle) & set(cast(list[str], g["group"]))]
-            kept = base.model.with_terms(t for t in base.model.terms if t.name not in idle)
-            own = {f"{n}." for n in idle}
-            free = tuple(q for q in base.free if not q.startswith(tuple(own)))
-            base = refit(data, kept, free, base, max_nfev=s.final_nfev if claimed else s.max_nfev)
-        for f in findings:
-            if f.claimed:
-                f.parameters = _parameters(base, f.physics)
+        base = _final_refit(data, base, claimed, findings, groups, s)
     gas_calibrated = GAS_VOLUME in baseline.free or _gas_spring_is_calibration(
         base, claimed, findings, groups
     )

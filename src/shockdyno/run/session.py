@@ -17,7 +17,6 @@ dead link use the host's clock, since a stalled clock cannot time itself.
 from __future__ import annotations
 
 import math
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -32,6 +31,8 @@ from shockdyno.rig.daq import READ_SIZE, SerialDaq
 from shockdyno.rig.frames import FRAME_LEN, STATUS_MOTION
 from shockdyno.rig.types import Daq, SampleBlock
 from shockdyno.run import signals
+from shockdyno.run.events import EventLog, EventSink
+from shockdyno.run.heartbeat import Heartbeat
 from shockdyno.run.safety import LimitMonitor, SafetyEvent, SafetyTrip
 from shockdyno.run.verify import cycle_mismatch, frame_loss, measure_sine, plan_mismatch
 
@@ -62,7 +63,6 @@ class SineOutcome:
 
 
 BlockSink = Callable[[SampleBlock], None]
-EventSink = Callable[[float, str, str], None]
 ActuatorSink = Callable[[float, dict[str, float | int | bool]], None]
 
 
@@ -115,13 +115,11 @@ class RigSession:
         self.prompt = prompt or _console_prompt
         self.clock = clock
         self._open_daq = open_daq  # any `Daq`: the session reads only what the protocol has
-        self.events: list[SafetyEvent] = []
+        self._log = EventLog(lambda: self._t)
         self.actuator: ModbusActuator | None = None
         self.daq: Daq | None = None
         self._monitor = LimitMonitor(rig.limits)
-        self._hb_thread: threading.Thread | None = None
-        self._hb_stop = threading.Event()
-        self._link_error: str | None = None
+        self._heartbeat: Heartbeat | None = None
         self._armed = False
         self._closed = False
         self._disarm_reason = ""
@@ -134,7 +132,6 @@ class RigSession:
         self._last_poll_wall = -math.inf
         self._on_block: BlockSink | None = None
         self._on_actuator: ActuatorSink | None = None
-        self._on_event: EventSink | None = None
         # Setpoints the host wrote, read back on every poll: another Modbus master changing
         # one is a controlled stop, never a test that silently runs something else.
         self._watched: dict[str, float] = {}
@@ -146,26 +143,17 @@ class RigSession:
         self._fresh = False  # the latest DAQ read brought samples: the DAQ clock is current
 
     # -- events ------------------------------------------------------------------------
+    @property
+    def events(self) -> list[SafetyEvent]:
+        return self._log.events
+
     def record_events(self, sink: EventSink | None) -> None:
         """Send every event so far, then each one as it happens, to `sink` (e.g. the
         recording's write_event), so that a crash cannot lose the events before it."""
-        self._on_event = sink
-        for ev in self.events:
-            self._send(ev)
-
-    def _send(self, ev: SafetyEvent) -> None:
-        if self._on_event is None:
-            return
-        try:
-            self._on_event(ev.t_s, ev.kind, ev.message)
-        except Exception as exc:  # a full disk must not stop the stop sequence; keep it here
-            self._on_event = None
-            self.events.append(SafetyEvent(self._t, "record_failed", f"events not recorded: {exc}"))
+        self._log.attach(sink)
 
     def _record(self, ev: SafetyEvent) -> SafetyEvent:
-        self.events.append(ev)
-        self._send(ev)
-        return ev
+        return self._log.record(ev)
 
     def _event(self, kind: str, message: str) -> SafetyEvent:
         return self._record(SafetyEvent(self._t, kind, message))
@@ -571,8 +559,9 @@ class RigSession:
                     f"DAQ frozen: no valid frame for {now - self._last_sample_wall:.2f} s",
                 )
             )
-        if check and self._link_error is not None:
-            raise SafetyTrip(SafetyEvent(self._t, "link_lost", self._link_error))
+        link_error = self._heartbeat.error if self._heartbeat is not None else None
+        if check and link_error is not None:
+            raise SafetyTrip(SafetyEvent(self._t, "link_lost", link_error))
         return block
 
     def _largest_gap(self, block: SampleBlock) -> SafetyEvent | None:
@@ -796,30 +785,13 @@ class RigSession:
 
     # -- heartbeat -----------------------------------------------------------------------
     def _start_heartbeat(self) -> None:
-        if self._hb_thread is not None and self._hb_thread.is_alive():
-            return
-        self._hb_stop.clear()
-        self._link_error = None
-        act = self._act()
-        period = self.rig.heartbeat.period_s
-
-        def beat() -> None:
-            while not self._hb_stop.is_set():
-                try:
-                    act.beat()
-                except RigFault as exc:
-                    self._link_error = f"lost link to actuator (heartbeat): {exc}"
-                    return
-                self._hb_stop.wait(period)
-
-        self._hb_thread = threading.Thread(target=beat, name="rig-heartbeat", daemon=True)
-        self._hb_thread.start()
+        if self._heartbeat is None:
+            self._heartbeat = Heartbeat(self._act().beat, self.rig.heartbeat.period_s)
+        self._heartbeat.start()
 
     def _stop_heartbeat(self) -> None:
-        self._hb_stop.set()
-        if self._hb_thread is not None:
-            self._hb_thread.join(5)
-            self._hb_thread = None
+        if self._heartbeat is not None:
+            self._heartbeat.stop()
 
     # -- teardown ------------------------------------------------------------------------
     def _teardown(self, reason: str) -> None:

@@ -35,6 +35,7 @@ from shockdyno.run.events import EventLog, EventSink
 from shockdyno.run.heartbeat import Heartbeat
 from shockdyno.run.safety import LimitMonitor, SafetyEvent, SafetyTrip
 from shockdyno.run.verify import cycle_mismatch, frame_loss, measure_sine, plan_mismatch
+from shockdyno.run.watch import DriveWatch
 
 CENTRE_TOLERANCE_M = 0.001
 HOLD_TOLERANCE_M = 0.0005  # a hold has arrived when the DAQ's displacement is this close
@@ -132,14 +133,7 @@ class RigSession:
         self._last_poll_wall = -math.inf
         self._on_block: BlockSink | None = None
         self._on_actuator: ActuatorSink | None = None
-        # Setpoints the host wrote, read back on every poll: another Modbus master changing
-        # one is a controlled stop, never a test that silently runs something else.
-        self._watched: dict[str, float] = {}
-        # DAQ time until which a running sine must keep the drive's running bit: a drive
-        # that stops before it (another master's stop or quick stop, its own panel) ends
-        # the test, which is then never "complete".
-        self._running_until: float | None = None
-        self._running_cycles = 0.0  # the cycles, ramps included, the drive must count
+        self._watch = DriveWatch()  # setpoints and state the drive must keep (watch.py)
         self._fresh = False  # the latest DAQ read brought samples: the DAQ clock is current
 
     # -- events ------------------------------------------------------------------------
@@ -205,7 +199,7 @@ class RigSession:
                 f"({self.rig.source} heartbeat.timeout_s): refusing to enable a drive whose "
                 "watchdog is off or longer than the rig file allows"
             )
-        self._watched["heartbeat_timeout_ms"] = float(watchdog_ms)
+        self._watch.expect({"heartbeat_timeout_ms": float(watchdog_ms)})
         act.set_mode("hold")
         act.control("fault_reset", enable=False)
         st = act.status()
@@ -230,7 +224,7 @@ class RigSession:
             got = act.read(["rod_clicks", "gas_clicks"])
             if (int(got["rod_clicks"]), int(got["gas_clicks"])) != (rod_clicks, gas_clicks):
                 raise RigFault(f"adjuster did not reach {rod_clicks}/{gas_clicks} clicks: {got}")
-            self._watched.update(rod_clicks=float(rod_clicks), gas_clicks=float(gas_clicks))
+            self._watch.expect({"rod_clicks": float(rod_clicks), "gas_clicks": float(gas_clicks)})
             self._event("adjust", f"adjuster set to rod {rod_clicks}, gas {gas_clicks} clicks")
         else:
             self.prompt(
@@ -288,8 +282,8 @@ class RigSession:
                     "sine_ramp_cycles": float(ramp),
                 }
                 act.write(sine)
-                self._watched.update(sine)
-                self._check_setpoints(act.read(sine), "before the start")
+                self._watch.expect(sine)
+                self._watch.check_setpoints(act.read(sine), "before the start", self._t)
                 self._emit_actuator(
                     {
                         "cmd_amplitude_m": amplitude_m,
@@ -306,8 +300,7 @@ class RigSession:
                 m_end = m_start + measured_cycles / frequency_hz
                 end = t0 + total_s
                 # Half a cycle of slack: the ramp-out ends at `end` by the drive's clock.
-                self._running_until = end - 0.5 / frequency_hz
-                self._running_cycles = cycles + 2 * ramp
+                self._watch.sine_running(end - 0.5 / frequency_hz, cycles + 2 * ramp)
                 self._wait(
                     lambda s: self._t >= end + SETTLE_S and not self._motion and not s.running,
                     daq_budget_s=total_s + 2.0,
@@ -329,7 +322,7 @@ class RigSession:
                 self._safe_stop(ev.message)
         finally:
             self._on_block = self._on_actuator = None
-            self._running_until = None
+            self._watch.sine_running(None)
         return SineOutcome(
             status=status,
             reason=reason,
@@ -451,58 +444,6 @@ class RigSession:
             False,
         )
 
-    def _check_setpoints(self, got: dict[str, float], when: str) -> None:
-        """A setpoint the drive holds that differs from what the host wrote is a trip."""
-        for name, value in got.items():
-            want = self._watched.get(name)
-            if want is not None and not math.isclose(value, want, rel_tol=1e-6, abs_tol=1e-9):
-                raise SafetyTrip(
-                    SafetyEvent(
-                        self._t,
-                        "setpoint_changed",
-                        f"{name} reads {value:g} {when}, commanded {want:g}: "
-                        "another Modbus master wrote to the drive",
-                    )
-                )
-
-    def _check_state(self, st: ActuatorStatus) -> None:
-        """The drive's state read back like its setpoints: disabled while this session holds
-        it enabled, or stopped while a sine should run, is a change this session did not
-        make (another Modbus master, the drive's own panel) and a controlled stop."""
-        if self._armed and not st.enabled and not st.fault:
-            raise SafetyTrip(
-                SafetyEvent(
-                    self._t,
-                    "drive_disabled",
-                    f"the drive reports disabled (status word 0x{st.word:04x}) while this "
-                    "session held it enabled: another Modbus master or the drive's panel "
-                    "disabled it",
-                )
-            )
-        until = self._running_until
-        if until is None or st.running or st.fault:
-            return
-        if st.cycle_count is not None:
-            # The drive's own count: a sine that ended as planned counted every cycle,
-            # whatever the DAQ stream (which lags the drive at a fast sim's speed) shows.
-            early = st.cycle_count < math.floor(self._running_cycles + 1e-9)
-            said = f"after {st.cycle_count} of {self._running_cycles:g} cycles"
-        else:
-            # Judged on the DAQ clock, so only while it is current: a frozen DAQ's last
-            # sample is older than the drive, which may have ended as planned meanwhile.
-            early = self._fresh and self._t < until
-            said = f"{until - self._t:.3g} s before its end"
-        if not early:
-            return
-        raise SafetyTrip(
-            SafetyEvent(
-                self._t,
-                "drive_stopped",
-                f"the drive stopped the sine {said} (status word 0x{st.word:04x}): another "
-                "Modbus master or the drive's panel stopped it",
-            )
-        )
-
     def _check_sine(self, a: float, f: float, warmup: int, measured: int) -> None:
         check_sine(self.rig, a, f, warmup, measured)
 
@@ -593,15 +534,15 @@ class RigSession:
             return None
         self._last_poll_wall = now
         try:
-            st = self._act().status(self._watched)
+            st = self._act().status(self._watch.setpoints)
         except RigFault as exc:
             if check:
                 raise SafetyTrip(SafetyEvent(self._t, "link_lost", str(exc))) from None
             raise
         self._emit_actuator(st.fields())
         if check:
-            self._check_setpoints(st.setpoints, "at a status poll")
-            self._check_state(st)
+            self._watch.check_setpoints(st.setpoints, "at a status poll", self._t)
+            self._watch.check_state(st, self._t, self._armed, self._fresh)
         if check and st.fault:
             raise SafetyTrip(
                 SafetyEvent(self._t, "actuator_fault", f"actuator fault: {st.fault_text}")

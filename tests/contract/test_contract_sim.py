@@ -48,7 +48,7 @@ def test_every_fault_ends_in_a_controlled_stop_centred_and_disabled(
             sim.inject(fault)
 
     with RigSession(rig) as session:
-        t_go = session._t + 1.5
+        t_go = session.daq_time_s + 1.5
         out = session.run_sine(0.03, 1.5, 1, 6, inject_mid_run)
     assert injected and out.status == "aborted"
     assert reason in out.reason

@@ -31,9 +31,10 @@ from shockdyno.rig.daq import READ_SIZE, SerialDaq
 from shockdyno.rig.frames import FRAME_LEN, STATUS_MOTION
 from shockdyno.rig.types import Daq, SampleBlock
 from shockdyno.run import signals
+from shockdyno.run.daq_stream import BlockSink, DaqStream
 from shockdyno.run.events import EventLog, EventSink
 from shockdyno.run.heartbeat import Heartbeat
-from shockdyno.run.safety import LimitMonitor, SafetyEvent, SafetyTrip
+from shockdyno.run.safety import SafetyEvent, SafetyTrip
 from shockdyno.run.verify import cycle_mismatch, frame_loss, measure_sine, plan_mismatch
 from shockdyno.run.watch import DriveWatch
 
@@ -63,7 +64,6 @@ class SineOutcome:
     stop_sweep: bool = False
 
 
-BlockSink = Callable[[SampleBlock], None]
 ActuatorSink = Callable[[float, dict[str, float | int | bool]], None]
 
 
@@ -116,25 +116,17 @@ class RigSession:
         self.prompt = prompt or _console_prompt
         self.clock = clock
         self._open_daq = open_daq  # any `Daq`: the session reads only what the protocol has
-        self._log = EventLog(lambda: self._t)
+        self._log = EventLog(lambda: self._stream.t)
         self.actuator: ModbusActuator | None = None
         self.daq: Daq | None = None
-        self._monitor = LimitMonitor(rig.limits)
+        self._stream = DaqStream(rig.daq, rig.limits, clock)  # the DAQ: clock, limits, sink
         self._heartbeat: Heartbeat | None = None
         self._armed = False
         self._closed = False
         self._disarm_reason = ""
-        self._t = 0.0  # DAQ time of the latest sample
-        self._temp = math.nan
-        self._x = math.nan  # displacement at the latest sample (m from the stroke centre)
-        self._motion = False  # the motion output at the latest sample
-        self._seq: int | None = None  # sequence number of the latest sample
-        self._last_sample_wall = clock()
         self._last_poll_wall = -math.inf
-        self._on_block: BlockSink | None = None
         self._on_actuator: ActuatorSink | None = None
         self._watch = DriveWatch()  # setpoints and state the drive must keep (watch.py)
-        self._fresh = False  # the latest DAQ read brought samples: the DAQ clock is current
 
     # -- events ------------------------------------------------------------------------
     @property
@@ -150,11 +142,16 @@ class RigSession:
         return self._log.record(ev)
 
     def _event(self, kind: str, message: str) -> SafetyEvent:
-        return self._record(SafetyEvent(self._t, kind, message))
+        return self._record(SafetyEvent(self._stream.t, kind, message))
 
     @property
     def enabled(self) -> bool:
         return self._armed
+
+    @property
+    def daq_time_s(self) -> float:
+        """The DAQ time of the latest sample: the session's clock."""
+        return self._stream.t
 
     # -- enter / exit ------------------------------------------------------------------
     def __enter__(self) -> RigSession:
@@ -235,9 +232,9 @@ class RigSession:
 
     def read_temperature_c(self) -> float:
         self._catch_up(check=True)
-        if math.isnan(self._temp):
+        if math.isnan(self._stream.temp):
             raise RigFault("DAQ has sent no temperature yet")
-        return self._temp
+        return self._stream.temp
 
     def run_sine(
         self,
@@ -272,7 +269,7 @@ class RigSession:
             try:
                 self._catch_up(check=True)  # the backlog since the last call is not this run's
                 dropped0, corrupt0 = daq.dropped_frames, daq.corrupt_frames
-                self._on_block, self._on_actuator = sink, on_actuator
+                self._stream.on_block, self._on_actuator = sink, on_actuator
                 act.set_mode("sine")
                 sine = {
                     "sine_amplitude": amplitude_m,
@@ -283,7 +280,7 @@ class RigSession:
                 }
                 act.write(sine)
                 self._watch.expect(sine)
-                self._watch.check_setpoints(act.read(sine), "before the start", self._t)
+                self._watch.check_setpoints(act.read(sine), "before the start", self._stream.t)
                 self._emit_actuator(
                     {
                         "cmd_amplitude_m": amplitude_m,
@@ -292,7 +289,7 @@ class RigSession:
                         "cmd_ramp_cycles": ramp,
                     }
                 )
-                self._motion = False
+                self._stream.motion = False
                 act.control("start")
                 self._event("start", f"sine {amplitude_m * 1e3:g} mm at {frequency_hz:g} Hz")
                 t0 = self._wait_motion_start(budget_s=1.0)
@@ -302,7 +299,11 @@ class RigSession:
                 # Half a cycle of slack: the ramp-out ends at `end` by the drive's clock.
                 self._watch.sine_running(end - 0.5 / frequency_hz, cycles + 2 * ramp)
                 self._wait(
-                    lambda s: self._t >= end + SETTLE_S and not self._motion and not s.running,
+                    lambda s: (
+                        self._stream.t >= end + SETTLE_S
+                        and not self._stream.motion
+                        and not s.running
+                    ),
                     daq_budget_s=total_s + 2.0,
                     what="sine",
                 )
@@ -321,7 +322,7 @@ class RigSession:
                 status, reason = "aborted", ev.message
                 self._safe_stop(ev.message)
         finally:
-            self._on_block = self._on_actuator = None
+            self._stream.on_block = self._on_actuator = None
             self._watch.sine_running(None)
         return SineOutcome(
             status=status,
@@ -332,7 +333,7 @@ class RigSession:
             corrupt_frames=daq.corrupt_frames - corrupt0,
             events=self.events[n_events:],
             start_s=t0,
-            end_s=self._t,
+            end_s=self._stream.t,
             stop_sweep=stop_sweep,
         )
 
@@ -372,7 +373,7 @@ class RigSession:
         try:
             # Unlike a sine's, the backlog goes to on_block: consecutive holds (the gas-force
             # measurement's) then stream every sample between them too.
-            self._on_block = on_block
+            self._stream.on_block = on_block
             self._catch_up(check=True)
             # Arrived when the drive says so and the DAQ's samples show it: at a fast
             # simulated rig's speed the stream lags the drive by a good part of a second.
@@ -381,12 +382,12 @@ class RigSession:
                 check=True,
                 what=f"move to {offset_m * 1e3:+g} mm",
                 velocity_m_s=velocity_m_s,
-                settled=lambda: abs(self._x - offset_m) < HOLD_TOLERANCE_M,
+                settled=lambda: abs(self._stream.x - offset_m) < HOLD_TOLERANCE_M,
             )
-            arrived = self._t
-            self._wait(lambda s: self._t >= arrived + dwell_s, daq_budget_s=dwell_s + 2.0,
+            arrived = self._stream.t
+            self._wait(lambda s: self._stream.t >= arrived + dwell_s, daq_budget_s=dwell_s + 2.0,
                        what="hold")  # fmt: skip
-            return arrived, self._t
+            return arrived, self._stream.t
         except (RigFault, SafetyTrip) as exc:
             ev = exc.event if isinstance(exc, SafetyTrip) else self._event("fault", str(exc))
             if isinstance(exc, SafetyTrip):
@@ -394,7 +395,7 @@ class RigSession:
             self._safe_stop(ev.message)
             raise RigFault(ev.message) from None
         finally:
-            self._on_block = None
+            self._stream.on_block = None
 
     def _verify(
         self,
@@ -467,59 +468,12 @@ class RigSession:
         raise RigFault(f"DAQ {self.rig.daq.url}: no valid frames")
 
     def _pump(self, check: bool) -> SampleBlock:
-        """Read the DAQ once: update the clock, check limits, stream the block."""
-        try:
-            block = self._daq().read()
-        except RigFault as exc:
-            if check:
-                raise SafetyTrip(SafetyEvent(self._t, "link_lost", str(exc))) from None
-            time.sleep(0.005)  # stopping: the drive's own status is enough
-            block = SampleBlock.empty()
-        now = self.clock()
-        self._fresh = bool(len(block))
-        if len(block):
-            self._last_sample_wall = now
-            gap = self._largest_gap(block)
-            self._t = float(block.t_s[-1])
-            self._temp = float(block.temperature_c[-1])
-            self._x = float(block.displacement_m[-1])
-            self._motion = bool(block.status[-1] & STATUS_MOTION)
-            if self._on_block is not None:
-                self._on_block(block)
-            if check:
-                ev = self._monitor.check(block)
-                if ev is not None:
-                    raise SafetyTrip(ev)
-                if gap is not None:
-                    raise SafetyTrip(gap)
-        elif check and now - self._last_sample_wall > self.rig.daq.frozen_timeout_s:
-            raise SafetyTrip(
-                SafetyEvent(
-                    self._t,
-                    "daq_frozen",
-                    f"DAQ frozen: no valid frame for {now - self._last_sample_wall:.2f} s",
-                )
-            )
+        """Read the DAQ once (daq_stream.py); a heartbeat that lost the link trips too."""
+        block = self._stream.read(self._daq, check)
         link_error = self._heartbeat.error if self._heartbeat is not None else None
         if check and link_error is not None:
-            raise SafetyTrip(SafetyEvent(self._t, "link_lost", link_error))
+            raise SafetyTrip(SafetyEvent(self._stream.t, "link_lost", link_error))
         return block
-
-    def _largest_gap(self, block: SampleBlock) -> SafetyEvent | None:
-        """A run of lost frames longer than daq.max_gap_s: limits went unwatched."""
-        prev = self._seq
-        self._seq = int(block.seq[-1])
-        steps = np.diff(block.seq, prepend=block.seq[0] if prev is None else prev)
-        i = int(np.argmax(steps))
-        lost = int(steps[i]) - 1
-        if lost <= self.rig.daq.max_gap_s * self.rig.daq.sample_rate_hz:
-            return None
-        return SafetyEvent(
-            float(block.t_s[i]),
-            "daq_gap",
-            f"DAQ gap: {lost} frames lost in a row "
-            f"(limit {self.rig.daq.max_gap_s * 1e3:g} ms of samples)",
-        )
 
     def _catch_up(self, check: bool) -> None:
         """Read until the DAQ backlog is gone (e.g. after an operator prompt)."""
@@ -537,21 +491,21 @@ class RigSession:
             st = self._act().status(self._watch.setpoints)
         except RigFault as exc:
             if check:
-                raise SafetyTrip(SafetyEvent(self._t, "link_lost", str(exc))) from None
+                raise SafetyTrip(SafetyEvent(self._stream.t, "link_lost", str(exc))) from None
             raise
         self._emit_actuator(st.fields())
         if check:
-            self._watch.check_setpoints(st.setpoints, "at a status poll", self._t)
-            self._watch.check_state(st, self._t, self._armed, self._fresh)
+            self._watch.check_setpoints(st.setpoints, "at a status poll", self._stream.t)
+            self._watch.check_state(st, self._stream.t, self._armed, self._stream.fresh)
         if check and st.fault:
             raise SafetyTrip(
-                SafetyEvent(self._t, "actuator_fault", f"actuator fault: {st.fault_text}")
+                SafetyEvent(self._stream.t, "actuator_fault", f"actuator fault: {st.fault_text}")
             )
         return st
 
     def _emit_actuator(self, fields: dict[str, float | int | bool]) -> None:
         if self._on_actuator is not None:
-            self._on_actuator(self._t, fields)
+            self._on_actuator(self._stream.t, fields)
 
     def _wait(
         self,
@@ -562,7 +516,7 @@ class RigSession:
         check: bool = True,
     ) -> ActuatorStatus:
         """Pump and poll until done(status); budget on the DAQ clock, guard on the host's."""
-        t_start = self._t
+        t_start = self._stream.t
         wall_start = self.clock()
         wall_guard = daq_budget_s * 2 + 5.0
         while True:
@@ -570,7 +524,7 @@ class RigSession:
             st = self._poll(check)
             if st is not None and done(st):
                 return st
-            if self._t - t_start > daq_budget_s and self.clock() - wall_start > MIN_WALL_S:
+            if self._stream.t - t_start > daq_budget_s and self.clock() - wall_start > MIN_WALL_S:
                 # Judge by a status read taken after the deadline, not one from before it
                 # (at high sim speeds one poll period spans seconds of DAQ time).
                 st = self._poll(check, force=True)
@@ -582,7 +536,7 @@ class RigSession:
 
     def _wait_motion_start(self, budget_s: float) -> float:
         """DAQ time of the first sample with the drive's motion output set."""
-        t_start = self._t
+        t_start = self._stream.t
         wall_start = self.clock()
         prev = False
         while True:
@@ -596,7 +550,9 @@ class RigSession:
                 prev = bool(bits[-1])
             self._poll(check=True)
             waited = self.clock() - wall_start
-            if (self._t - t_start > budget_s and waited > MIN_WALL_S) or waited > 2 * budget_s + 5:
+            if (
+                self._stream.t - t_start > budget_s and waited > MIN_WALL_S
+            ) or waited > 2 * budget_s + 5:
                 raise RigFault("the drive did not start the sine")
 
     def move_to(self, displacement_m: float) -> ActuatorStatus:
@@ -621,12 +577,12 @@ class RigSession:
         as in a sine; the samples read meanwhile."""
         captured: list[SampleBlock] = []
         self._catch_up(check=True)
-        end = self._t + duration_s
-        self._on_block = captured.append
+        end = self._stream.t + duration_s
+        self._stream.on_block = captured.append
         try:
-            self._wait(lambda s: self._t >= end, daq_budget_s=duration_s + 2.0, what="dwell")
+            self._wait(lambda s: self._stream.t >= end, daq_budget_s=duration_s + 2.0, what="dwell")
         finally:
-            self._on_block = None
+            self._stream.on_block = None
         return SampleBlock.concat(captured) if captured else SampleBlock.empty()
 
     def _move_to_centre(self, check: bool) -> None:
@@ -743,7 +699,7 @@ class RigSession:
 
     def _teardown_held(self, reason: str) -> None:
         self._event("exit", reason)
-        self._on_block = self._on_actuator = None
+        self._stream.on_block = self._on_actuator = None
         if self.actuator is not None and self.daq is not None and self._armed:
             self._safe_stop(reason)
         elif self.actuator is not None:
@@ -755,5 +711,5 @@ class RigSession:
                 try:
                     closer.close()
                 except Exception as exc:  # closing must not hide the original problem
-                    self._record(SafetyEvent(self._t, "close_failed", str(exc)))
+                    self._record(SafetyEvent(self._stream.t, "close_failed", str(exc)))
         self._event("closed", "transports closed")

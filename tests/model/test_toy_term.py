@@ -38,7 +38,11 @@ class ToyMass(Term):
     separated_by: ClassVar[dict[str, str]] = {
         "gas_spring": "tests at other frequencies (m·a grows with f², gas does not)"
     }
-    PARAMS = (Param("mass_kg", "kg", 10.0, 0.0, 500.0, 10.0, 0.0, doc="moving mass"),)
+    PARAMS = (
+        Param(
+            "mass_kg", "kg", nominal=10.0, lo=0.0, hi=500.0, scale=10.0, off=0.0, doc="moving mass"
+        ),
+    )
 
     def describe(self, r: Reading) -> str:
         return f"toy mass: {r.v('mass_kg'):.3g}{r.sd('mass_kg')} kg moving with the rod"

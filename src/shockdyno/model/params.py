@@ -9,7 +9,7 @@ clash. The `off` value is the one at which the term reduces exactly to the paper
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 
 
 @dataclass(frozen=True)
@@ -23,6 +23,7 @@ class Param:
 
     name: str
     unit: str
+    _: KW_ONLY  # the numbers by name: Param("x", "m", nominal=..., lo=..., hi=..., ...)
     nominal: float
     lo: float
     hi: float

@@ -34,11 +34,11 @@ class Cavitation(Term):
         Param(
             "release_pressure_pa",
             "Pa",
-            3000.0,
-            -5.0e6,  # below any pressure the data reach: the floor never acts (nests "off")
-            1.0e6,
-            1.0e5,
-            -math.inf,
+            nominal=3000.0,
+            lo=-5.0e6,  # below any pressure the data reach: the floor never acts (nests "off")
+            hi=1.0e6,
+            scale=1.0e5,
+            off=-math.inf,
             doc="absolute pressure the rebound chamber cannot fall below",
         ),
     )

@@ -74,15 +74,24 @@ class Compressibility(Term):
         "friction": "tests at other frequencies and gas pressures"
     }
     PARAMS = (
-        Param("air_fraction", "1", 0.01, 0.0, 0.3, 0.01, 0.0, doc="free air by volume at p₀"),
+        Param(
+            "air_fraction",
+            "1",
+            nominal=0.01,
+            lo=0.0,
+            hi=0.3,
+            scale=0.01,
+            off=0.0,
+            doc="free air by volume at p₀",
+        ),
         Param(
             "oil_compressibility_per_gpa",
             "1/GPa",
-            1 / 1.5,
-            0.0,
-            2.0,
-            0.5,
-            0.0,
+            nominal=1 / 1.5,
+            lo=0.0,
+            hi=2.0,
+            scale=0.5,
+            off=0.0,
             free=False,
             doc="1/β of the oil (mineral oil: 1/1.5 GPa)",
         ),

@@ -37,11 +37,57 @@ class Contact(Term):
         "position_force": "a slow push through the end of the stroke"
     }
     PARAMS = (
-        Param("bump_onset_m", "m", 0.02, 0.0, 0.2, 0.005, 0.2, doc="bump stop starts at x"),
-        Param("bump_force_n", "N", 100.0, 0.0, 50000.0, 100.0, 0.0, doc="bump force 10 mm past"),
-        Param("topout_onset_m", "m", -0.02, -0.2, 0.0, 0.005, -0.2, doc="top-out starts at x"),
-        Param("topout_force_n", "N", 100.0, 0.0, 50000.0, 100.0, 0.0, doc="top-out 10 mm past"),
-        Param("exponent", "1", 2.0, 1.0, 4.0, 0.5, 2.0, free=False, doc="1 linear, 2 progressive"),
+        Param(
+            "bump_onset_m",
+            "m",
+            nominal=0.02,
+            lo=0.0,
+            hi=0.2,
+            scale=0.005,
+            off=0.2,
+            doc="bump stop starts at x",
+        ),
+        Param(
+            "bump_force_n",
+            "N",
+            nominal=100.0,
+            lo=0.0,
+            hi=50000.0,
+            scale=100.0,
+            off=0.0,
+            doc="bump force 10 mm past",
+        ),
+        Param(
+            "topout_onset_m",
+            "m",
+            nominal=-0.02,
+            lo=-0.2,
+            hi=0.0,
+            scale=0.005,
+            off=-0.2,
+            doc="top-out starts at x",
+        ),
+        Param(
+            "topout_force_n",
+            "N",
+            nominal=100.0,
+            lo=0.0,
+            hi=50000.0,
+            scale=100.0,
+            off=0.0,
+            doc="top-out 10 mm past",
+        ),
+        Param(
+            "exponent",
+            "1",
+            nominal=2.0,
+            lo=1.0,
+            hi=4.0,
+            scale=0.5,
+            off=2.0,
+            free=False,
+            doc="1 linear, 2 progressive",
+        ),
     )
 
     def describe(self, r: Reading) -> str:

@@ -27,18 +27,36 @@ class Friction(Term):
         "Stribeck seal friction: breakaway above Coulomb, decaying with speed, plus viscous drag"
     )
     PARAMS = (
-        Param("breakaway_n", "N", 25.0, 0.0, 1000.0, 10.0, 0.0, doc="breakaway above Coulomb"),
+        Param(
+            "breakaway_n",
+            "N",
+            nominal=25.0,
+            lo=0.0,
+            hi=1000.0,
+            scale=10.0,
+            off=0.0,
+            doc="breakaway above Coulomb",
+        ),
         Param(
             "stribeck_velocity_m_s",
             "m/s",
-            0.005,
-            0.0005,
-            0.05,
-            0.005,
-            0.005,
+            nominal=0.005,
+            lo=0.0005,
+            hi=0.05,
+            scale=0.005,
+            off=0.005,
             doc="speed over which the breakaway decays (exists only with F_b > 0)",
         ),
-        Param("viscous_n_s_m", "N·s/m", 40.0, 0.0, 5000.0, 50.0, 0.0, doc="viscous seal drag"),
+        Param(
+            "viscous_n_s_m",
+            "N·s/m",
+            nominal=40.0,
+            lo=0.0,
+            hi=5000.0,
+            scale=50.0,
+            off=0.0,
+            doc="viscous seal drag",
+        ),
     )
 
     def describe(self, r: Reading) -> str:

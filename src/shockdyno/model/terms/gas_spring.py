@@ -32,8 +32,19 @@ class GasSpring(Term):
         "thermal": "a test held at constant temperature",
     }
     PARAMS = (
-        Param("volume_factor", "1", 1.0, 0.2, 5.0, 1.0, 1.0, doc="gas volume / the spec's"),
-        Param("polytropic_index", "1", 1.0, 1.0, 1.67, 0.1, 1.0, free=False),
+        Param(
+            "volume_factor",
+            "1",
+            nominal=1.0,
+            lo=0.2,
+            hi=5.0,
+            scale=1.0,
+            off=1.0,
+            doc="gas volume / the spec's",
+        ),
+        Param(
+            "polytropic_index", "1", nominal=1.0, lo=1.0, hi=1.67, scale=0.1, off=1.0, free=False
+        ),
     )
 
     def describe(self, r: Reading) -> str:

@@ -27,10 +27,19 @@ class PositionForce(Term):
     stage = FORCE + 5
     summary = "smooth force of displacement (bump stop, top-out, position-dependent seal)"
     PARAMS = (
-        Param("x_lo_m", "m", -0.035, -1.0, 1.0, 0.01, -0.035, free=False),
-        Param("x_hi_m", "m", 0.035, -1.0, 1.0, 0.01, 0.035, free=False),
+        Param("x_lo_m", "m", nominal=-0.035, lo=-1.0, hi=1.0, scale=0.01, off=-0.035, free=False),
+        Param("x_hi_m", "m", nominal=0.035, lo=-1.0, hi=1.0, scale=0.01, off=0.035, free=False),
         *(
-            Param(f"f{k}_n", "N", 0.0, -5000.0, 5000.0, 20.0, 0.0, doc=f"force at knot {k}")
+            Param(
+                f"f{k}_n",
+                "N",
+                nominal=0.0,
+                lo=-5000.0,
+                hi=5000.0,
+                scale=20.0,
+                off=0.0,
+                doc=f"force at knot {k}",
+            )
             for k in range(N_KNOTS)
         ),
     )

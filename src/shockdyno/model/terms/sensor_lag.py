@@ -40,10 +40,21 @@ class SensorLag(Term):
         "friction": "slow tests (below 25 mm/s) where friction dominates",
     }
     PARAMS = (
-        Param("delay_s", "s", 0.0, -0.05, 0.05, 1e-3, 0.0, doc="force behind motion"),
+        Param(
+            "delay_s",
+            "s",
+            nominal=0.0,
+            lo=-0.05,
+            hi=0.05,
+            scale=1e-3,
+            off=0.0,
+            doc="force behind motion",
+        ),
         # A load-cell amplifier slower than 20 ms (8 Hz) would not be on a damper dyno.
-        Param("load_cell_lag_s", "s", 0.0, 0.0, 0.02, 1e-3, 0.0, free=False),
-        Param("lvdt_lag_s", "s", 0.0, 0.0, 0.02, 1e-3, 0.0, free=False),
+        Param(
+            "load_cell_lag_s", "s", nominal=0.0, lo=0.0, hi=0.02, scale=1e-3, off=0.0, free=False
+        ),
+        Param("lvdt_lag_s", "s", nominal=0.0, lo=0.0, hi=0.02, scale=1e-3, off=0.0, free=False),
     )
 
     def describe(self, r: Reading) -> str:

@@ -46,32 +46,70 @@ class Thermal(Term):
         "position_force": "a test held at constant temperature"
     }
     PARAMS = (
-        Param("gas_coupling", "1", 1.0, 0.0, 3.0, 1.0, 0.0, doc="1: gas at the oil's temperature"),
-        Param("viscosity_coeff_per_k", "1/K", 0.025, 0.0, 0.1, 0.01, 0.0, doc="ν falls b per K"),
+        Param(
+            "gas_coupling",
+            "1",
+            nominal=1.0,
+            lo=0.0,
+            hi=3.0,
+            scale=1.0,
+            off=0.0,
+            doc="1: gas at the oil's temperature",
+        ),
+        Param(
+            "viscosity_coeff_per_k",
+            "1/K",
+            nominal=0.025,
+            lo=0.0,
+            hi=0.1,
+            scale=0.01,
+            off=0.0,
+            doc="ν falls b per K",
+        ),
         Param(
             "damping_coeff_per_k",
             "1/K",
-            0.0,
-            -0.05,
-            0.05,
-            0.005,
-            0.0,
+            nominal=0.0,
+            lo=-0.05,
+            hi=0.05,
+            scale=0.005,
+            off=0.0,
             free=False,
             doc="Δp falls d per K",
         ),
         Param(
             "oil_lead_s",
             "s",
-            0.0,  # on as off: a simulated rig's channel is its oil's own
-            0.0,
-            1000.0,
-            50.0,
-            0.0,
+            nominal=0.0,  # on as off: a simulated rig's channel is its oil's own
+            lo=0.0,
+            hi=1000.0,
+            scale=50.0,
+            off=0.0,
             doc="oil over a measured body: T_oil = T_body + lead · dT_body/dt",
         ),
-        Param("reference_c", "°C", 40.0, -40.0, 150.0, 10.0, 40.0, free=False),
-        Param("heat_rate_k_s_m2", "K·s/m²", 3.33, 0.0, 100.0, 1.0, 3.33, free=False),
-        Param("cooling_time_s", "s", 300.0, 1.0, 1.0e5, 100.0, 300.0, free=False),
+        Param(
+            "reference_c", "°C", nominal=40.0, lo=-40.0, hi=150.0, scale=10.0, off=40.0, free=False
+        ),
+        Param(
+            "heat_rate_k_s_m2",
+            "K·s/m²",
+            nominal=3.33,
+            lo=0.0,
+            hi=100.0,
+            scale=1.0,
+            off=3.33,
+            free=False,
+        ),
+        Param(
+            "cooling_time_s",
+            "s",
+            nominal=300.0,
+            lo=1.0,
+            hi=1.0e5,
+            scale=100.0,
+            off=300.0,
+            free=False,
+        ),
     )
 
     def describe(self, r: Reading) -> str:

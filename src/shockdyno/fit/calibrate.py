@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
+from shockdyno.fit.parameters import AREA_BC, AREA_BT, GLOBAL, TERM, calibration_set
 from shockdyno.fit.problem import GlobalParam, StackedProblem, nominal_value
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Param
@@ -81,42 +82,36 @@ def calibrate(
     """Least squares (then soft-L1) over globals, free term parameters and all areas."""
     n = prob.n_groups
     declared: dict[str, Param] = dict(base.param_list())
-    tparams = [declared[q] for q in free]
-    ng = len(params) + len(tparams)
-    lb = np.concatenate(
-        [[p.lo for p in params], [t.lo / t.scale for t in tparams], np.zeros(2 * n)]
-    )
-    ub = np.concatenate(
-        [
-            [p.hi for p in params],
-            [t.hi / t.scale for t in tparams],
-            np.full(2 * n, a_max / AREA_SCALE),
-        ]
-    )
-    theta0 = [nominal_value(prob.base, p.key) / p.scale for p in params]
-    theta0 += [base.value(q) / t.scale for q, t in zip(free, tparams, strict=True)]
-    p0 = np.concatenate([theta0, a_bc0 / AREA_SCALE, a_bt0 / AREA_SCALE])
-    p0 = np.clip(p0, lb, np.where(ub > lb, ub - 1e-12 * np.maximum(np.abs(ub), 1), ub))
+    ps = calibration_set(
+        {g.key: (nominal_value(prob.base, g.key), g.scale, g.lo, g.hi) for g in params},
+        {
+            q: (base.value(q), declared[q].scale, declared[q].lo / declared[q].scale,
+                declared[q].hi / declared[q].scale)
+            for q in free
+        },
+        a_bc0,
+        a_bt0,
+        AREA_SCALE,
+        a_max,
+    )  # fmt: skip
+    lb, ub = ps.bounds()
+    p0 = np.clip(ps.theta0(), lb, np.where(ub > lb, ub - 1e-12 * np.maximum(np.abs(ub), 1), ub))
+    shared = ps.span(GLOBAL, TERM)  # one Jacobian column each
+    bc_at, bt_at = ps.span(AREA_BC), ps.span(AREA_BT)  # all areas in one evaluation
     in_group = [prob.group == g for g in range(n)]
     penalty_weight = math.sqrt(prob.size)
     cache: dict[bytes, FloatArray] = {}
 
     def model_at(p: FloatArray) -> DamperModel:
-        overrides = {
-            g.key: float(th * g.scale) for g, th in zip(params, p[: len(params)], strict=True)
-        }
-        values = {
-            q: float(th * t.scale)
-            for q, t, th in zip(free, tparams, p[len(params) : ng], strict=True)
-        }
-        return DamperModel(prob.spec_with(overrides), base.terms, base.values).with_values(values)
+        spec = prob.spec_with(ps.values(p, GLOBAL))
+        return DamperModel(spec, base.terms, base.values).with_values(ps.values(p, TERM))
 
     def residual(p: FloatArray) -> FloatArray:
         key = p.tobytes()
         if key not in cache:
             cache.clear()
             model = model_at(p)
-            r = prob.force(model, p[ng : ng + n] * AREA_SCALE, p[ng + n :] * AREA_SCALE) - prob.f
+            r = prob.force(model, ps.vector(p, AREA_BC), ps.vector(p, AREA_BT)) - prob.f
             pen = model.penalty()
             cache[key] = np.concatenate([r, penalty_weight * pen]) if pen.size else r
         return cache[key]
@@ -126,12 +121,12 @@ def calibrate(
         jac = np.zeros((r0.size, p.size))
         h = 1e-6 * np.maximum(np.abs(p), 0.1)
         h = np.where(p + h > ub, -h, h)
-        for j in range(ng):
+        for j in range(shared.start, shared.stop):
             q = p.copy()
             q[j] += h[j]
             jac[:, j] = (residual(q) - r0) / h[j]
         q = p.copy()
-        q[ng:] += h[ng:]
+        q[bc_at.start :] += h[bc_at.start :]
         dr = residual(q) - r0
         _, v, _ = model_at(p).motion(prob.inputs)  # the split the areas follow
         comp, reb = v > 0, v < 0
@@ -139,8 +134,8 @@ def calibrate(
         for g in range(n):
             rows_bc = np.flatnonzero(in_group[g] & comp)
             rows_bt = np.flatnonzero(in_group[g] & reb)
-            jac[rows_bc, ng + g] = dr[:m][rows_bc] / h[ng + g]
-            jac[rows_bt, ng + n + g] = dr[:m][rows_bt] / h[ng + n + g]
+            jac[rows_bc, bc_at.start + g] = dr[:m][rows_bc] / h[bc_at.start + g]
+            jac[rows_bt, bt_at.start + g] = dr[:m][rows_bt] / h[bt_at.start + g]
         return jac
 
     common: dict[str, Any] = {
@@ -170,21 +165,15 @@ def calibrate(
     cov = np.linalg.pinv(jac.T @ jac) * s2 * tau
     sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
     sd[~np.any(jac != 0, axis=0)] = np.inf  # no sample depends on it: not measured at all
-    k = len(params)
     return Calibration(
-        overrides={g.key: float(p[i] * g.scale) for i, g in enumerate(params)},
-        globals_sd={g.key: float(sd[i] * g.scale) for i, g in enumerate(params)},
-        term_values={
-            q: float(p[k + i] * t.scale) for i, (q, t) in enumerate(zip(free, tparams, strict=True))
-        },
-        term_sd={
-            q: float(sd[k + i] * t.scale)
-            for i, (q, t) in enumerate(zip(free, tparams, strict=True))
-        },
-        a_bc=p[ng : ng + n] * AREA_SCALE,
-        a_bt=p[ng + n :] * AREA_SCALE,
-        sd_bc=sd[ng : ng + n] * AREA_SCALE,
-        sd_bt=sd[ng + n :] * AREA_SCALE,
+        overrides=ps.values(p, GLOBAL),
+        globals_sd=ps.values(sd, GLOBAL),
+        term_values=ps.values(p, TERM),
+        term_sd=ps.values(sd, TERM),
+        a_bc=ps.vector(p, AREA_BC),
+        a_bt=ps.vector(p, AREA_BT),
+        sd_bc=ps.vector(sd, AREA_BC),
+        sd_bt=ps.vector(sd, AREA_BT),
         tau=tau,
         nfev=nfev,
         cost_rms_n=math.sqrt(float(np.mean(r * r))),

@@ -3,6 +3,8 @@ and a calibrated spec value reads as the spec's error, not as physics."""
 
 from __future__ import annotations
 
+import math
+
 from shockdyno.diagnose.engine import CalibrationRow, Finding
 from shockdyno.diagnose.verdict import describe, describe_calibration
 
@@ -151,3 +153,18 @@ def test_the_engine_s_si_sentences_convert_their_forces_and_speeds() -> None:
     )
     slow = separate_by("friction", "sensor_lag")
     assert in_units(slow, IMPERIAL) == slow.replace("25 mm/s", "0.98 in/s")
+
+
+def test_a_floor_below_vacuum_is_not_called_a_release_pressure() -> None:
+    """On the reference plant the library's floor landed 32-78 kPa below vacuum where the
+    plant's vapour pressure is 3 kPa: the saturation is found, its value is the model's
+    pressure offset, and the text must not present it as an absolute pressure."""
+    from shockdyno.diagnose.verdict import describe
+
+    above = describe(_finding("cavitation", {"release_pressure_pa": (3.0e3, 500.0)}), 1.6e6)
+    assert above.startswith("cavitation: the rebound chamber holds at 3 kPa absolute")
+    below = describe(_finding("cavitation", {"release_pressure_pa": (-6.0e4, 500.0)}), 1.6e6)
+    assert "below vacuum" in below and "not the release pressure" in below
+    assert "holds at -60 kPa" not in below and "at least 60 kPa low" in below
+    off = describe(_finding("cavitation", {"release_pressure_pa": (-math.inf, None)}), 1.6e6)
+    assert off == "cavitation: no floor (off)"

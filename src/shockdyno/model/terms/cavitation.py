@@ -44,9 +44,22 @@ class Cavitation(Term):
     )
 
     def describe(self, r: Reading) -> str:
+        floor = r.v("release_pressure_pa")
+        if not math.isfinite(floor):
+            return "cavitation: no floor (off)"
+        if floor >= 0:
+            return (
+                f"cavitation: the rebound chamber holds at {floor / 1e3:.3g} kPa absolute; "
+                "compression force saturates"
+            )
+        # No chamber holds below vacuum: the saturation is real, but the model's chamber
+        # pressure runs low by at least this much (the gas charge, or how the pressure
+        # splits across the piston), so the floor's value is not a release pressure.
         return (
-            "cavitation: the rebound chamber holds at "
-            f"{r.v('release_pressure_pa') / 1e3:.3g} kPa absolute; compression force saturates"
+            "cavitation: compression force saturates as if the rebound chamber held at "
+            f"{floor / 1e3:.3g} kPa absolute, below vacuum: the model's chamber pressure "
+            f"runs at least {-floor / 1e3:.3g} kPa low there, so this is not the release "
+            "pressure"
         )
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:

@@ -19,16 +19,6 @@ pytestmark = [pytest.mark.timeout(400), pytest.mark.slow]  # diagnosed with the 
 NAMES = ["s-seal", "s-lag", "s-bump", "s-two"]
 
 
-@pytest.fixture(scope="module")
-def recordings(tmp_path_factory: pytest.TempPathFactory) -> Recordings:
-    return Recordings(tmp_path_factory.mktemp("concealed"))
-
-
-@pytest.fixture(scope="module")
-def diagnoses(recordings: Recordings) -> Diagnoses:
-    return Diagnoses(recordings)
-
-
 def test_the_recordings_do_not_name_their_physics(recordings: Recordings) -> None:
     check_names_hidden(recordings, NAMES)
 

@@ -24,13 +24,10 @@ AREA_SCALE = 1e-6  # areas per mm², like the fit
 
 def with_term(model: DamperModel, name: str, data: Data) -> DamperModel:
     """`model` plus the library term `name` at its nominal ("on") values."""
-    m = DamperModel(model.spec, (*model.terms, make_term(name)), model.values)
-    if name == "position_force":
-        x = data.prob.inputs.x
-        m = m.with_values(
-            {"position_force.x_lo_m": float(np.min(x)), "position_force.x_hi_m": float(np.max(x))}
-        )
-    return m
+    term = make_term(name)
+    m = DamperModel(model.spec, (*model.terms, term), model.values)
+    placed = term.placed(data.prob.inputs.x)  # only the new term's: the rest stay as fitted
+    return m.with_values({term.qualified(k): v for k, v in placed.items()})
 
 
 def default_free(name: str) -> tuple[str, ...]:

@@ -99,12 +99,10 @@ def prepare_problem(
         )
     prob = StackedProblem(base, prepared)
     model = DamperModel(base, selection.terms)
-    if model.term("position_force") is not None:
-        # The spline's knots span the stroke the recording covers.
-        x = prob.inputs.x
-        model = model.with_values(
-            {"position_force.x_lo_m": float(np.min(x)), "position_force.x_hi_m": float(np.max(x))}
-        )
+    x = prob.inputs.x
+    model = model.with_values(
+        {t.qualified(k): v for t in model.terms for k, v in t.placed(x).items()}
+    )
     return Problem(
         spec_path=path,
         prepared=prepared,

@@ -293,6 +293,11 @@ class Term:
         the model without the term on the data, for grids placed where the data are."""
         return [{}]
 
+    def placed(self, x: FloatArray) -> dict[str, float]:
+        """Values the data fix before any fit, by local name (a spline's knots span the
+        stroke the recording covers); none by default."""
+        return {}
+
     def vehicle_values(self) -> dict[str, float]:
         """Parameter values for the damper on a car, where they differ from the dyno's."""
         return {}

@@ -55,6 +55,9 @@ class PositionForce(Term):
             f"at x = {ln * x:+.3g} {ll} (bump stop, top-out or a seal that grips at one end?)"
         )
 
+    def placed(self, x: FloatArray) -> dict[str, float]:
+        return {"x_lo_m": float(np.min(x)), "x_hi_m": float(np.max(x))}
+
     @staticmethod
     def knot_values(p: Mapping[str, float]) -> np.ndarray:
         return np.array([p[f"f{k}_n"] for k in range(N_KNOTS)])

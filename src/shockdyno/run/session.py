@@ -12,6 +12,11 @@ disables, stops the heartbeat and closes both transports; the reason goes to `ev
 Time: every wait is measured on the DAQ's clock (its sample counter), so a simulated rig
 running N times faster finishes N times sooner. Only the watchdogs for a frozen DAQ or a
 dead link use the host's clock, since a stalled clock cannot time itself.
+
+The session is the state machine (connect, enable, run, hold, move, stop, teardown); its
+parts live beside it: the DAQ stream (daq_stream.py: clock, limits on every sample, gaps,
+a frozen stream), the heartbeat (heartbeat.py), what the drive must keep (watch.py) and
+the event log (events.py).
 """
 
 from __future__ import annotations

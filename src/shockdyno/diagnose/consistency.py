@@ -58,8 +58,7 @@ def delay_spread(
     test is the scale × the sensor's net shift (delay + load-cell lag - LVDT lag). Only
     tests where their best scale removes at least `min_gain` of the squared error place
     it. None when the sensor shifts by less than `min_shift_s` (no time to compare) or
-    fewer than three tests
-    place it."""
+    fewer than three tests place it."""
     model = fitted.model
     term = model.term(SENSOR)
     if term is None:

@@ -113,7 +113,7 @@ class CalibrationRow:
     fitted: float
     sd: float
     unit: str
-    share: float = 0.05  # Settings.calibration_share
+    share: float = Settings.calibration_share
 
     @property
     def moved(self) -> bool:
@@ -402,7 +402,7 @@ def _gas_spring_is_calibration(
 
 
 def calibration_rows(
-    spec: DamperSpec, fitted: Fitted, gas_calibrated: bool, share: float = 0.05
+    spec: DamperSpec, fitted: Fitted, gas_calibrated: bool, share: float
 ) -> list[CalibrationRow]:
     """The spec's values against what the recording calibrated them to; the gas volume
     when the baseline calibrated it (not when a claimed gas spring moved it)."""
@@ -484,7 +484,9 @@ def _round(
         for c in top
         if c.name == SENSOR
     }
-    passing = [c for c in screened if not why_not(c, scored, s, limit, shapes, x, refused)]
+    # Each candidate's reason not to be claimed ("" when it is claimable), judged once.
+    reasons = {c.name: why_not(c, scored, s, limit, shapes, x, refused) for c in cands}
+    passing = [c for c in screened if not reasons[c.name]]
     named = [c for c in passing if c.name != OPEN_SET]
     pool = named or passing
     # Of the claimable, the one the full refit says explains most (its LR): held-out
@@ -512,12 +514,7 @@ def _round(
                 effect_peak_n=c.effect_peak_n,
                 parameters=_parameters(c.fitted, c.name),
                 ambiguous_with=amb,
-                why_not=""
-                if c is best
-                else (
-                    why_not(c, scored, s, limit, shapes, x, refused)
-                    or "another term explained more"
-                ),
+                why_not="" if c is best else (reasons[c.name] or "another term explained more"),
             )
         )
     return found, best

@@ -228,7 +228,7 @@ class Term:
     sensor: ClassVar[bool] = False  # measurement, not damper: left out of the vehicle
     stateful: ClassVar[bool] = False
     PARAMS: ClassVar[tuple[Param, ...]] = ()
-    summary: ClassVar[str] = ""  # one line: `fit --help`, docs and a verdict with no words
+    summary: ClassVar[str] = ""  # one line: the words of a term that has no describe of its own
     # What would tell this term from a look-alike, by the look-alike's name: a diagnosis
     # that cannot separate the two says so. Each pair is written on one of its terms.
     separated_by: ClassVar[dict[str, str]] = {}

@@ -12,7 +12,16 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "shockdyno"
 
 # Small modules every layer may use; they use only each other.
-UTILITY = {"errors", "units", "lists", "progress", "outputs", "result_files", "atomic"}
+UTILITY = {
+    "errors",
+    "units",
+    "lists",
+    "progress",
+    "outputs",
+    "result_files",
+    "atomic",
+    "schema",
+}
 # Package -> the project packages it may import (utilities aside). `commands` is the
 # command-line glue (each subcommand's arguments, progress and files) and may use any;
 # `cli` names the command modules as strings and imports none of them by name.

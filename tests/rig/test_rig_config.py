@@ -36,7 +36,13 @@ def test_the_three_transports_are_represented() -> None:
 @pytest.mark.parametrize(
     ("old", "new", "fragment"),
     [
-        ("travel_m = 0.045", "travel_m = -1", "limits.travel_m: must be > 0"),
+        ("travel_m = 0.045", "travel_m = -1", "limits.travel_m: must be a number > 0, got -1"),
+        ("travel_m = 0.045", "travel_m = inf", "limits.travel_m: must be a finite number"),
+        ("[rig]", "[rig]\nnme = 1", "rig.nme: unknown key (did you mean name?)"),
+        ('transport = "tcp"', 'transport = "tcp"\nbaudrate = 9600', "not used with transport"),
+        ("[daq]", "[daq]\nforce_range_n = [5, 1]", "daq.force_range_n: must be [LOW, HIGH]"),
+        ("[daq]", "[daq]\nforce_range_n = [5]", "daq.force_range_n: must be a list [a number"),
+        ("sine_ramp_cycles = 1", "sine_ramp_cycles = 2.5", "must be a whole number from 1 to 100"),
         ("travel_m = 0.045", 'travel_m = "far"', "limits.travel_m: must be a number"),
         ("sample_rate_hz = 1000.0\n", "", "daq.sample_rate_hz: missing"),
         ('transport = "tcp"', 'transport = "udp"', "actuator.transport: must be one of"),

@@ -45,7 +45,13 @@ def test_the_plant_imports_nothing_of_the_model_it_tests() -> None:
         elif isinstance(node, ast.Import):
             imported.update(a.name for a in node.names)
     ours = {m for m in imported if m.startswith("shockdyno")}
-    assert ours <= {"shockdyno.errors", "shockdyno.model.spec", "shockdyno.record.types"}, ours
+    allowed = {
+        "shockdyno.errors",
+        "shockdyno.schema",
+        "shockdyno.model.spec",
+        "shockdyno.record.types",
+    }
+    assert ours <= allowed, ours
 
 
 def test_at_rest_the_plant_pushes_its_gas_force() -> None:
@@ -96,7 +102,7 @@ def test_a_scenario_selects_the_plant_and_says_what_is_wrong(tmp_path: Path) -> 
     assert sc.plant is not None and sc.plant.air_fraction == 0.01
     bad = tmp_path / "bad.toml"
     bad.write_text('[scenario]\nname = "r"\n[plant]\nkind = "reference"\nair = 0.01\n')
-    with pytest.raises(ConfigError, match="unknown key 'air' for the reference plant"):
+    with pytest.raises(ConfigError, match=r"bad.toml: plant.air: unknown key"):
         load_scenario(bad)
     both = tmp_path / "both.toml"
     both.write_text(

@@ -15,18 +15,22 @@ the gas-bottle selector).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Annotated
 
 import numpy as np
+from msgspec import Meta
 from numpy.typing import ArrayLike, NDArray
+
+from shockdyno.schema import NonNegative, Positive
 
 
 @dataclass(frozen=True)
 class BleedLaw:
-    area_closed_m2: float
-    area_open_m2: float
-    shape_clicks: float
-    max_clicks: int = 21
-    area_per_gas_click_m2: float = 0.0
+    area_closed_m2: NonNegative
+    area_open_m2: NonNegative
+    shape_clicks: Positive
+    max_clicks: Annotated[int, Meta(ge=1)] = 21
+    area_per_gas_click_m2: float = 0.0  # either sign: a gas click may open or close the bleed
 
     def area(self, clicks: ArrayLike, gas_clicks: ArrayLike = 0) -> NDArray[np.float64]:
         n = np.asarray(clicks, dtype=float)

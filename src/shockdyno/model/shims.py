@@ -19,24 +19,28 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Annotated
 
 import numpy as np
+from msgspec import Meta
+
+from shockdyno.schema import NonNegative, Positive
 
 
 @dataclass(frozen=True)
 class ShimStack:
     """One direction's valve: the shim stack, its seat and its preload."""
 
-    n_shims: int
-    thickness_m: float
-    outer_diameter_m: float
-    clamp_diameter_m: float
-    seat_diameter_m: float  # where the stack lifts off the piston land: sets the flow perimeter
-    face_area_m2: float  # piston-port area the pressure acts over, pushing the stack open
-    preload_m: float  # dish of the piston face: the stack is pre-bent by this much
-    max_lift_m: float  # travel stop (backing shim / spacer)
-    youngs_modulus_pa: float = 206e9
-    poisson: float = 0.3
+    n_shims: Annotated[int, Meta(ge=1)]
+    thickness_m: Positive
+    outer_diameter_m: Positive
+    clamp_diameter_m: Positive
+    seat_diameter_m: Positive  # where the stack lifts off the piston land: the flow perimeter
+    face_area_m2: Positive  # piston-port area the pressure acts over, pushing the stack open
+    preload_m: NonNegative  # dish of the piston face: the stack is pre-bent by this much
+    max_lift_m: Positive  # travel stop (backing shim / spacer)
+    youngs_modulus_pa: Positive = 206e9
+    poisson: Annotated[float, Meta(ge=0, lt=0.5)] = 0.3
 
     @cached_property  # a 3×3 solve; the flow solve asks for it at every evaluation
     def stiffness_n_per_m(self) -> float:

@@ -4,45 +4,50 @@ from __future__ import annotations
 
 import contextlib
 import math
-import tomllib
-from dataclasses import dataclass, fields, replace
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
+from msgspec import Meta
 from numpy.typing import ArrayLike, NDArray
 
 from shockdyno.errors import ConfigError
 from shockdyno.model.bleed import BleedLaw
 from shockdyno.model.shims import ShimStack
+from shockdyno.schema import NonNegative, convert, fail, read_toml
 
 
 @dataclass(frozen=True)
 class DamperSpec:
+    """A damper's spec file ([damper], [valves.*], [bleed.*]); read through shockdyno.schema,
+    so the constraints on the fields' types are the file's."""
+
     name: str
-    piston_diameter_m: float
-    rod_diameter_m: float
-    piston_rod_mass_kg: float
-    oil_density_kg_m3: float
-    oil_viscosity_cst: float
-    discharge_coefficient: float
-    gas_pressure_pa: float
-    gas_piston_diameter_m: float
-    gas_length_m: float
-    gas_piston_mass_kg: float
-    friction_n: float
-    friction_velocity_m_s: float
-    leak_gap_m: float
-    leak_land_length_m: float
-    bleed_bore_diameter_m: float
+    piston_diameter_m: NonNegative
+    rod_diameter_m: NonNegative
+    piston_rod_mass_kg: NonNegative
+    oil_density_kg_m3: NonNegative
+    oil_viscosity_cst: NonNegative
+    discharge_coefficient: NonNegative
+    gas_pressure_pa: NonNegative
+    gas_piston_diameter_m: NonNegative
+    gas_length_m: NonNegative
+    gas_piston_mass_kg: NonNegative
+    friction_n: NonNegative
+    friction_velocity_m_s: NonNegative
+    leak_gap_m: NonNegative
+    leak_land_length_m: NonNegative
+    bleed_bore_diameter_m: NonNegative
     compression_valve: ShimStack
     rebound_valve: ShimStack
     compression_bleed: BleedLaw
     rebound_bleed: BleedLaw
-    max_gas_clicks: int = 0
+    max_gas_clicks: Annotated[int, Meta(ge=0)] = 0
     # Oil column above the piston: with the bore it gives the compression chamber's volume
     # (the compressibility term's V). Not in the paper; 80 mm for a 40 mm bore is typical.
-    oil_column_m: float = 0.08
+    oil_column_m: NonNegative = 0.08
 
     # -- derived geometry -------------------------------------------------------------
     @property
@@ -109,12 +114,31 @@ class DamperSpec:
     def with_changes(self, **changes: Any) -> DamperSpec:
         return replace(self, **changes)
 
+    # A spec value by name: a field ("friction_n") or a valve's field
+    # ("rebound_valve.preload_m"). The only place such a name is resolved.
+    def value(self, key: str) -> float:
+        head, _, tail = key.partition(".")
+        part = getattr(self, head, None) if not head.startswith("_") else None
+        if part is not None and tail:
+            part = getattr(part, tail, None) if not tail.startswith("_") else None
+        if isinstance(part, bool) or not isinstance(part, int | float):
+            raise ConfigError(f"unknown damper parameter {key!r}")
+        return float(part)
+
+    def with_values(self, values: Mapping[str, float]) -> DamperSpec:
+        """A copy with these named values (as `value` names them) replaced."""
+        changes: dict[str, Any] = {}
+        for key, v in values.items():
+            self.value(key)  # a name that is not a number of the spec is an error
+            head, _, tail = key.partition(".")
+            if tail:
+                changes[head] = replace(changes.get(head, getattr(self, head)), **{tail: float(v)})
+            else:
+                changes[head] = float(v)
+        return replace(self, **changes)
+
     def validate(self) -> None:
-        positive = [f.name for f in fields(self) if isinstance(getattr(self, f.name), float)]
-        for name in positive:
-            value = getattr(self, name)
-            if not math.isfinite(value) or value < 0:
-                raise ConfigError(f"damper spec {self.name!r}: {name} must be >= 0, got {value}")
+        """What one field's type cannot say (the types are checked as the file is read)."""
         if self.rod_diameter_m >= self.piston_diameter_m:
             raise ConfigError(f"damper spec {self.name!r}: rod must be thinner than the piston")
         bore = self.bleed_bore_area_m2
@@ -127,8 +151,6 @@ class DamperSpec:
                     f"damper spec {self.name!r}: {label} bleed open area {law.area_open_m2:.3g} m² "
                     f"exceeds the {self.bleed_bore_diameter_m * 1e3:g} mm bore ({bore:.3g} m²)"
                 )
-            if law.shape_clicks <= 0:
-                raise ConfigError(f"damper spec {self.name!r}: {label} shape_clicks must be > 0")
 
 
 def default_spec_path() -> Path:
@@ -157,67 +179,42 @@ def spec_line(used: dict[str, Any]) -> str:
     return f"spec: {where} ({used['name']})"
 
 
-def _section(doc: dict[str, Any], key: str, path: Path) -> dict[str, Any]:
-    value = doc.get(key)
-    if not isinstance(value, dict):
-        raise ConfigError(f"{path}: missing section [{key}]")
-    return value
+@dataclass(frozen=True)
+class _Valves:
+    compression: ShimStack
+    rebound: ShimStack
 
 
-def _build(cls: type, data: dict[str, Any], where: str) -> Any:
-    kinds = {f.name: str(f.type) for f in fields(cls)}
-    unknown = sorted(set(data) - set(kinds))
-    if unknown:
-        raise ConfigError(f"{where}: unknown key {unknown[0]!r}")
-    data = {k: _typed(v, kinds[k], f"{where} {k}") for k, v in data.items()}
-    try:
-        return cls(**data)
-    except TypeError as exc:  # a required key is missing
-        missing = str(exc).split("argument")[-1].strip(": ")
-        raise ConfigError(f"{where}: missing {missing}") from None
+@dataclass(frozen=True)
+class _Bleeds:
+    compression: BleedLaw
+    rebound: BleedLaw
 
 
-def _typed(value: Any, kind: str, where: str) -> Any:
-    """A TOML value checked against its field's type: a float field takes any number, an
-    int field a whole number (``n_shims = 6.5`` is an error, not 6), a str field a string;
-    a quoted number or a true/false is an error naming the key."""
-    if kind == "float":
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(f"{where}: a number, not {value!r}")
-        return float(value)
-    if kind == "int":
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{where}: a whole number, not {value!r}")
-        return value
-    if kind == "str" and not isinstance(value, str):
-        raise ConfigError(f"{where}: a text in quotes, not {value!r}")
-    return value
+@dataclass(frozen=True)
+class _SpecFile:
+    damper: dict[str, Any]  # DamperSpec's own keys, checked with the valves and bleeds in
+    valves: _Valves
+    bleed: _Bleeds
+
+
+PARTS = ("compression_valve", "rebound_valve", "compression_bleed", "rebound_bleed")
 
 
 def load_spec(path: str | Path | None = None) -> DamperSpec:
     """Read a damper spec TOML; every problem is a one-line ConfigError."""
     p = Path(path) if path is not None else default_spec_path()
-    try:
-        doc = tomllib.loads(p.read_text())
-    except FileNotFoundError:
-        raise ConfigError(f"damper spec not found: {p}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{p}: not valid TOML ({exc})") from None
-    damper = dict(_section(doc, "damper", p))
-    valves = _section(doc, "valves", p)
-    bleed = _section(doc, "bleed", p)
-    damper["compression_valve"] = _build(
-        ShimStack, _section(valves, "compression", p), f"{p} [valves.compression]"
-    )
-    damper["rebound_valve"] = _build(
-        ShimStack, _section(valves, "rebound", p), f"{p} [valves.rebound]"
-    )
-    damper["compression_bleed"] = _build(
-        BleedLaw, _section(bleed, "compression", p), f"{p} [bleed.compression]"
-    )
-    damper["rebound_bleed"] = _build(
-        BleedLaw, _section(bleed, "rebound", p), f"{p} [bleed.rebound]"
-    )
-    spec: DamperSpec = _build(DamperSpec, damper, f"{p} [damper]")
+    _, doc = read_toml(p, f"damper spec not found: {p}")
+    f = convert(doc, _SpecFile, str(p))
+    for key in PARTS:
+        if key in f.damper:
+            raise fail(str(p), f"damper.{key}", "unknown key (it has its own table)")
+    parts = {
+        "compression_valve": doc["valves"]["compression"],
+        "rebound_valve": doc["valves"]["rebound"],
+        "compression_bleed": doc["bleed"]["compression"],
+        "rebound_bleed": doc["bleed"]["rebound"],
+    }
+    spec = convert({**f.damper, **parts}, DamperSpec, str(p), "damper")
     spec.validate()
     return spec

@@ -22,12 +22,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.signal import bilinear, lfilter, lfiltic
 
-from shockdyno.errors import ConfigError
 from shockdyno.model.composite import DamperModel, ModelInputs, Term
 from shockdyno.model.filters import first_order_lag
 from shockdyno.model.spec import DamperSpec
 from shockdyno.rig.config import RigConfig
 from shockdyno.rig.frames import FRAME_LEN, STATUS_MOTION, encode_frames
+from shockdyno.schema import NonNegative, Positive, convert, fail
 from shockdyno.simrig.drive import (
     DRIVE_FAULT,
     OVER_FORCE,
@@ -42,46 +42,34 @@ from shockdyno.simrig.reference import PlantParams, PlantState, ReferencePlant
 _ONE_SEGMENT = np.zeros(1, dtype=np.intp)
 CHUNK = 10  # samples: the grid on which commands, faults and trips take effect
 FloatArray = NDArray[np.float64]
-SIGNED_PARAMS = ("load_cell_offset_n",)  # [simulation] keys that may be zero or negative
 
 
 @dataclass
 class SimParams:
-    initial_position_m: float
-    servo_bandwidth_hz: float = 60.0
-    servo_damping: float = 0.8
-    drive_force_capacity_n: float = 12000.0
-    drive_velocity_limit_m_s: float = 0.8
-    drive_travel_m: float = 0.05
-    force_noise_n: float = 2.0
-    position_noise_m: float = 1e-6
-    temperature_noise_c: float = 0.02
-    ambient_c: float = 40.0
+    """The rig file's [simulation] table (read through shockdyno.schema)."""
+
+    initial_position_m: Positive
+    servo_bandwidth_hz: Positive = 60.0
+    servo_damping: Positive = 0.8
+    drive_force_capacity_n: Positive = 12000.0
+    drive_velocity_limit_m_s: Positive = 0.8
+    drive_travel_m: Positive = 0.05
+    force_noise_n: NonNegative = 2.0
+    position_noise_m: NonNegative = 1e-6
+    temperature_noise_c: NonNegative = 0.02
+    ambient_c: Positive = 40.0
     # What the load cell reads with no force on it (its zero drift): `shockdyno rig tare`
     # must find it; any sign.
     load_cell_offset_n: float = 0.0
-    jam_force_n: float = 0.0  # set by the over-force fault
+    jam_force_n: float = 0.0  # set by the over-force fault, never by the file
 
     @staticmethod
     def from_rig(rig: RigConfig) -> SimParams:
         data = dict(rig.simulation)
+        if "jam_force_n" in data:
+            raise fail(rig.source, "simulation.jam_force_n", "unknown key (a fault sets it)")
         data.setdefault("initial_position_m", rig.stroke_centre_m)
-        names = {f for f in SimParams.__dataclass_fields__ if f != "jam_force_n"}
-        for key, value in data.items():
-            where = f"{rig.source}: simulation.{key}"
-            if key not in names:
-                raise ConfigError(f"{where}: unknown key")
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ConfigError(f"{where}: must be a number, got {value!r}")
-            if key in SIGNED_PARAMS:
-                if not math.isfinite(value):
-                    raise ConfigError(f"{where}: must be finite, got {value!r}")
-                continue
-            if not math.isfinite(value) or value < 0:
-                raise ConfigError(f"{where}: must be >= 0, got {value!r}")
-            if value == 0 and not key.endswith(("_noise_n", "_noise_m", "_noise_c")):
-                raise ConfigError(f"{where}: must be > 0")
-        return SimParams(**{k: float(v) for k, v in data.items()})
+        return convert(data, SimParams, rig.source, "simulation")
 
 
 @dataclass

@@ -36,16 +36,17 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, fields, replace
-from typing import Any
+from dataclasses import dataclass
+from typing import Annotated, Any
 
 import numpy as np
+from msgspec import Meta
 from numpy.typing import NDArray
 from scipy.integrate import solve_ivp
 from scipy.signal import butter, lfilter, lfilter_zi
 
-from shockdyno.errors import ConfigError
 from shockdyno.model.spec import DamperSpec
+from shockdyno.schema import NonNegative, Positive, convert
 
 FloatArray = NDArray[np.float64]
 P_ATM = 101_325.0
@@ -59,64 +60,48 @@ P_MIN = 500.0  # Pa absolute: the air law's floor (the vapour state keeps p_r ab
 
 @dataclass(frozen=True)
 class PlantParams:
+    """A scenario's [plant] table (read through shockdyno.schema: the types are the checks)."""
+
     # oil
-    oil_bulk_modulus_pa: float = 1.0e11  # the paper's rigid oil; mineral oil is 1.6e9
-    air_fraction: float = 0.0  # free air by volume at the gas charge
-    release_pressure_pa: float = 3.0e3  # vapour / air release (absolute)
-    vapour_rate_m3_s_pa: float = 1.0e-7  # k_e: how fast vapour forms below p_v
-    condense_rate_m3_s_pa: float = 1.0e-8  # k_c: how fast it goes back above p_v
-    bleed_land_m: float = 0.004  # laminar length of a bleed passage
-    valve_discharge: float = 0.7
-    valve_smoothing_pa: float = 2.0e3  # softplus width of the stack's crack
+    oil_bulk_modulus_pa: Positive = 1.0e11  # the paper's rigid oil; mineral oil is 1.6e9
+    air_fraction: Annotated[float, Meta(ge=0, lt=0.5)] = 0.0  # free air by volume at the gas charge
+    release_pressure_pa: NonNegative = 3.0e3  # vapour / air release (absolute)
+    vapour_rate_m3_s_pa: NonNegative = 1.0e-7  # k_e: how fast vapour forms below p_v
+    condense_rate_m3_s_pa: NonNegative = 1.0e-8  # k_c: how fast it goes back above p_v
+    bleed_land_m: NonNegative = 0.004  # laminar length of a bleed passage
+    valve_discharge: NonNegative = 0.7
+    valve_smoothing_pa: NonNegative = 2.0e3  # softplus width of the stack's crack
     # gas
-    gas_pressure_factor: float = 1.0  # × the spec's charge
-    gas_volume_factor: float = 1.0  # × the spec's gas volume
-    polytropic_index: float = 1.0
-    gas_thermal_coupling: float = 0.0  # 1: the gas at the oil's temperature
-    gas_seal_n: float = 8.0
+    gas_pressure_factor: Positive = 1.0  # × the spec's charge
+    gas_volume_factor: Positive = 1.0  # × the spec's gas volume
+    polytropic_index: NonNegative = 1.0
+    gas_thermal_coupling: NonNegative = 0.0  # 1: the gas at the oil's temperature
+    gas_seal_n: NonNegative = 8.0
     # rod seal (LuGre)
-    breakaway_n: float = 0.0  # above the spec's Coulomb friction
-    stribeck_velocity_m_s: float = 0.005
-    seal_stiffness_n_m: float = 2.0e7
-    seal_damping_n_s_m: float = 0.0
-    seal_viscous_n_s_m: float = 0.0
+    breakaway_n: NonNegative = 0.0  # above the spec's Coulomb friction
+    stribeck_velocity_m_s: NonNegative = 0.005
+    seal_stiffness_n_m: NonNegative = 2.0e7
+    seal_damping_n_s_m: NonNegative = 0.0
+    seal_viscous_n_s_m: NonNegative = 0.0
     # thermal network
-    viscosity_coeff_per_k: float = 0.0  # ν ∝ exp(-b (T_o - 40 °C))
-    oil_heat_capacity_j_k: float = 300.0
-    body_heat_capacity_j_k: float = 900.0
-    oil_to_body_w_k: float = 6.0
-    body_to_ambient_w_k: float = 2.5
-    heating_factor: float = 1.0  # × the dissipated power that reaches the oil
+    viscosity_coeff_per_k: NonNegative = 0.0  # ν ∝ exp(-b (T_o - 40 °C))
+    oil_heat_capacity_j_k: NonNegative = 300.0
+    body_heat_capacity_j_k: NonNegative = 900.0
+    oil_to_body_w_k: NonNegative = 6.0
+    body_to_ambient_w_k: NonNegative = 2.5
+    heating_factor: NonNegative = 1.0  # × the dissipated power that reaches the oil
     start_temperature_c: float = math.nan  # NaN: the rig's ambient
     # bump stop
-    bump_onset_m: float = math.inf
-    bump_force_at_10mm_n: float = 0.0
-    bump_exponent: float = 2.3
+    bump_onset_m: NonNegative = math.inf
+    bump_force_at_10mm_n: NonNegative = 0.0
+    bump_exponent: NonNegative = 2.3
     # sensors
-    anti_alias_hz: float = 400.0
-    force_skew_s: float = 0.0
+    anti_alias_hz: NonNegative = 400.0
+    force_skew_s: NonNegative = 0.0
 
     @staticmethod
-    def from_table(table: dict[str, Any], where: str) -> PlantParams:
-        names = {f.name for f in fields(PlantParams)}
-        got: dict[str, float] = {}
-        for key, value in table.items():
-            if key == "kind":
-                continue
-            if key not in names:
-                raise ConfigError(f"{where}: unknown key {key!r} for the reference plant")
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ConfigError(f"{where}: {key} must be a number, got {value!r}")
-            if math.isnan(value) or value < 0:
-                raise ConfigError(f"{where}: {key} must be >= 0, got {value!r}")
-            got[key] = float(value)
-        p = replace(PlantParams(), **got)
-        for key in ("oil_bulk_modulus_pa", "gas_pressure_factor", "gas_volume_factor"):
-            if getattr(p, key) <= 0:
-                raise ConfigError(f"{where}: {key} must be > 0")
-        if not p.air_fraction < 0.5:
-            raise ConfigError(f"{where}: air_fraction must be < 0.5, got {p.air_fraction}")
-        return p
+    def from_table(table: dict[str, Any], source: str, at: str = "plant") -> PlantParams:
+        return convert({k: v for k, v in table.items() if k != "kind"}, PlantParams, source, at)
 
 
 @dataclass

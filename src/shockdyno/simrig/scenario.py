@@ -18,14 +18,16 @@ air_fraction = 0.02
 
 from __future__ import annotations
 
+import difflib
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from shockdyno.errors import ConfigError
 from shockdyno.model.composite import Term
 from shockdyno.model.terms import make_term
+from shockdyno.schema import NonEmpty, NonNegative, convert, fail, read_toml, shown
 from shockdyno.simrig.reference import PlantParams
 
 
@@ -45,65 +47,76 @@ def scenario_dir() -> Path:
     return here if here.exists() else Path("sim/scenarios")
 
 
+@dataclass(frozen=True)
+class _Head:
+    name: NonEmpty
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class _Sensors:
+    lvdt_lag_s: NonNegative = 0.0
+
+
+@dataclass(frozen=True)
+class _ScenarioFile:
+    scenario: _Head
+    # Each term's keys are its own parameters (Param: name, bounds), checked below.
+    term: list[dict[str, Any]] = field(default_factory=list)
+    sensors: _Sensors = field(default_factory=_Sensors)
+    plant: dict[str, Any] | None = None  # PlantParams, checked on its own
+
+
+def _term(t: dict[str, Any], src: str, at: str, values: dict[str, float]) -> Term:
+    """A [[term]] table: `kind` and the term's own parameters within their bounds."""
+    if "kind" not in t:
+        raise fail(src, f"{at}.kind", "missing")
+    try:
+        term = make_term(str(t["kind"]))
+    except ConfigError as exc:
+        raise fail(src, f"{at}.kind", str(exc)) from None
+    declared = {q.name: q for q in term.params()}
+    for key, value in t.items():
+        if key == "kind":
+            continue
+        if key not in declared:
+            near = difflib.get_close_matches(key, declared, n=1)
+            hint = f" (did you mean {near[0]}?)" if near else f" for {term.name}"
+            raise fail(src, f"{at}.{key}", f"unknown key{hint}")
+        q = declared[key]
+        number = not isinstance(value, bool) and isinstance(value, int | float)
+        if not (number and math.isfinite(value) and q.lo <= value <= q.hi):
+            got = shown(value)
+            raise fail(src, f"{at}.{key}", f"must be a number from {q.lo:g} to {q.hi:g}, got {got}")
+        values[term.qualified(key)] = float(value)
+    return term
+
+
 def load_scenario(path: str | Path) -> Scenario:
     """A scenario by path, or by name from sim/scenarios/."""
     p = Path(path)
     if not p.exists() and p.suffix != ".toml":
         p = scenario_dir() / f"{path}.toml"
-    try:
-        doc = tomllib.loads(p.read_text())
-    except FileNotFoundError:
-        raise ConfigError(f"scenario not found: {path}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{p}: not valid TOML ({exc})") from None
-    head = doc.get("scenario")
-    if not isinstance(head, dict) or not isinstance(head.get("name"), str):
-        raise ConfigError(f"{p}: scenario.name: missing")
-    unknown = sorted(set(doc) - {"scenario", "term", "sensors", "plant"})
-    if unknown:
-        raise ConfigError(f"{p}: {unknown[0]}: unknown key")
-    terms: list[Term] = []
+    _, doc = read_toml(p, f"scenario not found: {path}")
+    src = str(p)
+    f = convert(doc, _ScenarioFile, src)
     values: dict[str, float] = {}
-    for i, t in enumerate(doc.get("term", [])):
-        where = f"{p}: term[{i}]"
-        if not isinstance(t, dict) or "kind" not in t:
-            raise ConfigError(f"{where}.kind: missing")
-        try:
-            term = make_term(str(t["kind"]))
-        except ConfigError as exc:
-            raise ConfigError(f"{where}: {exc}") from None
-        declared = {q.name: q for q in term.params()}
-        for key, value in t.items():
-            if key == "kind":
-                continue
-            if key not in declared:
-                raise ConfigError(f"{where}: unknown key {key!r} for {term.name}")
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ConfigError(f"{where}: {key} must be a number, got {value!r}")
-            q = declared[key]
-            if not (math.isfinite(value) and q.lo <= value <= q.hi):
-                raise ConfigError(f"{where}: {key} must be in [{q.lo:g}, {q.hi:g}], got {value!r}")
-            values[term.qualified(key)] = float(value)
-        terms.append(term)
+    terms = [_term(t, src, f"term[{i}]", values) for i, t in enumerate(f.term)]
     plant = None
-    table = doc.get("plant")
-    if table is not None:
-        if not isinstance(table, dict) or table.get("kind", "paper") not in ("paper", "reference"):
-            raise ConfigError(f'{p}: plant.kind: "paper" or "reference"')
-        if table.get("kind") == "reference":
+    if f.plant is not None:
+        kind = f.plant.get("kind", "paper")
+        if kind not in ("paper", "reference"):
+            raise fail(src, "plant.kind", f'must be "paper" or "reference", got {shown(kind)}')
+        if kind == "reference":
             if terms:
-                raise ConfigError(f"{p}: the reference plant takes its own parameters, not terms")
-            plant = PlantParams.from_table(table, f"{p}: plant")
-    sensors = doc.get("sensors", {})
-    lag = sensors.get("lvdt_lag_s", 0.0) if isinstance(sensors, dict) else None
-    if isinstance(lag, bool) or not isinstance(lag, int | float) or lag < 0:
-        raise ConfigError(f"{p}: sensors.lvdt_lag_s: must be a number >= 0")
+                raise fail(src, "plant", "the reference plant takes its own parameters, not terms")
+            plant = PlantParams.from_table(f.plant, src)
     return Scenario(
-        name=head["name"],
-        description=str(head.get("description", "")),
+        name=f.scenario.name,
+        description=f.scenario.description,
         terms=terms,
         values=values,
-        lvdt_lag_s=float(lag),
-        source=str(p),
+        lvdt_lag_s=f.sensors.lvdt_lag_s,
+        source=src,
         plant=plant,
     )

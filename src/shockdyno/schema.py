@@ -1,0 +1,274 @@
+"""One way to read a config or result file: typed classes, checked by msgspec.
+
+Every TOML and JSON the project reads (rig, damper spec, scenario, FIT/DIAG/RIDE.json) is
+described by the dataclasses that hold it, with constraints written once on the field's
+type (`Positive`, `Fraction`, `Literal[...]`, ...). `convert` checks a parsed document
+against that class and turns any problem into one ConfigError line naming the file, the
+dotted key, what was expected and what was found.
+
+msgspec, not pydantic: it is strict by default (a quoted "false" is not a bool, 6.5 is
+not an int, "1e-3" is not a number), it converts into the plain frozen dataclasses the
+model already uses (no second class hierarchy to keep in step), its errors carry the
+path of the bad value, and it is one small compiled package with no dependencies.
+msgspec ignores unknown keys of a dataclass, and TOML allows inf and nan; both are
+refused here before conversion, because a typo'd key silently falling back to its
+default is the mistake a config reader exists to catch.
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import math
+import re
+import tomllib
+from pathlib import Path
+from typing import Annotated, Any, TypeVar, Union
+
+import msgspec
+from msgspec import inspect as mi
+
+from shockdyno.errors import ConfigError
+
+T = TypeVar("T")
+
+# Constraints written once, on the type. (msgspec has no "finite": non-finite numbers
+# are refused for every field before conversion.)
+Positive = Annotated[float, msgspec.Meta(gt=0)]
+NonNegative = Annotated[float, msgspec.Meta(ge=0)]
+Fraction = Annotated[float, msgspec.Meta(ge=0, lt=1)]
+NonEmpty = Annotated[str, msgspec.Meta(min_length=1)]
+Port = Annotated[int, msgspec.Meta(ge=0, le=65535)]
+
+_AT = re.compile(r" - at `(?P<path>[^`]*)`$")
+_KEY_IN = re.compile(r" - at `key` in `(?P<path>[^`]*)`$")
+
+
+def fail(source: str, key: str, text: str) -> ConfigError:
+    """The one-line error: `source: key: text` (no key: `source: text`)."""
+    return ConfigError(f"{source}: {key}: {text}" if key else f"{source}: {text}")
+
+
+def parse_toml(text: str, source: str) -> dict[str, Any]:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{source}: not valid TOML ({exc})") from None
+
+
+def read_text(path: Path, missing: str) -> str:
+    """A config file's text; `missing` is the message when there is none ("rig file
+    not found: x.toml")."""
+    try:
+        return path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(missing) from None
+    except IsADirectoryError:
+        raise ConfigError(f"{path}: is a folder, not a file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot read ({exc})") from None
+
+
+def read_toml(path: Path, missing: str) -> tuple[str, dict[str, Any]]:
+    text = read_text(path, missing)
+    return text, parse_toml(text, str(path))
+
+
+def read_json(path: Path, missing: str) -> Any:
+    text = read_text(path, missing)
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"{path}: not valid JSON ({exc.msg}, line {exc.lineno})") from None
+
+
+def convert(data: Any, cls: type[T], source: str, at: str = "", *, unknown_keys: bool = False) -> T:
+    """`data` (a parsed TOML/JSON value) as a `cls`, or one ConfigError line naming
+    `source` and the dotted key below `at`.
+
+    `unknown_keys`: allow keys `cls` does not name, and skip them. For result files
+    (FIT/DIAG/RIDE.json), which gain keys over versions: an older reader must still read
+    a newer file. Those are written with null for a non-finite number, so the finite
+    check goes with the key check; a config keeps both."""
+    info = mi.type_info(cls)
+    if not unknown_keys:
+        _check_keys(data, info, source, at)
+    try:
+        return msgspec.convert(data, cls, strict=True)
+    except msgspec.ValidationError as exc:
+        raise _explain(str(exc), data, info, source, at) from None
+
+
+def expected(t: mi.Type) -> str:
+    """What a value of this type looks like, in a user's words."""
+    if isinstance(t, mi.UnionType):
+        inner = [x for x in t.types if not isinstance(x, mi.NoneType)]
+        return " or ".join(expected(x) for x in inner)
+    if isinstance(t, mi.BoolType):
+        return "true or false (no quotes)"
+    if isinstance(t, mi.IntType | mi.FloatType):
+        word = "a whole number" if isinstance(t, mi.IntType) else "a number"
+        if t.ge is not None and t.le is not None:
+            return f"{word} from {t.ge:g} to {t.le:g}"
+        if t.ge is not None and t.lt is not None:
+            return f"{word} from {t.ge:g} up to (not including) {t.lt:g}"
+        bounds = [
+            f"{op} {v:g}"
+            for op, v in ((">", t.gt), (">=", t.ge), ("<", t.lt), ("<=", t.le))
+            if v is not None
+        ]
+        return " ".join([word, *bounds])
+    if isinstance(t, mi.StrType):
+        return "non-empty text in quotes" if t.min_length else "text in quotes"
+    if isinstance(t, mi.LiteralType):
+        return "one of " + ", ".join(str(v) for v in t.values)
+    if isinstance(t, mi.TupleType):
+        return "a list [" + ", ".join(expected(x) for x in t.item_types) + "]"
+    if isinstance(t, mi.ListType | mi.SetType | mi.FrozenSetType | mi.VarTupleType):
+        return "a list"
+    if isinstance(t, mi.DictType | mi.DataclassType | mi.StructType | mi.TypedDictType):
+        return "a table"
+    return "a value of another kind"
+
+
+# -- the two checks msgspec does not make --------------------------------------------
+
+
+def _fields(t: mi.Type) -> dict[str, mi.Field] | None:
+    if isinstance(t, mi.DataclassType | mi.StructType):
+        return {f.encode_name: f for f in t.fields}
+    return None
+
+
+def _check_keys(data: Any, t: mi.Type, source: str, at: str) -> None:
+    """Unknown keys (with the nearest known one) and non-finite numbers, anywhere."""
+    if isinstance(data, float) and not math.isfinite(data):
+        raise fail(source, at, f"must be a finite number, got {data}")
+    if isinstance(t, mi.UnionType):
+        inner = [x for x in t.types if not isinstance(x, mi.NoneType)]
+        t = inner[0] if len(inner) == 1 else mi.AnyType()
+    known = _fields(t)
+    if isinstance(data, dict):
+        for key, value in data.items():
+            where = f"{at}.{key}" if at else str(key)
+            if known is not None:
+                if key not in known:
+                    near = difflib.get_close_matches(str(key), known, n=1)
+                    hint = f" (did you mean {near[0]}?)" if near else ""
+                    raise fail(source, where, f"unknown key{hint}")
+                _check_keys(value, known[key].type, source, where)
+            elif isinstance(t, mi.DictType):
+                _check_keys(value, t.value_type, source, where)
+            else:
+                _check_keys(value, mi.AnyType(), source, where)
+    elif isinstance(data, list):
+        item: mi.Type = mi.AnyType()
+        if isinstance(t, mi.ListType | mi.VarTupleType):
+            item = t.item_type
+        for i, value in enumerate(data):
+            tt = t.item_types[i] if isinstance(t, mi.TupleType) and i < len(t.item_types) else item
+            _check_keys(value, tt, source, f"{at}[{i}]")
+
+
+# -- msgspec's message in the user's words ---------------------------------------------
+
+
+def _steps(path: str) -> list[str | int]:
+    """'$.a.b[2].c' -> ['a', 'b', 2, 'c']; a dict's key, which msgspec does not name
+    ('$.terms[...]'), is '...'."""
+    out: list[str | int] = []
+    for name, index, key in re.findall(r"\.([^.\[]+)|\[(\d+)\]|\[(\.\.\.)\]", path[1:]):
+        out.append(name or key or int(index))
+    return out
+
+
+def _py(t: mi.Type) -> Any:
+    """The Python type msgspec would check a value against (to find a dict's bad key)."""
+    if isinstance(t, mi.DataclassType | mi.StructType):
+        return t.cls
+    if isinstance(t, mi.DictType):
+        return dict[_py(t.key_type), _py(t.value_type)]  # type: ignore[misc]
+    if isinstance(t, mi.ListType):
+        return list[_py(t.item_type)]  # type: ignore[misc]
+    if isinstance(t, mi.UnionType):
+        return Union[tuple(_py(x) for x in t.types)]  # noqa: UP007 (built at run time)
+    if isinstance(t, mi.IntType | mi.FloatType):
+        kind = int if isinstance(t, mi.IntType) else float
+        bounds = {k: getattr(t, k) for k in ("gt", "ge", "lt", "le") if getattr(t, k) is not None}
+        return Annotated[kind, msgspec.Meta(**bounds)] if bounds else kind
+    simple = {mi.BoolType: bool, mi.StrType: str, mi.NoneType: type(None)}
+    return simple.get(type(t), Any)
+
+
+def _bad_key(data: dict[Any, Any], value_type: mi.Type) -> Any:
+    """The first key of `data` whose value fails its type."""
+    py = _py(value_type)
+    for key, value in data.items():
+        try:
+            msgspec.convert(value, py, strict=True)
+        except msgspec.ValidationError:
+            return key
+    return "..."
+
+
+def _walk(data: Any, t: mi.Type, steps: list[str | int]) -> tuple[Any, mi.Type, list[str | int]]:
+    """The value and type at a path, and the path with each dict's bad key named."""
+    named: list[str | int] = []
+    for s in steps:
+        if isinstance(t, mi.UnionType):
+            inner = [x for x in t.types if not isinstance(x, mi.NoneType)]
+            t = inner[0] if len(inner) == 1 else mi.AnyType()
+        known = _fields(t)
+        step: Any = s
+        if known is not None and isinstance(s, str) and s in known:
+            t = known[s].type
+        elif isinstance(t, mi.DictType):
+            if s == "..." and isinstance(data, dict):
+                step = _bad_key(data, t.value_type)
+            t = t.value_type
+        elif isinstance(t, mi.ListType | mi.VarTupleType):
+            t = t.item_type
+        elif isinstance(t, mi.TupleType) and isinstance(s, int) and s < len(t.item_types):
+            t = t.item_types[s]
+        else:
+            t = mi.AnyType()
+        named.append(step)
+        try:
+            data = data[step]
+        except (KeyError, IndexError, TypeError):
+            data = None
+    return data, t, named
+
+
+def _dotted(steps: list[str | int], at: str) -> str:
+    out = at
+    for s in steps:
+        out = f"{out}[{s}]" if isinstance(s, int) else (f"{out}.{s}" if out else s)
+    return out
+
+
+def shown(value: Any) -> str:
+    """A bad value as the user wrote it (TOML's true/false), cut short."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, dict):
+        return "a table"
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _explain(msg: str, data: Any, info: mi.Type, source: str, at: str) -> ConfigError:
+    m = _KEY_IN.search(msg)
+    if m:
+        steps = _steps(m["path"])
+        head = msg[: m.start()].removeprefix("Expected ")
+        return fail(source, _dotted(steps, at), f"keys must be {head.strip('`')}s")
+    m = _AT.search(msg)
+    steps = _steps(m["path"]) if m else []
+    text = msg[: m.start()] if m else msg
+    value, t, steps = _walk(data, info, steps)
+    miss = re.match(r"Object missing required field `([^`]+)`", text)
+    if miss:
+        return fail(source, _dotted([*steps, miss[1]], at), "missing")
+    want = text if isinstance(t, mi.AnyType) else expected(t)
+    return fail(source, _dotted(steps, at), f"must be {want}, got {shown(value)}")

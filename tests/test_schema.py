@@ -1,0 +1,67 @@
+"""schema.convert: a config's mistakes in one line naming the key; a result file's keys
+beyond the reader's skipped."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import pytest
+
+from shockdyno.errors import ConfigError
+from shockdyno.schema import convert
+
+
+@dataclass(frozen=True)
+class Valve:
+    preload_m: float
+    enabled: bool = True
+
+
+@dataclass(frozen=True)
+class Damper:
+    name: str
+    valve: Valve
+    clicks: list[int] = field(default_factory=list)
+
+
+GOOD = {"name": "s46", "valve": {"preload_m": 1e-4, "enabled": False}, "clicks": [0, 7]}
+
+
+def _error(data: object, unknown_keys: bool = False) -> str:
+    with pytest.raises(ConfigError) as err:
+        convert(data, Damper, "damper.toml", unknown_keys=unknown_keys)
+    assert "\n" not in str(err.value)
+    return str(err.value)
+
+
+def test_an_int_where_a_bool_goes_names_the_key() -> None:
+    bad = GOOD | {"valve": {"preload_m": 1e-4, "enabled": 1}}
+    said = _error(bad)
+    assert said == "damper.toml: valve.enabled: must be true or false (no quotes), got 1"
+
+
+def test_an_unknown_key_is_named_with_the_nearest_known_one() -> None:
+    bad = GOOD | {"valve": {"preload_m": 1e-4, "enabeld": True}}
+    assert _error(bad) == "damper.toml: valve.enabeld: unknown key (did you mean enabled?)"
+
+
+def test_a_missing_key_says_missing() -> None:
+    assert _error({"name": "s46", "valve": {}}) == "damper.toml: valve.preload_m: missing"
+
+
+def test_unknown_keys_are_skipped_when_allowed_and_refused_by_default() -> None:
+    newer = GOOD | {"schema": 2, "valve": {"preload_m": 1e-4, "shims": [{"od_m": 0.02}]}}
+    got = convert(newer, Damper, "RESULT.json", unknown_keys=True)
+    assert got == Damper("s46", Valve(1e-4), [0, 7])
+    assert "unknown key" in _error(newer)
+    # Still checked where known: a wrong type is an error either way.
+    assert _error(GOOD | {"clicks": [0.5]}, unknown_keys=True) == (
+        "damper.toml: clicks[0]: must be a whole number, got 0.5"
+    )
+
+
+def test_non_finite_numbers_are_a_configs_error_only() -> None:
+    nan = GOOD | {"valve": {"preload_m": float("nan")}}
+    assert _error(nan) == "damper.toml: valve.preload_m: must be a finite number, got nan"
+    got = convert(nan, Damper, "RESULT.json", unknown_keys=True)
+    assert got.valve.preload_m != got.valve.preload_m  # read as it stands: the reader decides

@@ -31,7 +31,6 @@ from shockdyno.fit.ga import GaSettings, run_ga
 from shockdyno.fit.line_search import area_grid, golden_search, grid_search
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.problem import StackedProblem
-from shockdyno.fit.result import apply_overrides
 from shockdyno.fit.sweep import fit_sweep, ga_fitness, l1_problems, polish_l1
 from shockdyno.fit.synthetic import PERTURBED_GLOBALS, synthetic_sweep
 from shockdyno.model import load_spec
@@ -45,7 +44,7 @@ TERMS_AIM = 3.0
 
 def main() -> None:
     nominal = load_spec()
-    truth = apply_overrides(nominal, PERTURBED_GLOBALS)
+    truth = nominal.with_values(PERTURBED_GLOBALS)
     a_max = nominal.bleed_bore_area_m2
     # With the oil temperature channel a dyno records (40 °C): the thermal term of [4]
     # reads it (the plain fit ignores it).

@@ -7,6 +7,7 @@ import math
 
 from shockdyno.diagnose.engine import CalibrationRow, Finding
 from shockdyno.diagnose.verdict import describe, describe_calibration
+from shockdyno.model.params import Estimate
 
 
 def _finding(physics: str, params: dict[str, tuple[float, float | None]]) -> Finding:
@@ -20,7 +21,9 @@ def _finding(physics: str, params: dict[str, tuple[float, float | None]]) -> Fin
         heldout_detail="",
         effect_rms_n=10.0,
         effect_peak_n=20.0,
-        parameters={k: {"value": v, "sd": sd, "unit": ""} for k, (v, sd) in params.items()},
+        parameters={
+            k: Estimate(v, math.nan if sd is None else sd, "") for k, (v, sd) in params.items()
+        },
     )
 
 

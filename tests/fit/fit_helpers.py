@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from shockdyno.fit.problem import nominal_value
-from shockdyno.fit.result import apply_overrides
 from shockdyno.fit.synthetic import PERTURBED_GLOBALS
 from shockdyno.model import load_spec
 from shockdyno.model.spec import DamperSpec
@@ -12,8 +10,8 @@ TRUE_GLOBALS = PERTURBED_GLOBALS  # the "real" damper of these tests
 
 
 def true_spec() -> DamperSpec:
-    return apply_overrides(load_spec(), TRUE_GLOBALS)
+    return load_spec().with_values(TRUE_GLOBALS)
 
 
 def nominal(key: str) -> float:
-    return nominal_value(load_spec(), key)
+    return load_spec().value(key)

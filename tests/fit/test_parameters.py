@@ -5,19 +5,28 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from shockdyno.errors import ConfigError
 from shockdyno.fit.parameters import (
     AREA_BC,
     AREA_BT,
+    DEFAULT_GLOBALS,
     GLOBAL,
     TERM,
+    Parameter,
     ParameterSet,
     calibration_set,
+    global_parameters,
+    spec_global,
 )
+from shockdyno.model.spec import load_spec
 
 
 def _set() -> ParameterSet:
     return calibration_set(
-        {"gas_pressure_pa": (1.6e6, 1.6e6, 0.2, 5.0), "friction_n": (35.0, 35.0, 0.0, 4.0)},
+        [
+            Parameter("gas_pressure_pa", GLOBAL, 1.6e6, 1.6e6, 0.2, 5.0),
+            Parameter("friction_n", GLOBAL, 35.0, 35.0, 0.0, 4.0),
+        ],
         {"friction.breakaway_n": (25.0, 10.0, 0.0, 100.0)},
         np.array([1e-7, 2e-7, 3e-7]),
         np.array([4e-7, 5e-7, 6e-7]),
@@ -54,7 +63,29 @@ def test_a_moved_vector_comes_back_by_name_in_its_own_units() -> None:
 
 def test_the_order_given_within_a_kind_is_kept_whatever_order_kinds_come_in() -> None:
     ps = calibration_set(
-        {"b": (1.0, 1.0, 0, 2), "a": (2.0, 1.0, 0, 3)}, {}, np.zeros(0), np.zeros(0), 1e-6, 1e-4
+        [Parameter("b", GLOBAL, 1.0, 1.0, 0, 2), Parameter("a", GLOBAL, 2.0, 1.0, 0, 3)],
+        {},
+        np.zeros(0),
+        np.zeros(0),
+        1e-6,
+        1e-4,
     )
     assert [p.name for p in ps.items] == ["b", "a"]
     assert ps.span(TERM) == slice(2, 2) and ps.values(ps.theta0(), TERM) == {}
+
+
+def test_a_spec_global_is_declared_once_read_and_set_by_name() -> None:
+    spec = load_spec()
+    got = {p.name: p for p in global_parameters(spec)}
+    assert tuple(got) == DEFAULT_GLOBALS
+    gas = got["gas_pressure_pa"]
+    assert (gas.value, gas.scale, gas.unit) == (spec.gas_pressure_pa, spec.gas_pressure_pa, "Pa")
+    assert spec_global("gas_pressure_pa").bounds(1e6) == (2e5, 5e6)
+    preload = got["rebound_valve.preload_m"]
+    assert preload.value == spec.rebound_valve.preload_m and preload.unit == "m"
+    moved = spec.with_values({"rebound_valve.preload_m": 2e-4, "friction_n": 12.0})
+    assert moved.value("rebound_valve.preload_m") == 2e-4 and moved.friction_n == 12.0
+    assert moved.compression_valve == spec.compression_valve  # the other valve untouched
+    for bad in ("friction", "rebound_valve.colour", "name", "rebound_valve"):
+        with pytest.raises(ConfigError, match="unknown damper parameter"):
+            spec.value(bad)

@@ -13,8 +13,7 @@ from shockdyno.diagnose.cycles import BinnedTest
 from shockdyno.diagnose.data import Data, time_halves
 from shockdyno.diagnose.fitting import Fitted, evaluate, predict, refit
 from shockdyno.diagnose.stats import lr_bootstrap
-from shockdyno.fit.problem import DEFAULT_GLOBALS, global_params, nominal_value
-from shockdyno.fit.result import apply_overrides
+from shockdyno.fit.parameters import global_parameters
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.terms import make_term
 
@@ -62,10 +61,9 @@ def binned_jacobian(data: Data, fitted: Fitted) -> tuple[FloatArray, int]:
     bc, bt = fitted.area_vectors(data)
     f0 = fitted.force
     cols: list[FloatArray] = []
-    for g in global_params(model.spec, DEFAULT_GLOBALS):
+    for g in global_parameters(model.spec):
         h = 1e-4 * g.scale
-        value = nominal_value(model.spec, g.key)
-        moved = model.with_spec(apply_overrides(model.spec, {g.key: value + h}))
+        moved = model.with_spec(model.spec.with_values({g.name: g.value + h}))
         cols.append((prob.force(moved, bc, bt) - f0) / h * g.scale)
     declared = dict(model.param_list())
     for q in fitted.free:

@@ -45,10 +45,11 @@ from shockdyno.diagnose.spikes import remove_spikes
 from shockdyno.diagnose.stats import MismatchStat, mismatch_test, noise_draws
 from shockdyno.errors import FitError
 from shockdyno.fit.metrics import error_metrics
+from shockdyno.fit.parameters import DEFAULT_GLOBALS, spec_global
 from shockdyno.fit.prepare import PreparedTest, prepare_tests, whole_cycles
-from shockdyno.fit.problem import DEFAULT_GLOBALS, nominal_value
 from shockdyno.fit.result import FitResult
 from shockdyno.model.composite import DamperModel, Term
+from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, load_spec
 from shockdyno.model.terms import LIBRARY, make_term
 from shockdyno.record.types import TestData
@@ -78,14 +79,6 @@ DEFAULT_SEPARATE = "tests at other frequencies, amplitudes and gas pressures"
 # stop, a top-out spring) and is left to the search.
 GAS_VOLUME = "gas_spring.volume_factor"
 GAS_VOLUME_RANGE = (0.5, 2.0)
-GLOBAL_UNITS = {
-    "gas_pressure_pa": "Pa",
-    "friction_n": "N",
-    "compression_valve.preload_m": "m",
-    "compression_valve.face_area_m2": "m²",
-    "rebound_valve.preload_m": "m",
-    "rebound_valve.face_area_m2": "m²",
-}
 
 
 @dataclass
@@ -99,7 +92,7 @@ class Finding:
     heldout_detail: str
     effect_rms_n: float
     effect_peak_n: float
-    parameters: dict[str, dict[str, object]]
+    parameters: dict[str, Estimate]  # the term's, at the fit that was scored
     ambiguous_with: list[str] = field(default_factory=list)
     why_not: str = ""
 
@@ -175,22 +168,20 @@ class Diagnosis:
         return not math.isnan(self.mismatch.p_value)
 
 
-def _parameters(fitted: Fitted, name: str) -> dict[str, dict[str, object]]:
+def _parameters(fitted: Fitted, name: str) -> dict[str, Estimate]:
     term = fitted.model.term(name)
     if term is None:
         return {}
-    out: dict[str, dict[str, object]] = {}
-    for p in term.params():
-        q = term.qualified(p.name)
-        sd = fitted.term_sd.get(q, math.nan)
-        value = fitted.model.value(q)
-        out[p.name] = {
-            "value": value if math.isfinite(value) else None,
-            "sd": sd if math.isfinite(sd) else None,
-            "unit": p.unit,
-            **({"fixed": True} if q not in fitted.free else {}),
-        }
-    return out
+    return {
+        p.name: Estimate(
+            fitted.model.value(q),
+            fitted.term_sd.get(q, math.nan),
+            p.unit,
+            fixed=q not in fitted.free,
+        )
+        for p in term.params()
+        for q in (term.qualified(p.name),)
+    }
 
 
 def _cosine(a: FloatArray, b: FloatArray) -> float:
@@ -410,10 +401,10 @@ def calibration_rows(
     rows = [
         CalibrationRow(
             key,
-            nominal_value(spec, key),
-            nominal_value(got, key),
+            spec.value(key),
+            got.value(key),
             fitted.globals_sd.get(key, math.nan),
-            GLOBAL_UNITS.get(key, ""),
+            spec_global(key).unit,
             share,
         )
         for key in DEFAULT_GLOBALS

@@ -17,8 +17,9 @@ from numpy.typing import NDArray
 from shockdyno.diagnose.data import Data
 from shockdyno.fit.areas import start_areas
 from shockdyno.fit.calibrate import calibrate
+from shockdyno.fit.parameters import global_parameters
 from shockdyno.fit.prepare import PreparedTest
-from shockdyno.fit.problem import DEFAULT_GLOBALS, global_params, prepared_inputs
+from shockdyno.fit.problem import prepared_inputs
 from shockdyno.model.composite import DamperModel, Evaluation
 
 FloatArray = NDArray[np.float64]
@@ -110,7 +111,7 @@ def refit(
             bt0 = np.where(np.isfinite(bt0), bt0, sbt)
     else:
         bc0, bt0 = start_areas(prob, model, a_max)
-    params = global_params(model.spec, DEFAULT_GLOBALS)
+    params = global_parameters(model.spec)
     cal = calibrate(prob, model, params, free, bc0, bt0, a_max, max_nfev=max_nfev, robust=False)
     fitted_model = cal.model(prob, model)
     prob = prob.for_model(fitted_model)

@@ -214,7 +214,7 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
                 "lr_n2": f.lr_n2,
                 "effect_rms_n": f.effect_rms_n,
                 "effect_peak_n": f.effect_peak_n,
-                "parameters": f.parameters,
+                "parameters": {k: e.to_json() for k, e in f.parameters.items()},
                 "ambiguous_with": f.ambiguous_with,
                 "why_not": f.why_not,
             }

@@ -12,15 +12,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
-from shockdyno.fit.parameters import AREA_BC, AREA_BT, GLOBAL, TERM, calibration_set
-from shockdyno.fit.problem import GlobalParam, StackedProblem, nominal_value
+from shockdyno.fit.parameters import AREA_BC, AREA_BT, GLOBAL, TERM, Parameter, calibration_set
+from shockdyno.fit.problem import StackedProblem
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Param
 
@@ -71,7 +71,7 @@ def autocorrelation_factor(r: FloatArray, test_id: NDArray[np.intp], max_lag: in
 def calibrate(
     prob: StackedProblem,
     base: DamperModel,
-    params: Sequence[GlobalParam],
+    params: Sequence[Parameter],
     free: Sequence[str],
     a_bc0: FloatArray,
     a_bt0: FloatArray,
@@ -83,7 +83,7 @@ def calibrate(
     n = prob.n_groups
     declared: dict[str, Param] = dict(base.param_list())
     ps = calibration_set(
-        {g.key: (nominal_value(prob.base, g.key), g.scale, g.lo, g.hi) for g in params},
+        [replace(g, value=prob.base.value(g.name)) for g in params],  # from the problem's spec
         {
             q: (base.value(q), declared[q].scale, declared[q].lo / declared[q].scale,
                 declared[q].hi / declared[q].scale)

@@ -108,7 +108,7 @@ def globals_rows(result: FitResult, units: Units = SI) -> tuple[list[str], list[
     beside the spec's values, in engineering units, and the force channel's delay; a
     global pressed against its calibration range reads "at lower bound (...)". Shared by
     the terminal table and the report's fit section."""
-    from shockdyno.fit.problem import global_bounds  # the model's weight, only when drawn
+    from shockdyno.fit.parameters import spec_global  # the model's weight, only when drawn
 
     cal = result.info.get("calibration", {})
     nominal, sd = cal.get("globals_nominal", {}), cal.get("globals_sd", {})
@@ -120,9 +120,9 @@ def globals_rows(result: FitResult, units: Units = SI) -> tuple[list[str], list[
         show = shown(unit_of_key(key), units, base if known else value)
         fitted = show.text(value)
         if known:
-            side = bound_hit(value, *global_bounds(key, base))
+            side = bound_hit(value, *spec_global(key).bounds(base))
             if side:
-                lo, hi = global_bounds(key, base)
+                lo, hi = spec_global(key).bounds(base)
                 fitted = bound_text(side, lo if side == "lower" else hi, show)
         change = "?"
         if known and base != 0:

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from shockdyno.model.spec import DamperSpec
+
 FloatArray = NDArray[np.float64]
 
 GLOBAL = "global"  # a spec value: "gas_pressure_pa", "rebound_valve.preload_m"
@@ -32,6 +34,59 @@ class Parameter:
     scale: float
     lo: float  # bounds of value / scale
     hi: float
+    unit: str = ""
+
+
+@dataclass(frozen=True)
+class SpecGlobal:
+    """A spec value the calibration may move (named as DamperSpec.value names it), within
+    factors of the spec's own value; `fallback` is its scale where the spec gives 0."""
+
+    name: str
+    unit: str
+    lo_factor: float
+    hi_factor: float
+    fallback: float
+
+    def scale(self, nominal: float) -> float:
+        return nominal if nominal > 0 else self.fallback
+
+    def bounds(self, nominal: float) -> tuple[float, float]:
+        """The SI range it is calibrated within."""
+        s = self.scale(nominal)
+        return self.lo_factor * s, self.hi_factor * s
+
+    def parameter(self, nominal: float) -> Parameter:
+        return Parameter(
+            self.name, GLOBAL, nominal, self.scale(nominal), self.lo_factor, self.hi_factor,
+            self.unit,
+        )  # fmt: skip
+
+
+# Bounds as factors of the nominal value: wide enough for a real damper's departure from
+# its drawing, narrow enough to keep the valve physical (no zero face area).
+SPEC_GLOBALS: dict[str, SpecGlobal] = {
+    g.name: g
+    for g in (
+        SpecGlobal("gas_pressure_pa", "Pa", 0.2, 5.0, 1.0e6),
+        SpecGlobal("friction_n", "N", 0.0, 6.0, 20.0),
+        SpecGlobal("compression_valve.preload_m", "m", 0.0, 5.0, 1.0e-4),
+        SpecGlobal("compression_valve.face_area_m2", "m²", 0.2, 5.0, 1.0e-4),
+        SpecGlobal("rebound_valve.preload_m", "m", 0.0, 5.0, 1.0e-4),
+        SpecGlobal("rebound_valve.face_area_m2", "m²", 0.2, 5.0, 1.0e-4),
+    )
+}
+DEFAULT_GLOBALS = tuple(SPEC_GLOBALS)
+
+
+def spec_global(name: str) -> SpecGlobal:
+    """The declaration of a calibrated spec value (any other spec number: 0.2-5x, unitless)."""
+    return SPEC_GLOBALS.get(name) or SpecGlobal(name, "", 0.2, 5.0, 1.0)
+
+
+def global_parameters(spec: DamperSpec, names: Sequence[str] = DEFAULT_GLOBALS) -> list[Parameter]:
+    """The spec values a calibration fits, each starting at the spec's value."""
+    return [spec_global(n).parameter(spec.value(n)) for n in names]
 
 
 class ParameterSet:
@@ -86,16 +141,16 @@ class ParameterSet:
 
 
 def calibration_set(
-    globals_start: Mapping[str, tuple[float, float, float, float]],
+    globals_start: Sequence[Parameter],
     terms_start: Mapping[str, tuple[float, float, float, float]],
     a_bc: FloatArray,
     a_bt: FloatArray,
     area_scale: float,
     a_max: float,
 ) -> ParameterSet:
-    """The set a calibration fits: globals and term parameters as name -> (value, scale,
-    lo, hi) with lo, hi in scaled units; every group's two areas from 0 to a_max."""
-    items = [Parameter(k, GLOBAL, *v) for k, v in globals_start.items()]
+    """The set a calibration fits: the globals, term parameters as name -> (value, scale,
+    lo, hi) with lo, hi in scaled units, and every group's two areas from 0 to a_max."""
+    items = list(globals_start)
     items += [Parameter(k, TERM, *v) for k, v in terms_start.items()]
     for kind, start in ((AREA_BC, a_bc), (AREA_BT, a_bt)):
         items += [

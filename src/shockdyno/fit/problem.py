@@ -20,57 +20,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shockdyno.fit.prepare import PreparedTest
-from shockdyno.fit.result import apply_overrides
 from shockdyno.model.composite import DamperModel, ModelInputs
 from shockdyno.model.spec import DamperSpec
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
-
-
-@dataclass(frozen=True)
-class GlobalParam:
-    """A calibrated damper parameter, optimised as value / scale within [lo, hi]."""
-
-    key: str
-    scale: float
-    lo: float
-    hi: float
-
-
-# Bounds as factors of the nominal value: wide enough for a real damper's departure from
-# its drawing, narrow enough to keep the valve physical (no zero face area).
-_FACTORS = {
-    "gas_pressure_pa": (0.2, 5.0, 1.0e6),
-    "friction_n": (0.0, 6.0, 20.0),
-    "compression_valve.preload_m": (0.0, 5.0, 1.0e-4),
-    "compression_valve.face_area_m2": (0.2, 5.0, 1.0e-4),
-    "rebound_valve.preload_m": (0.0, 5.0, 1.0e-4),
-    "rebound_valve.face_area_m2": (0.2, 5.0, 1.0e-4),
-}
-DEFAULT_GLOBALS = tuple(_FACTORS)
-
-
-def nominal_value(spec: DamperSpec, key: str) -> float:
-    head, _, tail = key.partition(".")
-    obj = getattr(spec, head)
-    return float(getattr(obj, tail) if tail else obj)
-
-
-def global_bounds(key: str, nominal: float) -> tuple[float, float]:
-    """The SI range a global is calibrated within (as global_params sets it)."""
-    lo, hi, fallback = _FACTORS.get(key, (0.2, 5.0, 1.0))
-    scale = nominal if nominal > 0 else fallback
-    return lo * scale, hi * scale
-
-
-def global_params(spec: DamperSpec, keys: Sequence[str] = DEFAULT_GLOBALS) -> list[GlobalParam]:
-    out = []
-    for key in keys:
-        lo, hi, fallback = _FACTORS.get(key, (0.2, 5.0, 1.0))
-        nominal = nominal_value(spec, key)
-        out.append(GlobalParam(key, nominal if nominal > 0 else fallback, lo, hi))
-    return out
 
 
 def full_step(p: PreparedTest, max_rate_hz: float | None) -> int:
@@ -230,7 +184,7 @@ class StackedProblem:
         return int(self.inputs.size)
 
     def spec_with(self, overrides: dict[str, float]) -> DamperSpec:
-        return apply_overrides(self.base, overrides) if overrides else self.base
+        return self.base.with_values(overrides) if overrides else self.base
 
     def force(
         self, model: DamperModel | DamperSpec, a_bc: FloatArray, a_bt: FloatArray

@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -19,12 +19,12 @@ import numpy as np
 
 from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError, FitError
-from shockdyno.fit.trend import AreaTrend
+from shockdyno.fit.result_doc import TestDoc, read_fit_doc
+from shockdyno.fit.trend import AreaTrend, nan
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, load_spec
 from shockdyno.model.terms import LIBRARY, make_term
-from shockdyno.result_files import read_result
 
 
 @dataclass(frozen=True)
@@ -80,37 +80,19 @@ class TestValidation:
         }
 
     @staticmethod
-    def from_json(d: dict[str, Any]) -> TestValidation:
-        temp = d.get("temperature_mean_C")
+    def from_doc(d: TestDoc) -> TestValidation:
         return TestValidation(
-            index=int(d["index"]),
-            clicks=int(d["clicks"]),
-            gas_clicks=int(d.get("gas_clicks", 0)),
-            frequency_hz=float(d["frequency_hz"]),
-            motion=str(d.get("motion", "sine")),
-            n_samples=int(d.get("n_samples", 0)),
-            duration_s=float(d.get("duration_s", 0.0)),
-            temperature_mean_c=None if temp is None else float(temp),
-            proposed={k: _none_to_nan(v) for k, v in dict(d.get("proposed", {})).items()},
-            talbott={k: _none_to_nan(v) for k, v in dict(d.get("talbott", {})).items()},
+            index=d.index,
+            clicks=d.clicks,
+            gas_clicks=d.gas_clicks,
+            frequency_hz=d.frequency_hz,
+            motion=d.motion,
+            n_samples=d.n_samples,
+            duration_s=d.duration_s,
+            temperature_mean_c=d.temperature_mean_C,
+            proposed={k: nan(v) for k, v in d.proposed.items()},
+            talbott={k: nan(v) for k, v in d.talbott.items()},
         )
-
-
-def apply_overrides(spec: DamperSpec, overrides: dict[str, float]) -> DamperSpec:
-    """A copy of spec with `field` or `valve.field` values replaced."""
-    changes: dict[str, Any] = {}
-    for key, value in overrides.items():
-        head, _, tail = key.partition(".")
-        if not hasattr(spec, head):
-            raise ConfigError(f"unknown damper parameter {key!r}")
-        if tail:
-            part = changes.get(head, getattr(spec, head))
-            if not hasattr(part, tail):
-                raise ConfigError(f"unknown damper parameter {key!r}")
-            changes[head] = replace(part, **{tail: float(value)})
-        else:
-            changes[head] = float(value)
-    return replace(spec, **changes)
 
 
 @dataclass
@@ -139,7 +121,7 @@ class FitResult:
         return FitResult(spec_path=str(spec_path), globals={}, clicks=fits)
 
     def spec(self) -> DamperSpec:
-        return apply_overrides(load_spec(self.spec_path), self.globals)
+        return load_spec(self.spec_path).with_values(self.globals)
 
     def model(self) -> DamperModel:
         """The fitted damper: spec with the globals, and the fitted terms at their values.
@@ -263,51 +245,37 @@ class FitResult:
 
     @staticmethod
     def load(path: str | Path, flag: str = "--fit") -> FitResult:
-        p = Path(path)
-        doc = read_result(p, flag, "fit")  # one line for a recording, a DIAG.json, ...
-        try:
-            clicks = [
+        d = read_fit_doc(Path(path), flag)
+        return FitResult(
+            spec_path=d.spec_path,
+            globals=dict(d.globals),
+            clicks=[
                 ClickFit(
-                    clicks=int(c["clicks"]),
-                    gas_clicks=int(c.get("gas_clicks", 0)),
-                    a_bc_m2=float(c["A_bc_m2"]),
-                    a_bt_m2=float(c["A_bt_m2"]),
-                    a_b_talbott_m2=float(c["A_b_talbott_m2"]),
-                    a_bc_sd_m2=_none_to_nan(c.get("A_bc_sd_m2")),
-                    a_bt_sd_m2=_none_to_nan(c.get("A_bt_sd_m2")),
-                    a_b_talbott_sd_m2=_none_to_nan(c.get("A_b_talbott_sd_m2")),
-                    identifiable_bc=bool(c.get("identifiable_bc", True)),
-                    identifiable_bt=bool(c.get("identifiable_bt", True)),
-                    objective_n=_none_to_nan(c.get("objective_n")),
-                    objective_talbott_n=_none_to_nan(c.get("objective_talbott_n")),
-                    bleed_share_bc=_none_to_nan(c.get("bleed_share_bc")),
-                    bleed_share_bt=_none_to_nan(c.get("bleed_share_bt")),
+                    clicks=c.clicks,
+                    gas_clicks=c.gas_clicks,
+                    a_bc_m2=c.A_bc_m2,
+                    a_bt_m2=c.A_bt_m2,
+                    a_b_talbott_m2=c.A_b_talbott_m2,
+                    a_bc_sd_m2=nan(c.A_bc_sd_m2),
+                    a_bt_sd_m2=nan(c.A_bt_sd_m2),
+                    a_b_talbott_sd_m2=nan(c.A_b_talbott_sd_m2),
+                    identifiable_bc=c.identifiable_bc,
+                    identifiable_bt=c.identifiable_bt,
+                    objective_n=nan(c.objective_n),
+                    objective_talbott_n=nan(c.objective_talbott_n),
+                    bleed_share_bc=nan(c.bleed_share_bc),
+                    bleed_share_bt=nan(c.bleed_share_bt),
                 )
-                for c in doc["clicks"]
-            ]
-            return FitResult(
-                spec_path=str(doc["spec_path"]),
-                globals={k: float(v) for k, v in doc["globals"].items()},
-                clicks=clicks,
-                trend={str(k): AreaTrend.from_json(v) for k, v in doc.get("trend", {}).items()},
-                tests=[TestValidation.from_json(t) for t in doc.get("tests", [])],
-                info=dict(doc.get("info", {})),
-                terms={
-                    str(name): {
-                        str(k): Estimate(
-                            _none_to_nan(e["value"]),
-                            _none_to_nan(e.get("sd")),
-                            str(e.get("unit", "")),
-                            bool(e.get("fixed", False)),
-                            bool(e.get("at_bound", False)),
-                        )
-                        for k, e in dict(params).items()
-                    }
-                    for name, params in dict(doc.get("terms", {})).items()
-                },
-            )
-        except (KeyError, TypeError, ValueError, AttributeError) as exc:
-            raise ConfigError(f"{flag}: {p}: not a whole fit result ({exc!r:.200})") from None
+                for c in d.clicks
+            ],
+            trend={k: t.trend() for k, t in d.trend.items()},
+            tests=[TestValidation.from_doc(t) for t in d.tests],
+            info=dict(d.info),
+            terms={
+                name: {k: e.estimate() for k, e in params.items()}
+                for name, params in d.terms.items()
+            },
+        )
 
 
 # Parameters a term no longer has, read from older fits and left out: the chamber state
@@ -326,7 +294,3 @@ def _off(term: str, local: str) -> float:
 
 def _nan_to_none(v: float) -> float | None:
     return None if not np.isfinite(v) else float(v)
-
-
-def _none_to_nan(v: Any) -> float:
-    return float("nan") if v is None else float(v)

@@ -39,14 +39,9 @@ from shockdyno.fit.areas import (
 )
 from shockdyno.fit.calibrate import Calibration, calibrate
 from shockdyno.fit.ga import GaSettings, run_ga
+from shockdyno.fit.parameters import DEFAULT_GLOBALS, Parameter, global_parameters
 from shockdyno.fit.prepare import OBJECTIVE_RATE_HZ, PreparedTest, prepare_tests
-from shockdyno.fit.problem import (
-    DEFAULT_GLOBALS,
-    GlobalParam,
-    StackedProblem,
-    global_params,
-    nominal_value,
-)
+from shockdyno.fit.problem import StackedProblem
 from shockdyno.fit.result import ClickFit, FitResult
 from shockdyno.fit.terms import TermSelection, parse_terms
 from shockdyno.fit.trend import AreaTrend, polynomial_trend
@@ -69,7 +64,7 @@ class Problem:
     prob: StackedProblem
     model: DamperModel  # the base spec with the selected terms, at their start values
     selection: TermSelection
-    params: list[GlobalParam]
+    params: list[Parameter]
     a_max: float
 
 
@@ -110,7 +105,7 @@ def prepare_problem(
         prob=prob,
         model=model,
         selection=selection,
-        params=global_params(base, global_keys),
+        params=global_parameters(base, global_keys),
         a_max=base.bleed_bore_area_m2,
     )
 
@@ -380,7 +375,7 @@ def fit_sweep(
                 # Kept for readers of older results: the sensor_lag term's delay.
                 "force_delay_s": delay.value if delay is not None else 0.0,
                 "force_delay_sd_s": delay.sd if delay is not None else None,
-                "globals_nominal": {p.key: nominal_value(pb.model.spec, p.key) for p in pb.params},
+                "globals_nominal": {p.name: pb.model.spec.value(p.name) for p in pb.params},
                 "globals_sd": cal.globals_sd,
             },
             "n_tests": len(pb.prepared),

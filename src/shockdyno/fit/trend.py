@@ -12,11 +12,13 @@ which stops adding terms once they no longer pay for themselves.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
+
+from shockdyno.schema import convert
 
 MAX_DEGREE = 4
 
@@ -73,15 +75,35 @@ class AreaTrend:
 
     @staticmethod
     def from_json(d: dict[str, Any]) -> AreaTrend:
-        coef = tuple(float(c) for c in d["coefficients"])
+        """A trend from its JSON (FIT.json's `trend` entries; tests build them so)."""
+        return convert(d, TrendDoc, "trend", unknown_keys=True).trend()
+
+
+def nan(v: float | None) -> float:
+    """A JSON number that may be null (JSON has no NaN) as a float."""
+    return math.nan if v is None else float(v)
+
+
+@dataclass(frozen=True)
+class TrendDoc:
+    coefficients: list[float]  # highest power first
+    degree: int | None = None
+    clicks_used: list[int] = field(default_factory=list)
+    rms_m2: float | None = None
+    r2: float | None = None
+    selection: str = ""
+    gas_clicks: int = 0
+
+    def trend(self) -> AreaTrend:
+        coef = tuple(float(c) for c in self.coefficients)
         return AreaTrend(
-            degree=int(d.get("degree", len(coef) - 1)),
+            degree=len(coef) - 1 if self.degree is None else self.degree,
             coefficients=coef,
-            clicks_used=tuple(int(c) for c in d.get("clicks_used", ())),
-            rms_m2=float(d.get("rms_m2", float("nan"))),
-            r2=float(d.get("r2", float("nan"))),
-            selection=str(d.get("selection", "")),
-            gas_clicks=int(d.get("gas_clicks", 0)),
+            clicks_used=tuple(self.clicks_used),
+            rms_m2=nan(self.rms_m2),
+            r2=nan(self.r2),
+            selection=self.selection,
+            gas_clicks=self.gas_clicks,
         )
 
 

@@ -7,27 +7,27 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from shockdyno.model.params import Param
+from shockdyno.model.params import Estimate, Param
 from shockdyno.units import SI, Units
 
 
 @dataclass(frozen=True)
 class Reading:
-    """`values`: parameter name -> {"value", "sd", "fixed", ...} as DIAG.json holds them."""
+    """`values`: the term's fitted parameters by name (a finding's)."""
 
     params: tuple[Param, ...]
-    values: Mapping[str, Mapping[str, object]]
+    values: Mapping[str, Estimate]
     units: Units = SI
     spec_gas_pa: float = math.nan  # the spec's gas charge: the pressure air is counted at
 
     def v(self, name: str) -> float:
-        value = self.values.get(name, {}).get("value")
-        return float(value) if isinstance(value, int | float) else math.nan
+        est = self.values.get(name)  # a non-finite value (an off value) reads as NaN, as in JSON
+        return est.value if est is not None and math.isfinite(est.value) else math.nan
 
     def sd_value(self, name: str) -> float:
         """σ of a parameter (NaN when the fit gave none)."""
-        sd = self.values.get(name, {}).get("sd")
-        return float(sd) if isinstance(sd, int | float) and math.isfinite(sd) else math.nan
+        est = self.values.get(name)
+        return est.sd if est is not None and math.isfinite(est.sd) else math.nan
 
     def sd(self, name: str, scale: float = 1.0) -> str:
         """ " ± σ" in the value's scale, or "" when the fit gave none."""
@@ -39,7 +39,8 @@ class Reading:
         of its scale): a term's text names only what the data moved."""
         param = next((p for p in self.params if p.name == name), None)
         value = self.v(name)
-        if param is None or not math.isfinite(value) or self.values.get(name, {}).get("fixed"):
+        est = self.values.get(name)
+        if param is None or not math.isfinite(value) or (est is not None and est.fixed):
             return False
         sd = self.sd_value(name)
         noise = 3 * sd if math.isfinite(sd) else 0.0

@@ -1,0 +1,79 @@
+"""FIT.json is read through its typed document: what was written reads back the same,
+older and newer files read, and a garbled value is one line naming the key."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from shockdyno.errors import ConfigError
+from shockdyno.fit.result import FitResult
+from shockdyno.model.params import Estimate
+from shockdyno.model.spec import default_spec_path
+
+
+def _saved(tmp_path: Path) -> tuple[Path, FitResult]:
+    r = FitResult.from_spec(default_spec_path(), [0, 10, 21])
+    r.globals["friction_n"] = 31.5
+    r.terms = {
+        "sensor_lag": {"delay_s": Estimate(0.004, 1e-4, "s")},
+        "cavitation": {"release_pressure_pa": Estimate(-math.inf, math.nan, "Pa", fixed=True)},
+    }
+    path = tmp_path / "FIT.json"
+    r.save(path)
+    return path, r
+
+
+def test_a_saved_fit_reads_back_the_same(tmp_path: Path) -> None:
+    path, r = _saved(tmp_path)
+    back = FitResult.load(path)
+    assert back.to_json() == r.to_json()
+    floor = back.terms["cavitation"]["release_pressure_pa"]
+    assert math.isnan(floor.value) and floor.fixed  # JSON's null: the term's infinite off
+    assert back.spec().friction_n == 31.5
+
+
+def test_older_and_newer_files_read(tmp_path: Path) -> None:
+    old = {  # the keys the first fits wrote, nothing else
+        "spec_path": str(default_spec_path()),
+        "globals": {},
+        "clicks": [{"clicks": 5, "A_bc_m2": 1e-6, "A_bt_m2": 2e-6, "A_b_talbott_m2": 1.5e-6}],
+    }
+    p = tmp_path / "old.json"
+    p.write_text(json.dumps(old))
+    r = FitResult.load(p)
+    assert r.clicks[0].gas_clicks == 0 and math.isnan(r.clicks[0].a_bc_sd_m2)
+    assert r.areas(5) == (1e-6, 2e-6)
+    newer = dict(old, provenance={"by": "a later version"})
+    newer["clicks"] = [dict(old["clicks"][0], new_key=1)]
+    p.write_text(json.dumps(newer))
+    assert FitResult.load(p).areas(5) == (1e-6, 2e-6)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda d: d["clicks"][1].update(A_bc_m2="big"), r"clicks\[1\].A_bc_m2: must be a number"),
+        (lambda d: d["clicks"][0].pop("A_bt_m2"), r"clicks\[0\].A_bt_m2: missing"),
+        (lambda d: d["globals"].update(friction_n=[1]), r"globals.friction_n: must be a number"),
+        (
+            lambda d: d["terms"]["sensor_lag"]["delay_s"].update(fixed="yes"),
+            r"terms.sensor_lag.delay_s.fixed: must be true or false",
+        ),
+        (
+            lambda d: d["clicks"][2].update(clicks=2.5),
+            r"clicks\[2\].clicks: must be a whole number",
+        ),
+    ],
+)
+def test_a_garbled_value_is_one_line_naming_the_key(tmp_path: Path, change, message) -> None:
+    path, _ = _saved(tmp_path)
+    doc = json.loads(path.read_text())
+    change(doc)
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ConfigError, match=message) as info:
+        FitResult.load(path, "--fit")
+    assert str(info.value).startswith(f"--fit: {path}: ") and "\n" not in str(info.value)

@@ -116,7 +116,10 @@ DIAGNOSE_SAMPLE: dict[str, object] = {
         {"physics": "thermal", "claimed": False, "p_value": 0.41, "heldout_gain": 0.01,
          "parameters": {}, "ambiguous_with": []},
     ],
-    "verdict": {"physics": ["compressibility"], "unexplained": ["rebound at 0.5 Hz"],
+    "verdict": {"physics": ["compressibility"],
+                "unexplained": [{"stroke": "rebound", "x_range_m": [-0.03, -0.01],
+                                 "v_range_m_s": [-0.28, -0.12], "frequencies_hz": [0.5],
+                                 "share": 0.2}],
                 "text": "Oil compressibility explains most of the rebound mismatch."},
     "tests": [
         {"index": 0, "clicks": 0, "frequency_hz": 1.0, "E_t_before": 0.0625, "E_t_after": 0.0125},

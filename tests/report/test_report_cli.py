@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pytest
+from doc_samples import diagnosis, ride
 from test_report_build import parse
 
 from shockdyno.cli import main
 from shockdyno.report.diagnose_section import render_diagnose
 from shockdyno.report.html import Page
+from shockdyno.report.ride_section import render_ride
 
 
 def _sections(index: Path) -> list[str]:
@@ -52,7 +53,10 @@ def test_diagnose_section_renders_the_documented_keys(full_report: Path) -> None
     page = parse(full_report)
     text = full_report.read_text(encoding="utf-8")
     assert "Oil compressibility explains most of the rebound mismatch." in text
-    assert "Still unexplained: rebound at 0.5 Hz." in text
+    assert (
+        "Still unexplained: in rebound at -30 to -10 mm, -0.28 to -0.12 m/s "
+        "(0.5 Hz; 20 % of the structure)." in text
+    )
     findings = next(t for t in page.tables if t[0][1][0] == "physics")
     rows = {cells[0]: (cls, cells) for cls, cells in findings[1:]}
     assert set(rows) == {"compressibility", "thermal"}
@@ -68,29 +72,26 @@ def test_diagnose_section_renders_the_documented_keys(full_report: Path) -> None
     assert per_test[1][1][3:] == ["0.0625", "0.0125", "-80.0 %"]
 
 
-@pytest.mark.parametrize(
-    ("doc", "shown", "missing"),
-    [
-        ({}, [], "verdict, mismatch, findings, tests"),
-        ({"verdict": {"text": "only a verdict"}, "tests": "oops"}, ["only a verdict"],
-         "mismatch, findings, tests"),
-        ({"findings": [{"physics": "friction", "p_value": "n/a", "parameters": [1]}, 3],
-          "mismatch": {"where": [{"x_range_m": [0.01]}]}}, ["friction"], "verdict, tests"),
-        ([1, 2], ["holds no object"], None),
-    ],
-)  # fmt: skip
-def test_diagnose_section_skips_what_is_missing_or_malformed(
-    doc: object, shown: list[str], missing: str | None
-) -> None:
-    # Straight onto a page: the diagnose JSON's shape is the variable, not the recording.
+def test_diagnose_section_says_what_the_file_lacks() -> None:
+    # Straight onto a page: the document is the variable, not the recording. (A garbled
+    # one never gets here: reading it is the error, test_documents.py.)
     page = Page("diagnose only")
-    render_diagnose(page, json.loads(json.dumps(doc)))
+    render_diagnose(page, diagnosis(verdict={"text": "only a verdict", "physics": [],
+                                             "unexplained": []}))  # fmt: skip
     text = page.render()
-    assert "<h2" in text and ">Diagnosis</h2>" in text
-    for s in shown:
-        assert s in text
-    if missing:
-        assert f"Not in the diagnose file: {missing}." in text
+    assert ">Diagnosis</h2>" in text and "only a verdict" in text
+    assert "Physics named: –." in text and "not significant (p = 0.5;" in text
+    assert "Not in the diagnose file: findings, tests." in text
+    assert "Damper spec" not in text and "Still unexplained" not in text
+
+
+def test_ride_section_of_a_file_without_runs_or_fitted_clicks() -> None:
+    page = Page("ride only")
+    render_ride(page, ride())  # a linear damper: no click settings
+    text = page.render()
+    assert "The car: sprung mass 500 kg, unsprung mass 60 kg, spring 60 kN/m" in text
+    assert "The ride file has no runs (key &#x27;rms&#x27;)." in text
+    assert "Interpolated" not in text and "Table 7 analogue" not in text
 
 
 def test_ride_section_flags_runs_and_explains_the_paper_gap(full_report: Path) -> None:

@@ -10,16 +10,20 @@ one file. Every error becomes the row's one-line `error`, never the batch's end.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from shockdyno import __version__
 from shockdyno.atomic import write_text_atomic
-from shockdyno.errors import ShockdynoError
+from shockdyno.errors import ConfigError, ShockdynoError
+
+if TYPE_CHECKING:  # the report package pulls in matplotlib: imported where it is used
+    from shockdyno.report.documents import DiagnosisDoc
 
 KINDS = ("fit", "diagnose", "report")
 SUFFIX = {"fit": ".fit.json", "diagnose": ".diag.json", "report": "/index.html"}
@@ -150,20 +154,23 @@ def _diagnose(job: Job, row: Row) -> None:
     residual_maps(d, figures / FIGURES["residual_maps"])
     loops(d, figures / FIGURES["loops"])
     _from_tests(row, [p.data for p in d.data.prepared])
-    _from_diag(row, doc)
+    from shockdyno.report.documents import DiagnosisDoc, typed
+
+    _from_diag(row, typed(doc, DiagnosisDoc, str(job.result_path)))
 
 
 def _report(job: Job, row: Row) -> None:
     from shockdyno.fit.result import FitResult
     from shockdyno.record import open_recording
     from shockdyno.report.build import build_report
+    from shockdyno.report.documents import read_diagnosis
 
     rec = open_recording(job.recording).require_recording()
     tests = rec.load_all()
     fit_path = _fit_for(job)
     fit = FitResult.load(fit_path).require_usable(f"--fit {fit_path}") if fit_path else None
     diag_path = Path(job.out_dir) / f"{job.name}.diag.json"
-    diag = json.loads(diag_path.read_text()) if diag_path.exists() else None
+    diag = read_diagnosis(diag_path, "diagnose result") if diag_path.exists() else None
     out = Path(job.out_dir) / job.name
     title = f"{rec.metadata.get('damper_id') or job.name}: dyno report"
     metadata = {"recording": Path(job.recording).name, **rec.metadata}
@@ -192,13 +199,14 @@ def _fit_for(job: Job) -> str | None:
 
 def _describe(row: Row, job: Job) -> None:
     """A skipped row still says what the result holds."""
-    try:
-        doc = json.loads(job.result_path.read_text())
-    except (OSError, ValueError):
+    from shockdyno.report.documents import read_diagnosis
+
+    if not job.result_path.exists():
         return
     row.result = str(job.result_path)
-    if job.kind == "diagnose" and isinstance(doc, dict):
-        _from_diag(row, doc)
+    if job.kind == "diagnose":
+        with contextlib.suppress(ConfigError):  # an unreadable result describes nothing
+            _from_diag(row, read_diagnosis(job.result_path, "diagnose result"))
 
 
 def _from_tests(row: Row, tests: list[Any]) -> None:
@@ -207,19 +215,17 @@ def _from_tests(row: Row, tests: list[Any]) -> None:
     row.frequencies_hz = ",".join(f"{f:g}" for f in sorted({m.frequency_hz for m in metas}))
 
 
-def _from_diag(row: Row, doc: dict[str, Any]) -> None:
-    verdict = doc.get("verdict", {})
-    row.physics = ";".join(verdict.get("physics", []))
+def _from_diag(row: Row, doc: DiagnosisDoc) -> None:
+    row.physics = ";".join(doc.verdict.physics)
     row.calibration = ";".join(
-        f"{r['parameter']}={r['fitted'] / r['spec_value']:.3g}x"
-        for r in verdict.get("calibration", [])
-        if r.get("moved") and r.get("spec_value")
+        f"{r.parameter}={r.fitted / r.spec_value:.3g}x"
+        for r in doc.verdict.calibration
+        if r.moved and r.spec_value
     )
-    tests = doc.get("tests", [])
-    row.e_t_before = _mean([t.get("E_t_before") for t in tests])
-    row.e_t_after = _mean([t.get("E_t_after") for t in tests])
+    row.e_t_before = _mean([t.E_t_before for t in doc.tests])
+    row.e_t_after = _mean([t.E_t_after for t in doc.tests])
 
 
-def _mean(values: list[Any]) -> float | None:
-    ok = [float(v) for v in values if isinstance(v, int | float)]
+def _mean(values: list[float | None]) -> float | None:
+    ok = [v for v in values if v is not None]
     return sum(ok) / len(ok) if ok else None

@@ -9,7 +9,13 @@ from typing import Any
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.outputs import check_report_dir
 from shockdyno.report import temperature
-from shockdyno.result_files import read_result
+from shockdyno.report.documents import (
+    DiagnosisDoc,
+    RecordingRef,
+    RideDoc,
+    read_diagnosis,
+    read_ride,
+)
 from shockdyno.units import add_argument as add_units_argument
 from shockdyno.units import get as get_units
 
@@ -67,23 +73,29 @@ def _gas_force(metadata: dict[str, str]) -> float | None:
         return None
 
 
-def _provenance(args: argparse.Namespace, fit: Any, diagnose: Any, ride: Any) -> dict[str, str]:
+def _sha256(ref: RecordingRef | None) -> str | None:
+    return (ref.sha256 or None) if ref is not None else None
+
+
+def _provenance(
+    args: argparse.Namespace, fit: Any, diagnose: DiagnosisDoc | None, ride: RideDoc | None
+) -> dict[str, str]:
     """Each result given against the recording's hash: a page row each; a result of
     another recording is refused unless --force (issue 21.4)."""
     from shockdyno.record.identity import provenance, recording_sha256, stored_sha256
 
-    given = [
-        ("fit", "the fit", "--fit", fit.info if fit is not None else None, ("recording",)),
-        ("diagnosis", "the diagnosis", "--diagnose", diagnose, ("info", "recording")),
-        ("ride", "the ride study's fit", "--ride", ride, ("fit_recording",)),
-    ]
-    if all(doc is None for *_, doc, _ in given):
+    given = []  # (row, what, flag, the hash it stores)
+    if fit is not None:
+        given.append(("fit", "the fit", "--fit", stored_sha256(fit.info, "recording", "sha256")))
+    if diagnose is not None:
+        given.append(("diagnosis", "the diagnosis", "--diagnose", _sha256(diagnose.info.recording)))
+    if ride is not None:
+        given.append(("ride", "the ride study's fit", "--ride", _sha256(ride.fit_recording)))
+    if not given:
         return {}
     actual = recording_sha256(Path(args.recording))
     return {
-        row: provenance(stored_sha256(doc, *keys, "sha256"), actual, what, flag, args.force)
-        for row, what, flag, doc, keys in given
-        if doc is not None
+        row: provenance(stored, actual, what, flag, args.force) for row, what, flag, stored in given
     }
 
 
@@ -99,8 +111,8 @@ def run_report(args: argparse.Namespace) -> int:
     inputs = [Path(p) for p in (args.recording, args.fit, args.diagnose, args.ride) if p]
     check_output_dir(out, inputs, args.force)
     fit = FitResult.load(args.fit).require_usable(f"--fit {args.fit}") if args.fit else None
-    diagnose = read_result(args.diagnose, "--diagnose", "diagnosis") if args.diagnose else None
-    ride = read_result(args.ride, "--ride", "ride") if args.ride else None
+    diagnose = read_diagnosis(args.diagnose, "--diagnose") if args.diagnose else None
+    ride = read_ride(args.ride, "--ride") if args.ride else None
     provenance_rows = _provenance(args, fit, diagnose, ride)
 
     console = Console(stderr=True)

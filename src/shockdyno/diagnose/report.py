@@ -11,6 +11,7 @@ from shockdyno.diagnose.engine import Diagnosis
 from shockdyno.diagnose.plots import loops, residual_maps
 from shockdyno.diagnose.verdict import in_units
 from shockdyno.report.diagnose_section import spec_shown
+from shockdyno.report.documents import SpecUsed, typed
 from shockdyno.report.html import Page
 from shockdyno.units import SI, Units
 
@@ -38,8 +39,8 @@ def write_report(d: Diagnosis, doc: dict[str, Any], out: Path, units: Units = SI
     page.section("Verdict")
     page.paragraph(doc["verdict"]["text_imperial" if units.imperial else "text"])
     used = doc.get("info", {}).get("spec")
-    if isinstance(used, dict):
-        page.paragraph(f"Damper spec: {spec_shown(used)}.")
+    if used is not None:
+        page.paragraph(f"Damper spec: {spec_shown(typed(used, SpecUsed, 'info.spec'))}.")
     page.section(
         "Findings",
         "Each candidate term refitted with the globals and areas; p from a cycle-bootstrap "

@@ -34,6 +34,7 @@ from shockdyno.report import clickchart, plots, repeatability, temperature
 from shockdyno.report import gas as gas_force
 from shockdyno.report.clickplots import force_vs_clicks
 from shockdyno.report.diagnose_section import render_diagnose, render_figures
+from shockdyno.report.documents import DiagnosisDoc, RideDoc, typed
 from shockdyno.report.html import SUMMARY_LEGEND, Page, summary_header, summary_row
 from shockdyno.report.interactive import Interactive
 from shockdyno.report.ride_section import render_ride
@@ -109,8 +110,8 @@ def build_report(
     extra_sections: Sequence[Section] = (),
     tables: Sequence[Table] = (),
     fit: FitResult | None = None,
-    diagnose: dict[str, Any] | None = None,
-    ride: dict[str, Any] | None = None,
+    diagnose: DiagnosisDoc | dict[str, Any] | None = None,
+    ride: RideDoc | dict[str, Any] | None = None,
     gas_force_n: float | None = None,
     progress: Callable[[str], None] | None = None,
     warn: Callable[[str], None] | None = None,
@@ -122,7 +123,9 @@ def build_report(
     """Write the report into ``out_dir``; returns the path of index.html.
 
     Every part is optional: no tests (a ride-only page), no fit (measured click chart
-    only), ``diagnose`` and ``ride`` as the JSON documents of those commands.
+    only), ``diagnose`` and ``ride`` as the documents of those commands
+    (`documents.read_diagnosis`, `read_ride`; a dict, as `to_json()` gives it, is read as
+    its file would be).
     ``gas_force_n``: the static gas force to mark on loops (taken from the fit if given,
     else the recording's). The click chart, the summary table and the peak-force plot show
     damping force, the gas force removed (report/gas.py), unless ``raw_force``; the loops
@@ -135,6 +138,9 @@ def build_report(
     JSON stay SI, the click-chart CSV names its units in its header.
     """
     say = progress or (lambda _: None)
+    # Read before anything is drawn: a garbled document stops the page in one line.
+    diag = None if diagnose is None else typed(diagnose, DiagnosisDoc, "the diagnosis")
+    ride_doc = None if ride is None else typed(ride, RideDoc, "the ride study")
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise ConfigError(f"report directory is a file: {out_dir}")
@@ -197,13 +203,11 @@ def build_report(
         say("fit figures")
         _fit_section(page, fit, tests, out_dir, units)
 
-    if diagnose is not None:
-        render_diagnose(page, diagnose, units)
-        render_figures(
-            page, diagnose, diagnose_dir, lambda png, n: _link_extra(out_dir, png, n), units
-        )
-    if ride is not None:
-        render_ride(page, ride, units)
+    if diag is not None:
+        render_diagnose(page, diag, units)
+        render_figures(page, diag, diagnose_dir, lambda png, n: _link_extra(out_dir, png, n), units)
+    if ride_doc is not None:
+        render_ride(page, ride_doc, units)
 
     # After the ride table: the ride page's figures follow the numbers they illustrate.
     for n, (heading, figures) in enumerate(extra_sections):

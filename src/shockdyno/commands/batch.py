@@ -8,8 +8,8 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno.batch.jobs import KINDS
+from shockdyno.commands.args import add_seed, add_spec
 from shockdyno.errors import ConfigError
-from shockdyno.lists import seed_arg
 
 
 def register(sub: Any) -> None:
@@ -39,9 +39,9 @@ def register(sub: Any) -> None:
     )
     g = p.add_argument_group("options passed to each command")
     g.add_argument("--terms", metavar="LIST", help="fit: default sensor_lag; diagnose: all")
-    g.add_argument("--spec", metavar="PATH", help="base damper spec TOML")
+    add_spec(g)
     g.add_argument("--alpha", type=float, default=0.01, help="diagnose: significance")
-    g.add_argument("--seed", type=seed_arg, default=0)
+    add_seed(g, "the GA (fit) and the bootstrap (diagnose)")
     g.add_argument("--optimizer", choices=("fast", "ga"), default="fast", help="fit")
     g.add_argument(
         "--fit",

@@ -9,9 +9,9 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno import units as units_mod
+from shockdyno.commands.args import add_seed, add_spec
 from shockdyno.diagnose.file import diagnose_file, parse_candidates
 from shockdyno.errors import ConfigError
-from shockdyno.lists import seed_arg
 
 
 def register(sub: Any) -> None:
@@ -43,9 +43,9 @@ def register(sub: Any) -> None:
         help="candidate terms, comma-separated, or 'all' (the whole library)",
     )
     p.add_argument("--report", metavar="DIR", help="also write figures and index.html here")
-    p.add_argument("--spec", metavar="PATH", help="base damper spec TOML (without --fit)")
+    add_spec(p, "without --fit")
     p.add_argument("--alpha", type=float, default=0.01, help="significance level of a claim")
-    p.add_argument("--seed", type=seed_arg, default=0, help="seed of the bootstrap")
+    add_seed(p, "the bootstrap")
     p.add_argument(
         "--force",
         action="store_true",

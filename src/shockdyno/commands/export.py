@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shockdyno import __version__
+from shockdyno.commands.args import add_force
 from shockdyno.errors import ConfigError
 from shockdyno.fit.result import FitResult
 from shockdyno.lists import parse_floats, parse_ints
@@ -58,7 +59,7 @@ def register(subparsers: Any) -> None:
         help="--damper-table: mm/s and N, or in/s and lbf (--csv is always SI, as its "
         "column names say)",
     )
-    p.add_argument("--force", action="store_true", help="write over files already in DIR")
+    add_force(p, "files already in DIR")
     p.set_defaults(func=_export)
 
 

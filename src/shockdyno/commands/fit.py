@@ -12,10 +12,10 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno import units as units_mod
+from shockdyno.commands.args import add_force, add_seed, add_spec
 from shockdyno.fit.display import Shown, bound_hit, bound_text, globals_rows, shown
 from shockdyno.fit.file import fit_file, result_json
 from shockdyno.fit.prepare import FITTED_ANYWAY
-from shockdyno.lists import seed_arg
 from shockdyno.outputs import check_output, check_report_dir, write_output
 from shockdyno.units import SI, Units
 
@@ -35,9 +35,7 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--json", required=True, metavar="FIT.json", help="where to write the result (- for stdout)"
     )
-    p.add_argument(
-        "--force", action="store_true", help="overwrite an existing --json file or --report page"
-    )
+    add_force(p, "an existing --json file or --report page")
     p.add_argument(
         "--report",
         metavar="DIR",
@@ -60,10 +58,8 @@ def register(sub: Any) -> None:
         default="fast",
         help="per-click optimiser: fast (default) or the paper's GA (Table 1; slower)",
     )
-    p.add_argument(
-        "--spec", metavar="PATH", help="base damper spec TOML (default: sim/ohlins-s46.toml)"
-    )
-    p.add_argument("--seed", type=seed_arg, default=0, help="seed of the GA (default 0)")
+    add_spec(p)
+    add_seed(p, "the GA (default 0)")
     p.add_argument(
         "--terms",
         default="sensor_lag",

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from shockdyno.commands.args import add_force
 from shockdyno.errors import RecordingError
 from shockdyno.outputs import check_output, is_stdout, write_output
 from shockdyno.progress import StageProgress
@@ -37,7 +38,7 @@ def register(subparsers: Any) -> None:
         metavar="PATH",
         help="also write the summary as JSON (- for stdout only)",
     )
-    p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
+    add_force(p, "an existing --json file")
     p.set_defaults(func=_info)
 
     p = subparsers.add_parser(
@@ -47,7 +48,7 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("manifest", type=Path, metavar="MANIFEST.csv")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="REC.mcap")
-    p.add_argument("--force", action="store_true", help="overwrite an existing output")
+    add_force(p, "an existing output")
     p.add_argument(
         "--allow-outside-files",
         action="store_true",

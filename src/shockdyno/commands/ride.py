@@ -9,9 +9,10 @@ import sys
 from pathlib import Path
 from typing import TypeVar
 
+from shockdyno.commands.args import add_force, add_seed
 from shockdyno.errors import ConfigError
 from shockdyno.fit.result import FitResult
-from shockdyno.lists import parse_floats, parse_ints, parse_letters, seed_arg
+from shockdyno.lists import parse_floats, parse_ints, parse_letters
 from shockdyno.model.quarter_car import QuarterCar
 from shockdyno.model.road import DEFAULT_BAND_RAD_M
 from shockdyno.outputs import check_output, check_report_dir, write_output
@@ -38,9 +39,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument(
         "--json", required=True, help="write the result here (docs/ride.md; - for stdout)"
     )
-    p.add_argument(
-        "--force", action="store_true", help="overwrite an existing --json file or --report page"
-    )
+    add_force(p, "an existing --json file or --report page")
     p.add_argument(
         "--report",
         metavar="DIR",
@@ -60,7 +59,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument("--duration-s", type=float, default=60.0, help="record length after warm-up")
     p.add_argument("--warmup-s", type=float, default=5.0, help="discarded start, s")
     p.add_argument("--dt-ms", type=float, default=1.0, help="fixed RK4 step, ms")
-    p.add_argument("--seed", type=seed_arg, default=0, help="road phases seed")
+    add_seed(p, "the road phases")
     p.add_argument("--waviness", type=float, default=2.0, help="ISO 8608 waviness w")
     p.add_argument(
         "--band-rad-per-m",

@@ -12,6 +12,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from shockdyno.commands.args import add_force, add_rig
 from shockdyno.errors import ConfigError, RigFault
 from shockdyno.outputs import check_output, write_output
 from shockdyno.run.signals import stop_on_signals
@@ -59,10 +60,10 @@ def register(sub: Any) -> None:
         "implausible. Nothing is written to the drive. Exit 0 when all is well, 1 with the "
         "list of problems otherwise.",
     )
-    c.add_argument("--rig", type=Path, required=True, help="rig file, e.g. rigs/sim.toml")
+    add_rig(c)
     c.add_argument("--seconds", type=_seconds, default=1.0, help="how long to read the DAQ")
     c.add_argument("--json", metavar="PATH", help="write the findings as JSON (- for stdout)")
-    c.add_argument("--force", action="store_true", help="overwrite an existing --json file")
+    add_force(c, "an existing --json file")
     c.set_defaults(func=cmd_check)
 
     j = rs.add_parser(
@@ -74,7 +75,7 @@ def register(sub: Any) -> None:
         "watched on every sample, heartbeat and guaranteed teardown. A target outside "
         "limits.travel_m is refused before anything moves.",
     )
-    j.add_argument("--rig", type=Path, required=True, help="rig file, e.g. rigs/sim.toml")
+    add_rig(j)
     to = j.add_mutually_exclusive_group(required=True)
     to.add_argument("--to-mm", type=_mm, help="target, mm from the stroke centre (+ compression)")
     to.add_argument("--by-mm", type=_mm, help="target, mm from where the ram stands now")
@@ -89,10 +90,10 @@ def register(sub: Any) -> None:
         "an offset. The rig file is never changed: --write PATH writes a copy with the new "
         "offset.",
     )
-    t.add_argument("--rig", type=Path, required=True, help="rig file, e.g. rigs/sim.toml")
+    add_rig(t)
     t.add_argument("--seconds", type=_seconds, default=2.0, help="how long to average")
     t.add_argument("--write", metavar="PATH", type=Path, help="a copy of the rig file, tared")
-    t.add_argument("--force", action="store_true", help="overwrite an existing --write file")
+    add_force(t, "an existing --write file")
     t.set_defaults(func=cmd_tare)
 
 

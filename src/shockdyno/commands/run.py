@@ -14,8 +14,9 @@ from rich.console import Console
 
 from shockdyno import __version__
 from shockdyno import units as units_mod
+from shockdyno.commands.args import add_force, add_rig, add_seed
 from shockdyno.errors import ConfigError, RigFault
-from shockdyno.lists import parse_clicks, parse_frequencies, seed_arg
+from shockdyno.lists import parse_clicks, parse_frequencies
 from shockdyno.model.spec import default_spec_path, load_spec
 from shockdyno.outputs import refuse_inputs
 from shockdyno.run.plan import SweepPlan, frequencies_for_velocities, parse_velocities_mm_s
@@ -68,7 +69,7 @@ def register(sub: Any) -> None:
     d.add_argument("--out-dir", type=Path, default=Path("recordings"), help="output directory")
     d.add_argument("--clicks", default="0-21:3", help="click settings, e.g. 0-21:3 or 0,5,10")
     d.add_argument("--speed", type=float, default=50.0, help=SPEED_HELP)
-    d.add_argument("--seed", type=seed_arg, default=0, help="simulated rig's noise seed")
+    add_seed(d, "the simulated rig's noise")
     d.add_argument("--cycles", type=int, default=5, help="measured cycles per test")
     d.add_argument("--no-fit", action="store_true", help="record and report only")
     d.add_argument("--table", action="store_true", help="only print the model's click table")
@@ -81,7 +82,7 @@ def register(sub: Any) -> None:
         "warm-up cycles, measured cycles, ramp out. Ctrl-C stops safely and keeps what was "
         "recorded; --resume continues from the first untested point.",
     )
-    s.add_argument("--rig", type=Path, required=True, help="rig file, e.g. rigs/sim.toml")
+    add_rig(s)
     s.add_argument("--clicks", default="0-21", help="click settings, e.g. 0-21:3 or 0,5,10")
     by = s.add_mutually_exclusive_group()
     by.add_argument("--freq", default="0.5,1,1.5", help="Hz, e.g. 0.5,1,1.5 or 0.5-2:0.5")
@@ -112,7 +113,7 @@ def register(sub: Any) -> None:
         "-o", "--output", type=Path, required=True, help="recording, e.g. recordings/X.mcap"
     )
     s.add_argument("--resume", action="store_true", help="continue an interrupted sweep")
-    s.add_argument("--force", action="store_true", help="overwrite an existing recording")
+    add_force(s, "an existing recording")
     s.add_argument("--damper-id", default="", help="stored in the recording's metadata")
     s.add_argument("--operator", default="", help="stored in the recording's metadata")
     s.add_argument("--notes", default="", help="stored in the recording's metadata")
@@ -123,7 +124,7 @@ def register(sub: Any) -> None:
     )
     s.add_argument("--speed", type=float, default=1.0, help=f"with --start-sim: {SPEED_HELP}")
     s.add_argument("--scenario", type=Path, help="with --start-sim: extra physics, sim/scenarios/")
-    s.add_argument("--seed", type=seed_arg, default=0, help="with --start-sim")
+    add_seed(s, "the simulated rig's noise, with --start-sim")
     units_mod.add_argument(s, "the end-of-test lines")
     s.set_defaults(func=cmd_sweep)
 

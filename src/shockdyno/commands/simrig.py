@@ -6,7 +6,7 @@ import argparse
 import sys
 import time
 
-from shockdyno.lists import seed_arg
+from shockdyno.commands.args import add_seed, add_spec
 from shockdyno.rig.config import default_rig_path, load_rig
 from shockdyno.simrig.faults import parse_fault
 from shockdyno.simrig.server import start_sim_rig
@@ -25,7 +25,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument(
         "--rig", default=str(default_rig_path()), help="rig file (default rigs/sim.toml)"
     )
-    p.add_argument("--spec", default=None, help="damper spec TOML (default sim/ohlins-s46.toml)")
+    add_spec(p)
     p.add_argument("--scenario", default=None, help="scenario name or file in sim/scenarios/")
     p.add_argument(
         "--speed",
@@ -33,7 +33,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         default=1.0,
         help="x real time: simulated seconds per wall-clock second",
     )
-    p.add_argument("--seed", type=seed_arg, default=0, help="noise seed (same seed, same bytes)")
+    add_seed(p, "the noise (same seed, same bytes)")
     p.add_argument(
         "--serial", choices=("socket", "pty", "both"), default="socket", help="DAQ transport"
     )

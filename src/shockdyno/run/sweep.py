@@ -15,7 +15,7 @@ from typing import Protocol
 
 from shockdyno.errors import RigFault
 from shockdyno.record.types import TestMeta
-from shockdyno.rig.types import SampleBlock
+from shockdyno.rig.types import Adjuster, SampleBlock
 from shockdyno.run import signals
 from shockdyno.run.gas_measure import Holder, measure_gas_force
 from shockdyno.run.plan import SweepPlan, SweepPoint
@@ -32,9 +32,7 @@ class _Outcome(Protocol):
     stop_sweep: bool
 
 
-class Session(Holder, Protocol):  # Holder: hold_at, for the gas-force measurement
-    def set_clicks(self, rod_clicks: int, gas_clicks: int) -> None: ...
-
+class Session(Holder, Adjuster, Protocol):  # Holder: hold_at, for the gas-force measurement
     def read_temperature_c(self) -> float: ...
 
     def run_sine(

@@ -56,7 +56,9 @@ def test_modbus_is_answered_while_a_slow_plant_runs_behind(sim_rig_factory) -> N
             act.read_words(1, 1)  # raises RigFault on a timeout
             worst = max(worst, time.monotonic() - t0)
         assert sim.behind_s > 0.05, sim.behind_s  # it really was behind
-        assert worst < 0.35, worst  # one batch and the answer; not several batches
+        # One 0.25 s batch and the answer, not two (0.5 s): a loaded 2-core machine
+        # added 0.13 s to the one batch once (0.377 s).
+        assert worst < 0.45, worst
     finally:
         act.close()
 

@@ -46,7 +46,8 @@ def _record_sweep(
     """Run the plan on the rig into the recording; returns the SweepResult."""
     from shockdyno.record import RecordingWriter, open_recording
     from shockdyno.run.liveview import LiveView
-    from shockdyno.run.session import RigSession, check_sine, exit_reason
+    from shockdyno.run.refusals import check_sine
+    from shockdyno.run.session import RigSession, exit_reason
     from shockdyno.run.sweep import run_sweep
 
     console = console or Console()

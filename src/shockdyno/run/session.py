@@ -39,8 +39,9 @@ from shockdyno.run import signals
 from shockdyno.run.daq_stream import BlockSink, DaqStream
 from shockdyno.run.events import EventLog, EventSink
 from shockdyno.run.heartbeat import Heartbeat
+from shockdyno.run.refusals import check_hold, check_sine
 from shockdyno.run.safety import SafetyEvent, SafetyTrip
-from shockdyno.run.verify import cycle_mismatch, frame_loss, measure_sine, plan_mismatch
+from shockdyno.run.verify import judge_run
 from shockdyno.run.watch import DriveWatch
 
 CENTRE_TOLERANCE_M = 0.001
@@ -74,31 +75,6 @@ ActuatorSink = Callable[[float, dict[str, float | int | bool]], None]
 
 def _console_prompt(message: str) -> None:
     input(f"{message} [Enter when done] ")
-
-
-def check_sine(rig: RigConfig, a: float, f: float, warmup: int, measured: int) -> None:
-    """Refuse a sine the rig must not run (ConfigError), before anything moves."""
-    lim = rig.limits
-    if not (isinstance(a, int | float) and math.isfinite(a) and a > 0):
-        raise ConfigError(f"amplitude must be > 0 m, got {a!r}")
-    if not (isinstance(f, int | float) and math.isfinite(f) and f > 0):
-        raise ConfigError(f"frequency must be > 0 Hz, got {f!r}")
-    for name, n, lo in (("warmup_cycles", warmup, 0), ("measured_cycles", measured, 1)):
-        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < lo:
-            raise ConfigError(f"{name} must be a whole number >= {lo}, got {n!r}")
-    if a > lim.travel_m:
-        raise ConfigError(
-            f"amplitude {a * 1e3:g} mm exceeds the rig's travel of ±{lim.travel_m * 1e3:g} mm "
-            f"({rig.source} limits.travel_m); refused before moving"
-        )
-    v = 2 * math.pi * f * a
-    if v > lim.velocity_m_s:
-        raise ConfigError(
-            f"peak velocity 2πfA = {v:.3g} m/s exceeds the limit of {lim.velocity_m_s:g} m/s "
-            f"({rig.source} limits.velocity_m_s); refused before moving"
-        )
-    if f > rig.daq.sample_rate_hz / 20:
-        raise ConfigError(f"frequency {f:g} Hz leaves fewer than 20 DAQ samples per cycle; refused")
 
 
 def exit_reason(exc: BaseException | None) -> str:
@@ -353,24 +329,7 @@ class RigSession:
         The same limits on every sample, heartbeat and teardown as a sine: a trip makes the
         controlled stop and raises RigFault (the sweep stops, as after an aborted test).
         """
-        lim = self.rig.limits
-        if velocity_m_s is None:
-            velocity_m_s = self.rig.ramp.move_velocity_m_s
-        for name, value in (("offset", offset_m), ("velocity", velocity_m_s), ("dwell", dwell_s)):
-            if not (isinstance(value, int | float) and math.isfinite(value)):
-                raise ConfigError(f"hold: {name} must be a finite number, got {value!r}")
-        if abs(offset_m) > lim.travel_m:
-            raise ConfigError(
-                f"hold at {offset_m * 1e3:+g} mm exceeds the rig's travel of "
-                f"±{lim.travel_m * 1e3:g} mm ({self.rig.source} limits.travel_m)"
-            )
-        if not 0 < velocity_m_s <= min(lim.velocity_m_s, self.rig.ramp.move_velocity_m_s):
-            raise ConfigError(
-                f"hold: move velocity must be > 0 and at most the rig's move velocity "
-                f"{self.rig.ramp.move_velocity_m_s:g} m/s, got {velocity_m_s:g}"
-            )
-        if dwell_s <= 0:
-            raise ConfigError(f"hold: dwell must be > 0 s, got {dwell_s:g}")
+        velocity_m_s = check_hold(self.rig, offset_m, velocity_m_s, dwell_s)
         if not self._armed:
             raise RigFault(f"actuator is not enabled (disarmed by: {self._disarm_reason})")
         self._act()  # not connected: refused here, before the stop a failed move makes
@@ -414,41 +373,11 @@ class RigSession:
     ) -> tuple[str, str, bool]:
         """Judge a finished run by its own samples: (status, reason, stop the sweep)."""
         run = SampleBlock.concat(blocks) if blocks else SampleBlock.empty()
-        measured = measure_sine(
-            run.t_s, run.displacement_m, (m_start, m_end), amplitude_m, frequency_hz
-        )
-        mismatch = plan_mismatch(measured, frequency_hz, amplitude_m, self.rig.verify)
-        if mismatch is None:
-            mismatch = cycle_mismatch(
-                run.t_s,
-                run.displacement_m,
-                (m_start, m_end),
-                amplitude_m,
-                frequency_hz,
-                self.rig.verify,
-            )
-        if mismatch is not None:
-            ev = self._event("plan_mismatch", f"test does not match its plan: {mismatch}")
-            return "degraded", ev.message, True
         daq = self._daq()
         lost = daq.dropped_frames - dropped0 + daq.corrupt_frames - corrupt0
-        loss = frame_loss(lost, len(run) + lost)
-        limit = self.rig.daq.max_frame_loss
-        if loss > limit:
-            ev = self._event(
-                "degraded",
-                f"{lost} frames lost ({loss:.1%} of the test; daq.max_frame_loss {limit:.1%})",
-            )
-            return "degraded", ev.message, False
-        assert measured is not None
-        return (
-            "complete",
-            (
-                f"{frequency_hz:g} Hz run: measured {measured.frequency_hz:.4g} Hz, "
-                f"{measured.amplitude_m * 1e3:.4g} mm, centre {measured.centre_m * 1e3:+.2g} mm"
-            ),
-            False,
-        )
+        j = judge_run(run, (m_start, m_end), amplitude_m, frequency_hz, self.rig, lost)
+        message = self._event(j.event, j.reason).message if j.event else j.reason
+        return j.status, message, j.stop_sweep
 
     def _check_sine(self, a: float, f: float, warmup: int, measured: int) -> None:
         check_sine(self.rig, a, f, warmup, measured)

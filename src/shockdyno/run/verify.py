@@ -14,7 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from shockdyno.rig.config import VerifyConfig
+from shockdyno.rig.config import RigConfig, VerifyConfig
+from shockdyno.rig.types import SampleBlock
 
 
 @dataclass(frozen=True)
@@ -121,3 +122,46 @@ def cycle_mismatch(
 
 def frame_loss(lost: int, expected: int) -> float:
     return lost / expected if expected > 0 else (math.inf if lost else 0.0)
+
+
+@dataclass(frozen=True)
+class Judgement:
+    status: str  # "complete" | "degraded"
+    reason: str
+    event: str | None  # the safety event to log ("plan_mismatch", "degraded"), if any
+    stop_sweep: bool  # the drive is not doing what it is told: the sweep must stop
+
+
+def judge_run(
+    run: SampleBlock,
+    window: tuple[float, float],
+    amplitude_m: float,
+    frequency_hz: float,
+    rig: RigConfig,
+    lost_frames: int,
+) -> Judgement:
+    """A finished run judged by its own samples over the measured `window` (DAQ times):
+    the motion against its plan, cycle by cycle, then the frames it lost."""
+    measured = measure_sine(run.t_s, run.displacement_m, window, amplitude_m, frequency_hz)
+    mismatch = plan_mismatch(measured, frequency_hz, amplitude_m, rig.verify)
+    if mismatch is None:
+        mismatch = cycle_mismatch(
+            run.t_s, run.displacement_m, window, amplitude_m, frequency_hz, rig.verify
+        )
+    if mismatch is not None:
+        return Judgement(
+            "degraded", f"test does not match its plan: {mismatch}", "plan_mismatch", True
+        )
+    loss = frame_loss(lost_frames, len(run) + lost_frames)
+    limit = rig.daq.max_frame_loss
+    if loss > limit:
+        why = f"{lost_frames} frames lost ({loss:.1%} of the test; daq.max_frame_loss {limit:.1%})"
+        return Judgement("degraded", why, "degraded", False)
+    assert measured is not None
+    return Judgement(
+        "complete",
+        f"{frequency_hz:g} Hz run: measured {measured.frequency_hz:.4g} Hz, "
+        f"{measured.amplitude_m * 1e3:.4g} mm, centre {measured.centre_m * 1e3:+.2g} mm",
+        None,
+        False,
+    )

@@ -1,0 +1,63 @@
+"""What a session refuses before anything moves: a sine or a hold the rig file's limits
+do not allow, or arguments that are not numbers. Each is one ConfigError line naming the
+limit and the rig file's key."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from shockdyno.errors import ConfigError
+from shockdyno.rig.config import RigConfig
+
+
+def check_sine(rig: RigConfig, a: float, f: float, warmup: int, measured: int) -> None:
+    """Refuse a sine the rig must not run (ConfigError), before anything moves."""
+    lim = rig.limits
+    if not (isinstance(a, int | float) and math.isfinite(a) and a > 0):
+        raise ConfigError(f"amplitude must be > 0 m, got {a!r}")
+    if not (isinstance(f, int | float) and math.isfinite(f) and f > 0):
+        raise ConfigError(f"frequency must be > 0 Hz, got {f!r}")
+    for name, n, lo in (("warmup_cycles", warmup, 0), ("measured_cycles", measured, 1)):
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < lo:
+            raise ConfigError(f"{name} must be a whole number >= {lo}, got {n!r}")
+    if a > lim.travel_m:
+        raise ConfigError(
+            f"amplitude {a * 1e3:g} mm exceeds the rig's travel of ±{lim.travel_m * 1e3:g} mm "
+            f"({rig.source} limits.travel_m); refused before moving"
+        )
+    v = 2 * math.pi * f * a
+    if v > lim.velocity_m_s:
+        raise ConfigError(
+            f"peak velocity 2πfA = {v:.3g} m/s exceeds the limit of {lim.velocity_m_s:g} m/s "
+            f"({rig.source} limits.velocity_m_s); refused before moving"
+        )
+    if f > rig.daq.sample_rate_hz / 20:
+        raise ConfigError(f"frequency {f:g} Hz leaves fewer than 20 DAQ samples per cycle; refused")
+
+
+def check_hold(
+    rig: RigConfig, offset_m: float, velocity_m_s: float | None, dwell_s: float
+) -> float:
+    """Refuse a hold the rig must not make; the move's velocity (None: the rig's
+    ramp.move_velocity_m_s)."""
+    lim = rig.limits
+    if velocity_m_s is None:
+        velocity_m_s = rig.ramp.move_velocity_m_s
+    for name, value in (("offset", offset_m), ("velocity", velocity_m_s), ("dwell", dwell_s)):
+        if not (isinstance(value, int | float) and math.isfinite(value)):
+            raise ConfigError(f"hold: {name} must be a finite number, got {value!r}")
+    if abs(offset_m) > lim.travel_m:
+        raise ConfigError(
+            f"hold at {offset_m * 1e3:+g} mm exceeds the rig's travel of "
+            f"±{lim.travel_m * 1e3:g} mm ({rig.source} limits.travel_m)"
+        )
+    if not 0 < velocity_m_s <= min(lim.velocity_m_s, rig.ramp.move_velocity_m_s):
+        raise ConfigError(
+            f"hold: move velocity must be > 0 and at most the rig's move velocity "
+            f"{rig.ramp.move_velocity_m_s:g} m/s, got {velocity_m_s:g}"
+        )
+    if dwell_s <= 0:
+        raise ConfigError(f"hold: dwell must be > 0 s, got {dwell_s:g}")
+    return float(velocity_m_s)

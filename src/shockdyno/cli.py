@@ -54,6 +54,11 @@ class DefaultsHelpFormatter(argparse.HelpFormatter):
             return text
         return f"{text} (default: %(default)s)" if text else "(default: %(default)s)"
 
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        # A description's own line breaks are kept (the term list: a term a line).
+        return "\n".join(super(DefaultsHelpFormatter, self)._fill_text(line, width, indent)
+                         for line in text.splitlines())  # fmt: skip
+
 
 def _add_logging_options(parser: argparse.ArgumentParser, default: object) -> None:
     group = parser.add_argument_group("logging")

@@ -12,6 +12,7 @@ from typing import ClassVar
 
 import pytest
 
+from shockdyno.cli import main
 from shockdyno.diagnose.engine import Settings, diagnose, separate_by
 from shockdyno.diagnose.verdict import to_json
 from shockdyno.fit.result import FitResult
@@ -92,6 +93,17 @@ def test_a_term_registered_once_is_fitted_diagnosed_reported_and_driven(
         fit,
     )
     assert ride.damper_info["terms"] == ["toy_mass"]
+
+
+def test_a_registered_term_is_listed_in_fit_and_diagnose_help(
+    toy: None, capsys: pytest.CaptureFixture[str]
+) -> None:
+    for command in ("fit", "diagnose"):
+        with pytest.raises(SystemExit):
+            main([command, "--help"])
+        out = " ".join(capsys.readouterr().out.split())  # unwrapped
+        assert "toy_mass: a mass moving with the rod" in out, command
+        assert "friction: Stribeck seal friction" in out
 
 
 def test_without_the_class_the_name_is_unknown() -> None:

@@ -22,6 +22,14 @@ def add_seed(p: argparse._ActionsContainer, of: str) -> None:
     p.add_argument("--seed", type=seed_arg, default=0, help=f"seed of {of} (default 0)")
 
 
+def add_term_list(p: argparse.ArgumentParser) -> None:
+    """The physics term library, one line a term from the term's own `summary`."""
+    from shockdyno.model.terms import LIBRARY
+
+    lines = [f"{name}: {cls.summary}" for name, cls in LIBRARY.items()]
+    p.add_argument_group("physics terms (--terms)", "\n".join(lines))
+
+
 def add_spec(p: argparse._ActionsContainer, note: str = "") -> None:
     extra = f" ({note})" if note else ""
     p.add_argument(

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno import units as units_mod
-from shockdyno.commands.args import add_seed, add_spec
+from shockdyno.commands.args import add_seed, add_spec, add_term_list
 from shockdyno.diagnose.file import diagnose_file, parse_candidates
 from shockdyno.errors import ConfigError
 
@@ -40,8 +40,9 @@ def register(sub: Any) -> None:
         "--terms",
         default="all",
         metavar="LIST",
-        help="candidate terms, comma-separated, or 'all' (the whole library)",
+        help="candidate terms, comma-separated, or 'all' (the whole library, listed below)",
     )
+    add_term_list(p)
     p.add_argument("--report", metavar="DIR", help="also write figures and index.html here")
     add_spec(p, "without --fit")
     p.add_argument("--alpha", type=float, default=0.01, help="significance level of a claim")

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno import units as units_mod
-from shockdyno.commands.args import add_force, add_seed, add_spec
+from shockdyno.commands.args import add_force, add_seed, add_spec, add_term_list
 from shockdyno.fit.display import Shown, bound_hit, bound_text, globals_rows, shown
 from shockdyno.fit.file import fit_file, result_json
 from shockdyno.fit.prepare import FITTED_ANYWAY
@@ -71,6 +71,7 @@ def register(sub: Any) -> None:
         ),
     )
     units_mod.add_argument(p, "the terminal tables and the --report page")
+    add_term_list(p)
     p.set_defaults(func=run_fit)
 
 

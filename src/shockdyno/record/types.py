@@ -27,7 +27,9 @@ class TestMeta:
     measured_start_s: float | None = None
     measured_end_s: float | None = None
     # "complete" | "aborted" (stopped early: safety, Ctrl-C, fault) | "degraded" (ran to the
-    # end, but its measured motion missed the plan or it lost too many frames: not complete)
+    # end, but its measured motion missed the plan or it lost too many frames: not complete);
+    # "running" in a test's begin record; "interrupted" as read back when no end followed
+    # (the process died mid-test). docs/rig.md.
     status: str = "complete"
     extra: dict[str, str] = field(default_factory=dict)
     # Optional, added with the MCAP recording (older code need not set them):

@@ -25,6 +25,18 @@ MINIMAL_RIDE: dict[str, Any] = {
 }  # fmt: skip
 
 
+# A located region as diagnose writes it (mismatch.where[], verdict.unexplained[]).
+REGION = {
+    "stroke": "rebound",
+    "x_range_m": [0.0156, 0.0292],
+    "v_range_m_s": [-0.097, -0.036],
+    "frequencies_hz": [1.0, 1.5],
+    "share": 0.25,
+    "rms_n": 19.0,
+    "near_reversal": True,
+}
+
+
 def diag(**parts: Any) -> dict[str, Any]:
     """MINIMAL_DIAG with these top-level parts replaced, as a parsed DIAG.json."""
     return copy.deepcopy(MINIMAL_DIAG) | parts

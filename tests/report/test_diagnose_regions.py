@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from doc_samples import diag
+from doc_samples import REGION, diag
 
 from shockdyno.report.build import build_report
 from shockdyno.report.diagnose_section import region_text
@@ -12,15 +12,7 @@ from shockdyno.report.documents import Region, typed
 
 
 def test_unexplained_regions_are_words(tmp_path: Path) -> None:
-    region = {
-        "stroke": "rebound",
-        "x_range_m": [0.0156, 0.0292],
-        "v_range_m_s": [-0.097, -0.036],
-        "frequencies_hz": [1.0, 1.5],
-        "share": 0.25,
-        "rms_n": 19.0,
-        "near_reversal": True,
-    }
+    region = REGION
     # As a dict, as `diagnose` writes it: build_report reads it as its file would be.
     doc = diag(verdict={"physics": [], "unexplained": [region], "text": "Mismatch."})
     index = build_report([], tmp_path / "r", title="t", diagnose=doc)

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from doc_samples import MINIMAL_RIDE, diag
+from doc_samples import MINIMAL_RIDE, REGION, diag
 
 from shockdyno.cli import main
 from shockdyno.errors import ConfigError
@@ -24,15 +24,6 @@ from shockdyno.report.documents import (
 )
 from shockdyno.report.ride_section import paper_ratios
 
-REGION = {
-    "stroke": "rebound",
-    "x_range_m": [0.0156, 0.0292],
-    "v_range_m_s": [-0.097, -0.036],
-    "frequencies_hz": [1.0, 1.5],
-    "share": 0.25,
-    "rms_n": 19.0,
-    "near_reversal": True,
-}
 # What the first `diagnose` wrote (33e648a): no mismatch.tested, no text_imperial,
 # calibration or sensor in the verdict, no spec, recording or figures in info.
 FIRST_DIAG: dict[str, Any] = {

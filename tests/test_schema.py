@@ -4,11 +4,12 @@ beyond the reader's skipped."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import pytest
 
 from shockdyno.errors import ConfigError
-from shockdyno.schema import convert
+from shockdyno.schema import convert, read_toml
 
 
 @dataclass(frozen=True)
@@ -65,3 +66,31 @@ def test_non_finite_numbers_are_a_configs_error_only() -> None:
     assert _error(nan) == "damper.toml: valve.preload_m: must be a finite number, got nan"
     got = convert(nan, Damper, "RESULT.json", unknown_keys=True)
     assert got.valve.preload_m != got.valve.preload_m  # read as it stands: the reader decides
+
+
+def test_a_file_that_is_not_text_says_what_it_is(tmp_path: Path) -> None:
+    rec = tmp_path / "rig.toml"
+    rec.write_bytes(b"\x89MCAP0\r\n" + bytes(range(256)))  # a recording given as the rig
+    with pytest.raises(ConfigError, match=r"rig.toml: is an MCAP recording, not a text file$"):
+        read_toml(rec, "missing")
+    rec.write_bytes("name = 'Müller'".encode("latin-1"))
+    with pytest.raises(ConfigError, match=r"rig.toml: is not UTF-8 text$"):
+        read_toml(rec, "missing")
+    with pytest.raises(ConfigError, match=r"^rig file not found: x$"):
+        read_toml(tmp_path / "none.toml", "rig file not found: x")
+
+
+@dataclass(frozen=True)
+class Entry:
+    value: float
+
+
+@dataclass(frozen=True)
+class Nested:
+    terms: dict[str, dict[str, Entry]]
+
+
+def test_a_bad_value_inside_a_table_of_tables_names_its_key() -> None:
+    doc = {"terms": {"a": {"x": {"value": 1.0}}, "b": {"x": {"value": 1.0}, "y": {"value": "?"}}}}
+    with pytest.raises(ConfigError, match=r"^f: terms.b.y.value: must be a number, got '\?'$"):
+        convert(doc, Nested, "f")

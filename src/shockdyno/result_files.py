@@ -34,7 +34,7 @@ def kind_of(doc: Any) -> str | None:
     return None
 
 
-def _what_bytes_are(head: bytes) -> str:
+def what_bytes_are(head: bytes) -> str:
     if head.startswith(MCAP_MAGIC):
         return "an MCAP recording"
     if head[:4] == b"PAR1":
@@ -60,9 +60,9 @@ def read_result(path: str | Path, flag: str, expected: str) -> dict[str, Any]:
     try:
         doc = json.loads(raw.decode("utf-8"))
     except UnicodeDecodeError:
-        raise ConfigError(f"{flag}: {p} is {_what_bytes_are(raw[:64])}; expected {want}") from None
+        raise ConfigError(f"{flag}: {p} is {what_bytes_are(raw[:64])}; expected {want}") from None
     except json.JSONDecodeError as exc:
-        what = _what_bytes_are(raw[:64])
+        what = what_bytes_are(raw[:64])
         where = f" ({exc.msg}, line {exc.lineno})" if what == "not JSON" else ""
         raise ConfigError(f"{flag}: {p} is {what}{where}; expected {want}") from None
     got = kind_of(doc)

@@ -29,6 +29,7 @@ import msgspec
 from msgspec import inspect as mi
 
 from shockdyno.errors import ConfigError
+from shockdyno.result_files import what_bytes_are
 
 T = TypeVar("T")
 
@@ -65,7 +66,11 @@ def read_text(path: Path, missing: str) -> str:
         raise ConfigError(missing) from None
     except IsADirectoryError:
         raise ConfigError(f"{path}: is a folder, not a file") from None
-    except (OSError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError:
+        what = what_bytes_are(path.read_bytes()[:64])  # a recording given as a config
+        text = "is not UTF-8 text" if what == "not JSON" else f"is {what}, not a text file"
+        raise ConfigError(f"{path}: {text}") from None
+    except OSError as exc:
         raise ConfigError(f"{path}: cannot read ({exc})") from None
 
 

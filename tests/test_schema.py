@@ -3,13 +3,15 @@ beyond the reader's skipped."""
 
 from __future__ import annotations
 
+import datetime as dt
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
 
 from shockdyno.errors import ConfigError
-from shockdyno.schema import convert, read_toml
+from shockdyno.schema import convert, read_toml, shown
 
 
 @dataclass(frozen=True)
@@ -61,11 +63,13 @@ def test_unknown_keys_are_skipped_when_allowed_and_refused_by_default() -> None:
     )
 
 
-def test_non_finite_numbers_are_a_configs_error_only() -> None:
+def test_non_finite_numbers_are_refused_in_configs_and_results() -> None:
+    # A result is written with null for a non-finite number (allow_nan=False): a NaN in
+    # one was not written by this project.
     nan = GOOD | {"valve": {"preload_m": float("nan")}}
     assert _error(nan) == "damper.toml: valve.preload_m: must be a finite number, got nan"
-    got = convert(nan, Damper, "RESULT.json", unknown_keys=True)
-    assert got.valve.preload_m != got.valve.preload_m  # read as it stands: the reader decides
+    with pytest.raises(ConfigError, match=r"^RESULT.json: valve.preload_m: must be a finite"):
+        convert(nan, Damper, "RESULT.json", unknown_keys=True)
 
 
 def test_a_file_that_is_not_text_says_what_it_is(tmp_path: Path) -> None:
@@ -94,3 +98,19 @@ def test_a_bad_value_inside_a_table_of_tables_names_its_key() -> None:
     doc = {"terms": {"a": {"x": {"value": 1.0}}, "b": {"x": {"value": 1.0}, "y": {"value": "?"}}}}
     with pytest.raises(ConfigError, match=r"^f: terms.b.y.value: must be a number, got '\?'$"):
         convert(doc, Nested, "f")
+
+
+def test_a_bom_is_read_and_a_fifo_is_refused_without_blocking(tmp_path: Path) -> None:
+    bom = tmp_path / "bom.toml"
+    bom.write_bytes("\ufeffa = 1\n".encode())  # as some Windows editors save
+    assert read_toml(bom, "missing")[1] == {"a": 1}
+    fifo = tmp_path / "fifo.toml"
+    os.mkfifo(fifo)
+    with pytest.raises(ConfigError, match=r"fifo.toml: not a regular file$"):
+        read_toml(fifo, "missing")
+
+
+def test_bad_values_are_shown_as_the_file_spells_them() -> None:
+    assert shown(None) == "null" and shown(True) == "true" and shown({"a": 1}) == "a table"
+    assert shown(dt.date(1979, 5, 27)) == "1979-05-27" and shown([1, "a"]) == '[1, "a"]'
+    assert shown("x" * 100).endswith("...") and len(shown("x" * 100)) == 40

@@ -17,13 +17,14 @@ default is the mistake a config reader exists to catch.
 
 from __future__ import annotations
 
+import datetime as dt
 import difflib
 import json
 import math
 import re
 import tomllib
 from pathlib import Path
-from typing import Annotated, Any, TypeVar, Union
+from typing import Annotated, Any, Literal, TypeVar, Union
 
 import msgspec
 from msgspec import inspect as mi
@@ -47,7 +48,18 @@ _KEY_IN = re.compile(r" - at `key` in `(?P<path>[^`]*)`$")
 
 def fail(source: str, key: str, text: str) -> ConfigError:
     """The one-line error: `source: key: text` (no key: `source: text`)."""
+    key = key.replace("\n", "\\n").replace("\r", "\\r")  # one line, whatever the key holds
+    key = key if len(key) <= 80 else key[:77] + "..."
     return ConfigError(f"{source}: {key}: {text}" if key else f"{source}: {text}")
+
+
+def dotted(at: str, key: Any) -> str:
+    """`at.key`, the key quoted where it is empty or holds a dot or a space (TOML's own
+    quoting): `rig."a.b"` is not `rig.a.b`."""
+    k = str(key)
+    if not re.fullmatch(r"[A-Za-z0-9_-]+", k):
+        k = json.dumps(k, ensure_ascii=False)
+    return f"{at}.{k}" if at else k
 
 
 def parse_toml(text: str, source: str) -> dict[str, Any]:
@@ -61,11 +73,13 @@ def read_text(path: Path, missing: str) -> str:
     """A config file's text; `missing` is the message when there is none ("rig file
     not found: x.toml")."""
     try:
-        return path.read_text(encoding="utf-8")
+        if path.is_dir():
+            raise ConfigError(f"{path}: is a folder, not a file")
+        if path.exists() and not path.is_file():  # a FIFO would block, /dev/zero never end
+            raise ConfigError(f"{path}: not a regular file")
+        return path.read_text(encoding="utf-8-sig")  # an editor's BOM is not a TOML error
     except FileNotFoundError:
         raise ConfigError(missing) from None
-    except IsADirectoryError:
-        raise ConfigError(f"{path}: is a folder, not a file") from None
     except UnicodeDecodeError:
         what = what_bytes_are(path.read_bytes()[:64])  # a recording given as a config
         text = "is not UTF-8 text" if what == "not JSON" else f"is {what}, not a text file"
@@ -93,15 +107,20 @@ def convert(data: Any, cls: type[T], source: str, at: str = "", *, unknown_keys:
 
     `unknown_keys`: allow keys `cls` does not name, and skip them. For result files
     (FIT/DIAG/RIDE.json), which gain keys over versions: an older reader must still read
-    a newer file. Those are written with null for a non-finite number, so the finite
-    check goes with the key check; a config keeps both."""
+    a newer file. Non-finite numbers are refused in both: a result holds null for one,
+    so a NaN in it was not written by this project."""
     info = mi.type_info(cls)
-    if not unknown_keys:
-        _check_keys(data, info, source, at)
+    _check_keys(data, info, source, at, unknown_keys)
     try:
         return msgspec.convert(data, cls, strict=True)
     except msgspec.ValidationError as exc:
         raise _explain(str(exc), data, info, source, at) from None
+
+
+def check(obj: Any, source: str) -> None:
+    """`obj` (a dataclass built in code, e.g. a spec with fitted values) against the
+    constraints of its own field types, as its file would be read."""
+    convert(msgspec.to_builtins(obj), type(obj), source)
 
 
 def expected(t: mi.Type) -> str:
@@ -145,8 +164,9 @@ def _fields(t: mi.Type) -> dict[str, mi.Field] | None:
     return None
 
 
-def _check_keys(data: Any, t: mi.Type, source: str, at: str) -> None:
-    """Unknown keys (with the nearest known one) and non-finite numbers, anywhere."""
+def _check_keys(data: Any, t: mi.Type, source: str, at: str, unknown_ok: bool = False) -> None:
+    """Unknown keys (with the nearest known one; unless `unknown_ok`) and non-finite
+    numbers, anywhere."""
     if isinstance(data, float) and not math.isfinite(data):
         raise fail(source, at, f"must be a finite number, got {data}")
     if isinstance(t, mi.UnionType):
@@ -155,24 +175,26 @@ def _check_keys(data: Any, t: mi.Type, source: str, at: str) -> None:
     known = _fields(t)
     if isinstance(data, dict):
         for key, value in data.items():
-            where = f"{at}.{key}" if at else str(key)
+            where = dotted(at, key)
             if known is not None:
                 if key not in known:
+                    if unknown_ok:
+                        continue
                     near = difflib.get_close_matches(str(key), known, n=1)
                     hint = f" (did you mean {near[0]}?)" if near else ""
                     raise fail(source, where, f"unknown key{hint}")
-                _check_keys(value, known[key].type, source, where)
+                _check_keys(value, known[key].type, source, where, unknown_ok)
             elif isinstance(t, mi.DictType):
-                _check_keys(value, t.value_type, source, where)
+                _check_keys(value, t.value_type, source, where, unknown_ok)
             else:
-                _check_keys(value, mi.AnyType(), source, where)
+                _check_keys(value, mi.AnyType(), source, where, unknown_ok)
     elif isinstance(data, list):
         item: mi.Type = mi.AnyType()
         if isinstance(t, mi.ListType | mi.VarTupleType):
             item = t.item_type
         for i, value in enumerate(data):
             tt = t.item_types[i] if isinstance(t, mi.TupleType) and i < len(t.item_types) else item
-            _check_keys(value, tt, source, f"{at}[{i}]")
+            _check_keys(value, tt, source, f"{at}[{i}]", unknown_ok)
 
 
 # -- msgspec's message in the user's words ---------------------------------------------
@@ -201,6 +223,10 @@ def _py(t: mi.Type) -> Any:
         kind = int if isinstance(t, mi.IntType) else float
         bounds = {k: getattr(t, k) for k in ("gt", "ge", "lt", "le") if getattr(t, k) is not None}
         return Annotated[kind, msgspec.Meta(**bounds)] if bounds else kind
+    if isinstance(t, mi.StrType) and t.min_length:
+        return Annotated[str, msgspec.Meta(min_length=t.min_length)]
+    if isinstance(t, mi.LiteralType):
+        return Literal[tuple(t.values)]
     simple = {mi.BoolType: bool, mi.StrType: str, mi.NoneType: type(None)}
     return simple.get(type(t), Any)
 
@@ -231,6 +257,9 @@ def _walk(data: Any, t: mi.Type, steps: list[str | int]) -> tuple[Any, mi.Type, 
             if s == "..." and isinstance(data, dict):
                 step = _bad_key(data, t.value_type)
             t = t.value_type
+            named.append(_Key(step))  # a table's key, whatever its type: `codes.7`
+            data = data.get(step) if isinstance(data, dict) else None
+            continue
         elif isinstance(t, mi.ListType | mi.VarTupleType):
             t = t.item_type
         elif isinstance(t, mi.TupleType) and isinstance(s, int) and s < len(t.item_types):
@@ -245,20 +274,31 @@ def _walk(data: Any, t: mi.Type, steps: list[str | int]) -> tuple[Any, mi.Type, 
     return data, t, named
 
 
+class _Key(str):
+    """A table's key on a path (not a list's index, even when it reads as a number)."""
+
+
 def _dotted(steps: list[str | int], at: str) -> str:
     out = at
     for s in steps:
-        out = f"{out}[{s}]" if isinstance(s, int) else (f"{out}.{s}" if out else s)
+        out = f"{out}[{s}]" if isinstance(s, int) and not isinstance(s, _Key) else dotted(out, s)
     return out
 
 
 def shown(value: Any) -> str:
-    """A bad value as the user wrote it (TOML's true/false), cut short."""
+    """A bad value as the user wrote it (TOML/JSON spelling: true, null), cut short."""
     if isinstance(value, bool):
         return "true" if value else "false"
+    if value is None:
+        return "null"
     if isinstance(value, dict):
         return "a table"
-    text = repr(value)
+    if isinstance(value, dt.date | dt.time):
+        return value.isoformat()  # TOML's own date and time
+    if isinstance(value, list):
+        text = json.dumps(value, ensure_ascii=False, default=str)
+    else:
+        text = repr(value)
     return text if len(text) <= 40 else text[:37] + "..."
 
 

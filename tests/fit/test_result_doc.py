@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import pytest
@@ -67,6 +68,14 @@ def test_older_and_newer_files_read(tmp_path: Path) -> None:
             lambda d: d["clicks"][2].update(clicks=2.5),
             r"clicks\[2\].clicks: must be a whole number",
         ),
+        (
+            lambda d: d["clicks"][2].update(clicks=-3),
+            r"clicks\[2\].clicks: must be a whole number >=",
+        ),
+        (
+            lambda d: d["globals"].update(friction_n=math.nan),
+            r"globals.friction_n: must be a finite",
+        ),
     ],
 )
 def test_a_garbled_value_is_one_line_naming_the_key(tmp_path: Path, change, message) -> None:
@@ -77,3 +86,23 @@ def test_a_garbled_value_is_one_line_naming_the_key(tmp_path: Path, change, mess
     with pytest.raises(ConfigError, match=message) as info:
         FitResult.load(path, "--fit")
     assert str(info.value).startswith(f"--fit: {path}: ") and "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("change", "problem"),
+    [
+        (lambda d: d["globals"].update(friction_n=-500.0), "friction_n: must be a number >= 0"),
+        (lambda d: d["globals"].update(frictoin_n=5.0), "unknown damper parameter 'frictoin_n'"),
+        (lambda d: d.update(spec_path="/nowhere/x.toml"), "damper spec not found: /nowhere"),
+        (lambda d: d["terms"].update(bogus={}), "unknown physics term 'bogus'"),
+    ],
+)
+def test_a_fit_that_reads_but_describes_no_damper_is_not_usable(
+    tmp_path: Path, change, problem: str
+) -> None:
+    path, _ = _saved(tmp_path)
+    doc = json.loads(path.read_text())
+    change(doc)
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ConfigError, match="not a usable fit: .*" + re.escape(problem)):
+        FitResult.load(path).require_usable(f"--fit {path}")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
@@ -80,7 +81,7 @@ def test_clicks_out_of_range_are_refused():
         (
             "oil_viscosity_cst",
             'oil_viscosity_cst = "ten"',
-            "damper.oil_viscosity_cst: must be a number >= 0, got 'ten'",
+            "damper.oil_viscosity_cst: must be a number > 0, got 'ten'",
         ),
         ("n_shims", "n_shims = 6.5", "n_shims: must be a whole number >= 1, got 6.5"),
         ("max_clicks", 'max_clicks = "24"', "max_clicks: must be a whole number >= 1, got '24'"),
@@ -98,3 +99,30 @@ def test_a_value_of_the_wrong_type_is_one_line_naming_the_key(tmp_path, key, lin
     with pytest.raises(ConfigError) as err:
         load_spec(bad)
     assert message in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [  # each of these used to load and fail later (a traceback in fit) or never
+        ("oil_viscosity_cst = 11.0", "oil_viscosity_cst = 0",
+         "damper.oil_viscosity_cst: must be a number > 0"),
+        ("gas_length_m = 0.050", "gas_length_m = 0.0", "damper.gas_length_m: must be a number > 0"),
+        ('name = "ohlins-s46"', 'name = ""', "damper.name: must be non-empty text"),
+        ("clamp_diameter_m = 0.020", "clamp_diameter_m = 0.050",
+         "valves.compression.clamp_diameter_m: 50 mm must be less than"),
+        ("seat_diameter_m = 0.036", "seat_diameter_m = 0.5",
+         "valves.compression.seat_diameter_m: 500 mm must lie between"),
+        ("rod_diameter_m = 0.014", "rod_diameter_m = 0.05",
+         "damper.rod_diameter_m: 50 mm must be thinner"),
+    ],
+)  # fmt: skip
+def test_a_spec_that_would_break_the_model_is_refused_naming_the_key(
+    tmp_path: Path, old: str, new: str, message: str
+) -> None:
+    src = default_spec_path().read_text()
+    assert old in src
+    p = tmp_path / "bad.toml"
+    p.write_text(src.replace(old, new, 1))
+    with pytest.raises(ConfigError) as info:
+        load_spec(p)
+    assert str(info.value).startswith(f"{p}: ") and message in str(info.value), info.value

@@ -366,6 +366,19 @@ def test_scenario_mistakes_are_config_errors(tmp_path: Path) -> None:
         load_scenario(bad)
     with pytest.raises(ConfigError, match="scenario not found: nope"):
         load_scenario("nope")
+    for body, message in (
+        ('[[term]]\nkind = 3\n', r"term\[0\].kind: must be a term's name in quotes, got 3"),
+        ('[[term]]\nkind = "friction"\n[[term]]\nkind = "friction"\n',
+         r"term\[1\].kind: friction is already term\[0\]"),
+        ("[plant]\nair_fraction = 0.02\n", r"plant.kind: missing"),  # was silently the paper's
+        ('[plant]\nkind = "paper"\nair_fraction = 0.02\n',
+         r'plant.air_fraction: only with kind = "reference"'),
+        ('[plant]\nkind = "reference"\nanti_alias_hz = 0\n',
+         r"plant.anti_alias_hz: must be a number > 0"),
+    ):  # fmt: skip
+        bad.write_text('[scenario]\nname = "x"\n' + body)
+        with pytest.raises(ConfigError, match=f"^{bad}: {message}"):
+            load_scenario(bad)
 
 
 def test_compressibility_says_when_its_fit_is_not_physics() -> None:

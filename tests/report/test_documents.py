@@ -81,7 +81,7 @@ def test_keys_a_newer_writer_adds_are_skipped(tmp_path: Path) -> None:
          "mismatch.where[0].x_range_m", "must be a list [a number, a number], got [0.01]"),
         ("tests", "oops", "tests", "must be a list, got 'oops'"),
         ("info", {"figures_units": "metric"}, "info.figures_units", "must be one of"),
-        ("verdict", None, "verdict", "must be a table, got None"),
+        ("verdict", None, "verdict", "must be a table, got null"),
     ],
 )  # fmt: skip
 def test_a_garbled_value_is_one_line_naming_file_and_key(

@@ -15,6 +15,7 @@ from shockdyno.rig.registers import decode, encode
 
 REPO = Path(__file__).resolve().parents[2]
 SIM_TEXT = (REPO / "rigs" / "sim.toml").read_text()
+W = 'word_order = "big"'  # a place to add register-map keys
 
 
 @pytest.mark.parametrize("path", sorted((REPO / "rigs").glob("*.toml")), ids=lambda p: p.name)
@@ -43,6 +44,20 @@ def test_the_three_transports_are_represented() -> None:
         ("[daq]", "[daq]\nforce_range_n = [5, 1]", "daq.force_range_n: must be [LOW, HIGH]"),
         ("[daq]", "[daq]\nforce_range_n = [5]", "daq.force_range_n: must be a list [a number"),
         ("sine_ramp_cycles = 1", "sine_ramp_cycles = 2.5", "must be a whole number from 1 to 100"),
+        ('transport = "tcp"', 'transport = ["tcp"]', "actuator.transport: must be one of tcp, rtu"),
+        (
+            W,
+            W + '\nforce_actul = { address = 40, type = "int32" }',
+            "registers.force_actul: unknown register (did you mean force_actual?)",
+        ),
+        (W, W + '\nfault_codes = { "²" = "x" }', 'fault_codes."²": fault codes are whole numbers'),
+        (W, W + '\nfault_codes = { 70000 = "x" }', "fault_codes.70000: fault codes are whole"),
+        (W, W + '\nfault_codes = { 7 = "a", "07" = "b" }', "fault_codes.07: fault code 7 given"),
+        (W, W + '\nfault_codes = { 7 = "" }', "fault_codes.7: must be non-empty text in quotes"),
+        (W, W + "\ncontrol_bits = { enabel = 0 }", "enabel: unknown name (did you mean enable?)"),
+        (W, W + "\ncontrol_bits = { enable = 1 }", "control_bits.enable: 1 is start's too"),
+        ("[rig]", '[rig]\n"a.b" = 1', 'rig."a.b": unknown key'),
+        ("[rig]", '[rig]\n"x\\ny" = 1', 'rig."x\\ny": unknown key'),
         ("travel_m = 0.045", 'travel_m = "far"', "limits.travel_m: must be a number"),
         ("sample_rate_hz = 1000.0\n", "", "daq.sample_rate_hz: missing"),
         ('transport = "tcp"', 'transport = "udp"', "actuator.transport: must be one of"),

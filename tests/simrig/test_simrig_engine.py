@@ -151,3 +151,30 @@ def test_scenarios_change_what_the_load_cell_sees(name: str, min_change_n: float
     assert np.max(np.abs(b.force_n - plain.force_n)) > min_change_n
     if name == "thermal":
         assert b.temperature_c[-100:].mean() > plain.temperature_c[-100:].mean() + 0.1
+
+
+@pytest.mark.parametrize(
+    ("line", "message"),
+    [
+        ("ambient_c = -5.0", None),  # a cold test cell is an ambient, not a mistake
+        ("servo_dampin = 0.8", r"simulation.servo_dampin: unknown key \(did you mean servo_damp"),
+        ('ambient_c = "hot"', r"simulation.ambient_c: must be a number >= -273.15, got 'hot'"),
+        ("initial_position_m = 5.0", r"simulation.initial_position_m: 5 m is beyond drive_trav"),
+        ("jam_force_n = 10.0", r"simulation.jam_force_n: unknown key \(a fault sets it\)"),
+    ],
+)
+def test_the_simulation_table_is_read_by_its_types(line: str, message: str | None) -> None:
+    import re
+
+    from shockdyno.errors import ConfigError
+    from shockdyno.rig.config import parse_rig
+    from shockdyno.simrig.engine import SimParams
+
+    key = line.split(" =")[0]
+    text = re.sub(rf"^{key} = .*\n", "", (REPO / "rigs" / "sim.toml").read_text(), flags=re.M)
+    rig = parse_rig(text.replace("[simulation]\n", f"[simulation]\n{line}\n"), "rigs/x.toml")
+    if message is None:
+        assert SimParams.from_rig(rig).ambient_c == -5.0
+        return
+    with pytest.raises(ConfigError, match=f"^rigs/x.toml: {message}"):
+        SimParams.from_rig(rig)

@@ -25,6 +25,7 @@ from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, load_spec
 from shockdyno.model.terms import LIBRARY, make_term
+from shockdyno.schema import check
 
 
 @dataclass(frozen=True)
@@ -198,6 +199,13 @@ class FitResult:
             for k, est in params.items():
                 if not math.isfinite(est.value) and math.isfinite(_off(term, k)):
                     return f"term parameter {term}.{k} is {est.value}"
+        try:  # the damper it describes: its spec_path, globals and terms, within the spec's rules
+            spec = self.spec()
+            check(spec, f"the spec {self.spec_path} with the fit's globals")
+            spec.validate()
+            self.model()
+        except ConfigError as exc:
+            return str(exc)
         return ""
 
     def require_usable(self, label: str) -> FitResult:

@@ -10,21 +10,25 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
+
+from msgspec import Meta
 
 from shockdyno.fit.trend import TrendDoc, nan
 from shockdyno.model.params import Estimate
 from shockdyno.result_files import read_result
 from shockdyno.schema import convert
 
+Clicks = Annotated[int, Meta(ge=0)]
+
 
 @dataclass(frozen=True)
 class ClickDoc:
-    clicks: int
+    clicks: Clicks
     A_bc_m2: float
     A_bt_m2: float
     A_b_talbott_m2: float
-    gas_clicks: int = 0
+    gas_clicks: Clicks = 0
     A_bc_sd_m2: float | None = None
     A_bt_sd_m2: float | None = None
     A_b_talbott_sd_m2: float | None = None

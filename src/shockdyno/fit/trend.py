@@ -13,9 +13,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
+from msgspec import Meta
 from numpy.typing import ArrayLike
 
 from shockdyno.schema import convert
@@ -86,8 +87,8 @@ def nan(v: float | None) -> float:
 
 @dataclass(frozen=True)
 class TrendDoc:
-    coefficients: list[float]  # highest power first
-    degree: int | None = None
+    coefficients: Annotated[list[float], Meta(min_length=1)]  # highest power first
+    degree: int | None = None  # read for the record: the coefficients say it
     clicks_used: list[int] = field(default_factory=list)
     rms_m2: float | None = None
     r2: float | None = None
@@ -97,7 +98,7 @@ class TrendDoc:
     def trend(self) -> AreaTrend:
         coef = tuple(float(c) for c in self.coefficients)
         return AreaTrend(
-            degree=len(coef) - 1 if self.degree is None else self.degree,
+            degree=len(coef) - 1,
             coefficients=coef,
             clicks_used=tuple(self.clicks_used),
             rms_m2=nan(self.rms_m2),

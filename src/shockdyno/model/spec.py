@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from shockdyno.errors import ConfigError
 from shockdyno.model.bleed import BleedLaw
 from shockdyno.model.shims import ShimStack
-from shockdyno.schema import NonNegative, convert, fail, read_toml
+from shockdyno.schema import NonEmpty, NonNegative, Positive, convert, fail, read_toml
 
 
 @dataclass(frozen=True)
@@ -24,22 +24,22 @@ class DamperSpec:
     """A damper's spec file ([damper], [valves.*], [bleed.*]); read through shockdyno.schema,
     so the constraints on the fields' types are the file's."""
 
-    name: str
-    piston_diameter_m: NonNegative
-    rod_diameter_m: NonNegative
+    name: NonEmpty
+    piston_diameter_m: Positive
+    rod_diameter_m: Positive
     piston_rod_mass_kg: NonNegative
-    oil_density_kg_m3: NonNegative
-    oil_viscosity_cst: NonNegative
-    discharge_coefficient: NonNegative
-    gas_pressure_pa: NonNegative
-    gas_piston_diameter_m: NonNegative
-    gas_length_m: NonNegative
+    oil_density_kg_m3: Positive
+    oil_viscosity_cst: Positive
+    discharge_coefficient: Positive
+    gas_pressure_pa: Positive
+    gas_piston_diameter_m: Positive
+    gas_length_m: Positive
     gas_piston_mass_kg: NonNegative
     friction_n: NonNegative
-    friction_velocity_m_s: NonNegative
+    friction_velocity_m_s: Positive
     leak_gap_m: NonNegative
-    leak_land_length_m: NonNegative
-    bleed_bore_diameter_m: NonNegative
+    leak_land_length_m: Positive
+    bleed_bore_diameter_m: Positive
     compression_valve: ShimStack
     rebound_valve: ShimStack
     compression_bleed: BleedLaw
@@ -47,7 +47,7 @@ class DamperSpec:
     max_gas_clicks: Annotated[int, Meta(ge=0)] = 0
     # Oil column above the piston: with the bore it gives the compression chamber's volume
     # (the compressibility term's V). Not in the paper; 80 mm for a 40 mm bore is typical.
-    oil_column_m: NonNegative = 0.08
+    oil_column_m: Positive = 0.08
 
     # -- derived geometry -------------------------------------------------------------
     @property
@@ -138,9 +138,13 @@ class DamperSpec:
         return replace(self, **changes)
 
     def validate(self) -> None:
-        """What one field's type cannot say (the types are checked as the file is read)."""
+        """What one field's type cannot say (the types are checked as the file is read);
+        a ConfigError naming the key."""
         if self.rod_diameter_m >= self.piston_diameter_m:
-            raise ConfigError(f"damper spec {self.name!r}: rod must be thinner than the piston")
+            raise ConfigError(
+                f"damper.rod_diameter_m: {self.rod_diameter_m * 1e3:g} mm must be thinner "
+                f"than the {self.piston_diameter_m * 1e3:g} mm piston (the rod must be thinner)"
+            )
         bore = self.bleed_bore_area_m2
         for label, law in (
             ("compression", self.compression_bleed),
@@ -148,8 +152,19 @@ class DamperSpec:
         ):
             if law.area_open_m2 > bore:
                 raise ConfigError(
-                    f"damper spec {self.name!r}: {label} bleed open area {law.area_open_m2:.3g} m² "
-                    f"exceeds the {self.bleed_bore_diameter_m * 1e3:g} mm bore ({bore:.3g} m²)"
+                    f"bleed.{label}.area_open_m2: {law.area_open_m2:.3g} m² exceeds the "
+                    f"{self.bleed_bore_diameter_m * 1e3:g} mm bore ({bore:.3g} m²)"
+                )
+        for label, v in (("compression", self.compression_valve), ("rebound", self.rebound_valve)):
+            if not v.clamp_diameter_m < v.outer_diameter_m:
+                raise ConfigError(
+                    f"valves.{label}.clamp_diameter_m: {v.clamp_diameter_m * 1e3:g} mm must be "
+                    f"less than outer_diameter_m ({v.outer_diameter_m * 1e3:g} mm)"
+                )
+            if not v.clamp_diameter_m <= v.seat_diameter_m <= v.outer_diameter_m:
+                raise ConfigError(
+                    f"valves.{label}.seat_diameter_m: {v.seat_diameter_m * 1e3:g} mm must lie "
+                    f"between clamp_diameter_m and outer_diameter_m"
                 )
 
 
@@ -216,5 +231,8 @@ def load_spec(path: str | Path | None = None) -> DamperSpec:
         "rebound_bleed": doc["bleed"]["rebound"],
     }
     spec = convert({**f.damper, **parts}, DamperSpec, str(p), "damper")
-    spec.validate()
+    try:
+        spec.validate()
+    except ConfigError as exc:
+        raise ConfigError(f"{p}: {exc}") from None
     return spec

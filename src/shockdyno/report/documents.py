@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, Literal, TypeVar
 
 from shockdyno.result_files import read_result
-from shockdyno.schema import convert
+from shockdyno.schema import Positive, convert
 
 T = TypeVar("T")
 
@@ -152,7 +152,7 @@ class RunRms:
 
     clicks: int | None
     road: str
-    speed_kmh: float
+    speed_kmh: Positive
     rms_ms2: float
     rms_wk_ms2: float
     paper_rms_ms2: float | None  # the paper's Table 7 value, where it has the run

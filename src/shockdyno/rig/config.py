@@ -7,7 +7,9 @@ key. The file text is kept (`raw_toml`) so recordings can carry it.
 
 from __future__ import annotations
 
+import difflib
 import math
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -20,9 +22,11 @@ from shockdyno.schema import (
     Port,
     Positive,
     convert,
+    dotted,
     fail,
     parse_toml,
     read_text,
+    shown,
 )
 
 RegisterType = Literal["uint16", "int32", "float32"]
@@ -263,8 +267,8 @@ def _transport(act: dict[str, Any], src: str) -> ModbusTransport:
     kind = keys.pop("transport", None)
     if kind is None:
         raise fail(src, "actuator.transport", "missing")
-    if kind not in TRANSPORT_KEYS:
-        raise fail(src, "actuator.transport", f"must be one of tcp, rtu; got {kind!r}")
+    if not isinstance(kind, str) or kind not in TRANSPORT_KEYS:
+        raise fail(src, "actuator.transport", f"must be one of tcp, rtu; got {shown(kind)}")
     for other, names in TRANSPORT_KEYS.items():
         for name in names:
             if other != kind and name in keys:
@@ -280,9 +284,14 @@ def _register_map(tables: Any, src: str) -> RegisterMap:
     if not isinstance(tables, dict):
         raise fail(src, at, "missing table" if tables is None else "must be a table")
     regs: dict[str, Register] = {}
+    known = (*REQUIRED_REGISTERS, *OPTIONAL_REGISTERS)
     for name, entry in tables.items():
         if name in SPECIAL_TABLES:
             continue
+        if name not in known:  # a misspelt optional register would silently be absent
+            near = difflib.get_close_matches(name, known, n=1)
+            hint = f"did you mean {near[0]}?" if near else f"known: {', '.join(known)}"
+            raise fail(src, dotted(at, name), f"unknown register ({hint})")
         if not isinstance(entry, dict):
             raise fail(src, f"{at}.{name}", 'must be a table { address = N, type = "..." }')
         if "name" in entry:
@@ -303,11 +312,30 @@ def _register_map(tables: Any, src: str) -> RegisterMap:
     given = {k: tables[k] for k in SPECIAL_TABLES if k in tables}
     codes = given.get("fault_codes", {})
     if isinstance(codes, dict):
-        for key in codes:
-            if not str(key).isdigit():
-                raise fail(src, f"{at}.fault_codes.{key}", "fault codes are whole numbers")
-        given["fault_codes"] = {int(k): v for k, v in codes.items()}
+        numbered: dict[int, Any] = {}
+        for key, text in codes.items():
+            where = dotted(f"{at}.fault_codes", key)
+            if not re.fullmatch(r"[0-9]{1,5}", key) or int(key) > 65535:
+                raise fail(src, where, "fault codes are whole numbers 0-65535 (a uint16)")
+            if int(key) in numbered:
+                raise fail(src, where, f"fault code {int(key)} given twice")
+            numbered[int(key)] = text
+        given["fault_codes"] = numbered
     rm = convert({**given, "registers": {}}, RegisterMap, src, at)
+    for table, defaults in (
+        ("control_bits", DEFAULT_CONTROL_BITS),
+        ("status_bits", DEFAULT_STATUS_BITS),
+        ("modes", DEFAULT_MODES),
+    ):
+        merged = {**defaults, **getattr(rm, table)}
+        for name, value in getattr(rm, table).items():
+            if name not in defaults:
+                near = difflib.get_close_matches(name, defaults, n=1)
+                hint = f"did you mean {near[0]}?" if near else f"known: {', '.join(defaults)}"
+                raise fail(src, dotted(f"{at}.{table}", name), f"unknown name ({hint})")
+            twin = next((k for k, v in merged.items() if v == value and k != name), None)
+            if twin is not None:
+                raise fail(src, dotted(f"{at}.{table}", name), f"{value} is {twin}'s too")
     return replace(
         rm,
         registers=regs,

@@ -16,9 +16,10 @@ from __future__ import annotations
 import copy
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
+from msgspec import Meta
 from numpy.typing import NDArray
 from scipy.signal import bilinear, lfilter, lfiltic
 
@@ -48,7 +49,7 @@ FloatArray = NDArray[np.float64]
 class SimParams:
     """The rig file's [simulation] table (read through shockdyno.schema)."""
 
-    initial_position_m: Positive
+    initial_position_m: float  # absolute (the LVDT's), as rig.stroke_centre_m
     servo_bandwidth_hz: Positive = 60.0
     servo_damping: Positive = 0.8
     drive_force_capacity_n: Positive = 12000.0
@@ -57,7 +58,7 @@ class SimParams:
     force_noise_n: NonNegative = 2.0
     position_noise_m: NonNegative = 1e-6
     temperature_noise_c: NonNegative = 0.02
-    ambient_c: Positive = 40.0
+    ambient_c: Annotated[float, Meta(ge=-273.15)] = 40.0
     # What the load cell reads with no force on it (its zero drift): `shockdyno rig tare`
     # must find it; any sign.
     load_cell_offset_n: float = 0.0
@@ -69,7 +70,15 @@ class SimParams:
         if "jam_force_n" in data:
             raise fail(rig.source, "simulation.jam_force_n", "unknown key (a fault sets it)")
         data.setdefault("initial_position_m", rig.stroke_centre_m)
-        return convert(data, SimParams, rig.source, "simulation")
+        p = convert(data, SimParams, rig.source, "simulation")
+        if abs(p.initial_position_m - rig.stroke_centre_m) > p.drive_travel_m:
+            raise fail(
+                rig.source,
+                "simulation.initial_position_m",
+                f"{p.initial_position_m:g} m is beyond drive_travel_m ({p.drive_travel_m:g} m) "
+                f"of the stroke centre ({rig.stroke_centre_m:g} m)",
+            )
+        return p
 
 
 @dataclass

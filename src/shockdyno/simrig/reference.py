@@ -69,34 +69,34 @@ class PlantParams:
     vapour_rate_m3_s_pa: NonNegative = 1.0e-7  # k_e: how fast vapour forms below p_v
     condense_rate_m3_s_pa: NonNegative = 1.0e-8  # k_c: how fast it goes back above p_v
     bleed_land_m: NonNegative = 0.004  # laminar length of a bleed passage
-    valve_discharge: NonNegative = 0.7
-    valve_smoothing_pa: NonNegative = 2.0e3  # softplus width of the stack's crack
+    valve_discharge: Positive = 0.7
+    valve_smoothing_pa: Positive = 2.0e3  # softplus width of the stack's crack
     # gas
     gas_pressure_factor: Positive = 1.0  # × the spec's charge
     gas_volume_factor: Positive = 1.0  # × the spec's gas volume
-    polytropic_index: NonNegative = 1.0
+    polytropic_index: Positive = 1.0
     gas_thermal_coupling: NonNegative = 0.0  # 1: the gas at the oil's temperature
     gas_seal_n: NonNegative = 8.0
     # rod seal (LuGre)
     breakaway_n: NonNegative = 0.0  # above the spec's Coulomb friction
-    stribeck_velocity_m_s: NonNegative = 0.005
+    stribeck_velocity_m_s: Positive = 0.005
     seal_stiffness_n_m: NonNegative = 2.0e7
     seal_damping_n_s_m: NonNegative = 0.0
     seal_viscous_n_s_m: NonNegative = 0.0
     # thermal network
     viscosity_coeff_per_k: NonNegative = 0.0  # ν ∝ exp(-b (T_o - 40 °C))
-    oil_heat_capacity_j_k: NonNegative = 300.0
-    body_heat_capacity_j_k: NonNegative = 900.0
+    oil_heat_capacity_j_k: Positive = 300.0
+    body_heat_capacity_j_k: Positive = 900.0
     oil_to_body_w_k: NonNegative = 6.0
     body_to_ambient_w_k: NonNegative = 2.5
     heating_factor: NonNegative = 1.0  # × the dissipated power that reaches the oil
-    start_temperature_c: float = math.nan  # NaN: the rig's ambient
+    start_temperature_c: Annotated[float, Meta(ge=-273.15)] = math.nan  # NaN: the rig's ambient
     # bump stop
     bump_onset_m: NonNegative = math.inf
     bump_force_at_10mm_n: NonNegative = 0.0
     bump_exponent: NonNegative = 2.3
     # sensors
-    anti_alias_hz: NonNegative = 400.0
+    anti_alias_hz: Positive = 400.0
     force_skew_s: NonNegative = 0.0
 
     @staticmethod

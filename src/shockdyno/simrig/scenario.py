@@ -27,7 +27,7 @@ from typing import Any
 from shockdyno.errors import ConfigError
 from shockdyno.model.composite import Term
 from shockdyno.model.terms import make_term
-from shockdyno.schema import NonEmpty, NonNegative, convert, fail, read_toml, shown
+from shockdyno.schema import NonEmpty, NonNegative, convert, dotted, fail, read_toml, shown
 from shockdyno.simrig.reference import PlantParams
 
 
@@ -71,8 +71,10 @@ def _term(t: dict[str, Any], src: str, at: str, values: dict[str, float]) -> Ter
     """A [[term]] table: `kind` and the term's own parameters within their bounds."""
     if "kind" not in t:
         raise fail(src, f"{at}.kind", "missing")
+    if not isinstance(t["kind"], str):
+        raise fail(src, f"{at}.kind", f"must be a term's name in quotes, got {shown(t['kind'])}")
     try:
-        term = make_term(str(t["kind"]))
+        term = make_term(t["kind"])
     except ConfigError as exc:
         raise fail(src, f"{at}.kind", str(exc)) from None
     declared = {q.name: q for q in term.params()}
@@ -102,11 +104,20 @@ def load_scenario(path: str | Path) -> Scenario:
     f = convert(doc, _ScenarioFile, src)
     values: dict[str, float] = {}
     terms = [_term(t, src, f"term[{i}]", values) for i, t in enumerate(f.term)]
+    names = [t.name for t in terms]
+    for i, name in enumerate(names):
+        if name in names[:i]:
+            raise fail(src, f"term[{i}].kind", f"{name} is already term[{names.index(name)}]")
     plant = None
     if f.plant is not None:
-        kind = f.plant.get("kind", "paper")
+        kind = f.plant.get("kind")
+        if kind is None:
+            raise fail(src, "plant.kind", 'missing ("reference", or "paper" for the model)')
         if kind not in ("paper", "reference"):
             raise fail(src, "plant.kind", f'must be "paper" or "reference", got {shown(kind)}')
+        extra = sorted(k for k in f.plant if k != "kind")
+        if kind == "paper" and extra:
+            raise fail(src, dotted("plant", extra[0]), 'only with kind = "reference"')
         if kind == "reference":
             if terms:
                 raise fail(src, "plant", "the reference plant takes its own parameters, not terms")

@@ -98,8 +98,9 @@ def test_a_diagnosis_or_ride_of_another_recording_is_refused(
 @pytest.mark.parametrize(
     ("edit", "said"),
     [
-        (lambda d: d["clicks"][0].update(A_bc_m2=-1e-6), "A_bc at"),
-        (lambda d: d["globals"].update(friction_n=float("nan")), "global friction_n is nan"),
+        (lambda d: d["clicks"][0].update(A_bc_m2=-1e-6), "not a usable fit: A_bc at"),
+        # NaN is not JSON this project writes (null is): refused as the file is read
+        (lambda d: d["globals"].update(friction_n=float("nan")), "friction_n: must be a finite"),
     ],
 )
 def test_an_unusable_fit_is_refused_in_one_line(
@@ -117,4 +118,4 @@ def test_an_unusable_fit_is_refused_in_one_line(
     ):
         assert main(args) == 2, args
         err = capsys.readouterr().err
-        assert said in err and "not a usable fit" in err and err.count("\n") == 1, err
+        assert said in err and err.count("\n") == 1, err

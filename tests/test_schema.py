@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from shockdyno.errors import ConfigError
+from shockdyno.result_files import read_result
 from shockdyno.schema import convert, read_toml, shown
 
 
@@ -114,3 +115,10 @@ def test_bad_values_are_shown_as_the_file_spells_them() -> None:
     assert shown(None) == "null" and shown(True) == "true" and shown({"a": 1}) == "a table"
     assert shown(dt.date(1979, 5, 27)) == "1979-05-27" and shown([1, "a"]) == '[1, "a"]'
     assert shown("x" * 100).endswith("...") and len(shown("x" * 100)) == 40
+
+
+def test_a_result_given_as_a_fifo_is_refused_without_blocking(tmp_path: Path) -> None:
+    fifo = tmp_path / "FIT.json"
+    os.mkfifo(fifo)  # `ride --fit` on one used to wait for a writer forever
+    with pytest.raises(ConfigError, match=r"^--fit: .*FIT.json is not a regular file; expected"):
+        read_result(fifo, "--fit", "fit")

@@ -44,11 +44,18 @@ def what_bytes_are(head: bytes) -> str:
     return "not JSON"
 
 
+def special_file(path: Path) -> bool:
+    """A FIFO or a device: reading it would block (a FIFO) or never end (/dev/zero)."""
+    return path.exists() and not path.is_dir() and not path.is_file()
+
+
 def read_result(path: str | Path, flag: str, expected: str) -> dict[str, Any]:
     """The JSON document at `path`, checked to be the `expected` kind of result; else a
     one-line ConfigError naming `flag`, the file, what it is and what was expected."""
     p = Path(path)
     want = KINDS[expected][0]
+    if special_file(p):
+        raise ConfigError(f"{flag}: {p} is not a regular file; expected {want}")
     try:
         raw = p.read_bytes()
     except FileNotFoundError:

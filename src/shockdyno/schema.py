@@ -30,7 +30,7 @@ import msgspec
 from msgspec import inspect as mi
 
 from shockdyno.errors import ConfigError
-from shockdyno.result_files import what_bytes_are
+from shockdyno.result_files import special_file, what_bytes_are
 
 T = TypeVar("T")
 
@@ -75,7 +75,7 @@ def read_text(path: Path, missing: str) -> str:
     try:
         if path.is_dir():
             raise ConfigError(f"{path}: is a folder, not a file")
-        if path.exists() and not path.is_file():  # a FIFO would block, /dev/zero never end
+        if special_file(path):
             raise ConfigError(f"{path}: not a regular file")
         return path.read_text(encoding="utf-8-sig")  # an editor's BOM is not a TOML error
     except FileNotFoundError:
@@ -91,14 +91,6 @@ def read_text(path: Path, missing: str) -> str:
 def read_toml(path: Path, missing: str) -> tuple[str, dict[str, Any]]:
     text = read_text(path, missing)
     return text, parse_toml(text, str(path))
-
-
-def read_json(path: Path, missing: str) -> Any:
-    text = read_text(path, missing)
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"{path}: not valid JSON ({exc.msg}, line {exc.lineno})") from None
 
 
 def convert(data: Any, cls: type[T], source: str, at: str = "", *, unknown_keys: bool = False) -> T:

@@ -172,16 +172,12 @@ def _parameters(fitted: Fitted, name: str) -> dict[str, Estimate]:
     term = fitted.model.term(name)
     if term is None:
         return {}
-    return {
-        p.name: Estimate(
-            fitted.model.value(q),
-            fitted.term_sd.get(q, math.nan),
-            p.unit,
-            fixed=q not in fitted.free,
-        )
-        for p in term.params()
-        for q in (term.qualified(p.name),)
-    }
+    out: dict[str, Estimate] = {}
+    for p in term.params():
+        q = term.qualified(p.name)
+        sd = fitted.term_sd.get(q, math.nan)
+        out[p.name] = Estimate(fitted.model.value(q), sd, p.unit, fixed=q not in fitted.free)
+    return out
 
 
 def _cosine(a: FloatArray, b: FloatArray) -> float:

@@ -120,9 +120,9 @@ def globals_rows(result: FitResult, units: Units = SI) -> tuple[list[str], list[
         show = shown(unit_of_key(key), units, base if known else value)
         fitted = show.text(value)
         if known:
-            side = bound_hit(value, *spec_global(key).bounds(base))
+            lo, hi = spec_global(key).bounds(base)
+            side = bound_hit(value, lo, hi)
             if side:
-                lo, hi = spec_global(key).bounds(base)
                 fitted = bound_text(side, lo if side == "lower" else hi, show)
         change = "?"
         if known and base != 0:

@@ -322,26 +322,27 @@ def _register_map(tables: Any, src: str) -> RegisterMap:
             numbered[int(key)] = text
         given["fault_codes"] = numbered
     rm = convert({**given, "registers": {}}, RegisterMap, src, at)
+    merged: dict[str, dict[str, int]] = {}
     for table, defaults in (
         ("control_bits", DEFAULT_CONTROL_BITS),
         ("status_bits", DEFAULT_STATUS_BITS),
         ("modes", DEFAULT_MODES),
     ):
-        merged = {**defaults, **getattr(rm, table)}
+        merged[table] = both = {**defaults, **getattr(rm, table)}
         for name, value in getattr(rm, table).items():
             if name not in defaults:
                 near = difflib.get_close_matches(name, defaults, n=1)
                 hint = f"did you mean {near[0]}?" if near else f"known: {', '.join(defaults)}"
                 raise fail(src, dotted(f"{at}.{table}", name), f"unknown name ({hint})")
-            twin = next((k for k, v in merged.items() if v == value and k != name), None)
+            twin = next((k for k, v in both.items() if v == value and k != name), None)
             if twin is not None:
                 raise fail(src, dotted(f"{at}.{table}", name), f"{value} is {twin}'s too")
     return replace(
         rm,
         registers=regs,
-        control_bits={**DEFAULT_CONTROL_BITS, **rm.control_bits},
-        status_bits={**DEFAULT_STATUS_BITS, **rm.status_bits},
-        modes={**DEFAULT_MODES, **rm.modes},
+        control_bits=merged["control_bits"],
+        status_bits=merged["status_bits"],
+        modes=merged["modes"],
         fault_codes={**DEFAULT_FAULT_CODES, **rm.fault_codes},
     )
 

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from shockdyno.diagnose.cycles import BinnedTest
 from shockdyno.diagnose.data import Data, time_halves
-from shockdyno.diagnose.fitting import Fitted, evaluate, predict, refit
+from shockdyno.diagnose.fitting import GLOBALS, Fitted, evaluate, predict, refit
 from shockdyno.diagnose.stats import lr_bootstrap
 from shockdyno.fit.parameters import global_parameters
 from shockdyno.model.composite import DamperModel
@@ -61,7 +61,7 @@ def binned_jacobian(data: Data, fitted: Fitted) -> tuple[FloatArray, int]:
     bc, bt = fitted.area_vectors(data)
     f0 = fitted.force
     cols: list[FloatArray] = []
-    for g in global_parameters(model.spec):
+    for g in global_parameters(model.spec, GLOBALS):
         h = 1e-4 * g.scale
         moved = model.with_spec(model.spec.with_values({g.name: g.value + h}))
         cols.append((prob.force(moved, bc, bt) - f0) / h * g.scale)

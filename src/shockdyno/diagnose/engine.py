@@ -38,14 +38,14 @@ from shockdyno.diagnose.candidates import (
 from shockdyno.diagnose.consistency import SENSOR, delay_spread, inconsistent
 from shockdyno.diagnose.cycles import BinnedTest
 from shockdyno.diagnose.data import Data
-from shockdyno.diagnose.fitting import Fitted, full_rate_force, refit
+from shockdyno.diagnose.fitting import GLOBALS, Fitted, full_rate_force, refit
 from shockdyno.diagnose.locate import Location, locate
 from shockdyno.diagnose.settings import Settings as Settings
 from shockdyno.diagnose.spikes import remove_spikes
 from shockdyno.diagnose.stats import MismatchStat, mismatch_test, noise_draws
 from shockdyno.errors import FitError
 from shockdyno.fit.metrics import error_metrics
-from shockdyno.fit.parameters import DEFAULT_GLOBALS, spec_global
+from shockdyno.fit.parameters import spec_global
 from shockdyno.fit.prepare import PreparedTest, prepare_tests, whole_cycles
 from shockdyno.fit.result import FitResult
 from shockdyno.model.composite import DamperModel, Term
@@ -107,14 +107,17 @@ class CalibrationRow:
     sd: float
     unit: str
     share: float = Settings.calibration_share
+    scale: float = 0.0  # what `share` is of where the spec says 0 (SpecGlobal.fallback)
 
     @property
     def moved(self) -> bool:
-        """Worth a sentence: off the spec's value by more than `share` of it and by more
-        than three of its σ."""
+        """Worth a sentence: off the spec's value by more than `share` of it (of `scale`
+        where the spec gives 0: a bleed land of 0.1 mm is a sharp orifice still) and by
+        more than three of its σ."""
         off = abs(self.fitted - self.spec_value)
         sd = self.sd if math.isfinite(self.sd) else 0.0
-        return off > self.share * abs(self.spec_value) and off > 3 * sd
+        size = abs(self.spec_value) or self.scale
+        return off > self.share * size and off > 3 * sd
 
 
 @dataclass
@@ -402,8 +405,9 @@ def calibration_rows(
             fitted.globals_sd.get(key, math.nan),
             spec_global(key).unit,
             share,
+            spec_global(key).fallback,
         )
-        for key in DEFAULT_GLOBALS
+        for key in GLOBALS
     ]
     if gas_calibrated:
         v0 = spec.gas_piston_area_m2 * spec.gas_length_m

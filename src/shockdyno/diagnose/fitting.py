@@ -17,12 +17,18 @@ from numpy.typing import NDArray
 from shockdyno.diagnose.data import Data
 from shockdyno.fit.areas import start_areas
 from shockdyno.fit.calibrate import calibrate
-from shockdyno.fit.parameters import global_parameters
+from shockdyno.fit.parameters import DEFAULT_GLOBALS, global_parameters
 from shockdyno.fit.prepare import PreparedTest
 from shockdyno.fit.problem import prepared_inputs
 from shockdyno.model.composite import DamperModel, Evaluation
 
 FloatArray = NDArray[np.float64]
+
+# The spec values every refit calibrates: the fit's, and the bleed's laminar land. A land
+# makes the bleed's force linear at low speed and is where the oil's viscosity (its
+# temperature) acts on the damping: a spec states a sharp orifice, a damper's needle has
+# a land of millimetres to centimetres, and only the low-speed shape shows it.
+GLOBALS = (*DEFAULT_GLOBALS, "bleed_land_m")
 
 
 @dataclass(frozen=True)
@@ -111,7 +117,7 @@ def refit(
             bt0 = np.where(np.isfinite(bt0), bt0, sbt)
     else:
         bc0, bt0 = start_areas(prob, model, a_max)
-    params = global_parameters(model.spec)
+    params = global_parameters(model.spec, GLOBALS)
     cal = calibrate(prob, model, params, free, bc0, bt0, a_max, max_nfev=max_nfev, robust=False)
     fitted_model = cal.model(prob, model)
     prob = prob.for_model(fitted_model)

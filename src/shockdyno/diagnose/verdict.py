@@ -80,6 +80,7 @@ _CALIBRATION_WORDS = {
     "compression_valve.face_area_m2": "compression valve face area",
     "rebound_valve.preload_m": "rebound valve preload",
     "rebound_valve.face_area_m2": "rebound valve face area",
+    "bleed_land_m": "bleed's laminar land",
 }
 
 
@@ -87,6 +88,11 @@ def describe_calibration(r: CalibrationRow) -> str:
     """ "the spec's gas volume is 1.4× too small": the spec against the recording."""
     what = _CALIBRATION_WORDS.get(r.parameter, r.parameter)
     if r.spec_value == 0:
+        if r.parameter == "bleed_land_m":
+            return (
+                f"the bleed is not a sharp orifice: it flows as one with a laminar land of "
+                f"{1e3 * r.fitted:.2g} mm, its force more linear at low speed"
+            )
         return f"the spec's {what} is 0, the recording's {r.fitted:.3g} {r.unit}"
     ratio = r.fitted / r.spec_value
     if ratio <= 0:

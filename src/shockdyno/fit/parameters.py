@@ -74,9 +74,13 @@ SPEC_GLOBALS: dict[str, SpecGlobal] = {
         SpecGlobal("compression_valve.face_area_m2", "m²", 0.2, 5.0, 1.0e-4),
         SpecGlobal("rebound_valve.preload_m", "m", 0.0, 5.0, 1.0e-4),
         SpecGlobal("rebound_valve.face_area_m2", "m²", 0.2, 5.0, 1.0e-4),
+        # A sharp orifice (0) up to a 0.2 m laminar passage: a needle's land is mm to cm.
+        SpecGlobal("bleed_land_m", "m", 0.0, 40.0, 5.0e-3),
     )
 }
-DEFAULT_GLOBALS = tuple(SPEC_GLOBALS)
+# What `fit` calibrates; `diagnose` also calibrates the bleed's laminar land
+# (diagnose/fitting.GLOBALS), which only the low-speed shape and the temperature show.
+DEFAULT_GLOBALS = tuple(k for k in SPEC_GLOBALS if k != "bleed_land_m")
 
 
 def spec_global(name: str) -> SpecGlobal:

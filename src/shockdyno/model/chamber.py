@@ -6,12 +6,16 @@ empties below its vapour pressure, Δp has a history. The chamber's volume balan
 
     A_q ẋ dt = q(Δp) dt + d[occ(p)] + d[V_vap],     Δp = p_c - p,
 
-where the chamber's oil and air occupy occ(p) = V(x) [α p₀ / p - (1 - α) c_oil p]: free
-air of volume fraction α at the charge pressure p₀, isothermal (so 1/β_eff = (1-α) c_oil
-+ α p₀/p², Wood's law at the local pressure: the air softens the oil most where the
-pressure is lowest), and oil of compressibility c_oil. V(x) = A_r (L + x) is the
-chamber's volume, L the spec's oil column. q is the model's own flow law (bleed orifice,
-shim stack, leak), the same as the algebraic solve's. The chamber cannot fall below the
+where the chamber's oil and air occupy occ(p) = a₀ p₀ / p - (V(x) - a₀) c_oil p: a fixed
+amount of free air, a₀ = α V₀ of volume at the charge pressure p₀ (α its fraction of the
+chamber's mid-stroke volume V₀ = A_r L), isothermal (so 1/β_eff = (1-α) c_oil + α p₀/p²
+at mid-stroke, Wood's law at the local pressure: the air softens the oil most where the
+pressure is lowest), and oil of compressibility c_oil, which may include what gives
+with it (a tube's swell, seals): an effective compliance. V(x) = A_r (L + x) is the
+chamber's volume, L the spec's oil column. The air's part is an exact differential, so
+a cycle pumps no oil through the piston (a V(x)-scaled air volume would). q is the
+model's own flow law (bleed orifice with its laminar land, shim stack, leak), the same
+as the algebraic solve's. The chamber cannot fall below the
 release pressure p_v: there vapour (and released air) fills the volume the flow does not,
 and must be pushed back into solution before the pressure can build again (the lost
 force after reversal of a cavitating damper).
@@ -83,6 +87,7 @@ def integrate(
     dt_s: FloatArray,
     periodic: bool,
     carry: FloatArray | None = None,
+    bleed_laminar: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """(Δp, vapour volume m³, final state) for every sample, segment by segment.
 
@@ -96,6 +101,7 @@ def integrate(
     use_carry = carry is not None and starts.size == 1
     cin = np.asarray(carry if use_carry else np.zeros(3), dtype=float)
     floor = chamber.release_pa
+    lam = np.zeros(x.size) if bleed_laminar is None else bleed_laminar
     dp, vap, state = _run(
         np.ascontiguousarray(x, dtype=float),
         np.ascontiguousarray(v, dtype=float),
@@ -104,6 +110,7 @@ def integrate(
         np.ascontiguousarray(bleed_compression_m2, dtype=float),
         np.ascontiguousarray(bleed_rebound_m2, dtype=float),
         np.ascontiguousarray(k_leak, dtype=float),
+        np.ascontiguousarray(np.broadcast_to(lam, x.shape), dtype=float),
         np.ascontiguousarray(starts, dtype=np.int64),
         np.ascontiguousarray(dt_s, dtype=float),
         valves,
@@ -124,16 +131,20 @@ def integrate(
 
 
 @njit(cache=True)
-def _flow(d: float, a_b: float, valve: FloatArray, c: float, k_leak: float) -> tuple[float, float]:
-    """q(d) and dq/dd for d >= 0 through one direction's bleed, shim stack and leak."""
+def _flow(
+    d: float, a_b: float, valve: FloatArray, c: float, k_leak: float, lam: float
+) -> tuple[float, float]:
+    """q(d) and dq/dd for d >= 0 through one direction's bleed (with its laminar land λ,
+    model/flow.py), shim stack and leak."""
     perim, face, preload, stiff, lift_max = valve[0], valve[1], valve[2], valve[3], valve[4]
     lift = (d * face - preload) / stiff
+    bleed = 0.0 if lam > 0.0 else a_b  # a laminar bleed is added apart below
     if lift <= 0.0:
-        area, darea = a_b, 0.0
+        area, darea = bleed, 0.0
     elif lift >= lift_max:
-        area, darea = a_b + perim * lift_max, 0.0
+        area, darea = bleed + perim * lift_max, 0.0
     else:
-        area, darea = a_b + perim * lift, perim * face / stiff
+        area, darea = bleed + perim * lift, perim * face / stiff
     s = math.sqrt(d)
     q = c * area * s + k_leak * d
     slope = c * darea * s + k_leak
@@ -141,26 +152,38 @@ def _flow(d: float, a_b: float, valve: FloatArray, c: float, k_leak: float) -> t
         slope += 0.5 * c * area / s
     elif area > 0.0:
         slope = 1.0e300  # √d: infinitely steep at zero
+    if lam > 0.0 and a_b > 0.0:
+        # q_b = 2A²d/(λ + D), D = √(λ² + 4A²d/c²): linear (A²/λ) at zero, orifice-like fast.
+        a2 = a_b * a_b
+        dd = math.sqrt(lam * lam + 4.0 * a2 * d / (c * c))
+        q += 2.0 * a2 * d / (lam + dd)
+        slope += (2.0 * a2 * (lam + dd) - 2.0 * a2 * d * (2.0 * a2 / (c * c * dd))) / (
+            (lam + dd) ** 2
+        )
     return q, slope
 
 
 @njit(cache=True)
 def _signed_flow(
-    d: float, a_bc: float, a_bt: float, valves: FloatArray, c: float, k_leak: float
+    d: float, a_bc: float, a_bt: float, valves: FloatArray, c: float, k_leak: float, lam: float
 ) -> tuple[float, float]:
     if d >= 0.0:
-        return _flow(d, a_bc, valves[0], c, k_leak)
-    q, slope = _flow(-d, a_bt, valves[1], c, k_leak)
+        return _flow(d, a_bc, valves[0], c, k_leak, lam)
+    q, slope = _flow(-d, a_bt, valves[1], c, k_leak, lam)
     return -q, slope
 
 
 @njit(cache=True)
-def _occupied(p: float, vol: float, alpha: float, p0: float, c_oil: float) -> tuple[float, float]:
+def _occupied(p: float, vol: float, air0: float, p0: float, c_oil: float) -> tuple[float, float]:
     """Volume the chamber's oil and air take up at pressure p (up to a constant), and its
-    derivative (negative: compliance)."""
+    derivative (negative: compliance). The air is a fixed amount, air0 of volume at p0
+    (isothermal), so its part is an exact differential: a cycle returns every bubble to
+    its size and pumps no oil (an air volume scaled with the chamber's, V(x) α p₀/p²,
+    does not: around a loop in x and p it moves oil through the piston every cycle)."""
     pe = max(p, MIN_PRESSURE_PA)
-    occ = vol * (alpha * p0 / pe - (1.0 - alpha) * c_oil * p)
-    docc = -vol * (alpha * p0 / (pe * pe) + (1.0 - alpha) * c_oil)
+    oil = max(vol - air0, 0.0)
+    occ = air0 * p0 / pe - oil * c_oil * p
+    docc = -(air0 * p0 / (pe * pe) + oil * c_oil)
     return occ, docc
 
 
@@ -176,9 +199,10 @@ def _step(
     a_bc: float,
     a_bt: float,
     k_leak: float,
+    lam: float,
     valves: FloatArray,
     c: float,
-    alpha: float,
+    air0: float,
     p0: float,
     c_oil: float,
     floor: float,
@@ -190,17 +214,17 @@ def _step(
     would leave; it falls strictly with d. Its root is the new Δp unless the pressure
     there is below the floor: then the chamber sits at the floor with H(d_floor) of vapour.
     """
-    occ_old, _ = _occupied(p_old, vol, alpha, p0, c_oil)
-    compliant = alpha > 0.0 or c_oil > 0.0
+    occ_old, _ = _occupied(p_old, vol, air0, p0, c_oil)
+    compliant = air0 > 0.0 or c_oil > 0.0
     if has_floor:
         d_floor = pc - floor
-        q, _ = _signed_flow(d_floor, a_bc, a_bt, valves, c, k_leak)
-        occ, _ = _occupied(floor, vol, alpha, p0, c_oil)
+        q, _ = _signed_flow(d_floor, a_bc, a_bt, valves, c, k_leak, lam)
+        occ, _ = _occupied(floor, vol, air0, p0, c_oil)
         h_floor = vap_old + dt * (q_demand - q) - occ + occ_old
         if h_floor >= 0.0:
             return d_floor, h_floor
         hi = d_floor
-    elif alpha > 0.0:
+    elif air0 > 0.0:
         hi = pc - MIN_PRESSURE_PA
     else:
         hi = math.inf
@@ -208,8 +232,8 @@ def _step(
     width = max(abs(d_guess), 1.0e3)
     lo = min(d_guess, hi) - width
     for _ in range(200):
-        q, _ = _signed_flow(lo, a_bc, a_bt, valves, c, k_leak)
-        occ, _ = _occupied(pc - lo, vol, alpha, p0, c_oil)
+        q, _ = _signed_flow(lo, a_bc, a_bt, valves, c, k_leak, lam)
+        occ, _ = _occupied(pc - lo, vol, air0, p0, c_oil)
         if vap_old + dt * (q_demand - q) - occ + occ_old > 0.0:
             break
         lo -= width
@@ -218,8 +242,8 @@ def _step(
         width = max(abs(d_guess), 1.0e3)
         hi = max(d_guess, lo) + width
         for _ in range(200):
-            q, _ = _signed_flow(hi, a_bc, a_bt, valves, c, k_leak)
-            occ, _ = _occupied(pc - hi, vol, alpha, p0, c_oil)
+            q, _ = _signed_flow(hi, a_bc, a_bt, valves, c, k_leak, lam)
+            occ, _ = _occupied(pc - hi, vol, air0, p0, c_oil)
             if vap_old + dt * (q_demand - q) - occ + occ_old < 0.0:
                 break
             hi += width
@@ -227,8 +251,8 @@ def _step(
     d = min(max(d_guess, lo), hi)
     tol_q = 1.0e-12 * (abs(q_demand) * dt + 1.0e-12) if compliant else 0.0
     for _ in range(MAX_NEWTON):
-        q, dq = _signed_flow(d, a_bc, a_bt, valves, c, k_leak)
-        occ, docc = _occupied(pc - d, vol, alpha, p0, c_oil)
+        q, dq = _signed_flow(d, a_bc, a_bt, valves, c, k_leak, lam)
+        occ, docc = _occupied(pc - d, vol, air0, p0, c_oil)
         h = vap_old + dt * (q_demand - q) - occ + occ_old
         if abs(h) <= tol_q + 1.0e-10 * dt * abs(q_demand) + 1.0e-22:
             break
@@ -255,6 +279,7 @@ def _run(
     a_bc: FloatArray,
     a_bt: FloatArray,
     k_leak: FloatArray,
+    lam: FloatArray,
     starts: NDArray[np.int64],
     dt_s: FloatArray,
     valves: FloatArray,
@@ -272,6 +297,7 @@ def _run(
     use_carry: bool,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     n = x.size
+    air0 = alpha * a_r * length  # the air at p0: α of the chamber's mid-stroke volume
     dp = np.empty(n)
     vap = np.empty(n)
     state = np.zeros(3)
@@ -321,9 +347,10 @@ def _run(
                         a_bc[i],
                         a_bt[i],
                         k_leak[i],
+                        lam[i],
                         valves,
                         c,
-                        alpha,
+                        air0,
                         p0,
                         c_oil,
                         floor,

@@ -184,6 +184,9 @@ class Work:
     k_leak: FloatArray
     q_demand: FloatArray
     p_c: FloatArray
+    # λ = 8π μ L of the bleed's laminar land per sample (spec.bleed_land_m; 0: a sharp
+    # orifice); a term that changes the viscosity scales it as it scales k_leak's inverse.
+    bleed_laminar: FloatArray = field(default_factory=lambda: np.zeros(0))
     dp: FloatArray | None = None
     dp_static: FloatArray | None = None  # Δp before any chamber state acted on it
     chamber: Any = None  # model/chamber.Chamber: the compliance a chamber term found
@@ -326,15 +329,21 @@ def solve_flow(w: Work) -> FloatArray:
     q = w.q_demand
     dp = np.zeros_like(q)
     common = (spec.discharge_coefficient, spec.oil_density_kg_m3)
+    lam = w.bleed_laminar if w.bleed_laminar.size == q.size else np.zeros_like(q)
     comp = q > 0
     if np.any(comp):
         dp[comp] = solve_pressure_drop(
-            q[comp], w.bleed_compression_m2[comp], spec.compression_valve, *common, w.k_leak[comp]
+            q[comp],
+            w.bleed_compression_m2[comp],
+            spec.compression_valve,
+            *common,
+            w.k_leak[comp],
+            lam[comp],
         )
     reb = q < 0
     if np.any(reb):
         dp[reb] = -solve_pressure_drop(
-            q[reb], w.bleed_rebound_m2[reb], spec.rebound_valve, *common, w.k_leak[reb]
+            q[reb], w.bleed_rebound_m2[reb], spec.rebound_valve, *common, w.k_leak[reb], lam[reb]
         )
     return dp
 
@@ -472,6 +481,7 @@ class DamperModel:
             k_leak=np.full(n, spec.leak_conductance_m3_s_pa),
             q_demand=np.zeros(n),
             p_c=np.zeros(n),
+            bleed_laminar=np.full(n, spec.bleed_laminar_pa_s_m),
         )
         carry_out: dict[str, FloatArray] = {}
 

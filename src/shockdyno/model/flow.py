@@ -7,7 +7,13 @@ by the moving piston (eq. 4's Couette term), the rest needs a pressure drop Δp:
     g(Δp) = C_D (A_b + A_v(Δp)) √(2|Δp|/ρ) + K_leak Δp,
 
 where A_b is the compression or rebound bleed area (eq. 7) and A_v = π d_seat · y the
-opening of the shim stack, y = clip((Δp A_face - F_preload) / k, 0, y_max).
+opening of the shim stack, y = clip((Δp A_face - F_preload) / k, 0, y_max). A bleed with a
+laminar land (the spec's `bleed_land_m`, L) has its Hagen-Poiseuille resistance λ/A_b²
+(λ = 8π μ L) in series with its orifice, Δp = λ q/A_b² + q²/(C_D² A_b² 2/ρ), so its flow is
+
+    q_b(Δp) = 2 A_b² Δp / (λ + √(λ² + 4 A_b² Δp / c²)),   c = C_D √(2/ρ),
+
+which is c A_b √Δp at λ = 0 (computed as such there: the paper's model, bit for bit).
 
 g is zero at zero and strictly increasing, so each sample's Δp is unique. We solve for
 all samples at once with Newton's method on s = √|Δp| (g is smooth in s: no infinite
@@ -39,6 +45,16 @@ def valve_area(dp_pa: FloatArray, valve: ShimStack) -> FloatArray:
     return np.asarray(valve.perimeter_m * lift, dtype=float)
 
 
+def bleed_flow(dp_pa: ArrayLike, area_m2: ArrayLike, c: float, laminar: ArrayLike) -> FloatArray:
+    """q_b(Δp), Δp >= 0, through a bleed of area A with a laminar land λ (module docstring)."""
+    dp = np.asarray(dp_pa, dtype=float)
+    a = np.asarray(area_m2, dtype=float)
+    lam = np.asarray(laminar, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mixed = 2 * a * a * dp / (lam + np.sqrt(lam * lam + 4 * a * a * dp / (c * c)))
+    return np.asarray(np.where(lam > 0, np.nan_to_num(mixed), c * a * np.sqrt(dp)), dtype=float)
+
+
 def passed_flow(
     dp_pa: ArrayLike,
     bleed_area_m2: ArrayLike,
@@ -46,11 +62,16 @@ def passed_flow(
     cd: float,
     rho: float,
     k_leak: ArrayLike,
+    laminar: ArrayLike = 0.0,
 ) -> FloatArray:
     """g(Δp) for Δp >= 0 in one direction: the flow the pressure drop drives, m³/s."""
     dp = np.asarray(dp_pa, dtype=float)
-    orifice = cd * (np.asarray(bleed_area_m2) + valve_area(dp, valve)) * np.sqrt(2 * dp / rho)
-    return np.asarray(orifice + np.asarray(k_leak) * dp, dtype=float)
+    c = cd * math.sqrt(2 / rho)
+    if not np.any(np.asarray(laminar) > 0):
+        orifice = cd * (np.asarray(bleed_area_m2) + valve_area(dp, valve)) * np.sqrt(2 * dp / rho)
+        return np.asarray(orifice + np.asarray(k_leak) * dp, dtype=float)
+    q = bleed_flow(dp, bleed_area_m2, c, laminar) + c * valve_area(dp, valve) * np.sqrt(dp)
+    return np.asarray(q + np.asarray(k_leak) * dp, dtype=float)
 
 
 def solve_pressure_drop(
@@ -60,15 +81,19 @@ def solve_pressure_drop(
     cd: float,
     rho: float,
     k_leak: ArrayLike,
+    laminar: ArrayLike = 0.0,
 ) -> FloatArray:
-    """Δp >= 0 that passes flow |q| in one direction (all arguments broadcast)."""
+    """Δp >= 0 that passes flow |q| in one direction (all arguments broadcast); `laminar`
+    the bleed's λ = 8π μ L (0: a sharp orifice)."""
     q = np.abs(np.asarray(q_m3_s, dtype=float))
     a_b = np.broadcast_to(np.asarray(bleed_area_m2, dtype=float), q.shape)
     kl = np.broadcast_to(np.asarray(k_leak, dtype=float), q.shape)
+    lam = np.broadcast_to(np.asarray(laminar, dtype=float), q.shape)
     s = _solve_s(
         np.ascontiguousarray(q).ravel(),
         np.ascontiguousarray(a_b).ravel(),
         np.ascontiguousarray(kl).ravel(),
+        np.ascontiguousarray(lam).ravel(),
         cd * math.sqrt(2 / rho),
         valve.perimeter_m,
         valve.face_area_m2,
@@ -85,6 +110,7 @@ def _solve_s(
     q: FloatArray,
     a_b: FloatArray,
     kl: FloatArray,
+    lam: FloatArray,
     c: float,
     perim: float,
     face: float,
@@ -101,10 +127,16 @@ def _solve_s(
     p_full = (k * max_lift + preload) / face
     slope_open = perim * face / k
     for i in range(q.size):
-        qi, ab, kli = q[i], a_b[i], kl[i]
-        a_full = ab + perim * max_lift
+        qi, ab, kli, li = q[i], a_b[i], kl[i], lam[i]
         # Test the divisor itself: c·A_b can underflow to 0 for a subnormal area.
-        s_bleed = qi / (c * ab) if c * ab > 0 else math.inf
+        if li > 0:
+            # A laminar land: the bleed alone passes q at λq/A² + (q/(cA))², and the
+            # stack alone (the bleed's share unknown) at full lift.
+            s_bleed = math.sqrt(li * qi / (ab * ab) + (qi / (c * ab)) ** 2) if ab > 0 else math.inf
+            a_full = perim * max_lift
+        else:
+            s_bleed = qi / (c * ab) if c * ab > 0 else math.inf
+            a_full = ab + perim * max_lift
         s_leak = math.sqrt(qi / kli) if kli > 0 else math.inf
         s_valve = max(qi / (c * a_full), math.sqrt(p_full)) if c * a_full > 0 else math.inf
         hi = min(min(s_bleed, s_leak), min(s_valve, S_MAX))
@@ -116,10 +148,23 @@ def _solve_s(
             raw = (s2 * face - preload) / k
             area = perim * min(max(raw, 0.0), max_lift)
             da = slope_open if 0 < raw < max_lift else 0.0
-            h = c * (ab + area) * s + kli * s2 - qi
-            if abs(h) <= tol:
-                break
-            dh = c * (ab + area) + c * s * da * 2 * s + 2 * kli * s
+            if li > 0:
+                # q_b = 2A²s²/(λ + D), D = √(λ² + 4A²s²/c²); dq_b/ds by the quotient rule.
+                a2 = ab * ab
+                dd = math.sqrt(li * li + 4 * a2 * s2 / (c * c))
+                qb = 2 * a2 * s2 / (li + dd)
+                dqb = (4 * a2 * s * (li + dd) - 2 * a2 * s2 * (4 * a2 * s / (c * c * dd))) / (
+                    (li + dd) ** 2
+                )
+                h = qb + c * area * s + kli * s2 - qi
+                if abs(h) <= tol:
+                    break
+                dh = dqb + c * area + c * s * da * 2 * s + 2 * kli * s
+            else:
+                h = c * (ab + area) * s + kli * s2 - qi
+                if abs(h) <= tol:
+                    break
+                dh = c * (ab + area) + c * s * da * 2 * s + 2 * kli * s
             if h < 0:
                 lo = s
             if h > 0:

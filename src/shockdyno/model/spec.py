@@ -48,6 +48,10 @@ class DamperSpec:
     # Oil column above the piston: with the bore it gives the compression chamber's volume
     # (the compressibility term's V). Not in the paper; 80 mm for a 40 mm bore is typical.
     oil_column_m: Positive = 0.08
+    # Laminar length of the bleed passage (a needle's land, a drilled jet): Hagen-Poiseuille
+    # in series with the sharp orifice, so viscosity (and the oil's temperature) acts on the
+    # bleed's low-speed force. 0: the paper's sharp orifice, exactly. Calibrated by diagnose.
+    bleed_land_m: NonNegative = 0.0
 
     # -- derived geometry -------------------------------------------------------------
     @property
@@ -74,6 +78,13 @@ class DamperSpec:
     @property
     def viscosity_pa_s(self) -> float:
         return self.oil_viscosity_cst * 1e-6 * self.oil_density_kg_m3
+
+    @property
+    def bleed_laminar_pa_s_m(self) -> float:
+        """λ = 8π μ L of the bleed's land: its laminar resistance is λ / A² for a bleed of
+        area A (Hagen-Poiseuille for a round passage of that area), so the laminar share
+        of a bleed's drop at a given flow is the same at every click."""
+        return 8 * math.pi * self.viscosity_pa_s * self.bleed_land_m
 
     @property
     def leak_conductance_m3_s_pa(self) -> float:

@@ -8,8 +8,9 @@ and writes its physics in its own forms, as states integrated by a stiff solver
 stops):
 
     p_r, p_k   rebound / compression chamber pressures, each a compliance
-               V [(1 - α)/β_oil + α p₀/p²] (Wood's law, isothermal air α at p₀) filled by
-               the flows through the piston, the rod's and the gas piston's motion
+               a₀ p₀/p² + (V - a₀ p₀/p)/β_oil (a fixed mass of isothermal air, a₀ = α of
+               the chamber's mid-stroke volume at p₀: Wood's law) filled by the flows
+               through the piston, the rod's and the gas piston's motion
     y_g, u_g   floating gas piston: mass, gas spring p₀ (V_g/(V_g - A_g y_g))^n, seal
     V_v        vapour / released gas in the rebound chamber: forms at rate
                k_e (p_v - p_r) below the release pressure, condenses at k_c (p_r - p_v)
@@ -130,6 +131,9 @@ class ReferencePlant:
         self.v_gas = self.a_g * s.gas_length_m * params.gas_volume_factor
         self.p0 = s.gas_pressure_pa * params.gas_pressure_factor
         self.length = s.oil_column_m
+        # Each chamber's free air at the charge: α of its mid-stroke volume, a fixed amount.
+        self.air_r = params.air_fraction * self.a_a * self.length
+        self.air_k = params.air_fraction * self.a_p * self.length
         self.couette = s.leak_gap_m / 2 * math.pi * s.piston_diameter_m
         self.gap_coeff = (
             s.leak_gap_m**3 * math.pi * s.piston_diameter_m / (12 * s.leak_land_length_m)
@@ -180,10 +184,15 @@ class ReferencePlant:
         )
         return math.copysign(q, dp)
 
-    def _compliance(self, volume: float, p: float) -> float:
+    def _compliance(self, volume: float, air0: float, p: float) -> float:
+        """dV/dp of a chamber's contents: a fixed mass of air (air0 of volume at p0,
+        isothermal) and the oil that fills the rest. With the air's amount fixed, a cycle
+        returns the contents to their volume and moves no oil on balance (a compliance
+        V(x)·α p0/p², air scaled with the chamber, pumped oil through the piston every
+        cycle and drained the gas side by some 18 kPa a cycle at 2 % air)."""
         pe = max(p, P_MIN)
-        alpha = self.p.air_fraction
-        return volume * ((1 - alpha) / self.p.oil_bulk_modulus_pa + alpha * self.p0 / (pe * pe))
+        air = air0 * self.p0 / pe
+        return air0 * self.p0 / (pe * pe) + max(volume - air, 0.0) / self.p.oil_bulk_modulus_pa
 
     def _gas(self, y_g: float, t_oil: float) -> float:
         v = max(self.v_gas - self.a_g * y_g, 0.05 * self.v_gas)
@@ -213,8 +222,10 @@ class ReferencePlant:
             dvap = -p.condense_rate_m3_s_pa * (p_r - p.release_pressure_pa) * vap / (vap + 1e-9)
         v_r = self.a_a * max(self.length + x, 0.1 * self.length)
         v_k = max(self.a_p * (self.length - x) + self.a_g * y_g, 0.1 * self.a_p * self.length)
-        dp_r = (q - self.a_a * v + dvap) / self._compliance(max(v_r - vap, 0.1 * v_r), p_r)
-        dp_k = (self.a_p * v - self.a_g * u_g - q) / self._compliance(v_k, p_k)
+        dp_r = (q - self.a_a * v + dvap) / self._compliance(
+            max(v_r - vap, 0.1 * v_r), self.air_r, p_r
+        )
+        dp_k = (self.a_p * v - self.a_g * u_g - q) / self._compliance(v_k, self.air_k, p_k)
         f_gs = p.gas_seal_n * math.tanh(u_g / 0.002)
         du_g = ((p_k - self._gas(y_g, t_o)) * self.a_g - f_gs) / self.spec.gas_piston_mass_kg
         g = self._seal_g(v)

@@ -3,14 +3,16 @@
 The chamber (model/chamber.py) fills through the piston's own flow law against its
 compliance, Wood's law at the local absolute pressure p:
 
-    C(p) = V(x) [(1 - α) c_oil + α p₀ / p²],     V(x) = A_r (L + x),
+    C(p) = α V₀ p₀ / p² + (V(x) - α V₀) c_oil,     V(x) = A_r (L + x),  V₀ = A_r L,
 
-α the free air by volume at the charge pressure p₀ (the spec's gas pressure), c_oil the
-oil's compressibility. The pressure drop lags its static value most where the chamber's
-pressure is lowest (on the compression stroke, where air expands), and the loop opens
-near reversal. Off: α = 0 and c_oil = 0 (rigid oil: the algebraic solve, exactly). Only
-the compliance is seen by a sweep, so the fit frees α and holds c_oil (name it to free
-it: `compressibility.oil_compressibility_per_gpa`).
+α the free air by volume at the charge pressure p₀ (the spec's gas pressure) in the
+chamber's mid-stroke volume (a fixed amount of air), c_oil the oil's compressibility
+(with what gives with it: a constant effective bulk modulus is c_oil alone). The
+pressure drop lags its static value most where the chamber's pressure is lowest (on the
+compression stroke, where air expands), and the loop opens near reversal. Off: α = 0
+and c_oil = 0 (rigid oil: the algebraic solve, exactly). The fit frees α and holds c_oil
+(name it to free it: `compressibility.oil_compressibility_per_gpa`); the diagnosis frees
+both, so either form (air, or a constant effective modulus) can be found.
 """
 
 from __future__ import annotations
@@ -54,6 +56,7 @@ def run_chamber(
         w.dt_s,
         w.inputs.periodic,
         carry,
+        w.bleed_laminar if w.bleed_laminar.size == w.x.size else None,
     )
 
 
@@ -89,11 +92,14 @@ class Compressibility(Term):
             "1/GPa",
             nominal=1 / 1.5,
             lo=0.0,
-            hi=2.0,
+            # To 1/(50 MPa): what gives with the oil (a tube's swell, seals, gas held in
+            # solution that a model of free air does not describe) is a compliance of the
+            # same form; mineral oil alone is 1/1.5-1/2 GPa.
+            hi=20.0,
             scale=0.5,
             off=0.0,
             free=False,
-            doc="1/β of the oil (mineral oil: 1/1.5 GPa)",
+            doc="1/β of the oil and what gives with it (mineral oil: 1/1.5 GPa)",
         ),
     )
 

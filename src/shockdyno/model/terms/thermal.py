@@ -172,7 +172,10 @@ class Thermal(Term):
             return None
         temp, state = self.temperature(w, p, carry)
         ref = p["reference_c"]
-        w.k_leak = w.k_leak * np.exp(p["viscosity_coeff_per_k"] * (temp - ref))
+        thinning = np.exp(p["viscosity_coeff_per_k"] * (temp - ref))  # ν_ref / ν(T)
+        w.k_leak = w.k_leak * thinning
+        if w.bleed_laminar.size:
+            w.bleed_laminar = w.bleed_laminar / thinning  # the land's resistance ∝ ν
         ratio = 1.0 + p["gas_coupling"] * ((temp + KELVIN) / (ref + KELVIN) - 1.0)
         w.set_p_c(self.name, w.p_c * ratio)
         w.outputs[f"{self.name}.temperature_c"] = temp

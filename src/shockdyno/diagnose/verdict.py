@@ -81,6 +81,7 @@ _CALIBRATION_WORDS = {
     "rebound_valve.preload_m": "rebound valve preload",
     "rebound_valve.face_area_m2": "rebound valve face area",
     "bleed_land_m": "bleed's laminar land",
+    "friction_presliding_m": "seal's presliding",
 }
 
 
@@ -88,6 +89,11 @@ def describe_calibration(r: CalibrationRow) -> str:
     """ "the spec's gas volume is 1.4× too small": the spec against the recording."""
     what = _CALIBRATION_WORDS.get(r.parameter, r.parameter)
     if r.spec_value == 0:
+        if r.parameter == "friction_presliding_m":
+            return (
+                f"the seal deflects {1e6 * r.fitted:.2g} µm before it slides: its friction "
+                "turns over the travel after each reversal"
+            )
         if r.parameter == "bleed_land_m":
             return (
                 f"the bleed is not a sharp orifice: it flows as one with a laminar land of "

@@ -76,11 +76,15 @@ SPEC_GLOBALS: dict[str, SpecGlobal] = {
         SpecGlobal("rebound_valve.face_area_m2", "m²", 0.2, 5.0, 1.0e-4),
         # A sharp orifice (0) up to a 0.2 m laminar passage: a needle's land is mm to cm.
         SpecGlobal("bleed_land_m", "m", 0.0, 40.0, 5.0e-3),
+        # A rod seal deflects µm (a hard band) to a few tenths of a mm (a soft lip).
+        SpecGlobal("friction_presliding_m", "m", 0.0, 25.0, 2.0e-5),
     )
 }
-# What `fit` calibrates; `diagnose` also calibrates the bleed's laminar land
-# (diagnose/fitting.GLOBALS), which only the low-speed shape and the temperature show.
-DEFAULT_GLOBALS = tuple(k for k in SPEC_GLOBALS if k != "bleed_land_m")
+# What `fit` calibrates; `diagnose` also calibrates the bleed's laminar land and the seal's
+# presliding (diagnose/fitting.GLOBALS), which only the low-speed shape, the temperature
+# and the turn of the friction at reversal show.
+DIAGNOSE_ONLY = ("bleed_land_m", "friction_presliding_m")
+DEFAULT_GLOBALS = tuple(k for k in SPEC_GLOBALS if k not in DIAGNOSE_ONLY)
 
 
 def spec_global(name: str) -> SpecGlobal:

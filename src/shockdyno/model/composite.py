@@ -38,6 +38,7 @@ from shockdyno.model.flow import solve_pressure_drop
 from shockdyno.model.gas import compression_pressure
 from shockdyno.model.params import Param
 from shockdyno.model.reading import Reading
+from shockdyno.model.seal import seal_force
 from shockdyno.model.spec import DamperSpec
 
 FloatArray = NDArray[np.float64]
@@ -187,6 +188,11 @@ class Work:
     # λ = 8π μ L of the bleed's laminar land per sample (spec.bleed_land_m; 0: a sharp
     # orifice); a term that changes the viscosity scales it as it scales k_leak's inverse.
     bleed_laminar: FloatArray = field(default_factory=lambda: np.zeros(0))
+    # The gas column per sample (m³) and its polytropic index: a chamber term that takes
+    # volume from the oil side (air expanding, vapour) compresses it further.
+    gas_volume: FloatArray = field(default_factory=lambda: np.zeros(0))
+    gas_index: float = 1.0
+    p_c_static: FloatArray | None = None  # p_c before any chamber state acted on it
     dp: FloatArray | None = None
     dp_static: FloatArray | None = None  # Δp before any chamber state acted on it
     chamber: Any = None  # model/chamber.Chamber: the compliance a chamber term found
@@ -482,6 +488,7 @@ class DamperModel:
             q_demand=np.zeros(n),
             p_c=np.zeros(n),
             bleed_laminar=np.full(n, spec.bleed_laminar_pa_s_m),
+            gas_volume=gas_volume(spec, inputs.x),
         )
         carry_out: dict[str, FloatArray] = {}
 
@@ -506,7 +513,7 @@ class DamperModel:
             "inertia": spec.piston_rod_mass_kg * w.a,
             "gas": (p_c_base - ATMOSPHERE_PA) * spec.rod_area_m2,
             "hydraulic": dp_static * spec.annulus_area_m2,
-            "coulomb": spec.friction_n * np.tanh(w.v / spec.friction_velocity_m_s),
+            "coulomb": self._coulomb(w, state, carry_out),
         }
         w.parts = {**base, **w.parts}
         run(FORCE, SENSOR)
@@ -522,6 +529,35 @@ class DamperModel:
 
     def force(self, inputs: ModelInputs, a_bc: ArrayLike, a_bt: ArrayLike) -> FloatArray:
         return self.evaluate(inputs, a_bc, a_bt).force
+
+    def _coulomb(
+        self,
+        w: Work,
+        state: Mapping[str, FloatArray] | None,
+        carry_out: dict[str, FloatArray],
+    ) -> FloatArray:
+        """The paper's Coulomb friction: its smoothed sign, or with a presliding distance
+        the seal's deflection state (model/seal.py), carried as "coulomb"."""
+        spec = self.spec
+        if spec.friction_presliding_m <= 0.0 or spec.friction_n <= 0.0:
+            return np.asarray(spec.friction_n * np.tanh(w.v / spec.friction_velocity_m_s))
+        force, end = seal_force(
+            w.v,
+            w.starts,
+            w.dt_s,
+            spec.friction_n,
+            spec.friction_presliding_m,
+            w.inputs.periodic,
+            carry=(state or {}).get("coulomb"),
+        )
+        carry_out["coulomb"] = end
+        return force
+
+
+def gas_volume(spec: DamperSpec, x: FloatArray) -> FloatArray:
+    """The gas column's volume as the rod enters (eq. 5's V0 - A_rod x)."""
+    v0 = spec.gas_piston_area_m2 * spec.gas_length_m
+    return np.asarray(np.maximum(v0 - spec.rod_area_m2 * x, 1e-3 * v0), dtype=float)
 
 
 def chamber_pressure(

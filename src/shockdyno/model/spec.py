@@ -52,6 +52,10 @@ class DamperSpec:
     # in series with the sharp orifice, so viscosity (and the oil's temperature) acts on the
     # bleed's low-speed force. 0: the paper's sharp orifice, exactly. Calibrated by diagnose.
     bleed_land_m: NonNegative = 0.0
+    # How far the rod seal deflects at the Coulomb force before it slides (model/seal.py):
+    # the friction turns over the travel since reversal. 0: the paper's smoothed sign
+    # (friction_velocity_m_s), exactly. Calibrated by diagnose.
+    friction_presliding_m: NonNegative = 0.0
 
     # -- derived geometry -------------------------------------------------------------
     @property

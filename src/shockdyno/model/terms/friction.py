@@ -5,7 +5,11 @@
 
 F_b is the breakaway force above the Coulomb level (static = F_c + F_b), v_s the
 Stribeck velocity over which it decays, c_v the viscous drag of the seals. Off: F_b =
-c_v = 0. The Coulomb level stays the fitted global `friction_n`.
+c_v = 0. The Coulomb level stays the fitted global `friction_n`. Where the spec's seal
+has a presliding distance (`friction_presliding_m`, calibrated by the diagnosis:
+model/seal.py), the breakaway rides on the same deflection state: the whole seal is the
+LuGre form with g(v) = F_c + F_b exp(-(v/v_s)²), and this term's component is that less
+the Coulomb seal alone.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import numpy as np
 from shockdyno.model.composite import FORCE, Evaluation, FloatArray, Term, Work
 from shockdyno.model.params import Param
 from shockdyno.model.reading import Reading
+from shockdyno.model.seal import seal_force
 from shockdyno.model.spec import DamperSpec
 
 
@@ -94,8 +99,23 @@ class Friction(Term):
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:
         v = w.v
-        sign = np.tanh(v / w.spec.friction_velocity_m_s)
         vs = p["stribeck_velocity_m_s"]
-        force = p["breakaway_n"] * np.exp(-((v / vs) ** 2)) * sign + p["viscous_n_s_m"] * v
-        w.add_part(self.name, force)
+        spec = w.spec
+        viscous = p["viscous_n_s_m"] * v
+        if spec.friction_presliding_m > 0.0 and spec.friction_n > 0.0:
+            seal, state = seal_force(
+                v,
+                w.starts,
+                w.dt_s,
+                spec.friction_n,
+                spec.friction_presliding_m,
+                w.inputs.periodic,
+                p["breakaway_n"],
+                vs,
+                carry,
+            )
+            w.add_part(self.name, seal - w.parts["coulomb"] + viscous)
+            return state
+        sign = np.tanh(v / spec.friction_velocity_m_s)
+        w.add_part(self.name, p["breakaway_n"] * np.exp(-((v / vs) ** 2)) * sign + viscous)
         return None

@@ -49,8 +49,18 @@ def noise_draws(binned: Sequence[BinnedTest], rng: np.random.Generator, n: int) 
         # Each whole cycle's scatter with a random sign (a wild cluster bootstrap: under
         # the null the scatter is symmetric, and a cycle keeps its correlation); unlike
         # drawing cycles with replacement it never repeats one extreme cycle k times.
+        # A bin's mean is over the cycles that reach it (the part cycles at a test's ends
+        # reach some bins only), so each bin scales by its own count: dividing by every
+        # cycle made the noise of a bin the part cycles miss 40 % too small in variance
+        # (4 of 5 cycles), and the tests too ready to call a mismatch significant.
         signs = rng.choice([-1.0, 1.0], size=(n, k))
-        draws = (signs @ dev) / k * np.sqrt(k / (k - 1))  # (n, nb)
+        n_k = np.sum(np.isfinite(cells), axis=0).astype(float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            scale = np.where(n_k > 1, np.sqrt(n_k / np.maximum(n_k - 1, 1)) / n_k, 0.0)
+        draws = (signs @ dev) * scale  # (n, nb)
+        few = n_k < 2
+        if np.any(few):  # one cycle in the bin: the noise of its mean from its variance
+            draws[:, few] = rng.standard_normal((n, int(np.sum(few)))) * np.sqrt(bt.mean_var[few])
         out.append(draws.T)
     return np.vstack(out)
 

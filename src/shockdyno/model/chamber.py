@@ -47,6 +47,7 @@ MIN_PRESSURE_PA = 1.0  # absolute: air cannot be compressed to nothing nor stret
 MAX_NEWTON = 100
 PERIODIC_PASSES = 4
 MAX_STEP_S = 1.0e-3  # the chamber's own step, whatever the samples' spacing
+MAX_GAS_ROUNDS = 6  # the step and the gas it compresses, solved together
 
 
 @dataclass(frozen=True)
@@ -88,12 +89,20 @@ def integrate(
     periodic: bool,
     carry: FloatArray | None = None,
     bleed_laminar: FloatArray | None = None,
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """(Δp, vapour volume m³, final state) for every sample, segment by segment.
+    gas_volume: FloatArray | None = None,
+    gas_index: float = 1.0,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """(Δp, vapour volume m³, compression-chamber pressure, final state) for every sample,
+    segment by segment.
 
     A segment starts in the static state (Δp = dp_static, no vapour) unless `carry`
     (single segment: the previous call's final state) is given, or `periodic` (whole
     cycles in their steady state: the state it ends in, found by repeating it).
+    `gas_volume`: the gas column's volume per sample (m³) at the algebraic pressure p_c;
+    what the chamber's contents take beyond the rigid oil's volume (air expanding below
+    the charge, vapour) is oil the rebound chamber does not take, so it goes to the gas
+    side, and p_c rises by the gas law, (V/(V - ΔV))^n (a cavitating chamber's saturated
+    force is p_c A_piston, so this is its level). None: p_c as given.
     """
     valves = np.array([_valve_row(spec.compression_valve), _valve_row(spec.rebound_valve)])
     c = spec.discharge_coefficient * math.sqrt(2.0 / spec.oil_density_kg_m3)
@@ -102,7 +111,8 @@ def integrate(
     cin = np.asarray(carry if use_carry else np.zeros(3), dtype=float)
     floor = chamber.release_pa
     lam = np.zeros(x.size) if bleed_laminar is None else bleed_laminar
-    dp, vap, state = _run(
+    gas = np.zeros(x.size) if gas_volume is None else gas_volume
+    dp, vap, pce, state = _run(
         np.ascontiguousarray(x, dtype=float),
         np.ascontiguousarray(v, dtype=float),
         np.ascontiguousarray(p_c, dtype=float),
@@ -111,6 +121,8 @@ def integrate(
         np.ascontiguousarray(bleed_rebound_m2, dtype=float),
         np.ascontiguousarray(k_leak, dtype=float),
         np.ascontiguousarray(np.broadcast_to(lam, x.shape), dtype=float),
+        np.ascontiguousarray(np.broadcast_to(gas, x.shape), dtype=float),
+        gas_index,
         np.ascontiguousarray(starts, dtype=np.int64),
         np.ascontiguousarray(dt_s, dtype=float),
         valves,
@@ -127,7 +139,7 @@ def integrate(
         cin,
         use_carry,
     )
-    return dp, vap, state
+    return dp, vap, pce, state
 
 
 @njit(cache=True)
@@ -185,6 +197,26 @@ def _occupied(p: float, vol: float, air0: float, p0: float, c_oil: float) -> tup
     occ = air0 * p0 / pe - oil * c_oil * p
     docc = -(air0 * p0 / (pe * pe) + oil * c_oil)
     return occ, docc
+
+
+@njit(cache=True)
+def _gas_factor(
+    p: float,
+    vapour: float,
+    vol: float,
+    gas_volume: float,
+    air0: float,
+    p0: float,
+    c_oil: float,
+    n: float,
+) -> float:
+    """p_c over its algebraic value: the chamber's contents beyond the rigid oil's volume
+    (air expanded below the charge, vapour) are oil the rebound chamber did not take, so
+    the gas column is that much shorter."""
+    occ_now, _ = _occupied(p, vol, air0, p0, c_oil)
+    occ_ref, _ = _occupied(p0, vol, air0, p0, c_oil)
+    grow = min(occ_now - occ_ref + vapour, 0.95 * gas_volume)
+    return float((gas_volume / (gas_volume - grow)) ** n)
 
 
 @njit(cache=True)
@@ -280,6 +312,8 @@ def _run(
     a_bt: FloatArray,
     k_leak: FloatArray,
     lam: FloatArray,
+    gas_vol: FloatArray,
+    gas_n: float,
     starts: NDArray[np.int64],
     dt_s: FloatArray,
     valves: FloatArray,
@@ -295,11 +329,12 @@ def _run(
     periodic: bool,
     carry: FloatArray,
     use_carry: bool,
-) -> tuple[FloatArray, FloatArray, FloatArray]:
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     n = x.size
     air0 = alpha * a_r * length  # the air at p0: α of the chamber's mid-stroke volume
     dp = np.empty(n)
     vap = np.empty(n)
+    pce = np.empty(n)
     state = np.zeros(3)
     nseg = starts.size
     for k in range(nseg):
@@ -322,6 +357,7 @@ def _run(
                 if i == lo and it == 0 and not use_carry:
                     dp[i] = d  # the initial state is the first sample's
                     vap[i] = vv
+                    pce[i] = p_c[i]
                     continue
                 # Sub-steps of at most MAX_STEP_S between samples, inputs interpolated
                 # linearly: a vapour volume's refill ends within a millisecond, which a
@@ -336,29 +372,48 @@ def _run(
                     vi = v[k0] + w * (v[i] - v[k0])
                     pci = p_c[k0] + w * (p_c[i] - p_c[k0])
                     vol = a_r * max(length + xi, 0.05 * length)
-                    d, vv = _step(
-                        d,
-                        p,
-                        vv,
-                        pci,
-                        a_q * vi,
-                        dt / m,
-                        vol,
-                        a_bc[i],
-                        a_bt[i],
-                        k_leak[i],
-                        lam[i],
-                        valves,
-                        c,
-                        air0,
-                        p0,
-                        c_oil,
-                        floor,
-                        has_floor,
-                    )
+                    gv = gas_vol[k0] + w * (gas_vol[i] - gas_vol[k0])
+                    base = pci
+                    if gv > 0.0:
+                        pci = base * _gas_factor(p, vv, vol, gv, air0, p0, c_oil, gas_n)
+                    used = pci
+                    for _ in range(MAX_GAS_ROUNDS):
+                        used = pci
+                        d_new, vv_new = _step(
+                            d,
+                            p,
+                            vv,
+                            pci,
+                            a_q * vi,
+                            dt / m,
+                            vol,
+                            a_bc[i],
+                            a_bt[i],
+                            k_leak[i],
+                            lam[i],
+                            valves,
+                            c,
+                            air0,
+                            p0,
+                            c_oil,
+                            floor,
+                            has_floor,
+                        )
+                        if gv <= 0.0:
+                            break
+                        # The gas at the step's end state (implicit, as the step is).
+                        again = base * _gas_factor(
+                            pci - d_new, vv_new, vol, gv, air0, p0, c_oil, gas_n
+                        )
+                        if abs(again - pci) <= 1.0e-10 * abs(pci):
+                            break
+                        pci = again
+                    d, vv = d_new, vv_new
+                    pci = used
                     p = pci - d
                 dp[i] = d
                 vap[i] = vv
+                pce[i] = pci
             if it + 1 < passes:
                 close = abs(p - p_start) <= 1.0e-6 * (abs(p_start) + 1.0e3)
                 if close and abs(vv - v_start) <= 1.0e-12:
@@ -366,4 +421,4 @@ def _run(
         state[0] = p
         state[1] = vv
         state[2] = d  # the next step's first guess: a split run gives the same bits
-    return dp, vap, state
+    return dp, vap, pce, state

@@ -91,7 +91,8 @@ class Cavitation(Term):
             release_pa=floor,
             length_m=w.spec.oil_column_m,
         )
-        dp, vapour, state = run_chamber(w, chamber, carry)
+        dp, vapour, state, p_c = run_chamber(w, chamber, carry)
+        w.set_p_c(self.name, p_c)
         w.set_dp(self.name, dp)
         w.outputs[f"{self.name}.vapour_m3"] = vapour
         return state

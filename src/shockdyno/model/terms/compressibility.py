@@ -34,20 +34,24 @@ MAX_BULK_MODULUS_PA = 2.2e9
 
 def run_chamber(
     w: Work, chamber: Chamber, carry: FloatArray | None
-) -> tuple[FloatArray, FloatArray, FloatArray | None]:
-    """(Δp, vapour volume, state) of the chamber on the work's samples, from the static
-    Δp the flow solve gave (kept in w.dp_static for the next chamber term)."""
+) -> tuple[FloatArray, FloatArray, FloatArray | None, FloatArray]:
+    """(Δp, vapour volume, state, p_c) of the chamber on the work's samples, from the static
+    Δp and p_c the flow solve gave (kept in w.dp_static and w.p_c_static for the next
+    chamber term); the compression chamber's pressure follows what the chamber's
+    contents took from the gas side (w.set_p_c, the term's own part)."""
     if w.dp_static is None:
         w.dp_static = w.dp
-    assert w.dp_static is not None
+    if w.p_c_static is None:
+        w.p_c_static = w.p_c
+    assert w.dp_static is not None and w.p_c_static is not None
     if chamber.inert:
-        return w.dp_static, np.zeros_like(w.dp_static), None
-    return integrate(
+        return w.dp_static, np.zeros_like(w.dp_static), None, w.p_c_static
+    dp, vapour, p_c, state = integrate(
         w.spec,
         chamber,
         w.x,
         w.v,
-        w.p_c,
+        w.p_c_static,
         w.dp_static,
         w.bleed_compression_m2,
         w.bleed_rebound_m2,
@@ -57,7 +61,10 @@ def run_chamber(
         w.inputs.periodic,
         carry,
         w.bleed_laminar if w.bleed_laminar.size == w.x.size else None,
+        w.gas_volume if w.gas_volume.size == w.x.size else None,
+        w.gas_index,
     )
+    return dp, vapour, state, p_c
 
 
 def bulk_modulus_pa(p: Mapping[str, float], pressure_pa: float, charge_pa: float) -> float:
@@ -147,7 +154,8 @@ class Compressibility(Term):
         assert w.dp is not None
         chamber = self.chamber(w, p)
         w.chamber = chamber
-        dp, _, state = run_chamber(w, chamber, carry)
+        dp, _, state, p_c = run_chamber(w, chamber, carry)
+        w.set_p_c(self.name, p_c)
         w.set_dp(self.name, dp)
         p_r = w.p_c - dp
         w.outputs[f"{self.name}.bulk_modulus_pa"] = np.asarray(

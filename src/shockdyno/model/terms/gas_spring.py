@@ -68,4 +68,6 @@ class GasSpring(Term):
         inertia = spec.rod_area_m2 * spec.gas_piston_mass_kg / spec.gas_piston_area_m2**2 * w.a
         gas = w.p_c - inertia
         w.set_p_c(self.name, inertia + gas * (new / base))
+        w.gas_volume = np.maximum(vol - swept, 1e-3 * vol)
+        w.gas_index = p["polytropic_index"]
         return None

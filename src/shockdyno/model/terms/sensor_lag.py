@@ -58,7 +58,7 @@ class SensorLag(Term):
     )
 
     def describe(self, r: Reading) -> str:
-        d, lag = r.v("delay_s"), r.v("load_cell_lag_s")
+        shift = r.v("delay_s") + r.v("load_cell_lag_s") - r.v("lvdt_lag_s")
         parts = [
             f"{label} {1e3 * r.v(key):.2g}{r.sd(key, 1e3)} ms"
             for key, label in (
@@ -69,7 +69,7 @@ class SensorLag(Term):
             if r.moved(key)
         ]
         detail = f" ({', '.join(parts)})" if parts else ""
-        return f"sensor lag: force lags the motion by {1e3 * (d + lag):.3g} ms in all{detail}"
+        return f"sensor lag: force lags the motion by {1e3 * shift:.3g} ms in all{detail}"
 
     def nesting_free(self) -> tuple[str, ...]:
         # A delay and a lag differ only at sharp events (the friction flip at reversal):

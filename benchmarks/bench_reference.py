@@ -216,7 +216,9 @@ def run_case(case: Case) -> Row:
         d = to_json(diagnose(tests))
         row.diag_s = time.perf_counter() - t1
         row.claimed = list(d["verdict"]["physics"])
-        row.calibrated = [c["parameter"] for c in d["verdict"].get("calibration", [])]
+        row.calibrated = [
+            c["parameter"] for c in d["verdict"].get("calibration", []) if c.get("moved")
+        ]
         row.e_before = float(np.mean([t["E_t_before"] for t in d["tests"]]))
         row.e_after = float(np.mean([t["E_t_after"] for t in d["tests"]]))
         plant = _plant_values(case.params, spec.gas_pressure_pa)

@@ -88,6 +88,34 @@ def delay_spread(
     return DelaySpread(delays, float(np.min(arr)), float(np.max(arr)), float(np.median(arr)))
 
 
+def net_shift_s(fitted: Fitted) -> float:
+    """How far the sensor term moves the force against the motion: delay + load-cell lag
+    - LVDT lag (0 without the term)."""
+    term = fitted.model.term(SENSOR)
+    if term is None:
+        return 0.0
+    v = {t: fitted.model.value(term.qualified(t)) for t in TIMES}
+    return v["delay_s"] + v["load_cell_lag_s"] - v["lvdt_lag_s"]
+
+
+def alike(fitted: Fitted, min_shift_s: float) -> str:
+    """Why a sensor term that delays the force and the motion alike is not a sensor fault
+    ("" when it shifts one against the other by at least `min_shift_s`). Every DAQ filters
+    both channels before it samples them: on a clean reference-plant sweep (a 400 Hz
+    anti-alias filter on each) the term took 0.66 ms of delay and 0.67 ms of LVDT lag,
+    a net 0.04 ms, and 28 % of the held-out structure the sharp reversals leave."""
+    term = fitted.model.term(SENSOR)
+    if term is None:
+        return ""
+    shift = net_shift_s(fitted)
+    if abs(shift) >= min_shift_s:
+        return ""
+    return (
+        f"it delays the force and the motion alike (net {1e3 * shift:.2g} ms): both "
+        "channels' filters, not a shift of one against the other"
+    )
+
+
 def inconsistent(spread: DelaySpread | None, abs_s: float, share: float) -> str:
     """Why the per-test delays are not one sensor's ("" when they are, or cannot say)."""
     if spread is None:

@@ -35,7 +35,7 @@ from shockdyno.diagnose.candidates import (
     heldout_gain,
     try_candidate,
 )
-from shockdyno.diagnose.consistency import SENSOR, delay_spread, inconsistent
+from shockdyno.diagnose.consistency import SENSOR, alike, delay_spread, inconsistent
 from shockdyno.diagnose.cycles import BinnedTest
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.fitting import GLOBALS, Fitted, full_rate_force, refit
@@ -467,7 +467,8 @@ def _round(
 
     x = search.prob.inputs.x
     refused = {
-        c.name: inconsistent(
+        c.name: alike(c.fitted, s.sensor_delay_min_shift_s)
+        or inconsistent(
             delay_spread(search, c.fitted, s.sensor_delay_min_gain, s.sensor_delay_min_shift_s),
             s.sensor_delay_spread_s,
             s.sensor_delay_spread_share,

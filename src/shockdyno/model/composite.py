@@ -547,6 +547,7 @@ class DamperModel:
             w.dt_s,
             spec.friction_n,
             spec.friction_presliding_m,
+            spec.friction_velocity_m_s,
             w.inputs.periodic,
             carry=(state or {}).get("coulomb"),
         )

@@ -5,14 +5,16 @@ A seal does not slip the instant the rod turns: its lip (or the asperities of it
 contact) first deflects, elastically, over a presliding distance δ. In the LuGre form,
 integrated along the rod's travel (rate-independent but for the sliding level g(v)):
 
-    dz/dx = sign(v) - z / δ_g(v),     δ_g = δ g(v) / F_c,     F_seal = (F_c / δ) z
+    dz/dx = (δ_g(v) tanh(v/v_ε) - z) / δ_g(v),   δ_g = δ g(v) / F_c,   F_seal = (F_c / δ) z
 
-so the friction turns over a few δ of travel after each reversal and approaches ±g(v)
-while sliding; g = F_c is Coulomb friction, g = F_c + F_b exp(-(v/v_s)²) a Stribeck
-breakaway (the `friction` term). Each step is exact for g held over the step; its path
-length comes from the velocity at both ends (a reversal inside a step is split at the
-velocity's zero), so 100 Hz and 1 kHz samples reach nearly the same state. With δ = 0
-the paper's smoothed sign F_c tanh(v/v_ε) is used instead (model/composite.py).
+so the friction turns over a few δ of travel after each reversal and approaches
+g(v) tanh(v/v_ε) while sliding; g = F_c is Coulomb friction, g = F_c + F_b exp(-(v/v_s)²)
+a Stribeck breakaway (the `friction` term). Its steady state keeps the paper's smoothed
+sign (v_ε, the spec's friction_velocity_m_s), so as δ → 0 the seal becomes the paper's
+F_c tanh(v/v_ε) and the term's static map, continuously; at δ = 0 those are used
+(model/composite.py). Each step is exact for g held over the step; its path length comes
+from the velocity at both ends (a reversal inside a step is split at the velocity's
+zero), so 100 Hz and 1 kHz samples reach nearly the same state.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ def seal_force(
     dt_s: FloatArray,
     coulomb_n: float,
     presliding_m: float,
+    smoothing_m_s: float,
     periodic: bool,
     breakaway_n: float = 0.0,
     stribeck_m_s: float = 1.0,
@@ -50,6 +53,7 @@ def seal_force(
         breakaway_n,
         stribeck_m_s,
         presliding_m,
+        smoothing_m_s,
         periodic,
         np.asarray(carry if use_carry else np.zeros(1), dtype=float),
         use_carry,
@@ -58,9 +62,8 @@ def seal_force(
 
 
 @njit(cache=True)
-def _load(z: float, s: float, path: float, width: float) -> float:
-    """The deflection after `path` of travel in direction s, the steady width held."""
-    target = s * width
+def _load(z: float, target: float, path: float, width: float) -> float:
+    """The deflection after `path` of travel toward `target`, the steady width held."""
     return target + (z - target) * math.exp(-path / width)
 
 
@@ -73,6 +76,7 @@ def _deflection(
     f_b: float,
     v_s: float,
     delta: float,
+    v_eps: float,
     periodic: bool,
     carry: FloatArray,
     use_carry: bool,
@@ -90,8 +94,7 @@ def _deflection(
         if use_carry:
             z = carry[0]
         else:
-            s0 = 1.0 if v[lo] >= 0.0 else -1.0
-            z = s0 * delta * (1.0 + ratio * math.exp(-((v[lo] / v_s) ** 2)))
+            z = delta * (1.0 + ratio * math.exp(-((v[lo] / v_s) ** 2))) * math.tanh(v[lo] / v_eps)
         passes = 2 if periodic and not use_carry else 1
         for it in range(passes):
             for i in range(lo, hi):
@@ -104,13 +107,14 @@ def _deflection(
                 j = i - 1 if i > lo else (i if use_carry else hi - 1)
                 a, b = v[j], v[i]
                 width = delta * (1.0 + ratio * math.exp(-((b / v_s) ** 2)))
+                toward_b = width * math.tanh(b / v_eps)
                 if a * b < 0.0:
                     phi = a / (a - b)  # the rod turns inside the step: there, then back
-                    z = _load(z, 1.0 if a > 0.0 else -1.0, 0.5 * abs(a) * phi * dt, width)
-                    z = _load(z, 1.0 if b > 0.0 else -1.0, 0.5 * abs(b) * (1.0 - phi) * dt, width)
+                    toward_a = width * math.tanh(a / v_eps)
+                    z = _load(z, toward_a, 0.5 * abs(a) * phi * dt, width)
+                    z = _load(z, toward_b, 0.5 * abs(b) * (1.0 - phi) * dt, width)
                 else:
-                    s = 1.0 if a + b >= 0.0 else -1.0
-                    z = _load(z, s, 0.5 * (abs(a) + abs(b)) * dt, width)
+                    z = _load(z, toward_b, 0.5 * (abs(a) + abs(b)) * dt, width)
                 z_out[i] = z
         state[0] = z
     return z_out, state

@@ -109,6 +109,7 @@ class Friction(Term):
                 w.dt_s,
                 spec.friction_n,
                 spec.friction_presliding_m,
+                spec.friction_velocity_m_s,
                 w.inputs.periodic,
                 p["breakaway_n"],
                 vs,

@@ -28,9 +28,11 @@ FloatArray = NDArray[np.float64]
 # seal's presliding. A land makes the bleed's force linear at low speed and is where the
 # oil's viscosity (its temperature) acts on the damping: a spec states a sharp orifice, a
 # damper's needle has a land of millimetres to centimetres. A seal turns over µm to a few
-# tenths of a mm of travel, where the paper smooths a sign: on a clean reference-plant
-# sweep (a 1.75 µm LuGre seal) a friction candidate with a free presliding took 93 % of
-# the held-out structure and was claimed. Both are the spec's numbers, not missing physics.
+# tenths of a mm of travel, where the paper smooths a sign over 1 mm/s (the speed is
+# calibrated with the travel: a LuGre seal's turn is the travel's alone, a sim-rig's the
+# smoothing's): on a clean reference-plant sweep (a 1.75 µm LuGre seal) a friction
+# candidate with a free presliding took 93 % of the held-out structure and was claimed.
+# They are the spec's numbers, not missing physics.
 GLOBALS = (*DEFAULT_GLOBALS, *DIAGNOSE_ONLY)
 
 

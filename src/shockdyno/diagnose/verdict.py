@@ -82,6 +82,7 @@ _CALIBRATION_WORDS = {
     "rebound_valve.face_area_m2": "rebound valve face area",
     "bleed_land_m": "bleed's laminar land",
     "friction_presliding_m": "seal's presliding",
+    "friction_velocity_m_s": "friction's smoothing speed at reversal",
 }
 
 

@@ -78,12 +78,15 @@ SPEC_GLOBALS: dict[str, SpecGlobal] = {
         SpecGlobal("bleed_land_m", "m", 0.0, 40.0, 5.0e-3),
         # A rod seal deflects µm (a hard band) to a few tenths of a mm (a soft lip).
         SpecGlobal("friction_presliding_m", "m", 0.0, 25.0, 2.0e-5),
+        # The paper smooths the friction's sign over 1 mm/s; a seal that turns over its
+        # presliding travel needs less (a LuGre seal's steady state is the sign itself).
+        SpecGlobal("friction_velocity_m_s", "m/s", 0.01, 5.0, 1.0e-3),
     )
 }
 # What `fit` calibrates; `diagnose` also calibrates the bleed's laminar land and the seal's
 # presliding (diagnose/fitting.GLOBALS), which only the low-speed shape, the temperature
 # and the turn of the friction at reversal show.
-DIAGNOSE_ONLY = ("bleed_land_m", "friction_presliding_m")
+DIAGNOSE_ONLY = ("bleed_land_m", "friction_presliding_m", "friction_velocity_m_s")
 DEFAULT_GLOBALS = tuple(k for k in SPEC_GLOBALS if k not in DIAGNOSE_ONLY)
 
 

@@ -47,8 +47,7 @@ MIN_PRESSURE_PA = 1.0  # absolute: air cannot be compressed to nothing nor stret
 MAX_NEWTON = 100
 PERIODIC_PASSES = 4
 MAX_STEP_S = 1.0e-3  # the chamber's own step, whatever the samples' spacing
-MAX_GAS_ROUNDS = 6  # the step and the gas it compresses, solved together ...
-GAS_RTOL = 1.0e-7  # ... to this share of p_c (0.2 Pa: 2e-4 N on the rod)
+GAS_CAP = 0.9  # the contents may take at most this share of the gas column (beyond any damper)
 
 
 @dataclass(frozen=True)
@@ -109,7 +108,7 @@ def integrate(
     c = spec.discharge_coefficient * math.sqrt(2.0 / spec.oil_density_kg_m3)
     a_q = spec.annulus_area_m2 - spec.couette_area_m2
     use_carry = carry is not None and starts.size == 1
-    cin = np.asarray(carry if use_carry else np.zeros(5), dtype=float)
+    cin = np.asarray(carry if use_carry else np.zeros(3), dtype=float)
     floor = chamber.release_pa
     lam = np.zeros(x.size) if bleed_laminar is None else bleed_laminar
     gas = np.zeros(x.size) if gas_volume is None else gas_volume
@@ -201,7 +200,8 @@ def _occupied(p: float, vol: float, air0: float, p0: float, c_oil: float) -> tup
 
 
 @njit(cache=True)
-def _gas_factor(
+def _gas(
+    base: float,
     p: float,
     vapour: float,
     vol: float,
@@ -210,22 +210,30 @@ def _gas_factor(
     p0: float,
     c_oil: float,
     n: float,
-) -> float:
-    """p_c over its algebraic value: the chamber's contents beyond the rigid oil's volume
+) -> tuple[float, float, float]:
+    """(p_c, dp_c/dp, dp_c/dV_vap): the chamber's contents beyond the rigid oil's volume
     (air expanded below the charge, vapour) are oil the rebound chamber did not take, so
-    the gas column is that much shorter."""
-    occ_now, _ = _occupied(p, vol, air0, p0, c_oil)
+    the gas column is that much shorter and p_c = base (V_g / (V_g - ΔV))^n. No gas column
+    given: p_c = base."""
+    if gas_volume <= 0.0:
+        return base, 0.0, 0.0
+    occ_now, docc = _occupied(p, vol, air0, p0, c_oil)
     occ_ref, _ = _occupied(p0, vol, air0, p0, c_oil)
-    grow = min(occ_now - occ_ref + vapour, 0.95 * gas_volume)
-    return float((gas_volume / (gas_volume - grow)) ** n)
+    grow = occ_now - occ_ref + vapour
+    cap = GAS_CAP * gas_volume
+    if grow >= cap:  # beyond any damper: held, so the balance stays monotone
+        return base * (gas_volume / (gas_volume - cap)) ** n, 0.0, 0.0
+    pc = base * (gas_volume / (gas_volume - grow)) ** n
+    per_volume = n * pc / (gas_volume - grow)
+    return pc, per_volume * docc, per_volume
 
 
 @njit(cache=True)
 def _step(
-    d_guess: float,
+    p_guess: float,
     p_old: float,
     vap_old: float,
-    pc: float,
+    base: float,
     q_demand: float,
     dt: float,
     vol: float,
@@ -240,67 +248,102 @@ def _step(
     c_oil: float,
     floor: float,
     has_floor: bool,
-) -> tuple[float, float]:
-    """One backward-Euler step: (Δp, vapour volume) at the step's end.
+    gas_volume: float,
+    gas_n: float,
+) -> tuple[float, float, float]:
+    """One backward-Euler step: (chamber pressure p, vapour volume, p_c) at its end.
 
-    H(d) = V_vap,old + dt (Q - q(d)) - occ(p_c - d) + occ(p_old) is the vapour the step
-    would leave; it falls strictly with d. Its root is the new Δp unless the pressure
-    there is below the floor: then the chamber sits at the floor with H(d_floor) of vapour.
+    Solved in p, with p_c(p, V_vap) the gas the contents compress (`_gas`), so the two
+    chambers are one implicit step: H(p) = V_vap,old + dt (Q - q(p_c(p) - p)) - occ(p) +
+    occ(p_old), the vapour the step would leave with none at its end, rises strictly with
+    p (q falls as p rises and p_c falls, and the contents shrink). Its root is the new
+    pressure unless that lies below the floor: then the chamber sits at the floor with the
+    vapour V that solves V = V_vap,old + dt (Q - q(p_c(floor, V) - floor)) - occ(floor) +
+    occ(p_old), which rises in V as p_c does.
     """
     occ_old, _ = _occupied(p_old, vol, air0, p0, c_oil)
-    compliant = air0 > 0.0 or c_oil > 0.0
+    tol = 1.0e-12 * (abs(q_demand) * dt + 1.0e-12) + 1.0e-22
+    lo = -math.inf
     if has_floor:
-        d_floor = pc - floor
-        q, _ = _signed_flow(d_floor, a_bc, a_bt, valves, c, k_leak, lam)
-        occ, _ = _occupied(floor, vol, air0, p0, c_oil)
-        h_floor = vap_old + dt * (q_demand - q) - occ + occ_old
-        if h_floor >= 0.0:
-            return d_floor, h_floor
-        hi = d_floor
+        occ_f, _ = _occupied(floor, vol, air0, p0, c_oil)
+        rest = vap_old - occ_f + occ_old
+        pc, _, _ = _gas(base, floor, 0.0, vol, gas_volume, air0, p0, c_oil, gas_n)
+        q, _ = _signed_flow(pc - floor, a_bc, a_bt, valves, c, k_leak, lam)
+        if rest + dt * (q_demand - q) >= 0.0:  # F(0) <= 0, F(V) = V - rest - dt (Q - q)
+            v_lo, v_hi = 0.0, max(rest + dt * abs(q_demand), 1.0e-15)
+            for _ in range(200):
+                pc, _, _ = _gas(base, floor, v_hi, vol, gas_volume, air0, p0, c_oil, gas_n)
+                q, _ = _signed_flow(pc - floor, a_bc, a_bt, valves, c, k_leak, lam)
+                if v_hi - rest - dt * (q_demand - q) >= 0.0:
+                    break
+                v_hi *= 2.0
+            vv = min(max(vap_old, v_lo), v_hi)
+            for _ in range(MAX_NEWTON):
+                pc, _, dpc_dv = _gas(base, floor, vv, vol, gas_volume, air0, p0, c_oil, gas_n)
+                q, dq = _signed_flow(pc - floor, a_bc, a_bt, valves, c, k_leak, lam)
+                f = vv - rest - dt * (q_demand - q)
+                if abs(f) <= tol:
+                    break
+                if f > 0.0:
+                    v_hi = vv
+                else:
+                    v_lo = vv
+                step = vv - f / (1.0 + dt * dq * dpc_dv)
+                if not (v_lo < step < v_hi) or not math.isfinite(step):
+                    step = 0.5 * (v_lo + v_hi)
+                vv = step
+                if v_hi - v_lo <= 1.0e-12 * (vv + 1.0e-15):
+                    break
+            pc, _, _ = _gas(base, floor, vv, vol, gas_volume, air0, p0, c_oil, gas_n)
+            return floor, vv, pc
+        lo = floor  # H(floor) = -F(0) < 0: the root lies above the floor
     elif air0 > 0.0:
-        hi = pc - MIN_PRESSURE_PA
-    else:
-        hi = math.inf
-    # A lower bound (H > 0) and, without a floor, an upper one (H < 0), by doubling.
-    width = max(abs(d_guess), 1.0e3)
-    lo = min(d_guess, hi) - width
-    for _ in range(200):
-        q, _ = _signed_flow(lo, a_bc, a_bt, valves, c, k_leak, lam)
-        occ, _ = _occupied(pc - lo, vol, air0, p0, c_oil)
-        if vap_old + dt * (q_demand - q) - occ + occ_old > 0.0:
-            break
-        lo -= width
-        width *= 2.0
-    if not math.isfinite(hi):
-        width = max(abs(d_guess), 1.0e3)
-        hi = max(d_guess, lo) + width
+        lo = MIN_PRESSURE_PA  # the air takes any volume as p falls to nothing: H < 0
+    # A lower bound (H < 0) where there is none yet, and an upper one (H > 0), by doubling.
+    width = max(abs(p_guess) * 0.1, 1.0e3)
+    if not math.isfinite(lo):
+        lo = p_guess - width
         for _ in range(200):
-            q, _ = _signed_flow(hi, a_bc, a_bt, valves, c, k_leak, lam)
-            occ, _ = _occupied(pc - hi, vol, air0, p0, c_oil)
+            pc, _, _ = _gas(base, lo, 0.0, vol, gas_volume, air0, p0, c_oil, gas_n)
+            q, _ = _signed_flow(pc - lo, a_bc, a_bt, valves, c, k_leak, lam)
+            occ, _ = _occupied(lo, vol, air0, p0, c_oil)
             if vap_old + dt * (q_demand - q) - occ + occ_old < 0.0:
                 break
-            hi += width
             width *= 2.0
-    d = min(max(d_guess, lo), hi)
-    tol_q = 1.0e-12 * (abs(q_demand) * dt + 1.0e-12) if compliant else 0.0
+            lo -= width
+    width = max(abs(p_guess) * 0.1, 1.0e3)
+    hi = max(p_guess, lo) + width
+    for _ in range(200):
+        pc, _, _ = _gas(base, hi, 0.0, vol, gas_volume, air0, p0, c_oil, gas_n)
+        q, _ = _signed_flow(pc - hi, a_bc, a_bt, valves, c, k_leak, lam)
+        occ, _ = _occupied(hi, vol, air0, p0, c_oil)
+        if vap_old + dt * (q_demand - q) - occ + occ_old > 0.0:
+            break
+        width *= 2.0
+        hi += width
+    p = min(max(p_guess, lo), hi)
+    if not lo < p < hi:
+        p = 0.5 * (lo + hi)
     for _ in range(MAX_NEWTON):
-        q, dq = _signed_flow(d, a_bc, a_bt, valves, c, k_leak, lam)
-        occ, docc = _occupied(pc - d, vol, air0, p0, c_oil)
+        pc, dpc_dp, _ = _gas(base, p, 0.0, vol, gas_volume, air0, p0, c_oil, gas_n)
+        q, dq = _signed_flow(pc - p, a_bc, a_bt, valves, c, k_leak, lam)
+        occ, docc = _occupied(p, vol, air0, p0, c_oil)
         h = vap_old + dt * (q_demand - q) - occ + occ_old
-        if abs(h) <= tol_q + 1.0e-10 * dt * abs(q_demand) + 1.0e-22:
+        if abs(h) <= tol:
             break
         if h > 0.0:
-            lo = d
+            hi = p
         else:
-            hi = d
-        dh = -dt * dq + docc  # dH/dd: -dt q' - occ'(p)·(-1), both negative
-        step = d - h / dh if dh < 0.0 else math.nan
+            lo = p
+        dh = -dt * dq * (dpc_dp - 1.0) - docc  # both parts positive
+        step = p - h / dh if dh > 0.0 else math.nan
         if not (lo < step < hi) or not math.isfinite(step):
             step = 0.5 * (lo + hi)
-        d = step
-        if hi - lo <= 1.0e-12 * (abs(d) + 1.0):
+        p = step
+        if hi - lo <= 1.0e-12 * (abs(p) + 1.0):
             break
-    return d, 0.0
+    pc, _, _ = _gas(base, p, 0.0, vol, gas_volume, air0, p0, c_oil, gas_n)
+    return p, 0.0, pc
 
 
 @njit(cache=True)
@@ -336,7 +379,7 @@ def _run(
     dp = np.empty(n)
     vap = np.empty(n)
     pce = np.empty(n)
-    state = np.zeros(5)
+    state = np.zeros(3)
     nseg = starts.size
     for k in range(nseg):
         lo = starts[k]
@@ -350,17 +393,14 @@ def _run(
         preroll = periodic and not use_carry and hi - lo >= 8
         i0 = hi - (hi - lo) // 4 if preroll else lo
         if use_carry:
-            p, vv, d, g1, g2 = carry[0], carry[1], carry[2], carry[3], carry[4]
+            p, vv = carry[0], carry[1]
+            d = carry[2]
         else:
             p, vv = p_c[i0] - dp_static[i0], 0.0
             if has_floor and p < floor:
                 p = floor
             d = p_c[i0] - p
-            g1 = 1.0
-            if gas_vol[i0] > 0.0:
-                vol0 = a_r * max(length + x[i0], 0.05 * length)
-                g1 = _gas_factor(p, vv, vol0, gas_vol[i0], air0, p0, c_oil, gas_n)
-            g2 = g1
+        pci = p_c[i0]
         passes = (PERIODIC_PASSES + (1 if preroll else 0)) if periodic else 1
         for it in range(passes):
             p_start, v_start = p, vv
@@ -381,49 +421,32 @@ def _run(
                     k0 = i - 1 if i > lo else (hi - 1 if it > 0 else i)
                     xi = x[k0] + w * (x[i] - x[k0])
                     vi = v[k0] + w * (v[i] - v[k0])
-                    pci = p_c[k0] + w * (p_c[i] - p_c[k0])
+                    base = p_c[k0] + w * (p_c[i] - p_c[k0])
                     vol = a_r * max(length + xi, 0.05 * length)
                     gv = gas_vol[k0] + w * (gas_vol[i] - gas_vol[k0])
-                    base = pci
-                    if gv > 0.0:
-                        # The gas ratio extrapolated over the step from the last two; the
-                        # step's end state checks it (one step where it holds).
-                        pci = base * (2.0 * g1 - g2)
-                    used = pci
-                    g_end = 1.0
-                    for _ in range(MAX_GAS_ROUNDS):
-                        used = pci
-                        d_new, vv_new = _step(
-                            d,
-                            p,
-                            vv,
-                            pci,
-                            a_q * vi,
-                            dt / m,
-                            vol,
-                            a_bc[i],
-                            a_bt[i],
-                            k_leak[i],
-                            lam[i],
-                            valves,
-                            c,
-                            air0,
-                            p0,
-                            c_oil,
-                            floor,
-                            has_floor,
-                        )
-                        if gv <= 0.0:
-                            break
-                        # The gas at the step's end state (implicit, as the step is).
-                        g_end = _gas_factor(pci - d_new, vv_new, vol, gv, air0, p0, c_oil, gas_n)
-                        if abs(base * g_end - pci) <= GAS_RTOL * abs(pci):
-                            break
-                        pci = base * g_end
-                    d, vv = d_new, vv_new
-                    pci = used
-                    p = pci - d
-                    g2, g1 = g1, g_end
+                    p, vv, pci = _step(
+                        p,
+                        p,
+                        vv,
+                        base,
+                        a_q * vi,
+                        dt / m,
+                        vol,
+                        a_bc[i],
+                        a_bt[i],
+                        k_leak[i],
+                        lam[i],
+                        valves,
+                        c,
+                        air0,
+                        p0,
+                        c_oil,
+                        floor,
+                        has_floor,
+                        gv,
+                        gas_n,
+                    )
+                    d = pci - p
                 dp[i] = d
                 vap[i] = vv
                 pce[i] = pci
@@ -433,7 +456,5 @@ def _run(
                     break
         state[0] = p
         state[1] = vv
-        state[2] = d  # the next step's first guess: a split run gives the same bits
-        state[3] = g1  # and the gas ratio's last two, which the next step extrapolates
-        state[4] = g2
+        state[2] = d
     return dp, vap, pce, state

@@ -4,7 +4,8 @@ Run: .venv/bin/python benchmarks/bench_reference.py                 (2 seeds, ~4
      .venv/bin/python benchmarks/bench_reference.py --seeds 3 --first-seed 201
      ... --cache DIR   keep each sweep (a pickle named by its parameters and seed) and
                        read it back on a re-run, so only the diagnosis runs again
-                       (empty it after changing the plant: the key is not its code);
+                       (empty it after changing the plant: the key is not its code),
+                       and each DIAG.json beside it (CASE_sSEED.diag.json);
                        --sweep-only makes the sweeps and stops
 
 Every recording is a click sweep of `simrig/reference.py` (clicks 2/5/10/15/20 x
@@ -215,6 +216,9 @@ def run_case(case: Case) -> Row:
         t1 = time.perf_counter()
         d = to_json(diagnose(tests))
         row.diag_s = time.perf_counter() - t1
+        if cached is not None:  # the verdict beside its sweep, to read again
+            out = cached.with_name(f"{case.name.replace(' ', '_').replace('+', '-')}.diag.json")
+            out.write_text(json.dumps(d, default=str))
         row.claimed = list(d["verdict"]["physics"])
         row.calibrated = [
             c["parameter"] for c in d["verdict"].get("calibration", []) if c.get("moved")

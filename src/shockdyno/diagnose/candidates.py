@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
 from shockdyno.diagnose.cycles import BinnedTest
 from shockdyno.diagnose.data import Data, time_halves
-from shockdyno.diagnose.fitting import GLOBALS, Fitted, evaluate, predict, refit
+from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted, evaluate, predict, refit
 from shockdyno.diagnose.stats import lr_bootstrap
 from shockdyno.fit.parameters import global_parameters
 from shockdyno.model.composite import DamperModel
@@ -30,8 +30,15 @@ def with_term(model: DamperModel, name: str, data: Data) -> DamperModel:
 
 
 def default_free(name: str) -> tuple[str, ...]:
+    if name in CALIBRATIONS:
+        return ()  # spec values, not a term's parameters
     term = make_term(name)
     return tuple(term.qualified(k) for k in term.nesting_free())
+
+
+def with_calibration(fitted: Fitted, name: str) -> tuple[str, ...]:
+    """The spec values a fit calibrates with calibration candidate `name` added."""
+    return (*fitted.globals, *(k for k in CALIBRATIONS[name] if k not in fitted.globals))
 
 
 def best_start(data: Data, model: DamperModel, name: str, base: Fitted) -> DamperModel:
@@ -61,7 +68,7 @@ def binned_jacobian(data: Data, fitted: Fitted) -> tuple[FloatArray, int]:
     bc, bt = fitted.area_vectors(data)
     f0 = fitted.force
     cols: list[FloatArray] = []
-    for g in global_parameters(model.spec, GLOBALS):
+    for g in global_parameters(model.spec, fitted.globals):
         h = 1e-4 * g.scale
         moved = model.with_spec(model.spec.with_values({g.name: g.value + h}))
         cols.append((prob.force(moved, bc, bt) - f0) / h * g.scale)
@@ -94,12 +101,20 @@ def own_force(data: Data, fitted: Fitted, name: str) -> FloatArray | None:
     and neither adds a component of its own; a delay's component was 1e-10 N while it
     moved the force by 586 N.) None when the term is absent or the fit has no areas for
     some of these clicks."""
-    term = fitted.model.term(name)
     areas = fitted.covered_areas(data)
-    if term is None or areas is None:
+    if areas is None:
         return None
+    if name in CALIBRATIONS:  # the spec's own values (those it calibrates from: 0)
+        base = data.prob.base
+        off = fitted.model.with_spec(
+            fitted.model.spec.with_values({k: base.value(k) for k in CALIBRATIONS[name]})
+        )
+    else:
+        term = fitted.model.term(name)
+        if term is None:
+            return None
+        off = fitted.model.with_values({term.qualified(p.name): p.off for p in term.params()})
     bc, bt = areas
-    off = fitted.model.with_values({term.qualified(p.name): p.off for p in term.params()})
     prob = data.prob.for_model(fitted.model, fitted.free)  # one sample rate for both
     on_force = prob.force(fitted.model, bc, bt)
     off_force = prob.force(off, bc, bt)
@@ -125,6 +140,8 @@ class Candidate:
     # Largest phase mean of the term's own force component: what the term itself adds,
     # apart from what refitting the areas and globals beside it moved.
     own_peak_n: float = math.inf
+    # A calibration candidate's spec values before it moved them (the base spec's).
+    spec_values: dict[str, float] = field(default_factory=dict)
 
 
 def try_candidate(
@@ -135,14 +152,20 @@ def try_candidate(
     noise: FloatArray,
     max_nfev: int,
 ) -> Candidate:
-    model = best_start(data, with_term(base.model, name, data), name, base)
-    free = (*base.free, *default_free(name))
-    fitted = refit(data, model, free, base, max_nfev=max_nfev)
+    if name in CALIBRATIONS:
+        calibrated = with_calibration(base, name)
+        fitted = refit(data, base.model, base.free, base, max_nfev=max_nfev, calibrated=calibrated)
+        new_cols = [i for i, k in enumerate(calibrated) if k not in base.globals]
+    else:
+        model = best_start(data, with_term(base.model, name, data), name, base)
+        free = (*base.free, *default_free(name))
+        fitted = refit(data, model, free, base, max_nfev=max_nfev)
+        ahead = len(fitted.globals) + len(free)  # the Jacobian's globals, then free terms
+        new_cols = list(range(ahead - len(default_free(name)), ahead))
     means, _ = binned_means(data, fitted.residual)
     lr = float(np.sum(base_means**2) - np.sum(means**2))
-    jac, ng = binned_jacobian(data, fitted)
-    n_new = len(default_free(name))
-    null_cols = np.r_[np.arange(ng - n_new), np.arange(ng, jac.shape[1])]
+    jac, _ = binned_jacobian(data, fitted)
+    null_cols = np.array([i for i in range(jac.shape[1]) if i not in set(new_cols)], dtype=int)
     p = lr_bootstrap(lr, jac[:, null_cols], jac, noise) if lr > 0 else 1.0
     effect = float(np.sqrt(np.mean((fitted.force - base.force) ** 2)))
     change = data.bin_matrix((fitted.force - base.force)[:, None])[:, 0]
@@ -152,7 +175,13 @@ def try_candidate(
     if own is not None:
         binned_own = data.bin_matrix(own[:, None])[:, 0]
         own_peak = float(np.max(np.abs(binned_own))) if binned_own.size else 0.0
-    return Candidate(name, fitted, lr, p, effect, peak, base_means - means, own_peak_n=own_peak)
+    before = (
+        {k: data.prob.base.value(k) for k in CALIBRATIONS[name]} if name in CALIBRATIONS else {}
+    )
+    return Candidate(
+        name, fitted, lr, p, effect, peak, base_means - means, own_peak_n=own_peak,
+        spec_values=before,
+    )  # fmt: skip
 
 
 def _structured_mse(data: Data, residual: FloatArray) -> float:

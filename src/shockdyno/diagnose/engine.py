@@ -38,7 +38,7 @@ from shockdyno.diagnose.candidates import (
 from shockdyno.diagnose.consistency import SENSOR, alike, delay_spread, inconsistent
 from shockdyno.diagnose.cycles import BinnedTest
 from shockdyno.diagnose.data import Data
-from shockdyno.diagnose.fitting import GLOBALS, Fitted, full_rate_force, refit
+from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted, full_rate_force, refit
 from shockdyno.diagnose.locate import Location, locate
 from shockdyno.diagnose.settings import Settings as Settings
 from shockdyno.diagnose.spikes import remove_spikes
@@ -214,6 +214,28 @@ def _moved_off(fitted: Fitted, term: Term) -> bool:
     return False
 
 
+def _calibration_idle(c: Candidate, min_effect_n: float) -> str:
+    """Why a calibration candidate changed nothing itself ("" when it did): none of its
+    spec values moved off the spec's by more than 3σ, or its own force (the model less
+    the same with the spec's values) is too small to matter."""
+    spec, sds = c.fitted.model.spec, c.fitted.globals_sd
+    moved = False
+    for key in CALIBRATIONS[c.name]:
+        g = spec_global(key)
+        sd = sds.get(key, math.nan)
+        off = abs(spec.value(key) - c.spec_values.get(key, 0.0))
+        noise = 3 * sd if math.isfinite(sd) else 0.0
+        moved = moved or off > max(noise, 1e-3 * g.scale(c.spec_values.get(key, 0.0)))
+    if not moved:
+        return "its values stay at the spec's: the gain is the refit's"
+    if c.own_peak_n < min_effect_n:
+        return (
+            f"its own force peaks at {c.own_peak_n:.2g} N, too small to matter: the gain is "
+            "the refit's"
+        )
+    return ""
+
+
 def why_not(
     c: Candidate,
     scored: dict[str, tuple[float, str]],
@@ -232,6 +254,10 @@ def why_not(
     for name, shape in shapes:
         if _cosine(c.explained, shape) > s.same_shape:
             return f"the same shape as {name}, already claimed"
+    if c.name in CALIBRATIONS:
+        why = _calibration_idle(c, min_effect_n)
+        if why:
+            return why
     term = c.fitted.model.term(c.name)
     if term is not None:
         odd = term.implausible(c.fitted.model.local_values(term), c.fitted.model.spec)
@@ -407,7 +433,7 @@ def calibration_rows(
             share,
             spec_global(key).fallback,
         )
-        for key in GLOBALS
+        for key in fitted.globals
     ]
     if gas_calibrated:
         v0 = spec.gas_piston_area_m2 * spec.gas_length_m
@@ -439,10 +465,11 @@ def _round(
     claim rules (why_not) applied. Returns the round's findings and the candidate it
     claims (None: nothing claimable)."""
     found: list[Finding] = []
+    rounds = s.max_terms + len(s.calibrations)  # for the progress fraction
     noise = noise_draws(binned, rng, s.n_boot)
     cands: list[Candidate] = []
     for i, name in enumerate(remaining):
-        report(f"round {rnd}: {name}", 0.1 + 0.8 * (rnd - 1 + i / len(remaining)) / s.max_terms)
+        report(f"round {rnd}: {name}", 0.1 + 0.8 * (rnd - 1 + i / len(remaining)) / rounds)
         cands.append(try_candidate(search, base, base_means, name, noise, s.max_nfev))
     screened = sorted(
         (c for c in cands if c.p_value < s.screen_alpha and c.lr > 0), key=lambda c: -c.lr
@@ -451,10 +478,10 @@ def _round(
     top = [c for c in screened if c.p_value < s.alpha][: s.heldout_top]
     base_mse: list[float] = []
     if top and fold_list:
-        report(f"round {rnd}: held-out baseline", 0.1 + 0.8 * (rnd - 0.3) / s.max_terms)
+        report(f"round {rnd}: held-out baseline", 0.1 + 0.8 * (rnd - 0.3) / rounds)
         base_mse = baseline_folds(fold_list, base, s.fold_nfev)
     for c in top:
-        report(f"round {rnd}: held-out {c.name}", 0.1 + 0.8 * (rnd - 0.2) / s.max_terms)
+        report(f"round {rnd}: held-out {c.name}", 0.1 + 0.8 * (rnd - 0.2) / rounds)
         scored[c.name] = (
             heldout_gain(fold_list, base_mse, c, s.fold_nfev)
             if fold_list
@@ -603,8 +630,11 @@ def diagnose(
     # A term in the baseline (the fit's, or the calibrated gas spring) is not a candidate.
     present = {t.name for t in base.model.terms}
     remaining = [c for c in s.candidates if c not in present]
+    remaining += [c for c in s.calibrations if not set(CALIBRATIONS[c]) <= set(base.globals)]
     left = mismatch
-    for rnd in range(1, s.max_terms + 1):
+    rnd = 0
+    while len(claimed) < s.max_terms and rnd < s.max_terms + len(s.calibrations):
+        rnd += 1
         if not remaining or left.p_value >= s.alpha:
             break  # nothing (more) beyond noise to explain
         if rnd > 1:
@@ -626,9 +656,17 @@ def diagnose(
             shapes,
             report,
         )
-        findings += found
+        # A calibration candidate's finding is not physics: DIAG.json's findings hold the
+        # library's terms; a calibration the search took is a row of verdict.calibration.
+        findings += [f for f in found if f.physics not in CALIBRATIONS]
         if best is None:
             break
+        if best.name in CALIBRATIONS:
+            base = best.fitted
+            base_means, binned = binned_means(search, base.residual)
+            left = mismatch_test(binned, rng, s.n_boot)
+            remaining = [c for c in remaining if c != best.name]
+            continue
         best_f = next(f for f in findings if f.physics == best.name and f.round == rnd)
         alike = [f.physics for f in findings if f.round == rnd and best.name in f.ambiguous_with]
         if alike:

@@ -47,6 +47,10 @@ class Settings:
     objective_rate_hz: float = 100.0
     full_rate_hz: float | None = None  # fast lags at up to this rate (None: the recording's)
     candidates: tuple[str, ...] = tuple(LIBRARY)
+    # Spec values the search may calibrate beside the physics (diagnose/fitting.CALIBRATIONS:
+    # a bleed's laminar land, a seal's turn), claimed by the same rules, reported as
+    # calibration. Not limited by `--terms`.
+    calibrations: tuple[str, ...] = ("bleed_land", "seal_turn")
     # A sensor's delay is one time for the sweep (diagnose/consistency.py): a sensor-lag
     # candidate whose per-test delays spread more than this (s, plus a share of their
     # median) is the damper's lag, not a sensor's. Tests place a delay when it removes

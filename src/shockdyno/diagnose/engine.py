@@ -476,7 +476,7 @@ def _round(
     )
     scored: dict[str, tuple[float, str]] = {}
     top = [c for c in screened if c.p_value < s.alpha][: s.heldout_top]
-    base_mse: list[float] = []
+    base_mse: list[FloatArray] = []
     if top and fold_list:
         report(f"round {rnd}: held-out baseline", 0.1 + 0.8 * (rnd - 0.3) / rounds)
         base_mse = baseline_folds(fold_list, base, s.fold_nfev)

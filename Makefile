@@ -40,7 +40,12 @@ browser:
 test: lint browser
 	$(BIN)/pytest -q -n 2 --dist loadscope
 
-bench: $(VENV)/.runtime
+# The benchmarks' own extras (pysindy for bench_diagnose's baseline).
+$(VENV)/.bench: $(VENV)/.runtime
+	$(PY) -m pip install --quiet -e '.[bench]'
+	touch $@
+
+bench: $(VENV)/.bench
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
 
 clean:

@@ -6,6 +6,7 @@ Run: .venv/bin/python benchmarks/bench_reference.py                 (2 seeds, ~4
                        read it back on a re-run, so only the diagnosis runs again
                        (empty it after changing the plant: the key is not its code),
                        and each DIAG.json beside it (CASE_sSEED.diag.json);
+                       --reuse-verdicts scores those instead of diagnosing again
                        --sweep-only makes the sweeps and stops
 
 Every recording is a click sweep of `simrig/reference.py` (clicks 2/5/10/15/20 x
@@ -114,6 +115,7 @@ class Row:
     diag_s: float = math.nan
     recovered: dict[str, tuple[float, float]] = field(default_factory=dict)
     error: str = ""
+    reused: bool = False
 
 
 def fresh_cases(seeds: list[int]) -> list[Case]:
@@ -214,11 +216,17 @@ def run_case(case: Case) -> Row:
             real.discard("cavitation")  # the chamber never made vapour: nothing to find
         row.truth = tuple(sorted(real))
         t1 = time.perf_counter()
-        d = to_json(diagnose(tests))
-        row.diag_s = time.perf_counter() - t1
+        out = None
         if cached is not None:  # the verdict beside its sweep, to read again
             out = cached.with_name(f"{case.name.replace(' ', '_').replace('+', '-')}.diag.json")
-            out.write_text(json.dumps(d, default=str))
+        if out is not None and out.exists() and os.environ.get("BENCH_REFERENCE_REUSE"):
+            d = json.loads(out.read_text())
+            row.reused = True
+        else:
+            d = to_json(diagnose(tests))
+            if out is not None:
+                out.write_text(json.dumps(d, default=str))
+        row.diag_s = time.perf_counter() - t1
         row.claimed = list(d["verdict"]["physics"])
         row.calibrated = [
             c["parameter"] for c in d["verdict"].get("calibration", []) if c.get("moved")
@@ -302,7 +310,8 @@ def print_row(r: Row) -> None:
     print(
         f"  {c.name:40s} truth {'+'.join(r.truth) or 'clean':34s} claimed "
         f"{','.join(r.claimed) or '-':34s} calibrated {','.join(r.calibrated) or '-':30s} "
-        f"E_t {r.e_before:.4f}->{r.e_after:.4f}  sweep {r.sweep_s:4.0f} s diag {r.diag_s:4.0f} s",
+        f"E_t {r.e_before:.4f}->{r.e_after:.4f}  sweep {r.sweep_s:4.0f} s "
+        + ("diag reused" if r.reused else f"diag {r.diag_s:4.0f} s"),
         flush=True,
     )
 
@@ -316,6 +325,12 @@ def main() -> None:
     ap.add_argument("--cache", help="keep each sweep here and read it back on a re-run")
     ap.add_argument("--fresh", action="store_true", help="the FRESH cases instead")
     ap.add_argument("--sweep-only", action="store_true", help="make (and cache) the sweeps")
+    ap.add_argument(
+        "--reuse-verdicts",
+        action="store_true",
+        help="with --cache: score a DIAG.json already beside its sweep instead of diagnosing "
+        "again (only when the diagnosis code has not changed since it was written)",
+    )
     args = ap.parse_args()
     if args.seeds < 1 or args.jobs < 1:
         ap.error("--seeds and --jobs: at least 1")
@@ -324,6 +339,10 @@ def main() -> None:
     if args.cache:  # read by run_case in the pool's processes, which inherit the environment
         Path(args.cache).mkdir(parents=True, exist_ok=True)
         os.environ["BENCH_REFERENCE_CACHE"] = args.cache
+    if args.reuse_verdicts:
+        if not args.cache:
+            ap.error("--reuse-verdicts needs --cache")
+        os.environ["BENCH_REFERENCE_REUSE"] = "1"
     if args.sweep_only:
         os.environ["BENCH_REFERENCE_SWEEP_ONLY"] = "1"
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))

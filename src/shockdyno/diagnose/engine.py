@@ -204,14 +204,22 @@ def _moved_off(fitted: Fitted, term: Term) -> bool:
     free = [p for p in term.params() if term.qualified(p.name) in fitted.free]
     if not free:
         return True  # nothing was fitted: nothing to judge
-    for p in free:
-        q = term.qualified(p.name)
-        value = fitted.model.value(q)
-        sd = fitted.term_sd.get(q, math.nan)
-        noise = 3 * sd if math.isfinite(sd) else 0.0
-        if not math.isfinite(value) or abs(value - p.off) > max(noise, 1e-3 * p.scale):
-            return True
-    return False
+    return any(
+        _beyond_noise(
+            fitted.model.value(term.qualified(p.name)),
+            p.off,
+            fitted.term_sd.get(term.qualified(p.name), math.nan),
+            p.scale,
+        )
+        for p in free
+    )
+
+
+def _beyond_noise(value: float, ref: float, sd: float, scale: float) -> bool:
+    """Whether a fitted value sits off `ref` by more than 3σ and a thousandth of its scale
+    (a value that is not finite has moved)."""
+    noise = 3 * sd if math.isfinite(sd) else 0.0
+    return not math.isfinite(value) or abs(value - ref) > max(noise, 1e-3 * scale)
 
 
 def _calibration_idle(c: Candidate, min_effect_n: float) -> str:
@@ -219,13 +227,15 @@ def _calibration_idle(c: Candidate, min_effect_n: float) -> str:
     spec values moved off the spec's by more than 3σ, or its own force (the model less
     the same with the spec's values) is too small to matter."""
     spec, sds = c.fitted.model.spec, c.fitted.globals_sd
-    moved = False
-    for key in CALIBRATIONS[c.name]:
-        g = spec_global(key)
-        sd = sds.get(key, math.nan)
-        off = abs(spec.value(key) - c.spec_values.get(key, 0.0))
-        noise = 3 * sd if math.isfinite(sd) else 0.0
-        moved = moved or off > max(noise, 1e-3 * g.scale(c.spec_values.get(key, 0.0)))
+    moved = any(
+        _beyond_noise(
+            spec.value(key),
+            c.spec_values.get(key, 0.0),
+            sds.get(key, math.nan),
+            spec_global(key).scale(c.spec_values.get(key, 0.0)),
+        )
+        for key in CALIBRATIONS[c.name]
+    )
     if not moved:
         return "its values stay at the spec's: the gain is the refit's"
     if c.own_peak_n < min_effect_n:
@@ -465,7 +475,7 @@ def _round(
     claim rules (why_not) applied. Returns the round's findings and the candidate it
     claims (None: nothing claimable)."""
     found: list[Finding] = []
-    rounds = s.max_terms + len(s.calibrations)  # for the progress fraction
+    rounds = s.max_rounds  # for the progress fraction
     noise = noise_draws(binned, rng, s.n_boot)
     cands: list[Candidate] = []
     for i, name in enumerate(remaining):
@@ -476,14 +486,14 @@ def _round(
     )
     scored: dict[str, tuple[float, str]] = {}
     top = [c for c in screened if c.p_value < s.alpha][: s.heldout_top]
-    base_mse: list[FloatArray] = []
+    base_structure: list[FloatArray] = []
     if top and fold_list:
         report(f"round {rnd}: held-out baseline", 0.1 + 0.8 * (rnd - 0.3) / rounds)
-        base_mse = baseline_folds(fold_list, base, s.fold_nfev)
+        base_structure = baseline_folds(fold_list, base, s.fold_nfev)
     for c in top:
         report(f"round {rnd}: held-out {c.name}", 0.1 + 0.8 * (rnd - 0.2) / rounds)
         scored[c.name] = (
-            heldout_gain(fold_list, base_mse, c, s.fold_nfev)
+            heldout_gain(fold_list, base_structure, c, s.fold_nfev)
             if fold_list
             else (0.0, "no held-out split")
         )
@@ -633,7 +643,7 @@ def diagnose(
     remaining += [c for c in s.calibrations if not set(CALIBRATIONS[c]) <= set(base.globals)]
     left = mismatch
     rnd = 0
-    while len(claimed) < s.max_terms and rnd < s.max_terms + len(s.calibrations):
+    while len(claimed) < s.max_terms and rnd < s.max_rounds:
         rnd += 1
         if not remaining or left.p_value >= s.alpha:
             break  # nothing (more) beyond noise to explain
@@ -661,21 +671,18 @@ def diagnose(
         findings += [f for f in found if f.physics not in CALIBRATIONS]
         if best is None:
             break
-        if best.name in CALIBRATIONS:
-            base = best.fitted
-            base_means, binned = binned_means(search, base.residual)
-            left = mismatch_test(binned, rng, s.n_boot)
-            remaining = [c for c in remaining if c != best.name]
-            continue
-        best_f = next(f for f in findings if f.physics == best.name and f.round == rnd)
-        alike = [f.physics for f in findings if f.round == rnd and best.name in f.ambiguous_with]
-        if alike:
-            best_f.ambiguous_with = alike
-            group = sorted([best.name, *alike])
-            pairs = [separate_by(best.name, a) for a in alike]
-            groups.append({"group": group, "separate_by": "; ".join(dict.fromkeys(pairs))})
-        claimed.append(best.name)
-        shapes.append((best.name, best.explained))
+        if best.name not in CALIBRATIONS:  # a calibration taken joins the model only
+            best_f = next(f for f in findings if f.physics == best.name and f.round == rnd)
+            alike = [
+                f.physics for f in findings if f.round == rnd and best.name in f.ambiguous_with
+            ]
+            if alike:
+                best_f.ambiguous_with = alike
+                group = sorted([best.name, *alike])
+                pairs = [separate_by(best.name, a) for a in alike]
+                groups.append({"group": group, "separate_by": "; ".join(dict.fromkeys(pairs))})
+            claimed.append(best.name)
+            shapes.append((best.name, best.explained))
         base = best.fitted
         base_means, binned = binned_means(search, base.residual)
         left = mismatch_test(binned, rng, s.n_boot)

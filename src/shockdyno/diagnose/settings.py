@@ -51,6 +51,12 @@ class Settings:
     # a bleed's laminar land, a seal's turn), claimed by the same rules, reported as
     # calibration. Not limited by `--terms`.
     calibrations: tuple[str, ...] = ("bleed_land", "seal_turn")
+
+    @property
+    def max_rounds(self) -> int:
+        """Search rounds at most: one a claimed term, or a calibration taken."""
+        return self.max_terms + len(self.calibrations)
+
     # A sensor's delay is one time for the sweep (diagnose/consistency.py): a sensor-lag
     # candidate whose per-test delays spread more than this (s, plus a share of their
     # median) is the damper's lag, not a sensor's. Tests place a delay when it removes

@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 from shockdyno.diagnose.candidates import (
     Candidate,
     Fold,
+    FoldBaseline,
     baseline_folds,
     binned_means,
     folds,
@@ -333,9 +334,7 @@ def _backward(
             search, reduced, means, name, noise_draws(binned, rng, s.n_boot), s.max_nfev
         )
         gain = (
-            heldout_gain(
-                fold_list, baseline_folds(fold_list, reduced, s.fold_nfev), c, s.fold_nfev
-            )[0]
+            heldout_gain(baseline_folds(fold_list, reduced, s.fold_nfev), c, s.fold_nfev)[0]
             if fold_list
             else 0.0
         )
@@ -486,16 +485,14 @@ def _round(
     )
     scored: dict[str, tuple[float, str]] = {}
     top = [c for c in screened if c.p_value < s.alpha][: s.heldout_top]
-    base_structure: list[FloatArray] = []
+    baselines: list[FoldBaseline] = []
     if top and fold_list:
         report(f"round {rnd}: held-out baseline", 0.1 + 0.8 * (rnd - 0.3) / rounds)
-        base_structure = baseline_folds(fold_list, base, s.fold_nfev)
+        baselines = baseline_folds(fold_list, base, s.fold_nfev)
     for c in top:
         report(f"round {rnd}: held-out {c.name}", 0.1 + 0.8 * (rnd - 0.2) / rounds)
         scored[c.name] = (
-            heldout_gain(fold_list, base_structure, c, s.fold_nfev)
-            if fold_list
-            else (0.0, "no held-out split")
+            heldout_gain(baselines, c, s.fold_nfev) if fold_list else (0.0, "no held-out split")
         )
 
     # Noise of a phase mean under the current model (a misfit inflates the scatter).

@@ -153,17 +153,13 @@ def try_candidate(
     name: str,
     noise: FloatArray,
     max_nfev: int,
-    start: DamperModel | None = None,
 ) -> Candidate:
-    """`base` refitted with the library term (or calibration) `name` and tested; the term
-    starts from its start grid's best, or the refit from `start` (a model with the term,
-    its globals and term values) when given."""
     if name in CALIBRATIONS:
         calibrated = with_calibration(base, name)
         fitted = refit(data, base.model, base.free, base, max_nfev=max_nfev, calibrated=calibrated)
         new_cols = [i for i, k in enumerate(calibrated) if k not in base.globals]
     else:
-        model = start or best_start(data, with_term(base.model, name, data), name, base)
+        model = best_start(data, with_term(base.model, name, data), name, base)
         free = (*base.free, *default_free(name))
         fitted = refit(data, model, free, base, max_nfev=max_nfev)
         ahead = len(fitted.globals) + len(free)  # the Jacobian's globals, then free terms

@@ -330,20 +330,8 @@ def _backward(
             max_nfev=s.max_nfev,
         )
         means, binned = binned_means(search, reduced.residual)
-        # The model with the term is the one claimed (every term at its fitted values):
-        # re-added at its nominal start beside the others as the reduced refit left them
-        # (they had taken what they could of its effect), a short refit stopped far off
-        # and dropped real claims: friction and heat beside air on reference-plant sweeps
-        # (p = 1, held-out gain -0.07 where they had joined at 0.36-0.73), air beside a
-        # thermal term on held-out-plant sweeps (gain -11 where it had removed 99 %).
         c = try_candidate(
-            search,
-            reduced,
-            means,
-            name,
-            noise_draws(binned, rng, s.n_boot),
-            s.max_nfev,
-            start=base.model,
+            search, reduced, means, name, noise_draws(binned, rng, s.n_boot), s.max_nfev
         )
         gain = (
             heldout_gain(baseline_folds(fold_list, reduced, s.fold_nfev), c, s.fold_nfev)[0]

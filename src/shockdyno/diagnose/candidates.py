@@ -14,6 +14,7 @@ from shockdyno.diagnose.data import Data, time_halves
 from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted, evaluate, predict, refit
 from shockdyno.diagnose.stats import lr_bootstrap
 from shockdyno.fit.parameters import global_parameters
+from shockdyno.fit.prepare import PreparedTest
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.terms import make_term
 
@@ -210,14 +211,18 @@ class Fold:
     halves: Fold | None = None
 
 
+def _time_halves(tests: Sequence[PreparedTest]) -> tuple[list[PreparedTest], list[PreparedTest]]:
+    """The first and the second halves in time of those tests that have four cycles."""
+    pairs = [h for h in map(time_halves, tests) if h is not None]
+    return [a for a, _ in pairs], [b for _, b in pairs]
+
+
 def _leave_out(data: Data, held: Sequence[int], label: str) -> Fold:
     rest = [i for i in range(data.n_tests) if i not in held]
     train, test = data.subset(rest), data.subset(held)
-    split = [time_halves(data.prepared[i]) for i in held]
+    firsts, seconds = _time_halves([data.prepared[i] for i in held])
     halves = None
-    if all(h is not None for h in split):
-        firsts = [h[0] for h in split if h is not None]
-        seconds = [h[1] for h in split if h is not None]
+    if len(firsts) == len(held):
         base, rate = data.prob.base, data.full_rate_hz
         halves = Fold(
             f"{label}, its second halves predicted from its first",
@@ -244,12 +249,7 @@ def folds(data: Data, max_click_folds: int = 2) -> list[Fold]:
             held = [i for i, m in enumerate(metas) if (m.clicks, m.gas_clicks) == c]
             out.append(_leave_out(data, held, f"{c[0]} clicks left out"))
     if not out:
-        firsts, seconds = [], []
-        for p in data.prepared:
-            halves = time_halves(p)
-            if halves is not None:
-                firsts.append(halves[0])
-                seconds.append(halves[1])
+        firsts, seconds = _time_halves(data.prepared)
         if firsts:
             a = Data.build(data.prob.base, firsts, data.full_rate_hz)
             b = Data.build(data.prob.base, seconds, data.full_rate_hz)

@@ -15,10 +15,13 @@ with it (a tube's swell, seals): an effective compliance. V(x) = A_r (L + x) is 
 chamber's volume, L the spec's oil column. The air's part is an exact differential, so
 a cycle pumps no oil through the piston (a V(x)-scaled air volume would). q is the
 model's own flow law (bleed orifice with its laminar land, shim stack, leak), the same
-as the algebraic solve's. The chamber cannot fall below the
-release pressure p_v: there vapour (and released air) fills the volume the flow does not,
+as the algebraic solve's. At the release pressure p_v the chamber stops falling:
+there vapour (and released air) fills the volume the flow does not,
 and must be pushed back into solution before the pressure can build again (the lost
-force after reversal of a cavitating damper).
+force after reversal of a cavitating damper). Neither need be instant: vapour forms at
+(p_v - p)/R_e below the floor and condenses at (p - p_v)/R_c above it while any is left,
+so a fast stroke pulls the chamber under p_v and a condensing one holds it over;
+R_e = R_c = 0 is the hard floor.
 
 Each step is implicit (backward Euler) and at most 1 ms long (sub-steps between samples
 further apart, the motion interpolated linearly), so a fit's 5 ms samples see the state
@@ -59,6 +62,10 @@ class Chamber:
     oil_compressibility_per_pa: float
     release_pa: float  # -inf: no floor
     length_m: float  # L: V(x) = A_r (L + x)
+    # Vapour forms below the floor at (p_v - p)/R_e and condenses above it at (p - p_v)/R_c
+    # (Pa·s/m³); 0: at once (a hard floor).
+    form_resistance_pa_s_m3: float = 0.0
+    condense_resistance_pa_s_m3: float = 0.0
 
     @property
     def rigid(self) -> bool:
@@ -135,6 +142,8 @@ def integrate(
         chamber.oil_compressibility_per_pa,
         floor if math.isfinite(floor) else -1.0e300,
         math.isfinite(floor),
+        chamber.form_resistance_pa_s_m3,
+        chamber.condense_resistance_pa_s_m3,
         periodic,
         cin,
         use_carry,
@@ -229,6 +238,64 @@ def _gas(
 
 
 @njit(cache=True)
+def _vapour_at(
+    p: float, vap_old: float, floor: float, dt: float, r_form: float, r_cond: float
+) -> tuple[float, float]:
+    """(vapour at the step's end, its derivative in p) when the chamber ends the step at
+    p, off its floor. Below it vapour forms at (p_v - p)/R_e (R_e > 0 there: with none the
+    chamber never sits below), above it condenses at (p - p_v)/R_c while there is any
+    (R_c = 0: at once)."""
+    if p < floor:
+        return vap_old + dt * (floor - p) / r_form, -dt / r_form
+    if r_cond <= 0.0:
+        return 0.0, 0.0
+    g = vap_old - dt * (p - floor) / r_cond
+    if g <= 0.0:
+        return 0.0, 0.0
+    return g, -dt / r_cond
+
+
+@njit(cache=True)
+def _balance(
+    p: float,
+    vap_old: float,
+    occ_old: float,
+    base: float,
+    q_demand: float,
+    dt: float,
+    vol: float,
+    a_bc: float,
+    a_bt: float,
+    k_leak: float,
+    lam: float,
+    valves: FloatArray,
+    c: float,
+    air0: float,
+    p0: float,
+    c_oil: float,
+    floor: float,
+    has_floor: bool,
+    r_form: float,
+    r_cond: float,
+    gas_volume: float,
+    gas_n: float,
+) -> tuple[float, float, float, float]:
+    """(F, dF/dp, p_c, vapour) of a step ending at chamber pressure p (off the floor):
+    F = V_vap,old + dt (Q - q(p_c - p)) - occ(p) + occ(p_old) - V_vap(p), the volume the
+    step leaves unaccounted for. It rises strictly with p: q falls as p rises and p_c
+    falls, the contents shrink, and less vapour forms or more condenses."""
+    g, dg = 0.0, 0.0
+    if has_floor:
+        g, dg = _vapour_at(p, vap_old, floor, dt, r_form, r_cond)
+    pc, dpc_dp, dpc_dv = _gas(base, p, g, vol, gas_volume, air0, p0, c_oil, gas_n)
+    q, dq = _signed_flow(pc - p, a_bc, a_bt, valves, c, k_leak, lam)
+    occ, docc = _occupied(p, vol, air0, p0, c_oil)
+    f = vap_old + dt * (q_demand - q) - occ + occ_old - g
+    df = -dt * dq * (dpc_dp + dpc_dv * dg - 1.0) - docc - dg
+    return f, df, pc, g
+
+
+@njit(cache=True)
 def _step(
     p_guess: float,
     p_old: float,
@@ -248,29 +315,48 @@ def _step(
     c_oil: float,
     floor: float,
     has_floor: bool,
+    r_form: float,
+    r_cond: float,
     gas_volume: float,
     gas_n: float,
 ) -> tuple[float, float, float]:
     """One backward-Euler step: (chamber pressure p, vapour volume, p_c) at its end.
 
-    Solved in p, with p_c(p, V_vap) the gas the contents compress (`_gas`), so the two
-    chambers are one implicit step: H(p) = V_vap,old + dt (Q - q(p_c(p) - p)) - occ(p) +
-    occ(p_old), the vapour the step would leave with none at its end, rises strictly with
-    p (q falls as p rises and p_c falls, and the contents shrink). Its root is the new
-    pressure unless that lies below the floor: then the chamber sits at the floor with the
-    vapour V that solves V = V_vap,old + dt (Q - q(p_c(floor, V) - floor)) - occ(floor) +
-    occ(p_old), which rises in V as p_c does.
+    Solved in p, with p_c(p, V_vap) the gas the contents compress (`_gas`) and V_vap(p)
+    the vapour the step's rates leave (`_vapour_at`), so the chamber, its vapour and the
+    gas are one implicit step whose balance (`_balance`) rises strictly with p. At the
+    floor itself the vapour is whatever closes the balance within what the rates allow:
+    any amount with instant rates (R_e = R_c = 0, a hard floor), no less than before
+    with a finite condensation, no more with a finite formation. Its root is the step's
+    end unless the balance needs more vapour than that (the chamber falls below the
+    floor, R_e > 0) or less (it rises above, condensing what is left at R_c).
     """
     occ_old, _ = _occupied(p_old, vol, air0, p0, c_oil)
     tol = 1.0e-12 * (abs(q_demand) * dt + 1.0e-12) + 1.0e-22
-    lo = -math.inf
+    lo, hi = -math.inf, math.inf
     if has_floor:
+        # G(V) = V - rest - dt (Q - q(p_c(floor, V) - floor)) rises in V; its root in
+        # [v_min, v_max] is the vapour at the floor.
+        v_min = vap_old if r_cond > 0.0 else 0.0
+        v_max = vap_old if r_form > 0.0 else math.inf
         occ_f, _ = _occupied(floor, vol, air0, p0, c_oil)
         rest = vap_old - occ_f + occ_old
-        pc, _, _ = _gas(base, floor, 0.0, vol, gas_volume, air0, p0, c_oil, gas_n)
+        pc, _, _ = _gas(base, floor, v_min, vol, gas_volume, air0, p0, c_oil, gas_n)
         q, _ = _signed_flow(pc - floor, a_bc, a_bt, valves, c, k_leak, lam)
-        if rest + dt * (q_demand - q) >= 0.0:  # F(0) <= 0, F(V) = V - rest - dt (Q - q)
-            v_lo, v_hi = 0.0, max(rest + dt * abs(q_demand), 1.0e-15)
+        g_min = v_min - rest - dt * (q_demand - q)
+        g_max = -1.0
+        if g_min <= 0.0 and math.isfinite(v_max):
+            pc, _, _ = _gas(base, floor, v_max, vol, gas_volume, air0, p0, c_oil, gas_n)
+            q, _ = _signed_flow(pc - floor, a_bc, a_bt, valves, c, k_leak, lam)
+            g_max = v_max - rest - dt * (q_demand - q)
+        if g_min > 0.0:
+            lo = floor  # the balance needs less vapour than the rates leave: above
+        elif math.isfinite(v_max) and g_max < 0.0:
+            hi = floor  # more than they can form: the chamber falls below its floor
+        elif math.isfinite(v_max):
+            return floor, vap_old, pc  # v_min = v_max = the old vapour closes it
+        else:
+            v_lo, v_hi = v_min, max(v_min, rest + dt * abs(q_demand), 1.0e-15)
             for _ in range(200):
                 pc, _, _ = _gas(base, floor, v_hi, vol, gas_volume, air0, p0, c_oil, gas_n)
                 q, _ = _signed_flow(pc - floor, a_bc, a_bt, valves, c, k_leak, lam)
@@ -296,54 +382,139 @@ def _step(
                     break
             pc, _, _ = _gas(base, floor, vv, vol, gas_volume, air0, p0, c_oil, gas_n)
             return floor, vv, pc
-        lo = floor  # H(floor) = -F(0) < 0: the root lies above the floor
-    elif air0 > 0.0:
-        lo = MIN_PRESSURE_PA  # the air takes any volume as p falls to nothing: H < 0
-    # A lower bound (H < 0) where there is none yet, and an upper one (H > 0), by doubling.
+    if not math.isfinite(lo) and not math.isfinite(hi) and air0 > 0.0:
+        lo = MIN_PRESSURE_PA  # the air takes any volume as p falls to nothing: F < 0
+    # A lower bound (F < 0) where there is none yet, and an upper one (F > 0), by doubling.
     width = max(abs(p_guess) * 0.1, 1.0e3)
     if not math.isfinite(lo):
-        lo = p_guess - width
+        lo = min(p_guess, hi) - width
         for _ in range(200):
-            pc, _, _ = _gas(base, lo, 0.0, vol, gas_volume, air0, p0, c_oil, gas_n)
-            q, _ = _signed_flow(pc - lo, a_bc, a_bt, valves, c, k_leak, lam)
-            occ, _ = _occupied(lo, vol, air0, p0, c_oil)
-            if vap_old + dt * (q_demand - q) - occ + occ_old < 0.0:
+            f, _, _, _ = _balance(
+                lo,
+                vap_old,
+                occ_old,
+                base,
+                q_demand,
+                dt,
+                vol,
+                a_bc,
+                a_bt,
+                k_leak,
+                lam,
+                valves,
+                c,
+                air0,
+                p0,
+                c_oil,
+                floor,
+                has_floor,
+                r_form,
+                r_cond,
+                gas_volume,
+                gas_n,
+            )
+            if f < 0.0:
                 break
             width *= 2.0
             lo -= width
-    width = max(abs(p_guess) * 0.1, 1.0e3)
-    hi = max(p_guess, lo) + width
-    for _ in range(200):
-        pc, _, _ = _gas(base, hi, 0.0, vol, gas_volume, air0, p0, c_oil, gas_n)
-        q, _ = _signed_flow(pc - hi, a_bc, a_bt, valves, c, k_leak, lam)
-        occ, _ = _occupied(hi, vol, air0, p0, c_oil)
-        if vap_old + dt * (q_demand - q) - occ + occ_old > 0.0:
-            break
-        width *= 2.0
-        hi += width
+    if not math.isfinite(hi):
+        width = max(abs(p_guess) * 0.1, 1.0e3)
+        hi = max(p_guess, lo) + width
+        for _ in range(200):
+            f, _, _, _ = _balance(
+                hi,
+                vap_old,
+                occ_old,
+                base,
+                q_demand,
+                dt,
+                vol,
+                a_bc,
+                a_bt,
+                k_leak,
+                lam,
+                valves,
+                c,
+                air0,
+                p0,
+                c_oil,
+                floor,
+                has_floor,
+                r_form,
+                r_cond,
+                gas_volume,
+                gas_n,
+            )
+            if f > 0.0:
+                break
+            width *= 2.0
+            hi += width
     p = min(max(p_guess, lo), hi)
     if not lo < p < hi:
         p = 0.5 * (lo + hi)
+    vv, pc = 0.0, base
     for _ in range(MAX_NEWTON):
-        pc, dpc_dp, _ = _gas(base, p, 0.0, vol, gas_volume, air0, p0, c_oil, gas_n)
-        q, dq = _signed_flow(pc - p, a_bc, a_bt, valves, c, k_leak, lam)
-        occ, docc = _occupied(p, vol, air0, p0, c_oil)
-        h = vap_old + dt * (q_demand - q) - occ + occ_old
-        if abs(h) <= tol:
+        f, df, pc, vv = _balance(
+            p,
+            vap_old,
+            occ_old,
+            base,
+            q_demand,
+            dt,
+            vol,
+            a_bc,
+            a_bt,
+            k_leak,
+            lam,
+            valves,
+            c,
+            air0,
+            p0,
+            c_oil,
+            floor,
+            has_floor,
+            r_form,
+            r_cond,
+            gas_volume,
+            gas_n,
+        )
+        if abs(f) <= tol:
             break
-        if h > 0.0:
+        if f > 0.0:
             hi = p
         else:
             lo = p
-        dh = -dt * dq * (dpc_dp - 1.0) - docc  # both parts positive
-        step = p - h / dh if dh > 0.0 else math.nan
+        step = p - f / df if df > 0.0 else math.nan
         if not (lo < step < hi) or not math.isfinite(step):
             step = 0.5 * (lo + hi)
         p = step
         if hi - lo <= 1.0e-12 * (abs(p) + 1.0):
             break
-    pc, _, _ = _gas(base, p, 0.0, vol, gas_volume, air0, p0, c_oil, gas_n)
-    return p, 0.0, pc
+    _, _, pc, vv = _balance(
+        p,
+        vap_old,
+        occ_old,
+        base,
+        q_demand,
+        dt,
+        vol,
+        a_bc,
+        a_bt,
+        k_leak,
+        lam,
+        valves,
+        c,
+        air0,
+        p0,
+        c_oil,
+        floor,
+        has_floor,
+        r_form,
+        r_cond,
+        gas_volume,
+        gas_n,
+    )
+    return p, vv, pc
 
 
 @njit(cache=True)
@@ -370,6 +541,8 @@ def _run(
     c_oil: float,
     floor: float,
     has_floor: bool,
+    r_form: float,
+    r_cond: float,
     periodic: bool,
     carry: FloatArray,
     use_carry: bool,
@@ -443,6 +616,8 @@ def _run(
                         c_oil,
                         floor,
                         has_floor,
+                        r_form,
+                        r_cond,
                         gv,
                         gas_n,
                     )

@@ -7,8 +7,12 @@ p_v once Δp exceeds p_c - p_v. It cannot: it sits at p_v, the compression force
 saturates (earlier at lower gas pressure), and vapour fills the volume the flow does not.
 After reversal the vapour must be pushed back before the chamber's pressure builds, so
 the rebound force lags (model/chamber.py integrates both, with the compressibility
-term's compliance when it is in the model). Off: p_v = -∞ (no floor). A recording that
-never reaches p_v bounds it only from above.
+term's compliance when it is in the model). Vapour neither forms nor goes back into
+the oil at once: it forms at (p_v - p)/R_e below the floor, so a fast stroke pulls the
+chamber under p_v, and condenses at (p - p_v)/R_c, so after reversal the pressure
+builds above p_v while the vapour is still going (both resistances 0: at once, a hard
+floor). Off: p_v = -∞ (no floor). A recording that never reaches p_v bounds it only
+from above.
 """
 
 from __future__ import annotations
@@ -23,6 +27,18 @@ from shockdyno.model.composite import PRESSURE, Evaluation, FloatArray, Term, Wo
 from shockdyno.model.params import Param
 from shockdyno.model.reading import Reading
 from shockdyno.model.terms.compressibility import run_chamber
+
+KPA_S_PER_CM3 = 1.0e9  # Pa·s/m³
+
+
+def _rates(form: float, condense: float) -> str:
+    """The finite vapour rates, in words ("" when both are instant)."""
+    parts = [
+        f"{what} at {v:.3g} kPa per cm³/s"
+        for what, v in (("vapour forms", form), ("condenses", condense))
+        if math.isfinite(v) and v > 0
+    ]
+    return "; " + " and ".join(parts) if parts else ""
 
 
 class Cavitation(Term):
@@ -39,18 +55,49 @@ class Cavitation(Term):
             hi=1.0e6,
             scale=1.0e5,
             off=-math.inf,
-            doc="absolute pressure the rebound chamber cannot fall below",
+            doc="absolute pressure below which vapour forms (and above which it condenses)",
+        ),
+        # kPa per cm³/s: the pressure under the floor that forms vapour at 1 cm³/s, and
+        # over it that condenses 1 cm³/s. 0 (at once) is the hard floor.
+        Param(
+            "form_kpa_s_per_cm3",
+            "kPa·s/cm³",
+            nominal=0.0,
+            lo=0.0,
+            hi=100.0,
+            scale=0.01,
+            off=0.0,
+            free=False,
+            doc="pressure under the floor per cm³/s of vapour forming (0: at once)",
+        ),
+        Param(
+            "condense_kpa_s_per_cm3",
+            "kPa·s/cm³",
+            nominal=0.0,
+            lo=0.0,
+            hi=100.0,
+            scale=0.1,
+            off=0.0,
+            free=False,
+            doc="pressure over the floor per cm³/s of vapour condensing (0: at once)",
         ),
     )
+
+    def nesting_free(self) -> tuple[str, ...]:
+        # A fit frees the floor alone (a sweep that barely reaches it cannot pin rates
+        # too); the diagnosis frees the rates with it, so a recording whose chamber forms
+        # and condenses vapour at finite rates is not fitted with a floor below vacuum.
+        return ("release_pressure_pa", "form_kpa_s_per_cm3", "condense_kpa_s_per_cm3")
 
     def describe(self, r: Reading) -> str:
         floor = r.v("release_pressure_pa")
         if not math.isfinite(floor):
             return "cavitation: no floor (off)"
+        rates = _rates(r.v("form_kpa_s_per_cm3"), r.v("condense_kpa_s_per_cm3"))
         if floor >= 0:
             return (
                 f"cavitation: the rebound chamber holds at {floor / 1e3:.3g} kPa absolute; "
-                "compression force saturates"
+                f"compression force saturates{rates}"
             )
         # No chamber holds below vacuum: the saturation is real, but the model's chamber
         # pressure runs low by at least this much (the gas charge, or how the pressure
@@ -59,7 +106,7 @@ class Cavitation(Term):
             "cavitation: compression force saturates as if the rebound chamber held at "
             f"{floor / 1e3:.3g} kPa absolute, below vacuum: the model's chamber pressure "
             f"runs at least {-floor / 1e3:.3g} kPa low there, so this is not the release "
-            "pressure"
+            f"pressure{rates}"
         )
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
@@ -90,6 +137,8 @@ class Cavitation(Term):
             oil_compressibility_per_pa=found.oil_compressibility_per_pa if found else 0.0,
             release_pa=floor,
             length_m=w.spec.oil_column_m,
+            form_resistance_pa_s_m3=p["form_kpa_s_per_cm3"] * KPA_S_PER_CM3,
+            condense_resistance_pa_s_m3=p["condense_kpa_s_per_cm3"] * KPA_S_PER_CM3,
         )
         dp, vapour, state, p_c = run_chamber(w, chamber, carry)
         w.set_p_c(self.name, p_c)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from shockdyno.diagnose.candidates import judged_structure
+from shockdyno.diagnose.candidates import judged_structure, median_gain
 
 
 def gain(base: list[float], cand: list[float], acts: list[bool]) -> float:
@@ -41,3 +41,27 @@ def test_what_it_removes_elsewhere_is_credited_and_the_gain_stays_at_most_one() 
 def test_negative_structure_is_noise_and_counts_as_none() -> None:
     # Phase means less their noise variance can go below zero: that is "no structure".
     assert gain([-1.0, 4.0], [-3.0, 1.0], [False, True]) == 0.75
+
+
+def test_one_fold_that_extrapolates_wildly_does_not_decide() -> None:
+    """Folds vote by their median: the air beside a heat term took four folds from
+    28-81 N to 2.5-5.6 N RMS, and the fifth, whose heat term trained without the stiffest
+    click, from 110 to 623 N (a held-out-plant sweep). Pooled, that fold alone gave -10.6
+    (weighted by each fold's tests; here by the printed RMS alone)."""
+    before = np.array([43.1, 62.4, 81.3, 110.0, 28.5]) ** 2
+    after = np.array([5.64, 3.89, 5.1, 623.0, 2.49]) ** 2
+    pooled = 1 - after.sum() / before.sum()
+    assert pooled < -10
+    assert median_gain(list(1 - after / before), []) > 0.98
+    # A term that only mends the wild fold (a position force fitted to it) gains in one
+    # fold of five: pooled that was a gain of 1.0, voted it is about none.
+    mend = np.array([5.55, 3.71, 5.14, 6.65, 2.45]) ** 2
+    base = np.array([5.62, 3.77, 5.15, 630.0, 2.46]) ** 2
+    assert 1 - mend.sum() / base.sum() > 0.99
+    assert median_gain(list(1 - mend / base), []) < 0.05
+
+
+def test_only_folds_the_term_reaches_vote_and_no_fold_is_no_gain() -> None:
+    assert median_gain([0.9, 0.8], [0.0, 0.01, -0.02]) == pytest.approx(0.85)
+    assert median_gain([], [0.0, 0.2, 0.1]) == pytest.approx(0.1)
+    assert median_gain([], []) == 0.0

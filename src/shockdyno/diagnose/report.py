@@ -44,7 +44,8 @@ def write_report(d: Diagnosis, doc: dict[str, Any], out: Path, units: Units = SI
     page.section(
         "Findings",
         "Each candidate term refitted with the globals and areas; p from a cycle-bootstrap "
-        "likelihood ratio, held-out gain the share of held-out structure it removes.",
+        "likelihood ratio, held-out gain the share of held-out structure it removes (median "
+        "fold).",
     )
     rows = []
     for f in doc["findings"]:

@@ -13,7 +13,8 @@ from shockdyno.model.terms import LIBRARY
 class Settings:
     alpha: float = 0.01
     screen_alpha: float = 0.05
-    min_gain: float = 0.1  # share of the held-out structure a claimed term must remove
+    # Share of the held-out structure a claimed term must remove (in the median fold).
+    min_gain: float = 0.1
     # ... and a term joining terms already claimed. The first claim's form is never exactly
     # the damper's, so what is left held out is its misfit plus any second effect, and a
     # real second effect can be the smaller part: on reference-plant sweeps (seed 501, a

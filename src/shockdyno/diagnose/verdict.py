@@ -174,7 +174,7 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
         )
         lines.append(
             f"Claimed {describe(f, spec_gas, u)}{alike}: p = {f.p_value:.2g}, it removes "
-            f"{100 * f.heldout_gain:.0f} % of the held-out structure."
+            f"{100 * f.heldout_gain:.0f} % of the held-out structure (median fold)."
         )
     for g in d.indistinguishable:
         by = in_units(str(g["separate_by"]), u)

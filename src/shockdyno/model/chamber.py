@@ -382,6 +382,11 @@ def _step(
                     break
             pc, _, _ = _gas(base, floor, vv, vol, gas_volume, air0, p0, c_oil, gas_n)
             return floor, vv, pc
+    # What the balance needs beyond p, the same for every trial pressure of this step.
+    args = (
+        vap_old, occ_old, base, q_demand, dt, vol, a_bc, a_bt, k_leak, lam, valves, c,
+        air0, p0, c_oil, floor, has_floor, r_form, r_cond, gas_volume, gas_n,
+    )  # fmt: skip
     if not math.isfinite(lo) and not math.isfinite(hi) and air0 > 0.0:
         lo = MIN_PRESSURE_PA  # the air takes any volume as p falls to nothing: F < 0
     # A lower bound (F < 0) where there is none yet, and an upper one (F > 0), by doubling.
@@ -389,30 +394,7 @@ def _step(
     if not math.isfinite(lo):
         lo = min(p_guess, hi) - width
         for _ in range(200):
-            f, _, _, _ = _balance(
-                lo,
-                vap_old,
-                occ_old,
-                base,
-                q_demand,
-                dt,
-                vol,
-                a_bc,
-                a_bt,
-                k_leak,
-                lam,
-                valves,
-                c,
-                air0,
-                p0,
-                c_oil,
-                floor,
-                has_floor,
-                r_form,
-                r_cond,
-                gas_volume,
-                gas_n,
-            )
+            f, _, _, _ = _balance(lo, *args)
             if f < 0.0:
                 break
             width *= 2.0
@@ -421,30 +403,7 @@ def _step(
         width = max(abs(p_guess) * 0.1, 1.0e3)
         hi = max(p_guess, lo) + width
         for _ in range(200):
-            f, _, _, _ = _balance(
-                hi,
-                vap_old,
-                occ_old,
-                base,
-                q_demand,
-                dt,
-                vol,
-                a_bc,
-                a_bt,
-                k_leak,
-                lam,
-                valves,
-                c,
-                air0,
-                p0,
-                c_oil,
-                floor,
-                has_floor,
-                r_form,
-                r_cond,
-                gas_volume,
-                gas_n,
-            )
+            f, _, _, _ = _balance(hi, *args)
             if f > 0.0:
                 break
             width *= 2.0
@@ -454,30 +413,7 @@ def _step(
         p = 0.5 * (lo + hi)
     vv, pc = 0.0, base
     for _ in range(MAX_NEWTON):
-        f, df, pc, vv = _balance(
-            p,
-            vap_old,
-            occ_old,
-            base,
-            q_demand,
-            dt,
-            vol,
-            a_bc,
-            a_bt,
-            k_leak,
-            lam,
-            valves,
-            c,
-            air0,
-            p0,
-            c_oil,
-            floor,
-            has_floor,
-            r_form,
-            r_cond,
-            gas_volume,
-            gas_n,
-        )
+        f, df, pc, vv = _balance(p, *args)
         if abs(f) <= tol:
             break
         if f > 0.0:
@@ -490,30 +426,7 @@ def _step(
         p = step
         if hi - lo <= 1.0e-12 * (abs(p) + 1.0):
             break
-    _, _, pc, vv = _balance(
-        p,
-        vap_old,
-        occ_old,
-        base,
-        q_demand,
-        dt,
-        vol,
-        a_bc,
-        a_bt,
-        k_leak,
-        lam,
-        valves,
-        c,
-        air0,
-        p0,
-        c_oil,
-        floor,
-        has_floor,
-        r_form,
-        r_cond,
-        gas_volume,
-        gas_n,
-    )
+    _, _, pc, vv = _balance(p, *args)
     return p, vv, pc
 
 

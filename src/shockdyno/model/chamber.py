@@ -296,6 +296,35 @@ def _balance(
 
 
 @njit(cache=True)
+def _floor_balance(
+    vv: float,
+    rest: float,
+    base: float,
+    floor: float,
+    q_demand: float,
+    dt: float,
+    vol: float,
+    a_bc: float,
+    a_bt: float,
+    k_leak: float,
+    lam: float,
+    valves: FloatArray,
+    c: float,
+    air0: float,
+    p0: float,
+    c_oil: float,
+    gas_volume: float,
+    gas_n: float,
+) -> tuple[float, float, float]:
+    """(G, dG/dV, p_c) of a step ending at the floor with vapour V:
+    G(V) = V - rest - dt (Q - q(p_c(floor, V) - floor)), the volume left unaccounted for.
+    It rises in V: more vapour shortens the gas column, p_c rises and so does the outflow."""
+    pc, _, dpc_dv = _gas(base, floor, vv, vol, gas_volume, air0, p0, c_oil, gas_n)
+    q, dq = _signed_flow(pc - floor, a_bc, a_bt, valves, c, k_leak, lam)
+    return vv - rest - dt * (q_demand - q), 1.0 + dt * dq * dpc_dv, pc
+
+
+@njit(cache=True)
 def _step(
     p_guess: float,
     p_old: float,
@@ -335,20 +364,20 @@ def _step(
     tol = 1.0e-12 * (abs(q_demand) * dt + 1.0e-12) + 1.0e-22
     lo, hi = -math.inf, math.inf
     if has_floor:
-        # G(V) = V - rest - dt (Q - q(p_c(floor, V) - floor)) rises in V; its root in
-        # [v_min, v_max] is the vapour at the floor.
+        # G(V) rises in V (`_floor_balance`); its root in [v_min, v_max] is the vapour at
+        # the floor.
         v_min = vap_old if r_cond > 0.0 else 0.0
         v_max = vap_old if r_form > 0.0 else math.inf
         occ_f, _ = _occupied(floor, vol, air0, p0, c_oil)
         rest = vap_old - occ_f + occ_old
-        pc, _, _ = _gas(base, floor, v_min, vol, gas_volume, air0, p0, c_oil, gas_n)
-        q, _ = _signed_flow(pc - floor, a_bc, a_bt, valves, c, k_leak, lam)
-        g_min = v_min - rest - dt * (q_demand - q)
+        fargs = (
+            rest, base, floor, q_demand, dt, vol, a_bc, a_bt, k_leak, lam, valves, c, air0,
+            p0, c_oil, gas_volume, gas_n,
+        )  # fmt: skip
+        g_min, _, pc = _floor_balance(v_min, *fargs)
         g_max = -1.0
         if g_min <= 0.0 and math.isfinite(v_max):
-            pc, _, _ = _gas(base, floor, v_max, vol, gas_volume, air0, p0, c_oil, gas_n)
-            q, _ = _signed_flow(pc - floor, a_bc, a_bt, valves, c, k_leak, lam)
-            g_max = v_max - rest - dt * (q_demand - q)
+            g_max, _, pc = _floor_balance(v_max, *fargs)
         if g_min > 0.0:
             lo = floor  # the balance needs less vapour than the rates leave: above
         elif math.isfinite(v_max) and g_max < 0.0:
@@ -358,29 +387,25 @@ def _step(
         else:
             v_lo, v_hi = v_min, max(v_min, rest + dt * abs(q_demand), 1.0e-15)
             for _ in range(200):
-                pc, _, _ = _gas(base, floor, v_hi, vol, gas_volume, air0, p0, c_oil, gas_n)
-                q, _ = _signed_flow(pc - floor, a_bc, a_bt, valves, c, k_leak, lam)
-                if v_hi - rest - dt * (q_demand - q) >= 0.0:
+                if _floor_balance(v_hi, *fargs)[0] >= 0.0:
                     break
                 v_hi *= 2.0
             vv = min(max(vap_old, v_lo), v_hi)
             for _ in range(MAX_NEWTON):
-                pc, _, dpc_dv = _gas(base, floor, vv, vol, gas_volume, air0, p0, c_oil, gas_n)
-                q, dq = _signed_flow(pc - floor, a_bc, a_bt, valves, c, k_leak, lam)
-                f = vv - rest - dt * (q_demand - q)
+                f, df, _ = _floor_balance(vv, *fargs)
                 if abs(f) <= tol:
                     break
                 if f > 0.0:
                     v_hi = vv
                 else:
                     v_lo = vv
-                step = vv - f / (1.0 + dt * dq * dpc_dv)
+                step = vv - f / df
                 if not (v_lo < step < v_hi) or not math.isfinite(step):
                     step = 0.5 * (v_lo + v_hi)
                 vv = step
                 if v_hi - v_lo <= 1.0e-12 * (vv + 1.0e-15):
                     break
-            pc, _, _ = _gas(base, floor, vv, vol, gas_volume, air0, p0, c_oil, gas_n)
+            _, _, pc = _floor_balance(vv, *fargs)
             return floor, vv, pc
     # What the balance needs beyond p, the same for every trial pressure of this step.
     args = (

@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from shockdyno.model.kinematics import differentiate
+from shockdyno.model.kinematics import differentiate, extrapolated_samples
 from shockdyno.record.types import TestData
 
 FloatArray = NDArray[np.float64]
@@ -97,6 +97,21 @@ def _uniform(test: TestData) -> TestData | None:
     return replace(d, t=t, x=x, force=f, temperature=temp)
 
 
+def objective_samples(n: int, step: int, lo_edge: int, hi_edge: int) -> NDArray[np.intp]:
+    """Every step-th of n samples, clear of the first `lo_edge` and last `hi_edge`: a
+    test cut at a reversal ends there, where v is zero and its filtered value is an
+    extrapolation, so the model's friction takes either sign (a 55 N residual in one
+    phase bin of one cycle made the noise of a reference sweep's phase means 20-100x what
+    its other cycles show). Starts on a multiple of step, so that the full-rate samples of
+    a fast model map onto these exactly. A test too short to spare half its samples keeps
+    them all."""
+    first = -(-lo_edge // step) * step
+    idx = np.arange(first, n - hi_edge, step, dtype=np.intp)
+    if idx.size < 2 or n - lo_edge - hi_edge < n // 2:
+        return np.arange(0, n, step, dtype=np.intp)
+    return idx
+
+
 def prepare_tests(
     tests: Sequence[TestData], rate_hz: float = OBJECTIVE_RATE_HZ
 ) -> tuple[list[PreparedTest], list[str]]:
@@ -134,6 +149,7 @@ def prepare_tests(
         v, a = differentiate(d.t, d.x)
         dt = float(d.t[1] - d.t[0])
         step = max(1, round(1.0 / (rate_hz * dt)))
-        obj = np.arange(0, d.t.size, step, dtype=np.intp)
+        edge = extrapolated_samples(d.t.size, dt)
+        obj = objective_samples(d.t.size, step, edge, edge)
         out.append(PreparedTest(data=d, v=v, a=a, obj=obj))
     return out, notes

@@ -8,7 +8,8 @@ acceleration come from `differentiate` (Savitzky-Golay), at the full rate.
 The fit's objective (eq. 8) runs on a decimated subset of samples, every k-th, with k
 chosen so that about `rate_hz` samples per second remain (200 Hz by default: 400
 samples per cycle at 0.5 Hz, 133 at 1.5 Hz, far more than the force's shape needs).
-A common rate keeps eq. 8's weighting per unit time, like the full-rate sum.
+A common rate keeps eq. 8's weighting per unit time, like the full-rate sum. It keeps
+clear of each test's ends, where the velocity filter extrapolates (`objective_samples`).
 """
 
 from __future__ import annotations

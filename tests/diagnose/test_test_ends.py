@@ -2,7 +2,7 @@
 extrapolation: a model with sharp friction takes either sign at those samples, and one
 wild sample in one phase bin of one cycle dominated the cycle-to-cycle scatter the
 diagnosis weighs every phase mean against (on a reference-plant sweep, a 55 N residual
-made the noise of the phase means 20-100x what the other cycles showed). The objective
+made the noise of the phase means 21x what it is with the ends spared). The objective
 samples spare the ends."""
 
 from __future__ import annotations

@@ -101,9 +101,9 @@ def _uniform(test: TestData) -> TestData | None:
 def objective_samples(n: int, step: int, lo_edge: int, hi_edge: int) -> NDArray[np.intp]:
     """Every step-th of n samples, clear of the first `lo_edge` and last `hi_edge`: a
     test cut at a reversal ends there, where v is zero and its filtered value is an
-    extrapolation, so the model's friction takes either sign (a 55 N residual in one
-    phase bin of one cycle made the noise of a reference sweep's phase means 20-100x what
-    its other cycles show). Starts on a multiple of step, so that the full-rate samples of
+    extrapolation, so the model's friction takes either sign (one 55 N residual in one
+    phase bin of one cycle: the noise of a reference sweep's phase means was 21x what it
+    is with the ends spared). Starts on a multiple of step, so that the full-rate samples of
     a fast model map onto these exactly. A test too short to spare half its samples keeps
     them all."""
     first = -(-lo_edge // step) * step

@@ -9,9 +9,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shockdyno.diagnose.cycles import N_BINS, BinnedTest, Phase, bin_residual, phase_of
-from shockdyno.fit.prepare import PreparedTest, objective_samples
+from shockdyno.fit.prepare import PreparedTest
 from shockdyno.fit.problem import StackedProblem
-from shockdyno.model.kinematics import extrapolated_samples
 from shockdyno.model.spec import DamperSpec
 
 FloatArray = NDArray[np.float64]
@@ -82,14 +81,11 @@ def time_halves(p: PreparedTest) -> tuple[PreparedTest, PreparedTest] | None:
     second = np.flatnonzero(k >= half)
     out = []
     step = int(p.obj[1] - p.obj[0]) if p.obj.size > 1 else 1
-    n = t.size
-    edge = extrapolated_samples(n, float(t[1] - t[0]))
     for idx in (first, second):
         lo, hi = int(idx[0]), int(idx[-1]) + 1
         d = p.data
         temp = None if d.temperature is None else d.temperature[lo:hi]
         part = replace(d, t=d.t[lo:hi], x=d.x[lo:hi], force=d.force[lo:hi], temperature=temp)
-        # The whole test's ends are these halves' outer ends: spared as the test spares them.
-        obj = objective_samples(hi - lo, step, max(edge - lo, 0), max(hi - (n - edge), 0))
+        obj = np.arange(0, hi - lo, step, dtype=np.intp)
         out.append(PreparedTest(part, p.v[lo:hi], p.a[lo:hi], obj))
     return out[0], out[1]

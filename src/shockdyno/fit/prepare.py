@@ -8,8 +8,7 @@ acceleration come from `differentiate` (Savitzky-Golay), at the full rate.
 The fit's objective (eq. 8) runs on a decimated subset of samples, every k-th, with k
 chosen so that about `rate_hz` samples per second remain (200 Hz by default: 400
 samples per cycle at 0.5 Hz, 133 at 1.5 Hz, far more than the force's shape needs).
-A common rate keeps eq. 8's weighting per unit time, like the full-rate sum. It keeps
-clear of each test's ends, where the velocity filter extrapolates (`objective_samples`).
+A common rate keeps eq. 8's weighting per unit time, like the full-rate sum.
 """
 
 from __future__ import annotations
@@ -20,7 +19,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from shockdyno.model.kinematics import differentiate, extrapolated_samples
+from shockdyno.model.kinematics import differentiate
 from shockdyno.record.types import TestData
 
 FloatArray = NDArray[np.float64]
@@ -98,21 +97,6 @@ def _uniform(test: TestData) -> TestData | None:
     return replace(d, t=t, x=x, force=f, temperature=temp)
 
 
-def objective_samples(n: int, step: int, lo_edge: int, hi_edge: int) -> NDArray[np.intp]:
-    """Every step-th of n samples, clear of the first `lo_edge` and last `hi_edge`: a
-    test cut at a reversal ends there, where v is zero and its filtered value is an
-    extrapolation, so the model's friction takes either sign (one 55 N residual in one
-    phase bin of one cycle: the noise of a reference sweep's phase means was 21x what it
-    is with the ends spared). Starts on a multiple of step, so that the full-rate samples of
-    a fast model map onto these exactly. A test too short to spare half its samples keeps
-    them all."""
-    first = -(-lo_edge // step) * step
-    idx = np.arange(first, n - hi_edge, step, dtype=np.intp)
-    if idx.size < 2 or n - lo_edge - hi_edge < n // 2:
-        return np.arange(0, n, step, dtype=np.intp)
-    return idx
-
-
 def prepare_tests(
     tests: Sequence[TestData], rate_hz: float = OBJECTIVE_RATE_HZ
 ) -> tuple[list[PreparedTest], list[str]]:
@@ -150,7 +134,6 @@ def prepare_tests(
         v, a = differentiate(d.t, d.x)
         dt = float(d.t[1] - d.t[0])
         step = max(1, round(1.0 / (rate_hz * dt)))
-        edge = extrapolated_samples(d.t.size, dt)
-        obj = objective_samples(d.t.size, step, edge, edge)
+        obj = np.arange(0, d.t.size, step, dtype=np.intp)
         out.append(PreparedTest(data=d, v=v, a=a, obj=obj))
     return out, notes

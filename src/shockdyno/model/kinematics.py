@@ -44,13 +44,6 @@ def _window(n: int, dt: float, window_s: float) -> int:
     return min(w, n if n % 2 else n - 1)
 
 
-def extrapolated_samples(n: int, dt: float, window_s: float = DEFAULT_WINDOW_S) -> int:
-    """Samples at each end of n whose derivatives `differentiate` extrapolates: the filter
-    fits its first (last) window and evaluates the cubic short of its centre there."""
-    w = _window(n, dt, window_s)
-    return w // 2 if w > POLYORDER else 1
-
-
 def differentiate(
     t: FloatArray, x: FloatArray, window_s: float = DEFAULT_WINDOW_S
 ) -> tuple[FloatArray, FloatArray]:

@@ -84,3 +84,41 @@ def test_the_likelihood_ratio_bootstrap_keeps_its_level_on_noise() -> None:
     rss0 = np.sum((y - base_cols @ np.linalg.lstsq(base_cols, y, rcond=None)[0]) ** 2)
     rss1 = np.sum((y - j_alt @ np.linalg.lstsq(j_alt, y, rcond=None)[0]) ** 2)
     assert lr_bootstrap(float(rss0 - rss1), base_cols, j_alt, noise_draws([b], rng, 199)) < 0.01
+
+
+def _bottom_to_bottom(n_cycles: int = 3, per: int = 1000) -> tuple[np.ndarray, np.ndarray]:
+    """A test cut from the bottom of the stroke to the bottom, as the reference plant's
+    are: whole cycles and one sample more, on a reversal at each end."""
+    t = np.arange(n_cycles * per + 1) / per
+    return t, -0.03 * np.cos(2 * np.pi * t)
+
+
+def test_cells_cut_short_by_a_records_ends_are_left_out() -> None:
+    t, x = _bottom_to_bottom()
+    plain, whole = phase_of(t, x), phase_of(t, x, whole_cells=True)
+    dropped = (plain.cycle >= 0) & (whole.cycle < 0)
+    # The last sample is alone in its cell (the bin starts on it): left out. The first
+    # sample opens its bin, so its cell is whole: kept.
+    assert dropped[-1] and not dropped[0]
+    assert np.count_nonzero(dropped) == 1
+    # Started 5 ms into a bin, the first cell is part of one: left out with its samples.
+    late = phase_of(t[5:], x[5:], whole_cells=True)
+    cut = phase_of(t[5:], x[5:])
+    same = (cut.cycle == cut.cycle[0]) & (cut.bin == cut.bin[0])
+    assert np.all(late.cycle[same] < 0) and np.count_nonzero(same) == 25 - 5
+
+
+def test_a_sharp_turn_at_the_ends_is_not_read_as_noise_with_whole_cells() -> None:
+    """A 40 N turn in the 3 ms after every bottom reversal repeats each cycle: it is
+    structure. Cut at a reversal, the last cell holds only the turn's first sample, and
+    the scatter of the cells reads its difference from the whole cells as noise."""
+    rng = np.random.default_rng(5)
+    t, x = _bottom_to_bottom()
+    since = np.mod(t, 1.0)
+    r = 40.0 * np.exp(-since / 0.002) + rng.standard_normal(t.size)
+    true_var = N_BINS * 1.0 / (t.size / N_BINS)  # σ²/n per bin, summed over bins
+    plain = bin_residual(r, phase_of(t, x))
+    whole = bin_residual(r, phase_of(t, x, whole_cells=True))
+    assert float(np.sum(plain.mean_var)) > 5 * true_var
+    assert float(np.sum(whole.mean_var)) < 2 * true_var
+    assert mismatch_test([whole], rng, 199).p_value <= 0.01

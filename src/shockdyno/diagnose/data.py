@@ -36,7 +36,7 @@ class Data:
         for p in prepared:
             n = p.obj.size
             slices.append(slice(lo, lo + n))
-            phases.append(phase_of(p.data.t[p.obj], p.data.x[p.obj]))
+            phases.append(phase_of(p.data.t[p.obj], p.data.x[p.obj], whole_cells=True))
             lo += n
         return Data(list(prepared), prob, slices, phases, full_rate_hz)
 
@@ -80,12 +80,11 @@ def time_halves(p: PreparedTest) -> tuple[PreparedTest, PreparedTest] | None:
     first = np.flatnonzero((k >= 0) & (k < half))
     second = np.flatnonzero(k >= half)
     out = []
-    step = int(p.obj[1] - p.obj[0]) if p.obj.size > 1 else 1
     for idx in (first, second):
         lo, hi = int(idx[0]), int(idx[-1]) + 1
         d = p.data
         temp = None if d.temperature is None else d.temperature[lo:hi]
         part = replace(d, t=d.t[lo:hi], x=d.x[lo:hi], force=d.force[lo:hi], temperature=temp)
-        obj = np.arange(0, hi - lo, step, dtype=np.intp)
+        obj = (p.obj[(p.obj >= lo) & (p.obj < hi)] - lo).astype(np.intp)
         out.append(PreparedTest(part, p.v[lo:hi], p.a[lo:hi], obj))
     return out[0], out[1]

@@ -597,7 +597,7 @@ def diagnose(
     report("prepare", 0.0)
     tests, spikes = remove_spikes(tests)
     sensor = [spikes.sentence()] if spikes is not None else []
-    prepared, notes = prepare_tests(list(tests), s.objective_rate_hz)
+    prepared, notes = prepare_tests(list(tests), s.objective_rate_hz, phase_locked=True)
     if not prepared:
         raise FitError(
             "no usable test to diagnose (each needs motion, force and 20 samples): "

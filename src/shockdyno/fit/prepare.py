@@ -97,10 +97,37 @@ def _uniform(test: TestData) -> TestData | None:
     return replace(d, t=t, x=x, force=f, temperature=temp)
 
 
+# Golden-ratio spacing of the objective grids' offsets over the tests of a sweep.
+_STAGGER = 0.5 * (np.sqrt(5.0) - 1.0)
+
+
+def locked_step(period_samples: float, nominal: int) -> int:
+    """The objective step near `nominal` (0.7-1.4 times it) whose grid drifts least
+    against the cycle: a 1.5 Hz cycle at 1 kHz is 666.7 samples, which every 10th sample
+    meets 3.3 ms later each cycle (every 9th, 0.67 ms). A drifting grid samples a force
+    that turns within a few ms of a reversal at a different point each cycle, and the
+    diagnosis then reads that shape as cycle-to-cycle noise."""
+    if not period_samples > 0 or nominal <= 1:
+        return max(nominal, 1)
+    lo, hi = max(1, round(0.7 * nominal)), max(1, round(1.4 * nominal))
+
+    def drift(k: int) -> float:
+        r = period_samples % k
+        return min(r, k - r)
+
+    return min(range(lo, hi + 1), key=lambda k: (round(drift(k), 6), abs(k - nominal)))
+
+
 def prepare_tests(
-    tests: Sequence[TestData], rate_hz: float = OBJECTIVE_RATE_HZ
+    tests: Sequence[TestData], rate_hz: float = OBJECTIVE_RATE_HZ, phase_locked: bool = False
 ) -> tuple[list[PreparedTest], list[str]]:
-    """The usable tests, and a note for each test left out."""
+    """The usable tests, and a note for each test left out.
+
+    `phase_locked` (the diagnosis): each test's objective step is the one near the rate
+    whose samples fall at the same phase in every cycle (`locked_step`), and the grids of
+    successive tests start at offsets spread over the step, so that over the sweep the
+    objective sees every millisecond after a reversal, not only the few that one grid
+    meets."""
     out: list[PreparedTest] = []
     notes: list[str] = []
     for test in tests:
@@ -134,6 +161,10 @@ def prepare_tests(
         v, a = differentiate(d.t, d.x)
         dt = float(d.t[1] - d.t[0])
         step = max(1, round(1.0 / (rate_hz * dt)))
-        obj = np.arange(0, d.t.size, step, dtype=np.intp)
+        offset = 0
+        if phase_locked and m.frequency_hz > 0:
+            step = locked_step(1.0 / (m.frequency_hz * dt), step)
+            offset = int(((len(out) * _STAGGER) % 1.0) * step)
+        obj = np.arange(offset, d.t.size, step, dtype=np.intp)
         out.append(PreparedTest(data=d, v=v, a=a, obj=obj))
     return out, notes

@@ -32,9 +32,9 @@ def full_step(p: PreparedTest, max_rate_hz: float | None) -> int:
     objective's step that keeps at least max_rate_hz (so objective samples stay on it)."""
     if max_rate_hz is None or p.obj.size < 2:
         return 1
-    k = int(p.obj[1] - p.obj[0])
+    k, o = int(p.obj[1] - p.obj[0]), int(p.obj[0])
     fs = 1.0 / float(p.data.t[1] - p.data.t[0])
-    ok = [d for d in range(1, k + 1) if k % d == 0 and fs / d >= max_rate_hz - 1e-9]
+    ok = [d for d in range(1, k + 1) if k % d == 0 and o % d == 0 and fs / d >= max_rate_hz - 1e-9]
     return max(ok, default=1)  # a recording slower than the cap: every sample
 
 

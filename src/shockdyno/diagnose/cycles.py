@@ -94,22 +94,22 @@ def phase_of(
     # from the median period: with five cycles recorded, that is one more cycle of data.
     period = float(np.median(np.diff(starts)))
     edges = np.concatenate([[starts[0] - period], starts, [starts[-1] + period]])
-    k = np.searchsorted(edges, t, side="right") - 1
+    # With whole_cells, the cells of a sample one step beyond each end as well: a cell
+    # is whole when that sample would leave it.
+    extend = whole_cells and t.size >= 2
+    step = float(np.median(np.diff(t))) if extend else 0.0
+    tt = np.concatenate([[t[0] - step], t, [t[-1] + step]]) if extend else t
+    k = np.searchsorted(edges, tt, side="right") - 1
     inside = (k >= 0) & (k < edges.size - 1)
     kk = np.clip(k, 0, edges.size - 2)
-    frac = (t - edges[kk]) / (edges[kk + 1] - edges[kk])
+    frac = (tt - edges[kk]) / (edges[kk + 1] - edges[kk])
     b = np.minimum((np.clip(frac, 0, 1) * n_bins).astype(np.intp), n_bins - 1)
     cyc = np.where(inside, kk, -1).astype(np.intp)
-    if whole_cells and t.size >= 2:
-        # A cell is whole when a sample one step beyond the record would leave it.
-        step = float(np.median(np.diff(t)))
-        for end, beyond in ((0, t[0] - step), (t.size - 1, t[-1] + step)):
-            j = int(np.searchsorted(edges, beyond, side="right") - 1)
-            if cyc[end] < 0 or j != k[end]:
-                continue
-            fb = (beyond - edges[j]) / (edges[j + 1] - edges[j])
-            if min(int(fb * n_bins), n_bins - 1) == b[end]:
+    if extend:
+        for end, beyond in ((1, 0), (t.size, t.size + 1)):
+            if cyc[end] >= 0 and k[beyond] == k[end] and b[beyond] == b[end]:
                 cyc[(cyc == cyc[end]) & (b == b[end])] = -1
+        cyc, b = cyc[1:-1], b[1:-1]
     used = np.unique(cyc[cyc >= 0])
     remap = np.full(edges.size, -1, dtype=np.intp)
     remap[used] = np.arange(used.size)

@@ -121,7 +121,11 @@ def integrate(
     c = spec.discharge_coefficient * math.sqrt(2.0 / spec.oil_density_kg_m3)
     a_q = spec.annulus_area_m2 - spec.couette_area_m2
     use_carry = carry is not None and starts.size == 1
-    cin = np.asarray(carry if use_carry else np.full(5, math.nan), dtype=float)
+    cin = np.full(5, math.nan)  # (p, vapour, Δp, and the step before's p and vapour)
+    if use_carry:
+        assert carry is not None
+        got = np.asarray(carry, dtype=float)
+        cin[: min(got.size, 5)] = got[:5]  # a 3-state carry: the next step is Euler's
     floor = chamber.release_pa
     lam = np.zeros(x.size) if bleed_laminar is None else bleed_laminar
     gas = np.zeros(x.size) if gas_volume is None else gas_volume

@@ -95,11 +95,13 @@ def test_fit_refuses_a_recording_with_an_absurd_force_and_writes_nothing(capsys,
 
 
 @pytest.mark.parametrize("command", ["info", "replay"])
-@pytest.mark.parametrize("kind", ["empty", "foreign"])
+@pytest.mark.parametrize("kind", ["empty", "foreign", "text"])
 def test_empty_or_foreign_mcap_is_named_not_shown_as_zero_tests(capsys, tmp_path, command, kind):
     path = tmp_path / "x.mcap"
     if kind == "empty":
         path.write_bytes(b"")
+    elif kind == "text":
+        path.write_text("time,force\n0,1\n")  # a CSV handed over as a recording
     else:
         from mcap.writer import Writer
 
@@ -112,7 +114,8 @@ def test_empty_or_foreign_mcap_is_named_not_shown_as_zero_tests(capsys, tmp_path
             w.finish()
     assert main([command, str(path)]) == 2
     err = capsys.readouterr().err
-    assert ("empty file" if kind == "empty" else "not a shockdyno recording") in err
+    want = {"empty": "empty file", "foreign": "an MCAP file, but not a shockdyno recording"}
+    assert want.get(kind, "not an MCAP file") in err and "Traceback" not in err
 
 
 def test_sweep_never_records_over_its_own_rig_file(capsys, tmp_path):

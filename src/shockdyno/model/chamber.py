@@ -337,7 +337,7 @@ def _floor_balance(
 @njit(cache=True)
 def _step(
     p_guess: float,
-    p_old: float,
+    occ_old: float,
     vap_old: float,
     base: float,
     q_demand: float,
@@ -358,13 +358,12 @@ def _step(
     r_cond: float,
     gas_volume: float,
     gas_n: float,
-    occ_hist: float,
 ) -> tuple[float, float, float]:
     """One implicit step: (chamber pressure p, vapour volume, p_c) at its end.
 
-    Backward Euler from p_old over dt; with `occ_hist` = (occ(p_old) - occ(p_older))/3
-    and dt two thirds of the step, BDF2 (the contents' history enters the balance only as
-    the constant occ(p_old) + occ_hist, so both are one solve; vapour-free steps only).
+    `occ_old`: the contents the step starts from, occ(p_old) for backward Euler over dt;
+    occ(p_old) + (occ(p_old) - occ(p_older))/3 with dt two thirds of the step for BDF2
+    (the history enters the balance only as this constant, so both are one solve).
 
     Solved in p, with p_c(p, V_vap) the gas the contents compress (`_gas`) and V_vap(p)
     the vapour the step's rates leave (`_vapour_at`), so the chamber, its vapour and the
@@ -375,8 +374,6 @@ def _step(
     end unless the balance needs more vapour than that (the chamber falls below the
     floor, R_e > 0) or less (it rises above, condensing what is left at R_c).
     """
-    occ_old, _ = _occupied(p_old, vol, air0, p0, c_oil)
-    occ_old += occ_hist
     tol = 1.0e-12 * (abs(q_demand) * dt + 1.0e-12) + 1.0e-22
     lo, hi = -math.inf, math.inf
     if has_floor:
@@ -554,15 +551,15 @@ def _run(
                     base = p_c[k0] + w * (p_c[i] - p_c[k0])
                     vol = a_r * max(length + xi, 0.05 * length)
                     gv = gas_vol[k0] + w * (gas_vol[i] - gas_vol[k0])
-                    h, hist = dt / m, 0.0
+                    h = dt / m
+                    occ_old, _ = _occupied(p, vol, air0, p0, c_oil)
                     if vv == 0.0 and vv_prev == 0.0 and math.isfinite(p_prev):
-                        occ_n, _ = _occupied(p, vol, air0, p0, c_oil)
                         occ_m, _ = _occupied(p_prev, vol, air0, p0, c_oil)
-                        h, hist = 2.0 * h / 3.0, (occ_n - occ_m) / 3.0
+                        h, occ_old = 2.0 * h / 3.0, occ_old + (occ_old - occ_m) / 3.0
                     p_prev, vv_prev = p, vv
                     p, vv, pci = _step(
                         p,
-                        p,
+                        occ_old,
                         vv,
                         base,
                         a_q * vi,
@@ -583,7 +580,6 @@ def _run(
                         r_cond,
                         gv,
                         gas_n,
-                        hist,
                     )
                     d = pci - p
                 dp[i] = d

@@ -17,7 +17,6 @@ import numpy as np
 from mcap.exceptions import EndOfFile, InvalidMagic
 from mcap.records import Attachment, Channel, Chunk, Footer, Message, Metadata
 from mcap.stream_reader import StreamReader, breakup_chunk
-from mcap.writer import MCAP0_MAGIC
 
 from shockdyno.errors import RecordingError
 from shockdyno.record import schemas as s
@@ -113,6 +112,11 @@ class Recording:
         if all(p.size_bytes == 0 for p in self.parts):
             raise RecordingError(f"{self.path}: empty file (0 bytes), not a recording")
         if not self.metadata.get("format_version") and not (self.tests or self.interrupted):
+            if not _mcap_magic(self.path):
+                raise RecordingError(
+                    f"{self.path}: not an MCAP file (it does not start with MCAP's magic "
+                    "bytes), so not a recording"
+                )
             raise RecordingError(
                 f"{self.path}: an MCAP file, but not a shockdyno recording "
                 "(no shockdyno metadata and no tests)"
@@ -190,11 +194,6 @@ def _read_part(path: Path) -> _PartData:
     topics: dict[int, str] = dict(s.CHANNEL_IDS)  # replaced by the file's own Channel records
     saw_footer = False
     with f:
-        # Shorter than MCAP's magic, the stream reader stops at the end of the file before
-        # it can see the magic is wrong (a 4-byte CSV read as a cut-off MCAP).
-        if not MCAP0_MAGIC.startswith(f.read(len(MCAP0_MAGIC))):
-            raise RecordingError(f"{path}: not an MCAP file")
-        f.seek(0)
         try:
             for record in StreamReader(f, emit_chunks=True, record_size_limit=size).records:
                 if isinstance(record, Chunk):
@@ -264,3 +263,16 @@ def _message(part: _PartData, topic: str | None, data: bytes) -> None:
         t = float(obj.pop("t_s"))
         obj.pop("test", None)
         part.actuator.append((t, obj))
+
+
+def _mcap_magic(path: Path) -> bool:
+    """Whether the file starts as every MCAP file does (a text file read as a cut-off MCAP
+    holds no records, which alone would call it "an MCAP file")."""
+    try:
+        with path.open("rb") as fh:
+            return fh.read(len(MCAP_MAGIC)) == MCAP_MAGIC
+    except OSError:
+        return True  # unreadable: say what is known, not that it is no MCAP
+
+
+MCAP_MAGIC = b"\x89MCAP0\r\n"

@@ -416,8 +416,10 @@ def test_contact_onset_and_force_are_recovered(tmp: Path, plain_fit: FitResult) 
     _recovered(fit, "contact.bump_force_n", 200.0)
     top, sd = _est(fit, "contact.topout_force_n")
     _note(f"contact: topout_force_n {top:.3g} ± {sd:.3g} (off 0)")
-    # Either the top-out force is measured and near 0, or its onset left the stroke, no
-    # sample sees it, and it is reported off (a car must not inherit an unseen stop).
+    # Either the top-out force is measured and near 0, or its onset left the stroke (no
+    # sample sees it) or lies in its last 10 % (not placed: along that edge a 50 kN force
+    # 0.01 mm deep fit as well as 26 N 1.4 mm deep, both seen here), and it is reported
+    # off with σ = ∞ (a car must not inherit a stop the data do not measure).
     assert top == 0.0 if math.isinf(sd) else top <= 3 * sd + 1.0
     assert _e_t(fit) <= 1.1 * _e_t(plain_fit) or _e_t(fit) <= 0.006
 

@@ -119,25 +119,23 @@ class Contact(Term):
         return out
 
     def unseen(self, p: Mapping[str, float], x: FloatArray) -> dict[str, float]:
+        # A side whose onset the stroke never reaches is not measured; one reached only in
+        # its last 10 % is not placed (see `unplaced`), and along that edge the fit can
+        # trade onset for force without end (a 50 kN top-out 0.01 mm deep fits a reversal
+        # as well as 26 N 1.4 mm deep). Either way a car must not inherit it.
         if not x.size:
             return {}
         out: dict[str, float] = {}
-        if float(np.max(x)) <= p["bump_onset_m"]:
-            out["bump_force_n"] = 0.0
-        if float(np.min(x)) >= p["topout_onset_m"]:
-            out["topout_force_n"] = 0.0
+        for _, force, depth in _sides(p, x):
+            if depth < MIN_DEPTH_SHARE * _half_stroke(x):
+                out[force] = 0.0
         return out
 
     def unplaced(self, p: Mapping[str, float], x: FloatArray) -> str:
         if not x.size:
             return ""
-        hi, lo = float(np.max(x)), float(np.min(x))
-        half = 0.5 * (hi - lo)
-        for side, force, depth in (
-            ("bump stop", p["bump_force_n"], hi - p["bump_onset_m"]),
-            ("top-out", p["topout_force_n"], p["topout_onset_m"] - lo),
-        ):
-            if force > 0 and 0 < depth < MIN_DEPTH_SHARE * half:
+        for side, force, depth in _sides(p, x):
+            if p[force] > 0 and 0 < depth < MIN_DEPTH_SHARE * _half_stroke(x):
                 return (
                     f"{side} only in the last {1e3 * depth:.2g} mm of the stroke: it acts at "
                     "reversal only, where a lag or friction acts too (a slow push through "
@@ -153,3 +151,15 @@ class Contact(Term):
         top = np.maximum(p["topout_onset_m"] - w.x, 0.0) / REFERENCE_DEPTH_M
         w.add_part(self.name, p["bump_force_n"] * bump**n - p["topout_force_n"] * top**n)
         return None
+
+
+def _half_stroke(x: FloatArray) -> float:
+    return 0.5 * (float(np.max(x)) - float(np.min(x)))
+
+
+def _sides(p: Mapping[str, float], x: FloatArray) -> tuple[tuple[str, str, float], ...]:
+    """(side, its force parameter, how far the data reach past its onset) per side."""
+    return (
+        ("bump stop", "bump_force_n", float(np.max(x)) - p["bump_onset_m"]),
+        ("top-out", "topout_force_n", p["topout_onset_m"] - float(np.min(x))),
+    )

@@ -153,11 +153,13 @@ def check_named(diagnoses: Diagnoses, name: str) -> None:
     for before, after, noise in d["_structure"]:
         assert after <= 1.1 * before + 3 * noise, (before, after, noise)
     sse = d["_sse_moving"]
-    assert sum(a for _, a in sse) < sum(b for b, _ in sse)
+    assert sum(a for _, a in sse) < sum(b for b, _ in sse), (sse, d["verdict"]["text"])
     for before, after in sse:
         assert after <= 1.1 * before, (before, after)
     # E_t also counts the noise; the structure is what the physics explains: most of it.
-    assert d["verdict"]["remaining_rms_n"] < 0.5 * d["mismatch"]["structured_rms_n"]
+    # The message carries what a failure in CI needs to be read without its recording.
+    left, was = d["verdict"]["remaining_rms_n"], d["mismatch"]["structured_rms_n"]
+    assert left < 0.5 * was, (left, was, d["_structure"], d["verdict"]["text"])
 
 
 def check_library_fits(recordings: Recordings, name: str) -> None:

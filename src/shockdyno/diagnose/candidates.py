@@ -11,7 +11,14 @@ from numpy.typing import NDArray
 
 from shockdyno.diagnose.cycles import N_BINS, BinnedTest
 from shockdyno.diagnose.data import Data, time_halves
-from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted, evaluate, predict, refit
+from shockdyno.diagnose.fitting import (
+    CALIBRATIONS,
+    COMPANIONS,
+    Fitted,
+    evaluate,
+    predict,
+    refit,
+)
 from shockdyno.diagnose.stats import lr_bootstrap
 from shockdyno.fit.parameters import global_parameters
 from shockdyno.fit.prepare import PreparedTest
@@ -45,6 +52,13 @@ def spec_values(data: Data, name: str) -> dict[str, float]:
 def with_calibration(fitted: Fitted, name: str) -> tuple[str, ...]:
     """The spec values a fit calibrates with calibration candidate `name` added."""
     return (*fitted.globals, *(k for k in CALIBRATIONS[name] if k not in fitted.globals))
+
+
+def companion_keys(fitted: Fitted, name: str) -> tuple[str, ...]:
+    """The spec values term `name` frees beside it that `fitted` does not calibrate yet."""
+    if name not in COMPANIONS:
+        return ()
+    return tuple(k for k in CALIBRATIONS[COMPANIONS[name]] if k not in fitted.globals)
 
 
 def best_start(data: Data, model: DamperModel, name: str, base: Fitted) -> DamperModel:
@@ -162,9 +176,12 @@ def try_candidate(
     else:
         model = best_start(data, with_term(base.model, name, data), name, base)
         free = (*base.free, *default_free(name))
-        fitted = refit(data, model, free, base, max_nfev=max_nfev)
+        extra = companion_keys(base, name)
+        calibrated = (*base.globals, *extra)
+        fitted = refit(data, model, free, base, max_nfev=max_nfev, calibrated=calibrated)
         ahead = len(fitted.globals) + len(free)  # the Jacobian's globals, then free terms
         new_cols = list(range(ahead - len(default_free(name)), ahead))
+        new_cols += [i for i, k in enumerate(fitted.globals) if k in extra]
     means, _ = binned_means(data, fitted.residual)
     lr = float(np.sum(base_means**2) - np.sum(means**2))
     jac, _ = binned_jacobian(data, fitted)

@@ -34,6 +34,7 @@ from shockdyno.diagnose.candidates import (
     binned_means,
     folds,
     heldout_gain,
+    own_force,
     try_candidate,
 )
 from shockdyno.diagnose.consistency import SENSOR, alike, delay_spread, inconsistent
@@ -308,27 +309,23 @@ def _backward(
     fold_list: list[Fold],
     rng: np.random.Generator,
     s: Settings,
+    came_with: dict[str, tuple[str, ...]] | None = None,
 ) -> Fitted:
     """Forward selection claims in order, and an early claim can be a later one's misfit
     (a bump stop first pulls the gas spring off the spec's, then a contact term explains
     it all). So each claimed term is tested again as the last to join the others: it
     stays only if it still passes (p < alpha, held-out gain ≥ min_gain_joining); else it
     is dropped from the model and its finding says why. Edits `claimed`, `findings` and
-    `groups`; returns the model without the dropped terms."""
+    `groups`; returns the model without the dropped terms. `came_with`: per claimed
+    term, the spec values freed with it, which leave with it."""
+    came_with = {} if came_with is None else came_with
     for name in list(claimed):
         if len(claimed) < 2:
             break
-        term = base.model.term(name)
-        if term is None:
+        if base.model.term(name) is None:
             continue
-        own = {term.qualified(p.name) for p in term.params()}
-        reduced = refit(
-            search,
-            base.model.without(name),
-            tuple(q for q in base.free if q not in own),
-            base,
-            max_nfev=s.max_nfev,
-        )
+        model, free, calibrated = _without(search, base, [name], came_with)
+        reduced = refit(search, model, free, base, max_nfev=s.max_nfev, calibrated=calibrated)
         means, binned = binned_means(search, reduced.residual)
         c = try_candidate(
             search, reduced, means, name, noise_draws(binned, rng, s.n_boot), s.max_nfev
@@ -348,9 +345,31 @@ def _backward(
             f"{gain:.2g} of the held-out structure left (p = {c.p_value:.2g})"
         )
         claimed.remove(name)
+        came_with.pop(name, None)
         groups[:] = [g for g in groups if name not in g["group"]]  # type: ignore[operator]
         base = reduced
     return base
+
+
+def _without(
+    data: Data, base: Fitted, names: Sequence[str], came_with: Mapping[str, tuple[str, ...]]
+) -> tuple[DamperModel, tuple[str, ...], tuple[str, ...]]:
+    """The model, its free term parameters and the spec values it calibrates with the
+    terms `names` taken out, and the spec values each freed beside it (COMPANIONS) back
+    at the spec's: a term retested or dropped is judged without what came with it."""
+    model = base.model
+    own: set[str] = set()
+    keys: set[str] = set()
+    for n in names:
+        term = model.term(n)
+        if term is not None:
+            own |= {term.qualified(p.name) for p in term.params()}
+            model = model.without(n)
+        keys |= set(came_with.get(n, ()))
+    if keys:
+        model = model.with_spec(model.spec.with_values({k: data.prob.base.value(k) for k in keys}))
+    free = tuple(q for q in base.free if q not in own)
+    return model, free, tuple(k for k in base.globals if k not in keys)
 
 
 def search_subset(data: Data, n_clicks: int) -> Data:
@@ -553,27 +572,50 @@ def _final_refit(
     findings: list[Finding],
     groups: list[dict[str, object]],
     s: Settings,
+    force_peak: float,
+    came_with: dict[str, tuple[str, ...]],
 ) -> Fitted:
     """The model refitted on every test (not only the search's clicks), whose values the
     verdict reports: a candidate's refit is cut at max_nfev, and with the gas spring
     calibrated beside it a bump stop's onset stopped at 24.1 mm where it was 21. A claim
-    whose term, refitted to convergence, stays at its off values was the short refit's
-    gain, not the term's: it leaves the model and the verdict (`claimed`, `findings` and
-    `groups` are updated in place)."""
+    whose term, refitted to convergence, stays at its off values, or whose own force is
+    then below the limit a candidate must pass (0.1 % of the peak force, 3 noise σ of a
+    phase mean), was the short refit's gain, not the term's: it leaves the model and the
+    verdict (`claimed`, `findings` and `groups` are updated in place). A 2 % air sweep
+    kept a position force that refitted to 0.45 N at most, against a 1.8 N limit."""
     nfev = s.final_nfev if claimed else s.max_nfev
     base = refit(data, base.model, base.free, base, max_nfev=nfev)
-    idle = [n for n in claimed if (t := base.model.term(n)) and not _moved_off(base, t)]
+    binned = data.binned(base.residual)
+    mean_noise = float(np.sqrt(np.mean(np.concatenate([b.mean_var for b in binned]))))
+    limit = max(s.min_effect_share * force_peak, 3 * mean_noise)
+    why: dict[str, str] = {}
+    for n in claimed:
+        term = base.model.term(n)
+        if term is None:
+            continue
+        if not _moved_off(base, term):
+            why[n] = "refitted on every test it stays at its off values"
+            continue
+        own = own_force(data, base, n)
+        peak = float(np.max(np.abs(data.bin_matrix(own[:, None])))) if own is not None else 0.0
+        if own is not None and peak < limit:
+            why[n] = (
+                f"refitted on every test its own force peaks at {peak:.2g} N, too small "
+                f"to matter (< {limit:.2g} N)"
+            )
+    idle = list(why)
     if idle:
         for f in findings:
             if f.claimed and f.physics in idle:
                 f.claimed = False
-                f.why_not = "refitted on every test it stays at its off values"
+                f.why_not = why[f.physics]
         claimed[:] = [n for n in claimed if n not in idle]
         groups[:] = [g for g in groups if not set(idle) & set(cast(list[str], g["group"]))]
-        kept = base.model.with_terms(t for t in base.model.terms if t.name not in idle)
-        own = {f"{n}." for n in idle}
-        free = tuple(q for q in base.free if not q.startswith(tuple(own)))
-        base = refit(data, kept, free, base, max_nfev=s.final_nfev if claimed else s.max_nfev)
+        kept, free, calibrated = _without(data, base, idle, came_with)
+        for n in idle:
+            came_with.pop(n, None)
+        nfev = s.final_nfev if claimed else s.max_nfev
+        base = refit(data, kept, free, base, max_nfev=nfev, calibrated=calibrated)
     for f in findings:
         if f.claimed:
             f.parameters = _parameters(base, f.physics)
@@ -631,6 +673,7 @@ def diagnose(
     claimed: list[str] = []
     shapes: list[tuple[str, FloatArray]] = []
     groups: list[dict[str, object]] = []
+    came_with: dict[str, tuple[str, ...]] = {}  # claimed term -> spec values freed with it
     if search is not data:
         base = refit(search, base.model, base.free, base, max_nfev=s.max_nfev)
         base_means, binned = binned_means(search, base.residual)
@@ -679,6 +722,7 @@ def diagnose(
                 pairs = [separate_by(best.name, a) for a in alike]
                 groups.append({"group": group, "separate_by": "; ".join(dict.fromkeys(pairs))})
             claimed.append(best.name)
+            came_with[best.name] = tuple(k for k in best.fitted.globals if k not in base.globals)
             shapes.append((best.name, best.explained))
         base = best.fitted
         base_means, binned = binned_means(search, base.residual)
@@ -686,10 +730,10 @@ def diagnose(
         remaining = [c for c in remaining if c != best.name]
     if len(claimed) >= 2:
         report("backward check", 0.92)
-        base = _backward(search, base, claimed, findings, groups, fold_list, rng, s)
+        base = _backward(search, base, claimed, findings, groups, fold_list, rng, s, came_with)
     report("scores", 0.95)
     if claimed or search is not data:
-        base = _final_refit(data, base, claimed, findings, groups, s)
+        base = _final_refit(data, base, claimed, findings, groups, s, force_peak, came_with)
     gas_calibrated = GAS_VOLUME in baseline.free or _gas_spring_is_calibration(
         base, claimed, findings, groups
     )

@@ -104,12 +104,21 @@ def binned_jacobian(data: Data, fitted: Fitted) -> tuple[FloatArray, int]:
     ng = len(cols)
     n = prob.n_groups
     h_area = np.maximum(1e-3 * np.concatenate([bc, bt]), 1e-10)
-    dr = prob.force(model, bc + h_area[:n], bt + h_area[n:]) - f0
     area_cols = np.zeros((prob.size, 2 * n))
     rows = np.arange(prob.size)
     pid = prob.problem
     ok = pid < 2 * n
-    area_cols[rows[ok], pid[ok]] = dr[ok] / h_area[pid[ok]] * AREA_SCALE
+    if any(t.stateful for t in model.terms):
+        # A state carries an area's effect past reversal: columns from one step of the
+        # compression areas, then one of the rebound areas (as fit/calibrate.py does).
+        zero = np.zeros(n)
+        for side, (dbc, dbt) in enumerate(((h_area[:n], zero), (zero, h_area[n:]))):
+            dr = prob.force(model, bc + dbc, bt + dbt) - f0
+            col = side * n + prob.group
+            area_cols[rows, col] = dr / h_area[col] * AREA_SCALE
+    else:
+        dr = prob.force(model, bc + h_area[:n], bt + h_area[n:]) - f0
+        area_cols[rows[ok], pid[ok]] = dr[ok] / h_area[pid[ok]] * AREA_SCALE
     stacked = np.column_stack([*cols, area_cols]) if cols else area_cols
     return data.bin_matrix(stacked), ng
 

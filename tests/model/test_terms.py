@@ -585,3 +585,19 @@ def test_an_older_fit_with_the_retired_valve_conductance_still_reads(tmp_path: P
     old.write_text(json.dumps(doc))
     model = FitResult.load(old).model()
     assert model.value("compressibility.air_fraction") == 0.01
+
+
+def test_a_cavitation_floor_below_vacuum_by_more_than_the_gas_charge_is_not_physics() -> None:
+    """A little below vacuum is a saturation with the chamber's pressure a little off (the
+    reference plant's vapour gave -8.9 kPa); more than the charge below is something else
+    saturating the force (a friction sweep without vapour gave -3.59 MPa)."""
+    term = make_term("cavitation")
+    local = {p.name: p.nominal for p in term.params()}
+    gas = SPEC.gas_pressure_pa
+    assert term.implausible(local | {"release_pressure_pa": -8.9e3}, SPEC) == ""
+    assert term.implausible(local | {"release_pressure_pa": -0.9 * gas}, SPEC) == ""
+    why = term.implausible(local | {"release_pressure_pa": -3.59e6}, SPEC)
+    assert "below vacuum" in why and f"{gas / 1e3:.3g} kPa" in why
+    # At its lower bound the floor never acts: that is "too small", not "not physical".
+    lowest = term.params()[0].lo
+    assert term.implausible(local | {"release_pressure_pa": lowest}, SPEC) == ""

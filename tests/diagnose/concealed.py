@@ -127,7 +127,8 @@ def check_named(diagnoses: Diagnoses, name: str) -> None:
     """The concealed physics is named, explains most of the structure test by test, and
     lowers the error away from reversal."""
     d = diagnoses[name]
-    assert d["mismatch"]["significant"]
+    m = d["mismatch"]
+    assert m["significant"], {k: m[k] for k in ("p_value", "noise_floor_n", "structured_rms_n")}
     if name in PARTLY:
         # Known defect (open, issue 17): the search, not the model. The library's model at
         # the simulated values fits this recording to noise (phase-mean SS 73 N² against

@@ -147,6 +147,16 @@ def own_force(data: Data, fitted: Fitted, name: str) -> FloatArray | None:
     return on_force - off_force
 
 
+def own_peak(data: Data, fitted: Fitted, name: str) -> float:
+    """The largest phase mean of the term's own force (`own_force`); ∞ when that cannot
+    be worked out, so no "too small" refusal rests on it."""
+    own = own_force(data, fitted, name)
+    if own is None:
+        return math.inf
+    binned = data.bin_matrix(own[:, None])[:, 0]
+    return float(np.max(np.abs(binned))) if binned.size else 0.0
+
+
 def binned_means(data: Data, residual: FloatArray) -> tuple[FloatArray, list[BinnedTest]]:
     binned = data.binned(residual)
     return np.concatenate([b.mean for b in binned]), binned
@@ -199,14 +209,10 @@ def try_candidate(
     effect = float(np.sqrt(np.mean((fitted.force - base.force) ** 2)))
     change = data.bin_matrix((fitted.force - base.force)[:, None])[:, 0]
     peak = float(np.max(np.abs(change))) if change.size else 0.0
-    own_peak = math.inf
-    own = own_force(data, fitted, name)
-    if own is not None:
-        binned_own = data.bin_matrix(own[:, None])[:, 0]
-        own_peak = float(np.max(np.abs(binned_own))) if binned_own.size else 0.0
+    own = own_peak(data, fitted, name)
     before = spec_values(data, name) if name in CALIBRATIONS else {}
     return Candidate(
-        name, fitted, lr, p, effect, peak, base_means - means, own_peak_n=own_peak,
+        name, fitted, lr, p, effect, peak, base_means - means, own_peak_n=own,
         spec_values=before,
     )  # fmt: skip
 

@@ -34,7 +34,7 @@ from shockdyno.diagnose.candidates import (
     binned_means,
     folds,
     heldout_gain,
-    own_force,
+    own_peak,
     try_candidate,
 )
 from shockdyno.diagnose.consistency import SENSOR, alike, delay_spread, inconsistent
@@ -514,9 +514,7 @@ def _round(
             heldout_gain(baselines, c, s.fold_nfev) if fold_list else (0.0, "no held-out split")
         )
 
-    # Noise of a phase mean under the current model (a misfit inflates the scatter).
-    mean_noise = float(np.sqrt(np.mean(np.concatenate([b.mean_var for b in binned]))))
-    limit = max(s.min_effect_share * force_peak, 3 * mean_noise)
+    limit = _effect_limit(binned, force_peak, s)
 
     x = search.prob.inputs.x
     refused = {
@@ -565,6 +563,13 @@ def _round(
     return found, best
 
 
+def _effect_limit(binned: Sequence[BinnedTest], force_peak: float, s: Settings) -> float:
+    """The least effect that matters: 0.1 % of the peak force, and 3 noise σ of a phase
+    mean under the current model (a misfit inflates the scatter)."""
+    mean_noise = float(np.sqrt(np.mean(np.concatenate([b.mean_var for b in binned]))))
+    return max(s.min_effect_share * force_peak, 3 * mean_noise)
+
+
 def _final_refit(
     data: Data,
     base: Fitted,
@@ -585,9 +590,7 @@ def _final_refit(
     kept a position force that refitted to 0.45 N at most, against a 1.8 N limit."""
     nfev = s.final_nfev if claimed else s.max_nfev
     base = refit(data, base.model, base.free, base, max_nfev=nfev)
-    binned = data.binned(base.residual)
-    mean_noise = float(np.sqrt(np.mean(np.concatenate([b.mean_var for b in binned]))))
-    limit = max(s.min_effect_share * force_peak, 3 * mean_noise)
+    limit = _effect_limit(data.binned(base.residual), force_peak, s)
     why: dict[str, str] = {}
     for n in claimed:
         term = base.model.term(n)
@@ -596,9 +599,8 @@ def _final_refit(
         if not _moved_off(base, term):
             why[n] = "refitted on every test it stays at its off values"
             continue
-        own = own_force(data, base, n)
-        peak = float(np.max(np.abs(data.bin_matrix(own[:, None])))) if own is not None else 0.0
-        if own is not None and peak < limit:
+        peak = own_peak(data, base, n)
+        if peak < limit:
             why[n] = (
                 f"refitted on every test its own force peaks at {peak:.2g} N, too small "
                 f"to matter (< {limit:.2g} N)"

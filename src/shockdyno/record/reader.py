@@ -22,6 +22,7 @@ from shockdyno.errors import RecordingError
 from shockdyno.record import schemas as s
 from shockdyno.record.layout import set_paths
 from shockdyno.record.types import TestData, TestMeta
+from shockdyno.result_files import MCAP_MAGIC
 from shockdyno.rig.types import SampleBlock
 
 
@@ -273,6 +274,3 @@ def _mcap_magic(path: Path) -> bool:
             return fh.read(len(MCAP_MAGIC)) == MCAP_MAGIC
     except OSError:
         return True  # unreadable: say what is known, not that it is no MCAP
-
-
-MCAP_MAGIC = b"\x89MCAP0\r\n"

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from shockdyno.diagnose import fitting
 from shockdyno.diagnose.candidates import binned_means, companion_keys, try_candidate
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.engine import _without
@@ -19,7 +20,11 @@ from shockdyno.model.spec import load_spec
 TURN = CALIBRATIONS["seal_turn"]
 
 
-def test_friction_frees_the_seal_turn_and_takes_it_out_again() -> None:
+def test_friction_frees_the_seal_turn_and_takes_it_out_again(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # The mechanism, with friction's companion named (fitting.COMPANIONS holds none now).
+    monkeypatch.setitem(fitting.COMPANIONS, "friction", "seal_turn")
     spec = load_spec(None)
     # The damper's seal turns over 0.3 mm of presliding; its spec says a sharp sign.
     real = spec.with_values({"friction_presliding_m": 3e-4})

@@ -52,7 +52,10 @@ assert all(k in DIAGNOSE_ONLY for keys in CALIBRATIONS.values() for k in keys)
 # held out (a real 30 N breakaway: 0.011 and 0.095; 0.39 and 0.38 with the turn freed,
 # dev seed 708). Taken as a calibration of its own, the turn came too late: the air had
 # already been claimed with the paper's turn.
-COMPANIONS: dict[str, str] = {"friction": "seal_turn"}
+# Not in use: with friction -> seal_turn the turn speed went to 4-9 µm/s beside the
+# breakaway on the sim-rig's 25 N seal, and the breakaway came out 17.7 / 19.2 / 19.1 /
+# 24.3 N in four recordings (3 outside 20 %), where it had been recovered within 20 %.
+COMPANIONS: dict[str, str] = {}
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,13 @@ from typing import Any
 from shockdyno.errors import ConfigError
 
 MCAP_MAGIC = b"\x89MCAP"
+
+
+def starts_as_mcap(path: Path) -> bool:
+    """Whether the file starts as every MCAP file does (OSError propagates: each caller
+    says in its own words what a missing or unreadable file means to it)."""
+    with path.open("rb") as fh:
+        return fh.read(len(MCAP_MAGIC)) == MCAP_MAGIC
 # What each kind of result holds at its top level (all of them, to be that kind).
 KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
     "fit": ("a fit result (FIT.json, from shockdyno fit)", ("globals", "clicks")),

@@ -19,7 +19,7 @@ from shockdyno.record import open_recording
 from shockdyno.record.types import TestData
 from shockdyno.report import clickchart, gas, repeatability
 from shockdyno.report.summary import TestSummary, summarise
-from shockdyno.result_files import MCAP_MAGIC
+from shockdyno.result_files import starts_as_mcap
 
 Setting = clickchart.Setting
 
@@ -77,8 +77,7 @@ def default_labels(paths: Sequence[str], given: Sequence[str]) -> list[str]:
 
 def _is_mcap(path: Path) -> bool:
     try:
-        with path.open("rb") as f:
-            return f.read(len(MCAP_MAGIC)) == MCAP_MAGIC
+        return starts_as_mcap(path)
     except FileNotFoundError:
         raise ConfigError(f"{path} not found") from None
     except IsADirectoryError:

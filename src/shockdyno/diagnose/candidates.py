@@ -106,8 +106,6 @@ def binned_jacobian(data: Data, fitted: Fitted) -> tuple[FloatArray, int]:
     h_area = np.maximum(1e-3 * np.concatenate([bc, bt]), 1e-10)
     area_cols = np.zeros((prob.size, 2 * n))
     rows = np.arange(prob.size)
-    pid = prob.problem
-    ok = pid < 2 * n
     if any(t.stateful for t in model.terms):
         # A state carries an area's effect past reversal: columns from one step of the
         # compression areas, then one of the rebound areas (as fit/calibrate.py does).
@@ -117,6 +115,8 @@ def binned_jacobian(data: Data, fitted: Fitted) -> tuple[FloatArray, int]:
             col = side * n + prob.group
             area_cols[rows, col] = dr / h_area[col] * AREA_SCALE
     else:
+        pid = prob.problem
+        ok = pid < 2 * n
         dr = prob.force(model, bc + h_area[:n], bt + h_area[n:]) - f0
         area_cols[rows[ok], pid[ok]] = dr[ok] / h_area[pid[ok]] * AREA_SCALE
     stacked = np.column_stack([*cols, area_cols]) if cols else area_cols

@@ -22,7 +22,7 @@ from shockdyno.errors import RecordingError
 from shockdyno.record import schemas as s
 from shockdyno.record.layout import set_paths
 from shockdyno.record.types import TestData, TestMeta
-from shockdyno.result_files import MCAP_MAGIC
+from shockdyno.result_files import starts_as_mcap
 from shockdyno.rig.types import SampleBlock
 
 
@@ -270,7 +270,6 @@ def _mcap_magic(path: Path) -> bool:
     """Whether the file starts as every MCAP file does (a text file read as a cut-off MCAP
     holds no records, which alone would call it "an MCAP file")."""
     try:
-        with path.open("rb") as fh:
-            return fh.read(len(MCAP_MAGIC)) == MCAP_MAGIC
+        return starts_as_mcap(path)
     except OSError:
         return True  # unreadable: say what is known, not that it is no MCAP

@@ -23,6 +23,8 @@ def starts_as_mcap(path: Path) -> bool:
     says in its own words what a missing or unreadable file means to it)."""
     with path.open("rb") as fh:
         return fh.read(len(MCAP_MAGIC)) == MCAP_MAGIC
+
+
 # What each kind of result holds at its top level (all of them, to be that kind).
 KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
     "fit": ("a fit result (FIT.json, from shockdyno fit)", ("globals", "clicks")),

@@ -152,8 +152,10 @@ def test_a_sample_on_a_force_step_in_one_cycle_does_not_set_the_noise() -> None:
     others = np.arange(N_BINS) != 10
     np.testing.assert_allclose(stepped.mean[others], clean.mean[others])
     assert np.isnan(stepped.cell[2, 10]) and np.isfinite(clean.cell).all()
+    assert (stepped.lone, clean.lone) == (1, 0)
     assert stepped.noise_sd_n < 1.2 * clean.noise_sd_n
-    assert mismatch_test([stepped], rng, 199).p_value <= 0.01
+    m = mismatch_test([stepped], rng, 199)
+    assert m.p_value <= 0.01 and m.lone_cells == 1
     # Kept when it is not alone: the same excess in every cycle is structure, and a
     # drift over the cycles (oil warming) is neither structure nor a glitch.
     every = r + 227.0 * (ph.bin == 10)

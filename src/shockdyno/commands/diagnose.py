@@ -147,6 +147,11 @@ def run_diagnose(args: argparse.Namespace) -> int:
             f"(p = {m['p_value']:.3g}); structure {units.force(m['structured_rms_n']):.3g} {fl} "
             f"RMS, noise {units.force(m['noise_floor_n']):.3g} {fl}, about "
             f"{m['effective_values']:.0f} independent values"
+            + (
+                f"; {m['lone_cells']} lone cycle-phase cells left out"
+                if m.get("lone_cells")
+                else ""
+            )
         )
     if m["significant"]:
         shown.print(_summary(doc, units))

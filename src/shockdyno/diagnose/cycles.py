@@ -135,6 +135,7 @@ class BinnedTest:
     mean_var: FloatArray
     noise_sd_n: float
     counts: FloatArray  # samples per (cycle, bin)
+    lone: int = 0  # cells left out as lone (`lone_cells`)
 
 
 def lone_cells(cell: FloatArray) -> NDArray[np.bool_]:
@@ -200,4 +201,4 @@ def bin_residual(r: FloatArray, phase: Phase, n_bins: int = N_BINS) -> BinnedTes
     with np.errstate(invalid="ignore", divide="ignore"):
         var_cells = np.nansum((cell - mean) ** 2, axis=0) / np.maximum(n_k - 1, 1)
         mean_var = np.where(n_k > 1, var_cells / n_k, noise_sd**2)
-    return BinnedTest(cell, mean, mean_var, noise_sd, counts)
+    return BinnedTest(cell, mean, mean_var, noise_sd, counts, int(np.sum(lone)))

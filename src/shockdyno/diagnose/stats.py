@@ -73,6 +73,7 @@ class MismatchStat:
     structured_rms_n: float
     structured_share: float  # of the residual's mean square that repeats every cycle
     effective_values: float  # independent values the binned residual holds
+    lone_cells: int = 0  # (cycle, bin) cells left out as a lone sample's (cycles.lone_cells)
 
 
 def mismatch_test(
@@ -89,7 +90,8 @@ def mismatch_test(
     structured_rms = float(np.sqrt(energy / max(means.size, 1)))
     total_ms = structured_rms**2 + noise**2
     share = structured_rms**2 / total_ms if total_ms > 0 else 0.0
-    return MismatchStat(p, energy, noise, structured_rms, share, effective_values(binned))
+    lone = sum(b.lone for b in binned)
+    return MismatchStat(p, energy, noise, structured_rms, share, effective_values(binned), lone)
 
 
 def effective_values(binned: Sequence[BinnedTest]) -> float:

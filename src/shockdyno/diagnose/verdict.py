@@ -213,6 +213,7 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
             "structured_rms_n": _num(m.structured_rms_n),
             "structured_share": _num(m.structured_share),
             "effective_values": m.effective_values,
+            "lone_cells": m.lone_cells,
             "where": [r.to_json() for r in d.location.regions],
             "axes": d.location.axes,
         },

@@ -148,7 +148,8 @@ def run_diagnose(args: argparse.Namespace) -> int:
             f"RMS, noise {units.force(m['noise_floor_n']):.3g} {fl}, about "
             f"{m['effective_values']:.0f} independent values"
             + (
-                f"; {m['lone_cells']} lone cycle-phase cells left out"
+                f"; {m['lone_cells']} lone cycle-phase "
+                f"cell{'s' if m['lone_cells'] != 1 else ''} left out"
                 if m.get("lone_cells")
                 else ""
             )

@@ -487,9 +487,10 @@ def test_contact_is_a_hinge_with_a_power_law_past_each_onset() -> None:
     assert term.unplaced(late | {"bump_force_n": 0.0}, stroke) == ""  # that side is off
     # A fit reports such a side off, as it does one the stroke never reaches.
     assert term.unseen(local, stroke) == {}
-    assert term.unseen(late, stroke) == {"bump_force_n": 0.0}
+    # (its onset with it: with no force it moves nothing, and must not be varied)
+    assert term.unseen(late, stroke) == {"bump_force_n": 0.0, "bump_onset_m": 0.2}
     beyond = local | {"topout_onset_m": -0.031}
-    assert term.unseen(beyond, stroke) == {"topout_force_n": 0.0}
+    assert term.unseen(beyond, stroke) == {"topout_force_n": 0.0, "topout_onset_m": -0.2}
     # Its start grid puts the onsets inside the stroke the data cover.
     seen = DamperModel(SPEC).evaluate(ModelInputs.single(x, z, z), A_BC, A_BT)
     grid = make_term("contact").start_grid(seen)

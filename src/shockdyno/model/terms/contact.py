@@ -123,18 +123,21 @@ class Contact(Term):
         # its last 10 % is not placed (see `unplaced`), and along that edge the fit can
         # trade onset for force without end (a 50 kN top-out 0.01 mm deep fits a reversal
         # as well as 26 N 1.4 mm deep). Either way a car must not inherit it.
+        # The side's onset goes off with its force: with no force it moves nothing, and a
+        # diagnosis that frees the term must not vary it.
         if not x.size:
             return {}
+        off = {q.name: q.off for q in self.params()}
         out: dict[str, float] = {}
-        for _, force, depth in _sides(p, x):
+        for _, force, onset, depth in _sides(p, x):
             if depth < MIN_DEPTH_SHARE * _half_stroke(x):
-                out[force] = 0.0
+                out[force], out[onset] = off[force], off[onset]
         return out
 
     def unplaced(self, p: Mapping[str, float], x: FloatArray) -> str:
         if not x.size:
             return ""
-        for side, force, depth in _sides(p, x):
+        for side, force, _, depth in _sides(p, x):
             if p[force] > 0 and 0 < depth < MIN_DEPTH_SHARE * _half_stroke(x):
                 return (
                     f"{side} only in the last {1e3 * depth:.2g} mm of the stroke: it acts at "
@@ -157,9 +160,9 @@ def _half_stroke(x: FloatArray) -> float:
     return 0.5 * (float(np.max(x)) - float(np.min(x)))
 
 
-def _sides(p: Mapping[str, float], x: FloatArray) -> tuple[tuple[str, str, float], ...]:
-    """(side, its force parameter, how far the data reach past its onset) per side."""
+def _sides(p: Mapping[str, float], x: FloatArray) -> tuple[tuple[str, str, str, float], ...]:
+    """(side, its force and onset parameters, how far the data reach past its onset)."""
     return (
-        ("bump stop", "bump_force_n", float(np.max(x)) - p["bump_onset_m"]),
-        ("top-out", "topout_force_n", p["topout_onset_m"] - float(np.min(x))),
+        ("bump stop", "bump_force_n", "bump_onset_m", float(np.max(x)) - p["bump_onset_m"]),
+        ("top-out", "topout_force_n", "topout_onset_m", p["topout_onset_m"] - float(np.min(x))),
     )

@@ -1,0 +1,58 @@
+"""A contact candidate whose top-out lands where the data cannot place it (the stroke's
+last 10 %) has that side switched off and is fitted again: its bump stop is judged on its
+own (a concealed bump had been refused whole for a top-out 0.36 mm deep, and the search
+claimed a gas spring and a position force instead)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from shockdyno.diagnose import candidates
+from shockdyno.diagnose.candidates import binned_means, try_candidate
+from shockdyno.diagnose.data import Data
+from shockdyno.diagnose.fitting import refit
+from shockdyno.diagnose.stats import noise_draws
+from shockdyno.fit.prepare import prepare_tests
+from shockdyno.fit.synthetic import synthetic_sweep
+from shockdyno.model.composite import DamperModel
+from shockdyno.model.spec import load_spec
+
+ONSET, FORCE = 0.021, 200.0  # the damper's bump stop: 200 N 10 mm past 21 mm
+
+
+def test_a_side_the_data_cannot_place_goes_off_and_the_other_is_judged(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    spec = load_spec(None)
+    tests = []
+    for t in synthetic_sweep(spec, [5, 15], cycles=3, seed=8):
+        bump = FORCE * (np.maximum(t.x - ONSET, 0.0) / 0.01) ** 2
+        tests.append(replace(t, force=t.force + bump))
+    prepared, _ = prepare_tests(tests)
+    data = Data.build(spec, prepared)
+    base = refit(data, DamperModel(spec), (), None, max_nfev=30)
+    means, binned = binned_means(data, base.residual)
+    noise = noise_draws(binned, np.random.default_rng(0), 99)
+    # The search's start: the bump near its place, and a top-out 0.4 mm from the bottom of
+    # the stroke, where any force is within noise and no step of the fit moves it.
+    bottom = float(np.min(data.prob.inputs.x))
+    start = {
+        "contact.bump_onset_m": 0.02,
+        "contact.bump_force_n": 150.0,
+        "contact.topout_onset_m": bottom + 4e-4,
+        "contact.topout_force_n": 200.0,
+    }
+    monkeypatch.setattr(candidates, "best_start", lambda d, m, n, b: m.with_values(start))
+    c = try_candidate(data, base, means, "contact", noise, 30)
+    model = c.fitted.model
+    term = model.term("contact")
+    assert term is not None
+    assert term.unplaced(model.local_values(term), data.prob.inputs.x) == ""
+    assert model.value("contact.topout_force_n") == 0.0
+    assert not any(q.startswith("contact.topout") for q in c.fitted.free)
+    assert model.value("contact.bump_onset_m") == pytest.approx(ONSET, abs=5e-4)
+    assert model.value("contact.bump_force_n") == pytest.approx(FORCE, rel=0.1)
+    assert c.p_value <= 0.01  # the smallest 99 draws can give

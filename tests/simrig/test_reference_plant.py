@@ -120,6 +120,11 @@ def test_an_offline_reference_sweep_keeps_whole_cycles_and_its_heat() -> None:
     assert truth.oil_temperature_c[1] > 40.0  # the damper warmed as it worked
 
 
+# A fresh-clone run (2 cores, the concealed-effect diagnoses on the other worker) passed
+# pytest's 120 s with this sweep unfinished, though it takes 18-23 s here alone or beside
+# four busy loops (3.7 s of CPU): the sweep's own 240 s bound decides, and on a timeout
+# its output is shown, so the next such run says where the sweep was.
+@pytest.mark.timeout(300)
 def test_a_real_sweep_runs_on_the_reference_plant(tmp_path: Path) -> None:
     sc = tmp_path / "ref.toml"
     sc.write_text('[scenario]\nname = "r"\n[plant]\nkind = "reference"\nbreakaway_n = 40\n')
@@ -135,9 +140,13 @@ def test_a_real_sweep_runs_on_the_reference_plant(tmp_path: Path) -> None:
     cli = [sys.executable, "-m", "shockdyno.cli", "sweep", "--rig", str(rig)]
     cli += ["--start-sim", "--speed", "0.5", "--clicks", "10", "--freq", "1.5", "--cycles", "2"]
     cli += ["--warmup-cycles", "1", "--scenario", str(sc), "-o", str(out), "--seed", "4"]
-    done = subprocess.run(
-        cli, capture_output=True, text=True, timeout=240, env={**os.environ, "COLUMNS": "200"}
-    )
+    try:
+        done = subprocess.run(
+            cli, capture_output=True, text=True, timeout=240, env={**os.environ, "COLUMNS": "200"}
+        )
+    except subprocess.TimeoutExpired as exc:
+        out = (exc.stdout or b"")[-1500:], (exc.stderr or b"")[-1500:]
+        pytest.fail(f"the sweep ran past 240 s; stdout ...{out[0]!r}; stderr ...{out[1]!r}")
     assert done.returncode == 0, done.stderr[-400:]
     (test,) = open_recording(out).load_all()
     assert test.meta.clicks == 10 and np.ptp(test.x) == pytest.approx(0.06, rel=0.05)

@@ -36,21 +36,29 @@ def test_a_side_the_data_cannot_place_goes_off_and_the_other_is_judged(
     base = refit(data, DamperModel(spec), (), None, max_nfev=30)
     means, binned = binned_means(data, base.residual)
     noise = noise_draws(binned, np.random.default_rng(0), 99)
-    # The search's start: the bump near its place, and a top-out 0.4 mm from the bottom of
-    # the stroke, where any force is within noise and no step of the fit moves it.
+    # The search's start: the bump near its place and a top-out 2 mm from the bottom of
+    # the stroke. Left on, the fit takes that side to 0.33 mm deep at 320 N (where it
+    # acts at reversal only): the whole term would be refused as not placed.
     bottom = float(np.min(data.prob.inputs.x))
     start = {
         "contact.bump_onset_m": 0.02,
         "contact.bump_force_n": 150.0,
-        "contact.topout_onset_m": bottom + 4e-4,
+        "contact.topout_onset_m": bottom + 2e-3,
         "contact.topout_force_n": 200.0,
     }
     monkeypatch.setattr(candidates, "best_start", lambda d, m, n, b: m.with_values(start))
+    x = data.prob.inputs.x
+    with monkeypatch.context() as kept_on:
+        kept_on.setattr(candidates, "_unseen", lambda *a: {})
+        c = try_candidate(data, base, means, "contact", noise, 30)
+        term = c.fitted.model.term("contact")
+        assert term is not None
+        assert "top-out only in the last" in term.unplaced(c.fitted.model.local_values(term), x)
     c = try_candidate(data, base, means, "contact", noise, 30)
     model = c.fitted.model
     term = model.term("contact")
     assert term is not None
-    assert term.unplaced(model.local_values(term), data.prob.inputs.x) == ""
+    assert term.unplaced(model.local_values(term), x) == ""
     assert model.value("contact.topout_force_n") == 0.0
     assert not any(q.startswith("contact.topout") for q in c.fitted.free)
     assert model.value("contact.bump_onset_m") == pytest.approx(ONSET, abs=5e-4)

@@ -229,13 +229,17 @@ def try_candidate(
 
 
 def _unseen(data: Data, fitted: Fitted, name: str) -> dict[str, float]:
-    """The term's parameters the data do not measure at this fit (`Term.unseen`), with
-    their off values, where they are not already off."""
+    """Where the term as fitted is not placed (`Term.unplaced`), its parameters the data
+    do not measure (`Term.unseen`) with their off values, where they are not off already.
+    Only then: a side beyond the stroke with no force changes nothing worth a refit."""
     term = fitted.model.term(name)
     if term is None:
         return {}
     local = fitted.model.local_values(term)
-    found = term.unseen(local, data.prob.inputs.x)
+    x = data.prob.inputs.x
+    if not term.unplaced(local, x):
+        return {}
+    found = term.unseen(local, x)
     return {term.qualified(k): v for k, v in found.items() if local[k] != v}
 
 

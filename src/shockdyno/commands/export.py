@@ -21,7 +21,7 @@ from shockdyno.lists import parse_floats, parse_ints
 from shockdyno.model.kinematics import differentiate
 from shockdyno.outputs import check_output
 from shockdyno.record.csv_export import export_csv
-from shockdyno.result_files import MCAP_MAGIC
+from shockdyno.result_files import starts_as_mcap
 from shockdyno.ride.damper_table import IMPERIAL_SPEEDS_M_S, UNITS, click_tables, write_tables
 
 
@@ -89,13 +89,12 @@ def _velocity(t: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.floa
 
 def _load_fit(path: Path) -> FitResult:
     try:
-        with path.open("rb") as fh:
-            head = fh.read(len(MCAP_MAGIC))
+        recording = starts_as_mcap(path)
     except FileNotFoundError:
         raise ConfigError(f"fit file not found: {path}") from None
     except OSError as exc:
         raise ConfigError(f"cannot read {path} ({exc.strerror})") from None
-    if head == MCAP_MAGIC:
+    if recording:
         raise ConfigError(
             f"{path} is an MCAP recording; --damper-table takes a fit JSON "
             "(shockdyno fit REC.mcap --json FIT.json)"

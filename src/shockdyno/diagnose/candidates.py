@@ -209,7 +209,7 @@ def try_candidate(
             mine = tuple(k for k in mine if k not in off)
             model = fitted.model.with_values(off)
             fitted = refit(data, model, (*base.free, *mine), fitted, max_nfev, calibrated)
-        ahead = len(fitted.globals) + len(base.free) + len(mine)  # globals, then free terms
+        ahead = len(fitted.globals) + len(fitted.free)  # the Jacobian's globals, then terms
         new_cols = list(range(ahead - len(mine), ahead))
         new_cols += [i for i, k in enumerate(fitted.globals) if k in extra]
     means, _ = binned_means(data, fitted.residual)

@@ -563,6 +563,18 @@ def test_friction_says_when_its_fit_is_not_physics() -> None:
     assert "over 5x" in term.implausible(huge, SPEC)
 
 
+def test_thermal_says_a_damping_that_rises_as_the_oil_warms_is_not_physics() -> None:
+    """Oil thins as it warms: a fit whose damping rises with the temperature uses the
+    channel as a per-test gain (a reference-plant 60 N seal, no heat: -4.95 %/K)."""
+    term = make_term("thermal")
+    local = {p.name: p.nominal for p in term.params()}
+    assert term.implausible(local, SPEC) == ""
+    assert term.implausible(local | {"damping_coeff_per_k": 0.02}, SPEC) == ""  # fades
+    assert term.implausible(local | {"damping_coeff_per_k": -0.001}, SPEC) == ""  # noise
+    why = term.implausible(local | {"damping_coeff_per_k": -0.0495}, SPEC)
+    assert "rises 5 %/K" in why and "thins" in why
+
+
 def test_an_older_fit_with_the_retired_valve_conductance_still_reads(tmp_path: Path) -> None:
     """Fits written before the chamber state carry compressibility's fixed conductance;
     the model they give leaves it out (the flow law gives the conductance now)."""

@@ -587,7 +587,10 @@ def _final_refit(
     then below the limit a candidate must pass (0.1 % of the peak force, 3 noise σ of a
     phase mean), was the short refit's gain, not the term's: it leaves the model and the
     verdict (`claimed`, `findings` and `groups` are updated in place). A 2 % air sweep
-    kept a position force that refitted to 0.45 N at most, against a 1.8 N limit."""
+    kept a position force that refitted to 0.45 N at most, against a 1.8 N limit. And a
+    claim whose values, refitted, are no longer physical (term.implausible) leaves too:
+    a reference-plant friction sweep's cavitation floor, claimed above vacuum less the
+    gas charge, refitted to -2.55 MPa absolute and was reported as the verdict's."""
     nfev = s.final_nfev if claimed else s.max_nfev
     base = refit(data, base.model, base.free, base, max_nfev=nfev)
     limit = _effect_limit(data.binned(base.residual), force_peak, s)
@@ -595,6 +598,10 @@ def _final_refit(
     for n in claimed:
         term = base.model.term(n)
         if term is None:
+            continue
+        odd = term.implausible(base.model.local_values(term), base.model.spec)
+        if odd:
+            why[n] = f"refitted on every test it is not physical: {odd}"
             continue
         if not _moved_off(base, term):
             why[n] = "refitted on every test it stays at its off values"

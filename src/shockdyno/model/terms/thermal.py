@@ -32,8 +32,10 @@ from shockdyno.model.composite import CHAMBER, PRESSURE, FloatArray, Term, Work
 from shockdyno.model.filters import first_order_lag
 from shockdyno.model.params import Param
 from shockdyno.model.reading import Reading
+from shockdyno.model.spec import DamperSpec
 
 KELVIN = 273.15
+DAMPING_RISE_PER_K = 0.005  # the most a fit may raise the damping per K (noise, not physics)
 
 
 class Thermal(Term):
@@ -129,6 +131,18 @@ class Thermal(Term):
                 f"{r.sd('oil_lead_s')} s × its rate of rise"
             )
         return "temperature: " + (", ".join(parts) or "the force drifts with the oil temperature")
+
+    def implausible(self, p: Mapping[str, float], spec: DamperSpec) -> str:
+        # Oil thins as it warms, and a thinner oil damps less through every path (the
+        # laminar land and leak directly, an orifice's discharge coefficient with its
+        # Reynolds number): a fit whose damping rises with the temperature is using the
+        # channel as a per-test gain for something else (a reference-plant 60 N seal,
+        # no heat effect: -5 %/K at the range's end, the oil's lead at its 1000 s end).
+        # Half a percent per kelvin is a sixth of a mineral oil's viscosity fall.
+        d = p["damping_coeff_per_k"]
+        if d < -DAMPING_RISE_PER_K:
+            return f"damping rises {-100 * d:.2g} %/K as the oil warms: oil thins as it warms"
+        return ""
 
     def full_rate(self, p: Mapping[str, float], free: Iterable[str]) -> bool:
         return False  # minutes of thermal lag: the fit's 5 ms samples resolve it

@@ -12,7 +12,7 @@ import numpy as np
 
 from shockdyno.diagnose.candidates import with_term
 from shockdyno.diagnose.data import Data
-from shockdyno.diagnose.engine import Finding, Settings, _final_refit
+from shockdyno.diagnose.engine import Finding, Settings, _at_range_end, _final_refit
 from shockdyno.diagnose.fitting import Fitted, refit
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.synthetic import synthetic_sweep
@@ -51,3 +51,36 @@ def test_a_claim_whose_final_values_are_not_physical_leaves_the_verdict() -> Non
 def test_a_physical_floor_is_not_refused_as_unphysical() -> None:
     _, findings, _ = _final(3.0e3)  # the vapour pressure of oil: physics
     assert "not physical" not in findings[0].why_not
+
+
+def test_a_term_pinned_at_an_end_of_its_range_is_not_an_estimate() -> None:
+    """A free parameter at an end of its range that is not its off value: the data want
+    more than the term allows (no heat in the plant: damping +5 %/K, lead 1000 s)."""
+    spec = load_spec(None)
+    prepared, _ = prepare_tests(synthetic_sweep(spec, [5], cycles=2, seed=6))
+    data = Data.build(spec, prepared)
+    plain = refit(data, DamperModel(spec), (), None, max_nfev=10)
+    model = with_term(plain.model, "thermal", data)
+    term = model.term("thermal")
+    assert term is not None
+    free = tuple(term.qualified(k) for k in ("damping_coeff_per_k", "oil_lead_s"))
+
+    def fitted(values: dict[str, float]) -> Fitted:
+        m = model.with_values({term.qualified(k): v for k, v in values.items()})
+        return Fitted(m, free, plain.areas, {}, plain.force, plain.residual)
+
+    assert "upper end of its range (0.05 1/K)" in _at_range_end(
+        fitted({"damping_coeff_per_k": 0.0499999, "oil_lead_s": 150.0}), term
+    )
+    assert "oil_lead_s sits at the upper end" in _at_range_end(
+        fitted({"damping_coeff_per_k": 0.01, "oil_lead_s": 1000.0}), term
+    )
+    assert _at_range_end(fitted({"damping_coeff_per_k": 0.01, "oil_lead_s": 150.0}), term) == ""
+    # At the end that is its off value (no lead) the term is only partly on: an estimate.
+    assert _at_range_end(fitted({"damping_coeff_per_k": 0.01, "oil_lead_s": 0.0}), term) == ""
+    # A parameter the fit held is not judged where it was put.
+    held = Fitted(
+        model.with_values({term.qualified("viscosity_coeff_per_k"): 0.1}),
+        free, plain.areas, {}, plain.force, plain.residual,
+    )  # fmt: skip
+    assert _at_range_end(held, term) == ""

@@ -217,6 +217,24 @@ def _moved_off(fitted: Fitted, term: Term) -> bool:
     )
 
 
+def _at_range_end(fitted: Fitted, term: Term) -> str:
+    """Why `term` as fitted is not an estimate ("" when it is): a free parameter pinned
+    at an end of its range that is not its off value. The data ask for more than the
+    term's physics allows there, so the term stands in for something else, and the σ a
+    bound gives is no error bar. Seen: a thermal term on reference-plant sweeps with no
+    heat effect (a 60 N seal; vapour at a 0.40 gas charge) fitted its damping at ±5 %/K
+    and the oil's lead at 1000 s, the range's ends, and was claimed."""
+    for p in term.params():
+        key = term.qualified(p.name)
+        if key not in fitted.free:
+            continue
+        value, tol = fitted.model.value(key), 1e-3 * p.scale
+        for end, bound in (("lower", p.lo), ("upper", p.hi)):
+            if bound != p.off and abs(value - bound) <= tol:
+                return f"its {p.name} sits at the {end} end of its range ({bound:.4g} {p.unit})"
+    return ""
+
+
 def _beyond_noise(value: float, ref: float, sd: float, scale: float) -> bool:
     """Whether a fitted value sits off `ref` by more than 3σ and a thousandth of its scale
     (a value that is not finite has moved)."""
@@ -286,6 +304,9 @@ def why_not(
                 f"its own force peaks at {c.own_peak_n:.2g} N, too small to matter: the gain "
                 "is the refit's"
             )
+        pinned = _at_range_end(c.fitted, term)
+        if pinned:
+            return f"not an estimate: {pinned}"
     if c.p_value >= s.alpha:
         return f"p = {c.p_value:.3g} ≥ {s.alpha:g}"
     if c.name not in scored:
@@ -602,6 +623,10 @@ def _final_refit(
         odd = term.implausible(base.model.local_values(term), base.model.spec)
         if odd:
             why[n] = f"refitted on every test it is not physical: {odd}"
+            continue
+        pinned = _at_range_end(base, term)
+        if pinned:
+            why[n] = f"refitted on every test it is not an estimate: {pinned}"
             continue
         if not _moved_off(base, term):
             why[n] = "refitted on every test it stays at its off values"

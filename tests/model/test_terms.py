@@ -564,15 +564,21 @@ def test_friction_says_when_its_fit_is_not_physics() -> None:
 
 
 def test_thermal_says_a_damping_that_rises_as_the_oil_warms_is_not_physics() -> None:
-    """Oil thins as it warms: a fit whose damping rises with the temperature uses the
-    channel as a per-test gain (a reference-plant 60 N seal, no heat: -4.95 %/K)."""
+    """Oil thins as it warms: with Δp scaled by exp(-d ΔT) and the laminar paths thinned
+    at b, the damping rises everywhere once d < -b (a reference-plant 60 N seal, no heat:
+    d -4.95 %/K, b 2.6 %/K); above it, a large enough laminar share still falls (a real
+    heat effect beside air and friction: d -1.7 %/K, b 4.2 %/K)."""
     term = make_term("thermal")
     local = {p.name: p.nominal for p in term.params()}
     assert term.implausible(local, SPEC) == ""
     assert term.implausible(local | {"damping_coeff_per_k": 0.02}, SPEC) == ""  # fades
-    assert term.implausible(local | {"damping_coeff_per_k": -0.001}, SPEC) == ""  # noise
-    why = term.implausible(local | {"damping_coeff_per_k": -0.0495}, SPEC)
-    assert "rises 5 %/K" in why and "thins" in why
+    real = {"damping_coeff_per_k": -0.0166, "viscosity_coeff_per_k": 0.0423}
+    assert term.implausible(local | real, SPEC) == ""
+    noise = {"damping_coeff_per_k": -0.003, "viscosity_coeff_per_k": 0.0}
+    assert term.implausible(local | noise, SPEC) == ""
+    gain = {"damping_coeff_per_k": -0.0495, "viscosity_coeff_per_k": 0.0257}
+    why = term.implausible(local | gain, SPEC)
+    assert "rises 2.4 %/K" in why and "thins" in why
 
 
 def test_an_older_fit_with_the_retired_valve_conductance_still_reads(tmp_path: Path) -> None:

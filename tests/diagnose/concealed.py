@@ -1,7 +1,7 @@
 """Concealed effects (shared by test_diagnose_sim*.py): sim-rig recordings with extra physics
 switched on, their names stored nowhere the diagnosis can read; the diagnosis must name them
-(and nothing on a clean recording). Two modules share the cases so that the two test
-workers (`--dist loadscope`) each take half; each recording is made when first asked for."""
+(and nothing on a clean recording). Three modules share the cases so that the two test
+workers (`--dist loadscope`) can share them; each recording is made when first asked for."""
 
 from __future__ import annotations
 

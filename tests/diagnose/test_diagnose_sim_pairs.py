@@ -1,6 +1,6 @@
-"""Concealed effects, second half: seal friction, sensor lag, a bump stop and two effects
-at once (the cases and checks are in concealed.py; the first half is in
-test_diagnose_sim.py)."""
+"""Concealed effects, second part: seal friction, sensor lag and a bump stop (the cases and
+checks are in concealed.py; the first part is in test_diagnose_sim.py, two effects at once
+in test_diagnose_sim_two.py)."""
 
 from __future__ import annotations
 
@@ -14,9 +14,9 @@ from concealed import (
     claimed,
 )
 
-# Slow (2-3 min on one core): `pytest -m "not slow"` leaves it out; `make test` runs it.
+# Slow (2 min on one core): `pytest -m "not slow"` leaves it out; `make test` runs it.
 pytestmark = [pytest.mark.timeout(400), pytest.mark.slow]  # diagnosed with the whole library
-NAMES = ["s-seal", "s-lag", "s-bump", "s-two"]
+NAMES = ["s-seal", "s-lag", "s-bump"]
 
 
 def test_the_recordings_do_not_name_their_physics(recordings: Recordings) -> None:
@@ -40,7 +40,7 @@ def test_the_recovered_parameters_are_the_simulated_ones(diagnoses: Diagnoses) -
     assert shift == pytest.approx(0.002 - 0.001, abs=0.0006)  # load cell lag less LVDT lag
 
 
-@pytest.mark.parametrize("name", ["s-seal", "s-two", "s-bump"])
+@pytest.mark.parametrize("name", ["s-seal", "s-bump"])
 def test_the_library_at_the_simulated_values_fits_the_recording_to_noise(
     recordings: Recordings, name: str
 ) -> None:

@@ -10,7 +10,8 @@ stops):
     p_r, p_k   rebound / compression chamber pressures, each a compliance
                a₀ p₀/p² + (V - a₀ p₀/p)/β_oil (a fixed mass of isothermal air, a₀ = α of
                the chamber's mid-stroke volume at p₀: Wood's law) filled by the flows
-               through the piston, the rod's and the gas piston's motion
+               through the piston (the oil's mass passes: each side takes it at its
+               own density), the rod's and the gas piston's motion
     y_g, u_g   floating gas piston: mass, gas spring p₀ (V_g/(V_g - A_g y_g))^n, seal
     V_v        vapour / released gas in the rebound chamber: forms at rate
                k_e (p_v - p_r) below the release pressure, condenses at k_c (p_r - p_v)
@@ -194,6 +195,18 @@ class ReferencePlant:
         air = air0 * self.p0 / pe
         return air0 * self.p0 / (pe * pe) + max(volume - air, 0.0) / self.p.oil_bulk_modulus_pa
 
+    def _volumes_moved(self, q: float, p_r: float, p_k: float) -> tuple[float, float]:
+        """(volume arriving in the rebound chamber, volume leaving the compression
+        chamber) per second for a piston flow q (k -> r positive, at the upstream
+        pressure). The oil's mass is what passes: ρ(p_up) q, with ρ ∝ exp(p/β_oil), so
+        the side downstream takes it at its own, lower density. One volume for both
+        sides lost mass at ρ q Δp/β, the dissipated power over β: at 1.6 GPa the gas
+        piston ended 61 µm off after three 30 mm cycles (click 10, 1.5 Hz), and a
+        sweep's force fell 13 N below stiff oil's by its last test."""
+        up = p_k if q > 0.0 else p_r
+        beta = self.p.oil_bulk_modulus_pa
+        return q * math.exp((up - p_r) / beta), q * math.exp((up - p_k) / beta)
+
     def _gas(self, y_g: float, t_oil: float) -> float:
         v = max(self.v_gas - self.a_g * y_g, 0.05 * self.v_gas)
         p = self.p0 * (self.v_gas / v) ** self.p.polytropic_index
@@ -222,10 +235,11 @@ class ReferencePlant:
             dvap = -p.condense_rate_m3_s_pa * (p_r - p.release_pressure_pa) * vap / (vap + 1e-9)
         v_r = self.a_a * max(self.length + x, 0.1 * self.length)
         v_k = max(self.a_p * (self.length - x) + self.a_g * y_g, 0.1 * self.a_p * self.length)
-        dp_r = (q - self.a_a * v + dvap) / self._compliance(
+        q_r, q_k = self._volumes_moved(q, p_r, p_k)
+        dp_r = (q_r - self.a_a * v + dvap) / self._compliance(
             max(v_r - vap, 0.1 * v_r), self.air_r, p_r
         )
-        dp_k = (self.a_p * v - self.a_g * u_g - q) / self._compliance(v_k, self.air_k, p_k)
+        dp_k = (self.a_p * v - self.a_g * u_g - q_k) / self._compliance(v_k, self.air_k, p_k)
         f_gs = p.gas_seal_n * math.tanh(u_g / 0.002)
         du_g = ((p_k - self._gas(y_g, t_o)) * self.a_g - f_gs) / self.spec.gas_piston_mass_kg
         g = self._seal_g(v)

@@ -228,9 +228,10 @@ def _at_range_end(fitted: Fitted, term: Term) -> str:
         key = term.qualified(p.name)
         if key not in fitted.free:
             continue
-        value, tol = fitted.model.value(key), 1e-3 * p.scale
+        value = fitted.model.value(key)
         for end, bound in (("lower", p.lo), ("upper", p.hi)):
-            if bound != p.off and abs(value - bound) <= tol:
+            # No error bar is known here: within a thousandth of its scale of the bound.
+            if bound != p.off and not _beyond_noise(value, bound, math.nan, p.scale):
                 return f"its {p.name} sits at the {end} end of its range ({bound:.4g} {p.unit})"
     return ""
 

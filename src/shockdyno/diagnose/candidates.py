@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -20,7 +21,7 @@ from shockdyno.diagnose.fitting import (
     refit,
 )
 from shockdyno.diagnose.stats import lr_bootstrap
-from shockdyno.fit.parameters import global_parameters
+from shockdyno.fit.parameters import global_parameters, spec_global
 from shockdyno.fit.prepare import PreparedTest
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.terms import make_term
@@ -72,6 +73,31 @@ def best_start(data: Data, model: DamperModel, name: str, base: Fitted) -> Dampe
     best, best_sse = model, math.inf
     for start in grid:
         m = model.with_values({term.qualified(k): v for k, v in start.items()})
+        r = prob.force(m, bc, bt) - prob.f
+        sse = float(r @ r)
+        if sse < best_sse:
+            best, best_sse = m, sse
+    return best
+
+
+def calibration_start(data: Data, base: Fitted, name: str) -> DamperModel:
+    """`base`'s model with calibration `name`'s values at the start (its own value or one
+    of `SpecGlobal.starts`, each within its range) with the least squared error, the
+    rest held."""
+    keys = [k for k in CALIBRATIONS[name] if k not in base.globals]
+    spec = base.model.spec
+    choices = []
+    for k in keys:
+        g = spec_global(k)
+        lo, hi = g.bounds(spec.value(k))
+        choices.append(sorted({spec.value(k), *(min(max(v, lo), hi) for v in g.starts)}))
+    if all(len(c) < 2 for c in choices):
+        return base.model
+    bc, bt = base.area_vectors(data)
+    prob = data.prob.for_model(base.model)
+    best, best_sse = base.model, math.inf
+    for values in itertools.product(*choices):
+        m = base.model.with_spec(spec.with_values(dict(zip(keys, values, strict=True))))
         r = prob.force(m, bc, bt) - prob.f
         sse = float(r @ r)
         if sse < best_sse:
@@ -190,7 +216,15 @@ def try_candidate(
 ) -> Candidate:
     if name in CALIBRATIONS:
         calibrated = with_calibration(base, name)
-        fitted = refit(data, base.model, base.free, base, max_nfev=max_nfev, calibrated=calibrated)
+        fitted = refit(
+            data,
+            calibration_start(data, base, name),
+            base.free,
+            base,
+            max_nfev=max_nfev,
+            calibrated=calibrated,
+            bounds_from=base.model.spec,
+        )
         new_cols = [i for i, k in enumerate(calibrated) if k not in base.globals]
     else:
         model = best_start(data, with_term(base.model, name, data), name, base)

@@ -21,6 +21,7 @@ from shockdyno.fit.parameters import DEFAULT_GLOBALS, DIAGNOSE_ONLY, global_para
 from shockdyno.fit.prepare import PreparedTest
 from shockdyno.fit.problem import prepared_inputs
 from shockdyno.model.composite import DamperModel, Evaluation
+from shockdyno.model.spec import DamperSpec
 
 FloatArray = NDArray[np.float64]
 
@@ -130,15 +131,16 @@ def refit(
     start: Fitted | None,
     max_nfev: int = 25,
     calibrated: Sequence[str] | None = None,
+    bounds_from: DamperSpec | None = None,
 ) -> Fitted:
     """Least squares over the globals, the free term parameters and all areas.
 
     Warm start: the globals from `model.spec`, term values from `model.values`, areas
     from `start` (else a grid search). `calibrated`: the spec values to calibrate (by
-    default the start's, else GLOBALS).
+    default the start's, else GLOBALS). The globals are bounded about `bounds_from`'s
+    values (default: the start's).
     """
     names = tuple(calibrated) if calibrated is not None else (start.globals if start else GLOBALS)
-    # The globals start (and are bounded) about model.spec's values.
     prob = data.prob.with_base(model.spec).for_model(model, free)
     a_max = model.spec.bleed_bore_area_m2
     if start is not None:
@@ -149,7 +151,7 @@ def refit(
             bt0 = np.where(np.isfinite(bt0), bt0, sbt)
     else:
         bc0, bt0 = start_areas(prob, model, a_max)
-    params = global_parameters(model.spec, names)
+    params = global_parameters(bounds_from or model.spec, names)
     cal = calibrate(prob, model, params, free, bc0, bt0, a_max, max_nfev=max_nfev, robust=False)
     fitted_model = cal.model(prob, model)
     prob = prob.for_model(fitted_model)

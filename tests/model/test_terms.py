@@ -441,6 +441,31 @@ def test_thermal_uses_the_measured_temperature_and_else_an_energy_balance() -> N
     np.testing.assert_allclose(ev2.outputs["thermal.temperature_c"], 70.0)
 
 
+def test_thermal_damping_acts_through_a_chamber_as_through_the_algebraic_solve() -> None:
+    # A chamber term integrates the flow law itself; the oil's thinning of Δp must reach
+    # it. Before, with compressibility in the model, thermal's damping coefficient changed
+    # the force by 1e-13 N (the triple's heat was fitted at its range ends, unseen).
+    inputs = sine()
+    heat = {"thermal.heat_rate_k_s_m2": 100.0}
+    fade = heat | {"thermal.damping_coeff_per_k": 0.03}
+    stiff = {
+        "compressibility.air_fraction": 0.0,
+        "compressibility.oil_compressibility_per_gpa": 0.01,
+    }
+
+    def force(terms: tuple[str, ...], values: dict[str, float]) -> np.ndarray:
+        return DamperModel(SPEC, tuple(make_term(t) for t in terms), values).force(
+            inputs, A_BC, A_BT
+        )
+
+    algebraic = force(("thermal",), fade) - force(("thermal",), heat)
+    chamber = force(("thermal", "compressibility"), fade | stiff) - force(
+        ("thermal", "compressibility"), heat | stiff
+    )
+    assert np.sqrt(np.mean(algebraic**2)) > 10.0  # the fade is there to be seen
+    np.testing.assert_allclose(chamber, algebraic, atol=0.02 * float(np.max(np.abs(algebraic))))
+
+
 def test_the_vehicle_drops_sensor_terms_and_holds_the_oil_temperature() -> None:
     model = DamperModel(SPEC, (SensorLag(), Thermal(), make_term("friction")))
     car = model.vehicle()

@@ -104,6 +104,7 @@ def integrate(
     bleed_laminar: FloatArray | None = None,
     gas_volume: FloatArray | None = None,
     gas_index: float = 1.0,
+    dp_scale: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """(Δp, vapour volume m³, compression-chamber pressure, final state) for every sample,
     segment by segment.
@@ -115,7 +116,9 @@ def integrate(
     what the chamber's contents take beyond the rigid oil's volume (air expanding below
     the charge, vapour) is oil the rebound chamber does not take, so it goes to the gas
     side, and p_c rises by the gas law, (V/(V - ΔV))^n (a cavitating chamber's saturated
-    force is p_c A_piston, so this is its level). None: p_c as given.
+    force is p_c A_piston, so this is its level). None: p_c as given. `dp_scale`: per
+    sample, the factor a term applied to the algebraic solve's Δp (the flow law is taken
+    at Δp / scale, so a rigid chamber gives the same Δp); None: 1.
     """
     valves = np.array([_valve_row(spec.compression_valve), _valve_row(spec.rebound_valve)])
     c = spec.discharge_coefficient * math.sqrt(2.0 / spec.oil_density_kg_m3)
@@ -129,6 +132,7 @@ def integrate(
     floor = chamber.release_pa
     lam = np.zeros(x.size) if bleed_laminar is None else bleed_laminar
     gas = np.zeros(x.size) if gas_volume is None else gas_volume
+    sc = np.ones(x.size) if dp_scale is None else dp_scale
     dp, vap, pce, state = _run(
         np.ascontiguousarray(x, dtype=float),
         np.ascontiguousarray(v, dtype=float),
@@ -138,6 +142,7 @@ def integrate(
         np.ascontiguousarray(bleed_rebound_m2, dtype=float),
         np.ascontiguousarray(k_leak, dtype=float),
         np.ascontiguousarray(np.broadcast_to(lam, x.shape), dtype=float),
+        np.ascontiguousarray(np.broadcast_to(sc, x.shape), dtype=float),
         np.ascontiguousarray(np.broadcast_to(gas, x.shape), dtype=float),
         gas_index,
         np.ascontiguousarray(starts, dtype=np.int64),
@@ -196,12 +201,24 @@ def _flow(
 
 @njit(cache=True)
 def _signed_flow(
-    d: float, a_bc: float, a_bt: float, valves: FloatArray, c: float, k_leak: float, lam: float
+    d: float,
+    a_bc: float,
+    a_bt: float,
+    valves: FloatArray,
+    c: float,
+    k_leak: float,
+    lam: float,
+    sc: float,
 ) -> tuple[float, float]:
-    if d >= 0.0:
-        return _flow(d, a_bc, valves[0], c, k_leak, lam)
-    q, slope = _flow(-d, a_bt, valves[1], c, k_leak, lam)
-    return -q, slope
+    """q and dq/dd through the piston at drop d, the flow law taken at d / sc: a term
+    that scales the algebraic solve's Δp by sc (the oil's temperature) scales the drop
+    each flow needs by the same."""
+    e = d / sc
+    if e >= 0.0:
+        q, slope = _flow(e, a_bc, valves[0], c, k_leak, lam)
+        return q, slope / sc
+    q, slope = _flow(-e, a_bt, valves[1], c, k_leak, lam)
+    return -q, slope / sc
 
 
 @njit(cache=True)
@@ -278,6 +295,7 @@ def _balance(
     a_bt: float,
     k_leak: float,
     lam: float,
+    sc: float,
     valves: FloatArray,
     c: float,
     air0: float,
@@ -298,7 +316,7 @@ def _balance(
     if has_floor:
         g, dg = _vapour_at(p, vap_old, floor, dt, r_form, r_cond)
     pc, dpc_dp, dpc_dv = _gas(base, p, g, vol, gas_volume, air0, p0, c_oil, gas_n)
-    q, dq = _signed_flow(pc - p, a_bc, a_bt, valves, c, k_leak, lam)
+    q, dq = _signed_flow(pc - p, a_bc, a_bt, valves, c, k_leak, lam, sc)
     occ, docc = _occupied(p, vol, air0, p0, c_oil)
     f = vap_old + dt * (q_demand - q) - occ + occ_old - g
     df = -dt * dq * (dpc_dp + dpc_dv * dg - 1.0) - docc - dg
@@ -318,6 +336,7 @@ def _floor_balance(
     a_bt: float,
     k_leak: float,
     lam: float,
+    sc: float,
     valves: FloatArray,
     c: float,
     air0: float,
@@ -330,7 +349,7 @@ def _floor_balance(
     G(V) = V - rest - dt (Q - q(p_c(floor, V) - floor)), the volume left unaccounted for.
     It rises in V: more vapour shortens the gas column, p_c rises and so does the outflow."""
     pc, _, dpc_dv = _gas(base, floor, vv, vol, gas_volume, air0, p0, c_oil, gas_n)
-    q, dq = _signed_flow(pc - floor, a_bc, a_bt, valves, c, k_leak, lam)
+    q, dq = _signed_flow(pc - floor, a_bc, a_bt, valves, c, k_leak, lam, sc)
     return vv - rest - dt * (q_demand - q), 1.0 + dt * dq * dpc_dv, pc
 
 
@@ -347,6 +366,7 @@ def _step(
     a_bt: float,
     k_leak: float,
     lam: float,
+    sc: float,
     valves: FloatArray,
     c: float,
     air0: float,
@@ -384,8 +404,8 @@ def _step(
         occ_f, _ = _occupied(floor, vol, air0, p0, c_oil)
         rest = vap_old - occ_f + occ_old
         fargs = (
-            rest, base, floor, q_demand, dt, vol, a_bc, a_bt, k_leak, lam, valves, c, air0,
-            p0, c_oil, gas_volume, gas_n,
+            rest, base, floor, q_demand, dt, vol, a_bc, a_bt, k_leak, lam, sc, valves, c,
+            air0, p0, c_oil, gas_volume, gas_n,
         )  # fmt: skip
         g_min, _, pc = _floor_balance(v_min, *fargs)
         g_max = -1.0
@@ -422,7 +442,7 @@ def _step(
             return floor, vv, pc
     # What the balance needs beyond p, the same for every trial pressure of this step.
     args = (
-        vap_old, occ_old, base, q_demand, dt, vol, a_bc, a_bt, k_leak, lam, valves, c,
+        vap_old, occ_old, base, q_demand, dt, vol, a_bc, a_bt, k_leak, lam, sc, valves, c,
         air0, p0, c_oil, floor, has_floor, r_form, r_cond, gas_volume, gas_n,
     )  # fmt: skip
     if not math.isfinite(lo) and not math.isfinite(hi) and air0 > 0.0:
@@ -478,6 +498,7 @@ def _run(
     a_bt: FloatArray,
     k_leak: FloatArray,
     lam: FloatArray,
+    sc: FloatArray,
     gas_vol: FloatArray,
     gas_n: float,
     starts: NDArray[np.int64],
@@ -569,6 +590,7 @@ def _run(
                         a_bt[i],
                         k_leak[i],
                         lam[i],
+                        sc[i],
                         valves,
                         c,
                         air0,

@@ -192,6 +192,9 @@ class Work:
     # volume from the oil side (air expanding, vapour) compresses it further.
     gas_volume: FloatArray = field(default_factory=lambda: np.zeros(0))
     gas_index: float = 1.0
+    # A factor on the algebraic solve's Δp per sample (a term's, the oil's temperature;
+    # empty: 1), which a chamber term's integration applies to its flow law as well.
+    dp_scale: FloatArray = field(default_factory=lambda: np.zeros(0))
     p_c_static: FloatArray | None = None  # p_c before any chamber state acted on it
     dp: FloatArray | None = None
     dp_static: FloatArray | None = None  # Δp before any chamber state acted on it

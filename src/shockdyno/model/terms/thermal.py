@@ -186,7 +186,10 @@ class Thermal(Term):
             if d:
                 assert w.dp is not None
                 rise = w.outputs[f"{self.name}.temperature_c"] - p["reference_c"]
-                w.set_dp(self.name, w.dp * np.exp(-d * rise))
+                scale = np.exp(-d * rise)
+                w.set_dp(self.name, w.dp * scale)
+                # A chamber term integrates the flow law itself: the same drop per flow.
+                w.dp_scale = w.dp_scale * scale if w.dp_scale.size == scale.size else scale
             return None
         temp, state = self.temperature(w, p, carry)
         ref = p["reference_c"]

@@ -718,10 +718,18 @@ def diagnose(
     remaining += [c for c in s.calibrations if not set(CALIBRATIONS[c]) <= set(base.globals)]
     left = mismatch
     rnd = 0
-    while len(claimed) < s.max_terms and rnd < s.max_rounds:
+    while rnd < s.max_rounds:
         rnd += 1
-        if not remaining or left.p_value >= s.alpha:
-            break  # nothing (more) beyond noise to explain
+        if left.p_value >= s.alpha or len(claimed) >= s.max_terms:
+            # Nothing (more) beyond noise for physics to explain. After a claim, the
+            # calibrations that lost their round to it on likelihood still get rounds of
+            # their own (each still needs its own p < alpha and held-out gain): a 0.5 %
+            # air sweep (reference seed 723) stopped with the air claimed at 1.62 N RMS
+            # of structure (p = 0.04) and the seal's turn and the bleed's land at the
+            # spec's, 1.36x the clean sweep's E_t, whose baseline had taken both.
+            remaining = [c for c in remaining if c in CALIBRATIONS] if claimed else []
+        if not remaining:
+            break
         if rnd > 1:
             # The null of this round, refitted with the candidates' budget: a term must
             # beat more iterations of the model it would join, not a less converged one.

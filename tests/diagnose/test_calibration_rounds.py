@@ -46,7 +46,7 @@ def test_a_claim_at_noise_still_lets_the_calibrations_have_their_round(
 ) -> None:
     # A 4 ms channel skew (sensor_lag) wins round 1 on likelihood over the seal's turn.
     rounds, d = _run(monkeypatch, 0.004)
-    assert [c for c in d.claimed] == ["sensor_lag"], d.claimed
+    assert d.claimed == ["sensor_lag"], d.claimed
     assert len(rounds) == 2 and rounds[1] == ["seal_turn"], rounds
     turn = {c.parameter: c for c in d.calibration if c.parameter in CALIBRATIONS["seal_turn"]}
     assert turn["friction_presliding_m"].fitted == pytest.approx(2e-5, rel=0.3)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -68,11 +68,19 @@ def best_start(data: Data, model: DamperModel, name: str, base: Fitted) -> Dampe
     if term is None or len(term.start_grid()) < 2:
         return model  # one start (or none): nothing to choose, and no need to look
     grid = term.start_grid(evaluate(data, base))
+    starts = [model.with_values({term.qualified(k): v for k, v in g.items()}) for g in grid]
+    return least_error(data, base, model, starts)
+
+
+def least_error(
+    data: Data, base: Fitted, like: DamperModel, models: Iterable[DamperModel]
+) -> DamperModel:
+    """Of `models` (each `like` but for some values), the one with the least squared
+    error on `data` with `base`'s areas held (`like` when there are none)."""
     bc, bt = base.area_vectors(data)
-    prob = data.prob.for_model(model)
-    best, best_sse = model, math.inf
-    for start in grid:
-        m = model.with_values({term.qualified(k): v for k, v in start.items()})
+    prob = data.prob.for_model(like)
+    best, best_sse = like, math.inf
+    for m in models:
         r = prob.force(m, bc, bt) - prob.f
         sse = float(r @ r)
         if sse < best_sse:
@@ -93,16 +101,11 @@ def calibration_start(data: Data, base: Fitted, name: str) -> DamperModel:
         choices.append(sorted({spec.value(k), *(min(max(v, lo), hi) for v in g.starts)}))
     if all(len(c) < 2 for c in choices):
         return base.model
-    bc, bt = base.area_vectors(data)
-    prob = data.prob.for_model(base.model)
-    best, best_sse = base.model, math.inf
-    for values in itertools.product(*choices):
-        m = base.model.with_spec(spec.with_values(dict(zip(keys, values, strict=True))))
-        r = prob.force(m, bc, bt) - prob.f
-        sse = float(r @ r)
-        if sse < best_sse:
-            best, best_sse = m, sse
-    return best
+    starts = (
+        base.model.with_spec(spec.with_values(dict(zip(keys, values, strict=True))))
+        for values in itertools.product(*choices)
+    )
+    return least_error(data, base, base.model, starts)
 
 
 def binned_jacobian(data: Data, fitted: Fitted) -> tuple[FloatArray, int]:

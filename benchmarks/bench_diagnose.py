@@ -35,8 +35,10 @@ cached in that temp dir.
    squares when the regression is redone without them, over the residual's variance).
    Both scored side by side.
 3. Speed: a full 22 clicks x 3 frequencies sweep with one effect (friction, 25 N)
-   diagnosed with the whole library: wall time, and the ratio to one plain `fit_sweep`
-   of the same recording in the same run. Aim: <= 60 s on 2 cores.
+   diagnosed with the whole library on the usable cores (as `shockdyno diagnose` does by
+   default): wall time, and the ratios to one plain `fit_sweep` and to the same
+   diagnosis with one worker, in the same run (whose DIAG.json must be identical). Aim:
+   <= 60 s on 2 cores.
 
 Timings are wall clock on whatever machine runs this; with --jobs > 1 the per-recording
 times of [1] are inflated by the parallel cases. [3] runs alone, after [1].
@@ -427,33 +429,43 @@ def summary(rows: list[Row]) -> None:
 def speed(workdir: Path) -> None:
     from shockdyno.diagnose.engine import diagnose
     from shockdyno.diagnose.verdict import to_json
+    from shockdyno.diagnose.workers import usable_cores
     from shockdyno.fit import fit_sweep
     from shockdyno.record import open_recording
 
     case = Case("full friction#2", ("friction",), 7, [("friction", STRENGTHS["friction"][1])])
     case.clicks = "0-21"
+    cores = usable_cores()  # what `shockdyno diagnose` uses by default
     try:
         t0 = time.perf_counter()
         path = record(case, workdir, "full")
         rec_s = time.perf_counter() - t0
         tests = open_recording(path).load_all()
         t1 = time.perf_counter()
-        d = to_json(diagnose(tests))
+        d = to_json(diagnose(tests, workers=cores))
         wall = time.perf_counter() - t1
         t2 = time.perf_counter()
         fit_sweep(tests, terms="none")
         fit_s = time.perf_counter() - t2
+        t3 = time.perf_counter()
+        serial = to_json(diagnose(tests, workers=1))
+        serial_s = time.perf_counter() - t3
     except Exception as exc:
         print(f"[3] full 22x3 sweep: FAILED: {type(exc).__name__}: {exc}")
         return
     eb = np.mean([t["E_t_before"] for t in d["tests"]])
     ea = np.mean([t["E_t_after"] for t in d["tests"]])
+    d["info"].pop("wall_s")
+    serial["info"].pop("wall_s")
+    same = json.dumps(d, sort_keys=True) == json.dumps(serial, sort_keys=True)
     print(
         f"[3] full 22x3 sweep ({len(tests)} tests, friction 25 N, recorded in {rec_s:.0f} s): "
-        f"diagnose with the whole library {wall:.1f} s wall (info.wall_s "
-        f"{d['info']['wall_s']:.1f} s), claimed {d['verdict']['physics']}, E_t {eb:.4f} -> "
-        f"{ea:.4f}; one plain fit_sweep {fit_s:.1f} s; ratio {wall / fit_s:.1f}x; ratio to the "
-        f"{AIM_S:g} s aim {wall / AIM_S:.2f} (on {os.cpu_count()} cores, load average "
+        f"diagnose with the whole library, {cores} workers: {wall:.1f} s wall, claimed "
+        f"{d['verdict']['physics']}, E_t {eb:.4f} -> {ea:.4f}; one plain fit_sweep "
+        f"{fit_s:.1f} s, ratio {wall / fit_s:.1f}x; the same diagnosis with 1 worker "
+        f"{serial_s:.1f} s, ratio {wall / serial_s:.2f} (DIAG.json "
+        f"{'identical' if same else 'DIFFERENT'}); ratio to the {AIM_S:g} s aim "
+        f"{wall / AIM_S:.2f} (on {os.cpu_count()} cores, load average "
         f"{os.getloadavg()[0]:.1f}: shared machine, timings may be inflated)"
     )
 

@@ -46,6 +46,16 @@ def test_diagnose_with_no_candidates_is_an_error(
     assert "at least one candidate" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("workers", ["0", "-2"])
+def test_diagnose_needs_a_worker(
+    workers: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "d.json"
+    assert main(["diagnose", str(EXAMPLE), "--workers", workers, "--json", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--workers must be at least 1" in err and err.count("\n") == 1 and not out.exists()
+
+
 @pytest.mark.parametrize("command", ["fit", "diagnose"])
 def test_a_cut_off_recording_says_what_it_lost(
     command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]

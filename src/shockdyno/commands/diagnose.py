@@ -11,6 +11,7 @@ from typing import Any
 from shockdyno import units as units_mod
 from shockdyno.commands.args import add_seed, add_spec, add_term_list
 from shockdyno.diagnose.file import diagnose_file, parse_candidates
+from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError
 
 
@@ -47,6 +48,14 @@ def register(sub: Any) -> None:
     add_spec(p, "without --fit")
     p.add_argument("--alpha", type=float, default=0.01, help="significance level of a claim")
     add_seed(p, "the bootstrap")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="processes for the search's candidate refits (default: this machine's usable "
+        "cores); the diagnosis is the same with any number",
+    )
     p.add_argument(
         "--force",
         action="store_true",
@@ -103,6 +112,9 @@ def run_diagnose(args: argparse.Namespace) -> int:
     if args.fit is None:
         load_spec(args.spec)  # a bad spec fails before reading the recording
     parse_candidates(args.terms)  # a bad list fails before anything is read
+    workers = usable_cores() if args.workers is None else args.workers
+    if workers < 1:
+        raise ConfigError(f"--workers must be at least 1, got {workers}")
     with StageProgress("diagnose") as progress:
         d, doc = diagnose_file(
             Path(args.recording),
@@ -114,6 +126,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
             force=args.force,
             progress=progress,
             warn=lambda line: print(line, file=sys.stderr),
+            workers=workers,
         )
     if args.report:  # DIAG.json names the figures drawn below, for `report --diagnose`
         from shockdyno.diagnose.report import figure_paths

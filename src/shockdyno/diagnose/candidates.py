@@ -21,6 +21,7 @@ from shockdyno.diagnose.fitting import (
     refit,
 )
 from shockdyno.diagnose.stats import lr_bootstrap
+from shockdyno.diagnose.workers import SERIAL, Workers
 from shockdyno.fit.parameters import global_parameters, spec_global
 from shockdyno.fit.prepare import PreparedTest
 from shockdyno.model.composite import DamperModel
@@ -375,12 +376,16 @@ def _baseline_structure(fold: Fold, base: Fitted, max_nfev: int) -> FloatArray:
     return _structure(fold.test, predict(fold.test, b_train).residual)
 
 
-def baseline_folds(fold_list: Sequence[Fold], base: Fitted, max_nfev: int) -> list[FoldBaseline]:
+def _fold_structure(shared: tuple[Fitted, int], fold: Fold) -> FloatArray:
+    return _baseline_structure(fold, *shared)
+
+
+def baseline_folds(
+    fold_list: Sequence[Fold], base: Fitted, max_nfev: int, workers: Workers = SERIAL
+) -> list[FoldBaseline]:
     """The baseline's held-out structure in each fold, per held-out test."""
-    return [
-        FoldBaseline(fold, _baseline_structure(fold, base, max_nfev), base, max_nfev)
-        for fold in fold_list
-    ]
+    found = workers.map(_fold_structure, (base, max_nfev), fold_list)
+    return [FoldBaseline(f, b, base, max_nfev) for f, b in zip(fold_list, found, strict=True)]
 
 
 def _acts_on(data: Data, cand: Candidate, share: float = 0.01) -> bool:

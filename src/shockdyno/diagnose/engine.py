@@ -45,6 +45,7 @@ from shockdyno.diagnose.locate import Location, locate
 from shockdyno.diagnose.settings import Settings as Settings
 from shockdyno.diagnose.spikes import remove_spikes
 from shockdyno.diagnose.stats import MismatchStat, mismatch_test, noise_draws
+from shockdyno.diagnose.workers import SERIAL, Workers
 from shockdyno.errors import FitError
 from shockdyno.fit.metrics import error_metrics
 from shockdyno.fit.parameters import spec_global
@@ -332,6 +333,7 @@ def _backward(
     rng: np.random.Generator,
     s: Settings,
     came_with: dict[str, tuple[str, ...]] | None = None,
+    workers: Workers = SERIAL,
 ) -> Fitted:
     """Forward selection claims in order, and an early claim can be a later one's misfit
     (a bump stop first pulls the gas spring off the spec's, then a contact term explains
@@ -352,11 +354,10 @@ def _backward(
         c = try_candidate(
             search, reduced, means, name, noise_draws(binned, rng, s.n_boot), s.max_nfev
         )
-        gain = (
-            heldout_gain(baseline_folds(fold_list, reduced, s.fold_nfev), c, s.fold_nfev)[0]
-            if fold_list
-            else 0.0
-        )
+        gain = 0.0
+        if fold_list:
+            held = baseline_folds(fold_list, reduced, s.fold_nfev, workers)
+            gain = heldout_gain(held, c, s.fold_nfev)[0]
         if c.p_value < s.alpha and gain >= s.min_gain_joining:
             continue
         others = [n for n in claimed if n != name]
@@ -509,32 +510,39 @@ def _round(
     force_peak: float,
     shapes: Sequence[tuple[str, FloatArray]],
     report: Progress,
+    workers: Workers = SERIAL,
 ) -> tuple[list[Finding], Candidate | None]:
     """One round of the forward search: every remaining candidate refitted beside `base`
     and tested (LR against the noise's draws), the significant ones scored held out, the
     claim rules (why_not) applied. Returns the round's findings and the candidate it
-    claims (None: nothing claimable)."""
+    claims (None: nothing claimable). The candidates, and then the held-out folds, are
+    independent: up to `workers` processes run them (workers.py)."""
     found: list[Finding] = []
     rounds = s.max_rounds  # for the progress fraction
     noise = noise_draws(binned, rng, s.n_boot)
-    cands: list[Candidate] = []
-    for i, name in enumerate(remaining):
-        report(f"round {rnd}: {name}", 0.1 + 0.8 * (rnd - 1 + i / len(remaining)) / rounds)
-        cands.append(try_candidate(search, base, base_means, name, noise, s.max_nfev))
+    n_done = 0
+
+    def tried(i: int) -> None:
+        nonlocal n_done
+        n_done += 1
+        share = n_done / len(remaining)
+        report(f"round {rnd}: {remaining[i]} tried", 0.1 + 0.8 * (rnd - 1 + share) / rounds)
+
+    report(f"round {rnd}: {len(remaining)} candidates", 0.1 + 0.8 * (rnd - 1) / rounds)
+    cands = workers.map(_try, (search, base, base_means, noise, s.max_nfev), remaining, tried)
     screened = sorted(
         (c for c in cands if c.p_value < s.screen_alpha and c.lr > 0), key=lambda c: -c.lr
     )
     scored: dict[str, tuple[float, str]] = {}
     top = [c for c in screened if c.p_value < s.alpha][: s.heldout_top]
-    baselines: list[FoldBaseline] = []
     if top and fold_list:
         report(f"round {rnd}: held-out baseline", 0.1 + 0.8 * (rnd - 0.3) / rounds)
-        baselines = baseline_folds(fold_list, base, s.fold_nfev)
-    for c in top:
-        report(f"round {rnd}: held-out {c.name}", 0.1 + 0.8 * (rnd - 0.2) / rounds)
-        scored[c.name] = (
-            heldout_gain(baselines, c, s.fold_nfev) if fold_list else (0.0, "no held-out split")
-        )
+        baselines = baseline_folds(fold_list, base, s.fold_nfev, workers)
+        report(f"round {rnd}: held out, {len(top)} candidates", 0.1 + 0.8 * (rnd - 0.2) / rounds)
+        gains = workers.map(_held_out, (baselines, s.fold_nfev), top)
+        scored = {c.name: g for c, g in zip(top, gains, strict=True)}
+    elif top:
+        scored = {c.name: (0.0, "no held-out split") for c in top}
 
     limit = _effect_limit(binned, force_peak, s)
 
@@ -583,6 +591,16 @@ def _round(
             )
         )
     return found, best
+
+
+def _try(shared: tuple[Data, Fitted, FloatArray, FloatArray, int], name: str) -> Candidate:
+    search, base, base_means, noise, max_nfev = shared
+    return try_candidate(search, base, base_means, name, noise, max_nfev)
+
+
+def _held_out(shared: tuple[list[FoldBaseline], int], c: Candidate) -> tuple[float, str]:
+    baselines, max_nfev = shared
+    return heldout_gain(baselines, c, max_nfev)
 
 
 def _effect_limit(binned: Sequence[BinnedTest], force_peak: float, s: Settings) -> float:
@@ -663,6 +681,21 @@ def diagnose(
     settings: Settings | None = None,
     progress: Progress | None = None,
     spec_path: str | None = None,
+    workers: int = 1,
+) -> Diagnosis:
+    """`workers`: processes for the search's independent refits (workers.py); the
+    diagnosis is the same with any number."""
+    with Workers(workers) as pool:
+        return _diagnose(tests, fit, settings, progress, spec_path, pool)
+
+
+def _diagnose(
+    tests: Sequence[TestData],
+    fit: FitResult | None,
+    settings: Settings | None,
+    progress: Progress | None,
+    spec_path: str | None,
+    workers: Workers,
 ) -> Diagnosis:
     s = settings or Settings()
     wall0 = time.perf_counter()
@@ -748,6 +781,7 @@ def diagnose(
             force_peak,
             shapes,
             report,
+            workers,
         )
         # A calibration candidate's finding is not physics: DIAG.json's findings hold the
         # library's terms; a calibration the search took is a row of verdict.calibration.
@@ -773,7 +807,9 @@ def diagnose(
         remaining = [c for c in remaining if c != best.name]
     if len(claimed) >= 2:
         report("backward check", 0.92)
-        base = _backward(search, base, claimed, findings, groups, fold_list, rng, s, came_with)
+        base = _backward(
+            search, base, claimed, findings, groups, fold_list, rng, s, came_with, workers
+        )
     report("scores", 0.95)
     if claimed or search is not data:
         base = _final_refit(data, base, claimed, findings, groups, s, force_peak, came_with)

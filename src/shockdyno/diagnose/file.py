@@ -37,6 +37,7 @@ def diagnose_file(
     force: bool = False,
     progress: Any = None,
     warn: Any = None,
+    workers: int = 1,
 ) -> tuple[Any, dict[str, Any]]:
     """`shockdyno diagnose` on one recording, as `batch diagnose` runs it too: the
     Diagnosis and its DIAG.json document (with `info.recording` and the fit's
@@ -67,7 +68,7 @@ def diagnose_file(
     tests = rec.load_all()
     if not tests:
         raise ConfigError(f"{recording}: no tests to diagnose")
-    d = diagnose(tests, fit, settings, progress, spec_path=spec)
+    d = diagnose(tests, fit, settings, progress, spec_path=spec, workers=workers)
     doc = to_json(d)
     doc["info"]["recording"] = info
     # Which damper spec the model started from: --spec, the fit's base spec, or the default.

@@ -1,0 +1,118 @@
+"""The search's independent refits (a round's candidates, the held-out folds) on more
+than one core.
+
+Each item is a pure function of the round's inputs (the bootstrap's draws are made
+before, in this process), so the results are those of running them one after another,
+in the same order; only the wall time changes. The worker processes live for one
+diagnosis. They are forked from this process when it runs one thread (they inherit what
+it imported and compiled); with other threads running (a progress bar's refresh), a lock
+one of them holds would be inherited held, so they come from a fork server started with
+the diagnosis imported instead (its workers import the main module again, as spawned
+ones do: a script needs Python's `if __name__ == "__main__":`). Serial with one worker,
+and in a daemonic process (a Dask worker running `batch diagnose` may not have
+children)."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import threading
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from multiprocessing.context import BaseContext
+from types import TracebackType
+from typing import TypeVar
+
+S = TypeVar("S")
+T = TypeVar("T")
+R = TypeVar("R")
+
+PRELOAD = ["shockdyno.diagnose.engine"]  # what each worker would otherwise import itself
+
+
+def usable_cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _context() -> BaseContext | None:
+    """How to start the workers (None: not at all, run here)."""
+    if multiprocessing.current_process().daemon:
+        return None
+    methods = multiprocessing.get_all_start_methods()
+    if "fork" in methods and threading.active_count() == 1:
+        return multiprocessing.get_context("fork")
+    if "forkserver" in methods:
+        ctx = multiprocessing.get_context("forkserver")
+        ctx.set_forkserver_preload(PRELOAD)
+        return ctx
+    return None
+
+
+def _ready() -> int:
+    return os.getpid()
+
+
+class Workers:
+    """`with Workers(n) as w: w.map(fn, shared, items)` = [fn(shared, x) for x in items]."""
+
+    def __init__(self, n: int = 1) -> None:
+        self.n = n
+        self._pool: ProcessPoolExecutor | None = None
+
+    def __enter__(self) -> Workers:
+        ctx = _context() if self.n > 1 else None
+        if ctx is not None:
+            self._pool = ProcessPoolExecutor(self.n, mp_context=ctx)
+            # Started now, so their imports overlap the baseline fit.
+            for _ in range(self.n):
+                self._pool.submit(_ready)
+        return self
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+    def map(
+        self,
+        fn: Callable[[S, T], R],
+        shared: S,
+        items: Sequence[T],
+        done: Callable[[int], None] | None = None,
+    ) -> list[R]:
+        """[fn(shared, x) for x in items]; `done(i)` is called here as item i finishes
+        (for progress). `fn` is a module-level function (it is sent by name)."""
+        if self._pool is None or len(items) < 2:
+            out = []
+            for i, x in enumerate(items):
+                out.append(fn(shared, x))
+                if done is not None:
+                    done(i)
+            return out
+        futures: dict[Future[R], int] = {
+            self._pool.submit(fn, shared, x): i for i, x in enumerate(items)
+        }
+        results: dict[int, R] = {}
+        try:
+            for fut in as_completed(futures):
+                i = futures[fut]
+                results[i] = fut.result()
+                if done is not None:
+                    done(i)
+        except BaseException:
+            for fut in futures:
+                fut.cancel()  # what has not started would be wasted
+            raise
+        return [results[i] for i in range(len(items))]
+
+
+SERIAL = Workers(1)

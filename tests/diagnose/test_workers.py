@@ -1,0 +1,81 @@
+"""The search's refits in worker processes (diagnose/workers.py): the same diagnosis as
+one after another, only on more cores."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+import time
+
+import pytest
+
+from shockdyno.diagnose.engine import diagnose
+from shockdyno.diagnose.settings import Settings
+from shockdyno.diagnose.verdict import to_json
+from shockdyno.diagnose.workers import Workers
+from shockdyno.fit.synthetic import synthetic_sweep
+from shockdyno.model.spec import load_spec
+
+
+def _square_after(shared: float, x: float) -> tuple[float, int]:
+    time.sleep(shared * (3 - x))  # the first items finish last
+    return x * x, os.getpid()
+
+
+def _fails(shared: None, x: int) -> int:
+    if x == 2:
+        raise ValueError(f"item {x} is bad")
+    return x
+
+
+def test_results_come_back_in_the_items_order_from_other_processes() -> None:
+    done: list[int] = []
+    with Workers(2) as w:
+        got = w.map(_square_after, 0.2, [0.0, 1.0, 2.0, 3.0], done.append)
+    assert [g[0] for g in got] == [0.0, 1.0, 4.0, 9.0]
+    assert sorted(done) == [0, 1, 2, 3]
+    assert os.getpid() not in {g[1] for g in got}  # not run here
+
+
+def test_one_worker_runs_here() -> None:
+    with Workers(1) as w:
+        got = w.map(_square_after, 0.0, [1.0, 2.0])
+    assert {g[1] for g in got} == {os.getpid()}
+
+
+def test_a_worker_error_reaches_the_caller() -> None:
+    with Workers(2) as w, pytest.raises(ValueError, match="item 2 is bad"):
+        w.map(_fails, None, [0, 1, 2, 3])
+
+
+def _pool_in_daemon(q: multiprocessing.Queue) -> None:  # type: ignore[type-arg]
+    with Workers(2) as w:
+        q.put(w.map(_square_after, 0.0, [1.0, 2.0])[0][1] == os.getpid())
+
+
+def test_a_daemonic_process_runs_them_itself() -> None:
+    # A Dask worker is daemonic and may not have children: the items run in it.
+    ctx = multiprocessing.get_context("spawn")
+    q = ctx.Queue()
+    p = ctx.Process(target=_pool_in_daemon, args=(q,), daemon=True)
+    p.start()
+    assert q.get(timeout=60) is True
+    p.join(10)
+
+
+def test_the_diagnosis_is_the_same_with_two_workers() -> None:
+    tests = synthetic_sweep(load_spec(None), [15], cycles=4, seed=7, force_delay_s=0.004)
+    s = Settings(
+        candidates=("sensor_lag", "friction", "thermal"), calibrations=(), max_terms=1, n_boot=199
+    )
+    docs = []
+    for n in (1, 2):
+        doc = to_json(diagnose(tests, settings=s, workers=n))
+        doc["info"].pop("wall_s")
+        docs.append(json.dumps(doc, sort_keys=True))
+    found = json.loads(docs[0])["findings"]
+    # Refits in the workers: three candidates, and two of them scored held out.
+    assert len(found) == 3
+    assert sum(f["heldout_gain"] is not None for f in found) >= 2
+    assert docs[1] == docs[0]

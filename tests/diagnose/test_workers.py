@@ -6,7 +6,11 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
+import signal
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -79,3 +83,52 @@ def test_the_diagnosis_is_the_same_with_two_workers() -> None:
     assert len(found) == 3
     assert sum(f["heldout_gain"] is not None for f in found) >= 2
     assert docs[1] == docs[0]
+
+
+WORKERS_THEN_HANG = """
+import os, signal, sys, time
+from shockdyno.diagnose.workers import Workers
+
+signal.signal(signal.SIGINT, signal.default_int_handler)  # a shell's background job ignores it
+
+def pid(shared, x):
+    time.sleep(0.2)  # both workers take one
+    return os.getpid()
+
+def hang(shared, x):
+    time.sleep(600)
+
+if __name__ == "__main__":
+    with Workers(2) as w:
+        print(*set(w.map(pid, None, [0, 1, 2, 3])), flush=True)
+        w.map(hang, None, [0, 1])
+"""
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().split()[2] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="prctl is Linux's")
+@pytest.mark.parametrize("how", ["SIGKILL", "Ctrl-C"])
+def test_workers_end_when_the_diagnosis_is_stopped(how: str, tmp_path: Path) -> None:
+    script = tmp_path / "hang.py"
+    script.write_text(WORKERS_THEN_HANG)
+    cmd = [sys.executable, str(script)]
+    with subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, start_new_session=True) as p:
+        assert p.stdout is not None
+        pids = [int(x) for x in p.stdout.readline().split()]
+        assert pids and all(_alive(q) for q in pids)
+        if how == "SIGKILL":
+            p.kill()  # no handler runs, no `with` exits: the workers see their parent go
+        else:
+            os.killpg(p.pid, signal.SIGINT)  # a terminal's Ctrl-C reaches the whole group
+        p.wait(10)
+    deadline = time.monotonic() + 10
+    while any(_alive(q) for q in pids) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(_alive(q) for q in pids)

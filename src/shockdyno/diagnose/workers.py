@@ -14,8 +14,11 @@ children)."""
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import os
+import signal
+import sys
 import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
@@ -27,7 +30,8 @@ S = TypeVar("S")
 T = TypeVar("T")
 R = TypeVar("R")
 
-PRELOAD = ["shockdyno.diagnose.engine"]  # what each worker would otherwise import itself
+PRELOAD = ["shockdyno.diagnose.engine"]
+PR_SET_PDEATHSIG = 1  # linux/prctl.h  # what each worker would otherwise import itself
 
 
 def usable_cores() -> int:
@@ -52,6 +56,17 @@ def _context() -> BaseContext | None:
     return None
 
 
+def _die_with_parent(parent: int | None) -> None:
+    """A worker's start: it ends when the process that started it does (a diagnosis
+    killed by SIGTERM or SIGKILL would otherwise leave its workers computing, forever
+    waiting for the next item)."""
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+    if parent is not None and os.getppid() != parent:
+        os._exit(1)  # it died before the line above took effect
+
+
 def _ready() -> int:
     return os.getpid()
 
@@ -66,7 +81,12 @@ class Workers:
     def __enter__(self) -> Workers:
         ctx = _context() if self.n > 1 else None
         if ctx is not None:
-            self._pool = ProcessPoolExecutor(self.n, mp_context=ctx)
+            # A forked worker's parent is this process; a fork server's, the server (which
+            # ends with this process).
+            parent = os.getpid() if ctx.get_start_method() == "fork" else None
+            self._pool = ProcessPoolExecutor(
+                self.n, mp_context=ctx, initializer=_die_with_parent, initargs=(parent,)
+            )
             # Started now, so their imports overlap the baseline fit.
             for _ in range(self.n):
                 self._pool.submit(_ready)
@@ -79,6 +99,10 @@ class Workers:
         tb: TracebackType | None,
     ) -> None:
         if self._pool is not None:
+            if kind is not None:
+                # Stopped (Ctrl-C, an error): what the workers are on will not be used.
+                for p in getattr(self._pool, "_processes", {}).values():
+                    p.terminate()
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
 

@@ -9,6 +9,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -37,9 +38,26 @@ def test_results_come_back_in_the_items_order_from_other_processes() -> None:
     done: list[int] = []
     with Workers(2) as w:
         got = w.map(_square_after, 0.2, [0.0, 1.0, 2.0, 3.0], done.append)
+        assert w.start_method == "fork"  # this process runs one thread
     assert [g[0] for g in got] == [0.0, 1.0, 4.0, 9.0]
     assert sorted(done) == [0, 1, 2, 3]
     assert os.getpid() not in {g[1] for g in got}  # not run here
+
+
+def test_with_another_thread_running_they_come_from_a_fork_server() -> None:
+    # A thread (a progress bar's refresh) could hold a lock a fork would inherit held.
+    stop = threading.Event()
+    t = threading.Thread(target=stop.wait, daemon=True)
+    t.start()
+    try:
+        with Workers(2) as w:
+            got = w.map(_square_after, 0.0, [2.0, 3.0])
+            method = w.start_method
+    finally:
+        stop.set()
+        t.join(5)
+    assert method == "forkserver"
+    assert [g[0] for g in got] == [4.0, 9.0] and os.getpid() not in {g[1] for g in got}
 
 
 def test_one_worker_runs_here() -> None:

@@ -77,13 +77,15 @@ class Workers:
     def __init__(self, n: int = 1) -> None:
         self.n = n
         self._pool: ProcessPoolExecutor | None = None
+        self.start_method = ""  # how the workers were started ("": none, items run here)
 
     def __enter__(self) -> Workers:
         ctx = _context() if self.n > 1 else None
         if ctx is not None:
             # A forked worker's parent is this process; a fork server's, the server (which
             # ends with this process).
-            parent = os.getpid() if ctx.get_start_method() == "fork" else None
+            self.start_method = ctx.get_start_method()
+            parent = os.getpid() if self.start_method == "fork" else None
             self._pool = ProcessPoolExecutor(
                 self.n, mp_context=ctx, initializer=_die_with_parent, initargs=(parent,)
             )
@@ -105,6 +107,7 @@ class Workers:
                     p.terminate()
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
+            self.start_method = ""
 
     def map(
         self,

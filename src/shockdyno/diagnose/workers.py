@@ -30,8 +30,8 @@ S = TypeVar("S")
 T = TypeVar("T")
 R = TypeVar("R")
 
-PRELOAD = ["shockdyno.diagnose.engine"]
-PR_SET_PDEATHSIG = 1  # linux/prctl.h  # what each worker would otherwise import itself
+PRELOAD = ["shockdyno.diagnose.engine"]  # what each worker would otherwise import itself
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 
 def usable_cores() -> int:

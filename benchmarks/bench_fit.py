@@ -1,7 +1,8 @@
 """Benchmark of `fit_sweep`: the full 22-click x 3-frequency fit, the effect of decimating
 the objective, and the default per-click optimiser against the paper's GA.
 
-Run: .venv/bin/python benchmarks/bench_fit.py   (about a minute on 2 cores)
+Run: .venv/bin/python benchmarks/bench_fit.py   (about 7 minutes on 2 cores, [4] most of it)
+     .venv/bin/python benchmarks/bench_fit.py --only-full-fit   ([1] only)
 
 1. Full fit (default optimiser) of a simulated sweep: 22 clicks x (0.5, 1, 1.5) Hz x 3
    measured cycles of a 30 mm sine at 1 kHz, from a damper whose globals are 10-30 % off
@@ -23,6 +24,7 @@ Run: .venv/bin/python benchmarks/bench_fit.py   (about a minute on 2 cores)
 
 from __future__ import annotations
 
+import argparse
 import time
 
 import numpy as np
@@ -43,6 +45,9 @@ TERMS_AIM = 3.0
 
 
 def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only-full-fit", action="store_true", help="[1] only (about 20 s)")
+    args = ap.parse_args()
     nominal = load_spec()
     truth = nominal.with_values(PERTURBED_GLOBALS)
     a_max = nominal.bleed_bore_area_m2
@@ -79,6 +84,8 @@ def main() -> None:
         f"    {ident}/44 areas identifiable; worst error {100 * worst_rel:.3f} % "
         f"= {worst_z:.2f} sigma; worst E_t {e_t:.4f}"
     )
+    if args.only_full_fit:
+        return
     # The fitted damper without its channel delay (about 0 here), as [2] and [3] always
     # measured it.
     spec = DamperModel(fit.spec())

@@ -59,3 +59,35 @@ def test_no_claim_and_nothing_beyond_noise_ends_the_search(
     assert not d.claimed
     # The seal's turn wins round 1 (a calibration, not a claim); nothing more is tried.
     assert len(rounds) == 1, rounds
+
+
+def _left(p: float) -> MismatchStat:
+    return MismatchStat(p, 100.0, 3.0, 2.0, 0.5, 40.0)
+
+
+@pytest.mark.parametrize(
+    ("p", "claimed", "outranked", "expected"),
+    [
+        # Structure beyond noise and room for a term: every candidate.
+        (0.001, ["compressibility"], [], ["friction", "thermal", "seal_turn", "bleed_land"]),
+        # Within noise after a claim: the calibrations not yet taken.
+        (0.5, ["compressibility"], [], ["seal_turn", "bleed_land"]),
+        # ... and a term that passed every rule but lost its round to a calibration.
+        (0.5, ["compressibility"], ["friction"], ["friction", "seal_turn", "bleed_land"]),
+        # Nothing claimed and nothing beyond noise: the search ends.
+        (0.5, [], ["friction"], []),
+        # max_terms claimed: calibrations only, whatever passed before.
+        (
+            0.001,
+            ["compressibility", "thermal", "contact"],
+            ["friction"],
+            ["seal_turn", "bleed_land"],
+        ),
+    ],
+)
+def test_what_the_next_round_tries(
+    p: float, claimed: list[str], outranked: list[str], expected: list[str]
+) -> None:
+    remaining = ["friction", "thermal", "seal_turn", "bleed_land"]
+    got = engine.gated(remaining, _left(p), claimed, outranked, Settings())
+    assert got == [c for c in remaining if c in expected]

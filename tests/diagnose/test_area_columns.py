@@ -85,3 +85,36 @@ def test_an_aerated_fit_leaves_a_leaky_closed_click(tmp_path: Path) -> None:
     ss = float(got.residual @ got.residual)
     assert ss <= 1.05 * float(good.residual @ good.residual)
     assert got.model.value("compressibility.air_fraction") == pytest.approx(0.003, rel=0.05)
+
+
+@pytest.mark.parametrize(
+    ("values", "state"),
+    [
+        ({"sensor_lag.delay_s": 0.006}, False),
+        ({"sensor_lag.delay_s": 0.006, "sensor_lag.lvdt_lag_s": 0.002}, False),
+        ({"sensor_lag.delay_s": 0.006, "sensor_lag.load_cell_lag_s": 0.004}, True),
+    ],
+)
+def test_only_a_lag_that_carries_state_takes_the_exact_columns(
+    values: dict[str, float], state: bool
+) -> None:
+    """The plain fit carries the channel delay: with no load-cell lag a sample's force
+    follows its own delayed motion, so the split by the delayed direction is exact and
+    costs one evaluation less per Jacobian. A load-cell lag runs an area past reversal."""
+    spec = load_spec(None)
+    prepared, _ = prepare_tests(synthetic_sweep(spec, [0, 14], cycles=2, seed=5))
+    data = Data.build(spec, prepared)
+    model = DamperModel(spec, (make_term("sensor_lag"),)).with_values(values)
+    assert model.carries_state(("sensor_lag.delay_s",)) is state
+    prob = data.prob.for_model(model, ("sensor_lag.delay_s",))
+    bc = np.array([float(spec.bleed_areas(c, g)[0]) for c, g in data.prob.keys])
+    bt = np.array([float(spec.bleed_areas(c, g)[1]) for c, g in data.prob.keys])
+    f0 = prob.force(model, bc, bt)
+    _, v, _ = model.motion(prob.inputs)  # the split calibrate.py makes
+    moved = prob.force(model, bc * 1.01, bt) - f0  # the compression areas only
+    assert np.any(moved[v > 0] != 0)
+    crossed = np.abs(moved[v < 0])  # rebound samples (by the delayed motion)
+    assert bool(np.max(crossed) > 0) is state, np.max(crossed)  # exactly 0 without state
+    # Free the lag and it carries state whatever its value.
+    free = ("sensor_lag.delay_s", "sensor_lag.load_cell_lag_s")
+    assert DamperModel(spec, (make_term("sensor_lag"),)).carries_state(free)

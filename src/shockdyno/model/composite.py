@@ -277,6 +277,12 @@ class Term:
         from the fit's 5 ms samples. `free` are the local names the fit will vary."""
         return self.stateful
 
+    def carries_state(self, p: Mapping[str, float], free: Iterable[str]) -> bool:
+        """Whether, at these values (and with `free` varied), a sample's force depends on
+        the motion before it, so an area's effect runs on past reversal. A stateful term
+        whose state is switched off and held does not (a sensor chain with no lag)."""
+        return self.stateful
+
     def nesting_free(self) -> tuple[str, ...]:
         """Local names to free when testing the term against the paper's model: the
         default-free ones, plus any held one without which the term cannot reach off."""
@@ -432,6 +438,16 @@ class DamperModel:
         qualified = set(free)
         return any(
             t.full_rate(
+                self.local_values(t),
+                {p.name for p in t.params() if t.qualified(p.name) in qualified},
+            )
+            for t in self.terms
+        )
+
+    def carries_state(self, free: Iterable[str] = ()) -> bool:
+        qualified = set(free)
+        return any(
+            t.carries_state(
                 self.local_values(t),
                 {p.name for p in t.params() if t.qualified(p.name) in qualified},
             )

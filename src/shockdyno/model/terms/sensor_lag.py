@@ -84,6 +84,11 @@ class SensorLag(Term):
     def full_rate(self, p: Mapping[str, float], free: Iterable[str]) -> bool:
         return p["load_cell_lag_s"] > 0 or "load_cell_lag_s" in set(free)
 
+    def carries_state(self, p: Mapping[str, float], free: Iterable[str]) -> bool:
+        # The delay and the LVDT lag act on the motion sample by sample: a force then
+        # follows its own (delayed) motion alone. Only the load cell's lag carries state.
+        return self.full_rate(p, free)
+
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -324,6 +325,32 @@ def _balance(
 
 
 @njit(cache=True)
+def _lower_bound(start: float, width: float, args: tuple[Any, ...]) -> float:
+    """Below `start` by doubling steps until the balance is negative."""
+    lo = start - width
+    for _ in range(200):
+        f, _, _, _ = _balance(lo, *args)
+        if f < 0.0:
+            break
+        width *= 2.0
+        lo -= width
+    return lo
+
+
+@njit(cache=True)
+def _upper_bound(start: float, width: float, args: tuple[Any, ...]) -> float:
+    """Above `start` by doubling steps until the balance is positive."""
+    hi = start + width
+    for _ in range(200):
+        f, _, _, _ = _balance(hi, *args)
+        if f > 0.0:
+            break
+        width *= 2.0
+        hi += width
+    return hi
+
+
+@njit(cache=True)
 def _floor_balance(
     vv: float,
     rest: float,
@@ -424,9 +451,11 @@ def _step(
                     break
                 v_hi *= 2.0
             vv = min(max(vap_old, v_lo), v_hi)
+            settled = False
             for _ in range(MAX_NEWTON):
-                f, df, _ = _floor_balance(vv, *fargs)
+                f, df, pc = _floor_balance(vv, *fargs)
                 if abs(f) <= tol:
+                    settled = True
                     break
                 if f > 0.0:
                     v_hi = vv
@@ -438,7 +467,8 @@ def _step(
                 vv = step
                 if v_hi - v_lo <= 1.0e-12 * (vv + 1.0e-15):
                     break
-            _, _, pc = _floor_balance(vv, *fargs)
+            if not settled:
+                _, _, pc = _floor_balance(vv, *fargs)
             return floor, vv, pc
     # What the balance needs beyond p, the same for every trial pressure of this step.
     args = (
@@ -447,44 +477,68 @@ def _step(
     )  # fmt: skip
     if not math.isfinite(lo) and not math.isfinite(hi) and air0 > 0.0:
         lo = MIN_PRESSURE_PA  # the air takes any volume as p falls to nothing: F < 0
-    # A lower bound (F < 0) where there is none yet, and an upper one (F > 0), by doubling.
+    # A lower bound (F < 0) where there is none yet, and an upper one (F > 0), by doubling
+    # from p_guess. Each is found only when the iteration needs it: Newton's steps from
+    # p_guess rarely leave the first doubling's reach (lo_at < p < hi_at), and within it
+    # every decision below is the same whatever the bound, so the result is the one the
+    # bounds found first would give, for two evaluations fewer a step. The old order
+    # pinned both first; the lazy one is compared with it bit for bit
+    # (tests/model/test_chamber_brackets.py).
     width = max(abs(p_guess) * 0.1, 1.0e3)
-    if not math.isfinite(lo):
-        lo = min(p_guess, hi) - width
-        for _ in range(200):
-            f, _, _, _ = _balance(lo, *args)
-            if f < 0.0:
-                break
-            width *= 2.0
-            lo -= width
-    if not math.isfinite(hi):
-        width = max(abs(p_guess) * 0.1, 1.0e3)
-        hi = max(p_guess, lo) + width
-        for _ in range(200):
-            f, _, _, _ = _balance(hi, *args)
-            if f > 0.0:
-                break
-            width *= 2.0
-            hi += width
-    p = min(max(p_guess, lo), hi)
-    if not lo < p < hi:
+    lo_open = not math.isfinite(lo)  # lo is the doubling's, not evaluated yet
+    lo_from = min(p_guess, hi)
+    lo_at = lo_from - width  # the doubling's bound is at or below this
+    hi_open = not math.isfinite(hi)
+    # Had lo been pinned first it would sit below p_guess, so the upper doubling starts
+    # at p_guess either way.
+    hi_from = p_guess if lo_open else max(p_guess, lo)
+    hi_at = hi_from + width
+    p = p_guess if lo_open else max(p_guess, lo)
+    if not hi_open:
+        p = min(p, hi)
+    if (not lo_open and not lo < p) or (not hi_open and not p < hi):
+        if lo_open:
+            lo, lo_open = _lower_bound(lo_from, width, args), False
+        if hi_open:
+            hi, hi_open = _upper_bound(hi_from, width, args), False
         p = 0.5 * (lo + hi)
     vv, pc = 0.0, base
+    settled = False
     for _ in range(MAX_NEWTON):
         f, df, pc, vv = _balance(p, *args)
         if abs(f) <= tol:
+            settled = True
             break
         if f > 0.0:
-            hi = p
+            hi, hi_open = p, False
         else:
-            lo = p
+            lo, lo_open = p, False
         step = p - f / df if df > 0.0 else math.nan
-        if not (lo < step < hi) or not math.isfinite(step):
+        inside = math.isfinite(step)
+        if inside:
+            if lo_open and not step > lo_at:
+                lo, lo_open = _lower_bound(lo_from, width, args), False
+            if hi_open and not step < hi_at:
+                hi, hi_open = _upper_bound(hi_from, width, args), False
+            inside = (lo_open or lo < step) and (hi_open or step < hi)
+        if not inside:
+            if lo_open:
+                lo, lo_open = _lower_bound(lo_from, width, args), False
+            if hi_open:
+                hi, hi_open = _upper_bound(hi_from, width, args), False
             step = 0.5 * (lo + hi)
         p = step
-        if hi - lo <= 1.0e-12 * (abs(p) + 1.0):
-            break
-    _, _, pc, vv = _balance(p, *args)
+        # The bracket is at least this wide while a bound is still open.
+        gap = (hi_at if hi_open else hi) - (lo_at if lo_open else lo)
+        if gap <= 1.0e-12 * (abs(p) + 1.0):
+            if lo_open:
+                lo, lo_open = _lower_bound(lo_from, width, args), False
+            if hi_open:
+                hi, hi_open = _upper_bound(hi_from, width, args), False
+            if hi - lo <= 1.0e-12 * (abs(p) + 1.0):
+                break
+    if not settled:  # else pc and vv are the settled pressure's already
+        _, _, pc, vv = _balance(p, *args)
     return p, vv, pc
 
 

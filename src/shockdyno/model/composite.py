@@ -434,24 +434,18 @@ class DamperModel:
             fixed.update({t.qualified(k): v for k, v in t.vehicle_values().items()})
         return kept.with_values(fixed)
 
-    def needs_full_rate(self, free: Iterable[str] = ()) -> bool:
+    def _local_free(self, t: Term, free: Iterable[str]) -> set[str]:
         qualified = set(free)
-        return any(
-            t.full_rate(
-                self.local_values(t),
-                {p.name for p in t.params() if t.qualified(p.name) in qualified},
-            )
-            for t in self.terms
-        )
+        return {p.name for p in t.params() if t.qualified(p.name) in qualified}
+
+    def needs_full_rate(self, free: Iterable[str] = ()) -> bool:
+        free = tuple(free)
+        return any(t.full_rate(self.local_values(t), self._local_free(t, free)) for t in self.terms)
 
     def carries_state(self, free: Iterable[str] = ()) -> bool:
-        qualified = set(free)
+        free = tuple(free)
         return any(
-            t.carries_state(
-                self.local_values(t),
-                {p.name for p in t.params() if t.qualified(p.name) in qualified},
-            )
-            for t in self.terms
+            t.carries_state(self.local_values(t), self._local_free(t, free)) for t in self.terms
         )
 
     def term(self, name: str) -> Term | None:

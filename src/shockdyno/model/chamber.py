@@ -325,29 +325,36 @@ def _balance(
 
 
 @njit(cache=True)
-def _lower_bound(start: float, width: float, args: tuple[Any, ...]) -> float:
-    """Below `start` by doubling steps until the balance is negative."""
-    lo = start - width
+def _bound(start: float, direction: float, width: float, args: tuple[Any, ...]) -> float:
+    """From `start` in `direction` (+1 up, -1 down) by doubling steps until the balance
+    has that sign: an upper bound (F > 0) or a lower one (F < 0)."""
+    at = start + direction * width
     for _ in range(200):
-        f, _, _, _ = _balance(lo, *args)
-        if f < 0.0:
+        f, _, _, _ = _balance(at, *args)
+        if direction * f > 0.0:
             break
         width *= 2.0
-        lo -= width
-    return lo
+        at += direction * width
+    return at
 
 
 @njit(cache=True)
-def _upper_bound(start: float, width: float, args: tuple[Any, ...]) -> float:
-    """Above `start` by doubling steps until the balance is positive."""
-    hi = start + width
-    for _ in range(200):
-        f, _, _, _ = _balance(hi, *args)
-        if f > 0.0:
-            break
-        width *= 2.0
-        hi += width
-    return hi
+def _pinned(
+    lo: float,
+    lo_open: bool,
+    lo_from: float,
+    hi: float,
+    hi_open: bool,
+    hi_from: float,
+    width: float,
+    args: tuple[Any, ...],
+) -> tuple[float, float]:
+    """The bracket with each bound still open found by its doubling."""
+    if lo_open:
+        lo = _bound(lo_from, -1.0, width, args)
+    if hi_open:
+        hi = _bound(hi_from, 1.0, width, args)
+    return lo, hi
 
 
 @njit(cache=True)
@@ -497,10 +504,8 @@ def _step(
     if not hi_open:
         p = min(p, hi)
     if (not lo_open and not lo < p) or (not hi_open and not p < hi):
-        if lo_open:
-            lo, lo_open = _lower_bound(lo_from, width, args), False
-        if hi_open:
-            hi, hi_open = _upper_bound(hi_from, width, args), False
+        lo, hi = _pinned(lo, lo_open, lo_from, hi, hi_open, hi_from, width, args)
+        lo_open = hi_open = False
         p = 0.5 * (lo + hi)
     vv, pc = 0.0, base
     settled = False
@@ -517,24 +522,20 @@ def _step(
         inside = math.isfinite(step)
         if inside:
             if lo_open and not step > lo_at:
-                lo, lo_open = _lower_bound(lo_from, width, args), False
+                lo, lo_open = _bound(lo_from, -1.0, width, args), False
             if hi_open and not step < hi_at:
-                hi, hi_open = _upper_bound(hi_from, width, args), False
+                hi, hi_open = _bound(hi_from, 1.0, width, args), False
             inside = (lo_open or lo < step) and (hi_open or step < hi)
         if not inside:
-            if lo_open:
-                lo, lo_open = _lower_bound(lo_from, width, args), False
-            if hi_open:
-                hi, hi_open = _upper_bound(hi_from, width, args), False
+            lo, hi = _pinned(lo, lo_open, lo_from, hi, hi_open, hi_from, width, args)
+            lo_open = hi_open = False
             step = 0.5 * (lo + hi)
         p = step
         # The bracket is at least this wide while a bound is still open.
         gap = (hi_at if hi_open else hi) - (lo_at if lo_open else lo)
         if gap <= 1.0e-12 * (abs(p) + 1.0):
-            if lo_open:
-                lo, lo_open = _lower_bound(lo_from, width, args), False
-            if hi_open:
-                hi, hi_open = _upper_bound(hi_from, width, args), False
+            lo, hi = _pinned(lo, lo_open, lo_from, hi, hi_open, hi_from, width, args)
+            lo_open = hi_open = False
             if hi - lo <= 1.0e-12 * (abs(p) + 1.0):
                 break
     if not settled:  # else pc and vv are the settled pressure's already

@@ -47,6 +47,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from shockdyno.model.recent import Recent
 from shockdyno.model.shims import ShimStack
 from shockdyno.model.spec import DamperSpec
 
@@ -134,7 +135,7 @@ def integrate(
     lam = np.zeros(x.size) if bleed_laminar is None else bleed_laminar
     gas = np.zeros(x.size) if gas_volume is None else gas_volume
     sc = np.ones(x.size) if dp_scale is None else dp_scale
-    dp, vap, pce, state = _run(
+    dp, vap, pce, state = _recent_run(
         np.ascontiguousarray(x, dtype=float),
         np.ascontiguousarray(v, dtype=float),
         np.ascontiguousarray(p_c, dtype=float),
@@ -672,3 +673,7 @@ def _run(
         state[3] = p_prev
         state[4] = vv_prev
     return dp, vap, pce, state
+
+
+# A Jacobian column of a parameter that acts after the chamber repeats its inputs exactly.
+_recent_run = Recent(_run)

@@ -29,6 +29,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from shockdyno.model.recent import Recent
 from shockdyno.model.shims import ShimStack
 
 FloatArray = NDArray[np.float64]
@@ -89,7 +90,7 @@ def solve_pressure_drop(
     a_b = np.broadcast_to(np.asarray(bleed_area_m2, dtype=float), q.shape)
     kl = np.broadcast_to(np.asarray(k_leak, dtype=float), q.shape)
     lam = np.broadcast_to(np.asarray(laminar, dtype=float), q.shape)
-    s = _solve_s(
+    s = _recent_solve(
         np.ascontiguousarray(q).ravel(),
         np.ascontiguousarray(a_b).ravel(),
         np.ascontiguousarray(kl).ravel(),
@@ -174,3 +175,7 @@ def _solve_s(
             s = 0.5 * (lo + hi) if bad else step
         out[i] = s
     return out
+
+
+# A Jacobian column of a parameter that acts after the flow solve repeats its inputs exactly.
+_recent_solve = Recent(_solve_s)

@@ -59,6 +59,10 @@ def test_a_local_cluster_batch_is_the_single_command_and_resumes(
     assert set(rows) == {"r0", "r1", "r2", "r3", "bad", "cut"}
     for name in ("r0", "r1", "r2", "r3"):
         assert rows[name]["status"] == "done" and rows[name]["clicks"] == "0,21"
+        assert json.loads((out / f"{name}.fit.json").read_text())["tests"]
+    # The four differ only in their damper id: the first and the last against the single
+    # command (each single fit is seconds of CPU on a suite that is CPU-bound).
+    for name in ("r0", "r3"):
         single = tmp_path / f"{name}.json"
         one = _cli("fit", str(recordings / f"{name}.mcap"), "--json", str(single))
         assert one.returncode == 0, one.stderr

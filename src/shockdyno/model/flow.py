@@ -177,5 +177,6 @@ def _solve_s(
     return out
 
 
-# A Jacobian column of a parameter that acts after the flow solve repeats its inputs exactly.
-_recent_solve = Recent(_solve_s)
+# A Jacobian column of a parameter that acts after the flow solve repeats its inputs exactly
+# (friction + air: 12456 of 19676 solves repeated one of the last 8, 12664 of the last 16).
+_recent_solve = Recent(_solve_s, size=16)

@@ -68,29 +68,6 @@ class Recordings(dict):  # type: ignore[type-arg]
         self.root = root
 
     def __missing__(self, name: str) -> Path:
-        self.make([name])
-        return self[name]  # type: ignore[no-any-return]
-
-    def make(self, names: list[str]) -> None:
-        """Sweep the recordings not made yet, up to three side by side: a sweep at 50x
-        spends most of its wall time waiting on the rig's clock (12 s, 5 of them CPU, on
-        a loaded machine), so three take little longer than one. Not more: a sweep
-        starved of CPU for a second stops on a frozen DAQ."""
-        todo = [n for n in dict.fromkeys(names) if n not in self]
-        for k in range(0, len(todo), 3):
-            running = [(n, *self._start(n)) for n in todo[k : k + 3]]
-            try:
-                for name, rec, proc in running:
-                    _, err = proc.communicate(timeout=180)
-                    assert proc.returncode == 0, (name, err)
-                    self[name] = rec
-            finally:
-                for _, _, proc in running:
-                    if proc.poll() is None:
-                        proc.kill()
-                        proc.wait()
-
-    def _start(self, name: str) -> tuple[Path, subprocess.Popen[str]]:
         i = list(SCENARIOS).index(name)  # the seed: each case keeps its own noise
         body = SCENARIOS[name]
         rec = self.root / f"r{i}.mcap"
@@ -100,10 +77,10 @@ class Recordings(dict):  # type: ignore[type-arg]
             sc = self.root / f"p{i}.toml"
             sc.write_text(f"[scenario]\nname = 'p{i}'\ndescription = 'x'\n{body}")
             cmd += ["--scenario", str(sc)]
-        proc = subprocess.Popen(
-            cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO
-        )
-        return rec, proc
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=120, cwd=REPO)
+        assert done.returncode == 0, done.stderr
+        self[name] = rec
+        return rec
 
 
 class Diagnoses(dict):  # type: ignore[type-arg]
@@ -226,7 +203,6 @@ def claimed(diagnoses: Diagnoses, name: str, physics: str) -> dict:  # type: ign
 
 
 def check_names_hidden(recordings: Recordings, names: list[str]) -> None:
-    recordings.make(names)
     for name in names:
         blob = recordings[name].read_bytes()
         words = (b"compressibility", b"friction", b"sensor_lag", b"cavitation", b"thermal")

@@ -113,7 +113,7 @@ def delayed(
         return values
     if values.size == 0 or not np.all(np.isfinite(values)):
         return _delayed_by_segment(values, slope, delay_s, starts, dt_s)
-    out = np.empty_like(values)
+    out = np.empty(values.shape)
     _delay(
         np.ascontiguousarray(values, dtype=float),
         np.ascontiguousarray(slope, dtype=float),

@@ -116,7 +116,10 @@ def test_a_test_whose_ram_stood_still_is_not_complete(sim_rig_factory) -> None:
         session.set_clicks(7, 0)
         out = session.run_sine(0.03, 1.0, 1, 3, collect)
     assert out.status != "complete", out.reason
-    assert "moved ±" in out.reason
+    # Which check a stalled cycle fails depends on where in it the ram stopped (the 40th
+    # block lands elsewhere on a loaded machine): its range short, or, stopped late in
+    # the cycle, its mid-point off centre. A fresh-clone run got the second.
+    assert re.search(r"cycle \d+ of \d+ (moved ±|centred .* off the stroke centre)", out.reason)
 
 
 def test_a_drive_whose_watchdog_stays_off_is_never_enabled(sim_rig_factory) -> None:

@@ -190,6 +190,10 @@ class RigSession:
         self._armed = True
         self._event("enable", "actuator enabled, heartbeat running")
         self._move_to_centre(check=True)
+        # The drive says "centred" before a host that fell behind has read the samples
+        # that show it (the park, the ramp): read them now, limits checked, so that the
+        # session's clock is current and the next hold's backlog is its own.
+        self._catch_up(check=True)
 
     # -- public operations ---------------------------------------------------------------
     def set_clicks(self, rod_clicks: int, gas_clicks: int) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 
 from shockdyno.rig.types import SampleBlock
+from shockdyno.run.daq_stream import DaqStream
 from shockdyno.run.session import RigSession
 
 
@@ -29,3 +30,34 @@ def test_samples_from_before_the_session_centred_the_ram_are_not_the_first_holds
         session.hold_at(0.005, None, 0.2, got.append)
     x = SampleBlock.concat(got).displacement_m
     assert x.min() > -0.0005 and x.max() < 0.0055  # centre to +5 mm, nothing of the park
+
+
+
+def test_a_host_starved_before_it_commands_a_move_still_sees_the_move(
+    sim_rig_factory, monkeypatch
+) -> None:
+    # A move's budget is DAQ time (a fast simulated rig's clock). A host held up between
+    # its last read and the command, and slow to read after it (a loaded CI machine: "move
+    # to -5 mm: not done within 2.25 s of DAQ time"), starts the move 75 s of samples after
+    # its last read at 50x and takes more than MIN_WALL_S to read through them: the budget
+    # counts from when the command could act, not from that last read.
+    sim = sim_rig_factory(speed=50)
+    with RigSession(sim.rig_config()) as session:
+        write, read = type(session.actuator).write, DaqStream.read
+
+        def late_write(self, values):  # type: ignore[no-untyped-def]
+            if "position_command" in values:
+                time.sleep(1.5)
+            write(self, values)
+
+        def slow_read(self, daq, check):  # type: ignore[no-untyped-def]
+            time.sleep(0.025)
+            return read(self, daq, check)
+
+        monkeypatch.setattr(type(session.actuator), "write", late_write)
+        monkeypatch.setattr(DaqStream, "read", slow_read)
+        got: list[SampleBlock] = []
+        arrived, end = session.hold_at(-0.005, None, 0.2, got.append)
+        monkeypatch.undo()
+    x = SampleBlock.concat(got).displacement_m
+    assert end - arrived >= 0.2 and abs(x[-1] + 0.005) < 0.0005

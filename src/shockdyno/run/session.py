@@ -453,7 +453,11 @@ class RigSession:
         what: str,
         check: bool = True,
     ) -> ActuatorStatus:
-        """Pump and poll until done(status); budget on the DAQ clock, guard on the host's."""
+        """Pump and poll until done(status); budget on the DAQ clock, guard on the host's.
+
+        The budget counts from the newest sample once the backlog is read: the command
+        acts at the drive's present, which a host that fell behind has not read yet."""
+        self._catch_up(check)
         t_start = self._stream.t
         wall_start = self.clock()
         wall_guard = daq_budget_s * 2 + 5.0

@@ -32,7 +32,6 @@ def test_samples_from_before_the_session_centred_the_ram_are_not_the_first_holds
     assert x.min() > -0.0005 and x.max() < 0.0055  # centre to +5 mm, nothing of the park
 
 
-
 def test_a_host_starved_before_it_commands_a_move_still_sees_the_move(
     sim_rig_factory, monkeypatch
 ) -> None:

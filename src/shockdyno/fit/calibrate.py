@@ -17,7 +17,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
 
 from shockdyno.fit.parameters import AREA_BC, AREA_BT, GLOBAL, TERM, Parameter, calibration_set
 from shockdyno.fit.problem import StackedProblem
@@ -156,6 +155,8 @@ def calibrate(
             jac[rows_bc, bc_at.start + g] = dr[:m][rows_bc] / h[bc_at.start + g]
             jac[rows_bt, bt_at.start + g] = dr[:m][rows_bt] / h[bt_at.start + g]
         return jac
+
+    from scipy.optimize import least_squares  # here: a quarter of a second to import
 
     common: dict[str, Any] = {
         "jac": jacobian,

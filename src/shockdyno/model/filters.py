@@ -14,7 +14,6 @@ from collections.abc import Sequence
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
-from scipy.signal import lfilter
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -58,6 +57,8 @@ def first_order_lag(
     in (exact, by superposition); starting
     at y = u instead would add a transient of a few τ to every test.
     """
+    from scipy.signal import lfilter  # here: scipy.signal takes a second to import
+
     taus = np.broadcast_to(np.asarray(tau_s, dtype=float), (starts.size,))
     if starts.size == u.size and carry is None and not from_rest:  # one sample each
         return u.copy(), None

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import savgol_filter
 
 from shockdyno.errors import ConfigError
 
@@ -55,6 +54,8 @@ def differentiate(
         # Too few samples for the filter: plain central differences.
         v = np.gradient(x, dt)
         return v, np.gradient(v, dt)
+    from scipy.signal import savgol_filter  # here: scipy.signal takes a second to import
+
     v = savgol_filter(x, w, POLYORDER, deriv=1, delta=dt, mode="interp")
     a = savgol_filter(x, w, POLYORDER, deriv=2, delta=dt, mode="interp")
     return np.asarray(v, dtype=float), np.asarray(a, dtype=float)

@@ -23,7 +23,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import welch
 
 from shockdyno.errors import ConfigError
 from shockdyno.fit.result import FitResult
@@ -482,6 +481,8 @@ def run_study(
     rms = np.sqrt(np.mean(acc**2, axis=1))
     rms_wk = weighted_rms(acc, config.dt_s)
     nper = min(round(config.psd_segment_s / config.dt_s), acc.shape[1])
+    from scipy.signal import welch  # here: scipy.signal takes a second to import
+
     f, p = welch(acc, fs=1 / config.dt_s, nperseg=nper, axis=1)
     keep = f <= config.psd_max_hz
     if config.step_check:

@@ -21,7 +21,6 @@ from typing import Annotated, Any
 import numpy as np
 from msgspec import Meta
 from numpy.typing import NDArray
-from scipy.signal import bilinear, lfilter, lfiltic
 
 from shockdyno.model.composite import DamperModel, ModelInputs, Term
 from shockdyno.model.filters import first_order_lag
@@ -134,6 +133,8 @@ class SimEngine:
         self.cal = rig.daq.calibration
         self.centre = rig.stroke_centre_m
         p = self.params
+        from scipy.signal import bilinear, lfiltic  # here: scipy.signal takes a second to import
+
         wn = 2 * math.pi * p.servo_bandwidth_hz
         b, a = bilinear([wn * wn], [1.0, 2 * p.servo_damping * wn, wn * wn], fs=self.fs)
         self._servo_b, self._servo_a = np.asarray(b, float), np.asarray(a, float)
@@ -242,6 +243,8 @@ class SimEngine:
         t = seq / self.fs
         drv = st.drive
         x_cmd = drv.command(t)
+        from scipy.signal import lfilter
+
         x, zf = lfilter(self._servo_b, self._servo_a, x_cmd, zi=st.servo_zi)
         x = np.asarray(x, float)
         st.servo_zi = np.asarray(zf, float)

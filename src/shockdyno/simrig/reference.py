@@ -44,8 +44,6 @@ from typing import Annotated, Any
 import numpy as np
 from msgspec import Meta
 from numpy.typing import NDArray
-from scipy.integrate import solve_ivp
-from scipy.signal import butter, lfilter, lfilter_zi
 
 from shockdyno.model.spec import DamperSpec
 from shockdyno.schema import NonNegative, Positive, convert
@@ -150,6 +148,8 @@ class ReferencePlant:
             self.valves.append(
                 (v.perimeter_m, v.face_area_m2, v.preload_n, v.stiffness_n_per_m, v.max_lift_m)
             )
+        from scipy.signal import butter  # here: scipy.signal takes a second to import
+
         b, a = butter(2, min(params.anti_alias_hz, 0.45 * fs_hz), fs=fs_hz)
         self._aa_b, self._aa_a = np.asarray(b, float), np.asarray(a, float)
         self._skew = params.force_skew_s * fs_hz
@@ -265,6 +265,8 @@ class ReferencePlant:
         y_g = self.a_rod * x0 / self.a_g
         p = self._gas(y_g, t0)
         y = np.array([p, p, y_g, 0.0, 0.0, 0.0, t0, t0])
+        from scipy.signal import lfilter_zi
+
         zi = lfilter_zi(self._aa_b, self._aa_a)
         n_skew = math.ceil(self._skew) + 2
         f0 = (p - P_ATM) * self.a_rod
@@ -301,6 +303,8 @@ class ReferencePlant:
             return self.rates(y, xi, vi)[0]
 
         def solve(method: str) -> Any:
+            from scipy.integrate import solve_ivp  # here: a third of a second to import
+
             return solve_ivp(
                 rhs,
                 (float(tt[0]), float(tt[-1])),
@@ -331,6 +335,8 @@ class ReferencePlant:
         force += self.spec.piston_rod_mass_kg * a
         # Sensors: both channels through the anti-alias filter; the force channel sampled
         # `force_skew_s` late (linear interpolation in the carried history).
+        from scipy.signal import lfilter
+
         f_aa, fzi = lfilter(self._aa_b, self._aa_a, force, zi=state.force_zi)
         x_aa, xzi = lfilter(self._aa_b, self._aa_a, x, zi=state.pos_zi)
         hist = np.concatenate([state.skew_buf, f_aa])

@@ -13,7 +13,6 @@ import glob
 import hashlib
 import logging
 import math
-import os
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
@@ -22,6 +21,7 @@ from typing import Any, TypeVar
 
 from shockdyno.batch.jobs import Job, Row, run_job
 from shockdyno.batch.table import write_table
+from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError
 from shockdyno.record.identity import recording_sha256
 
@@ -105,9 +105,9 @@ def dask_client(
     scheduler: str | None, workers: int | None, on_cluster: Callable[[str], None] | None = None
 ) -> Iterator[Any]:
     """A client of the scheduler at `scheduler`, else of a LocalCluster of `workers`
-    processes (default: the machine's cores) on 127.0.0.1; closed, cluster and all."""
+    processes (default: the cores this process may run on) on 127.0.0.1; closed, cluster and all."""
     logging.getLogger("distributed").setLevel(logging.ERROR)  # its shutdown chatter
-    client, cluster = _client(scheduler, workers or max(1, os.cpu_count() or 1))
+    client, cluster = _client(scheduler, workers or usable_cores())
     try:
         if on_cluster is not None:
             on_cluster(str(client.dashboard_link or "no dashboard"))

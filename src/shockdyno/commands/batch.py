@@ -9,6 +9,7 @@ from typing import Any
 
 from shockdyno.batch.jobs import KINDS
 from shockdyno.commands.args import add_seed, add_spec
+from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError
 
 
@@ -35,7 +36,7 @@ def register(sub: Any) -> None:
         "--workers",
         type=int,
         metavar="N",
-        help="worker processes of the local cluster (default: the machine's cores)",
+        help="worker processes of the local cluster (default: the cores this process may run on)",
     )
     g = p.add_argument_group("options passed to each command")
     g.add_argument("--terms", metavar="LIST", help="fit: default sensor_lag; diagnose: all")
@@ -110,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
                 print(line + (f": {row['error']}" if row["error"] else ""), file=sys.stderr)
 
         def on_cluster(link: str) -> None:
-            where = args.scheduler or f"local cluster, {args.workers or 'all'} workers"
+            where = args.scheduler or f"local cluster, {args.workers or usable_cores()} workers"
             console.print(f"batch: {len(jobs)} recordings on {where}; dashboard {link}")
 
         rows = run_batch(

@@ -60,3 +60,29 @@ def test_a_host_starved_before_it_commands_a_move_still_sees_the_move(
         monkeypatch.undo()
     x = SampleBlock.concat(got).displacement_m
     assert end - arrived >= 0.2 and abs(x[-1] + 0.005) < 0.0005
+
+
+def test_a_host_starved_before_it_starts_a_sine_still_finds_the_start(
+    sim_rig_factory, monkeypatch
+) -> None:
+    # The same stall before the start command: the drive starts the sine 75 s of samples
+    # after the host's last read, and the host's one-second budget for the motion output
+    # to rise must not be spent reading the samples from before it.
+    sim = sim_rig_factory(speed=50)
+    with RigSession(sim.rig_config()) as session:
+        control, read = type(session.actuator).control, DaqStream.read
+
+        def late_start(self, *commands, **kwargs):  # type: ignore[no-untyped-def]
+            if "start" in commands:
+                time.sleep(1.5)
+            control(self, *commands, **kwargs)
+
+        def slow_read(self, daq, check):  # type: ignore[no-untyped-def]
+            time.sleep(0.025)
+            return read(self, daq, check)
+
+        monkeypatch.setattr(type(session.actuator), "control", late_start)
+        monkeypatch.setattr(DaqStream, "read", slow_read)
+        out = session.run_sine(0.01, 2.0, 0, 1, lambda block: None)
+        monkeypatch.undo()
+    assert out.status == "complete", out.reason

@@ -51,6 +51,7 @@ HOLD_TOLERANCE_M = 0.0005  # a hold has arrived when the DAQ's displacement is t
 # A command's round trip takes wall time, which a fast simulated rig turns into seconds of
 # DAQ time: no DAQ-time deadline is called before this much host time has passed too.
 MIN_WALL_S = 0.5
+FULL_READ = READ_SIZE // FRAME_LEN - 2  # frames: a read this full means more is waiting
 SETTLE_S = 0.05  # DAQ time allowed after a profile's end for the drive to report it
 
 
@@ -415,9 +416,8 @@ class RigSession:
 
     def _catch_up(self, check: bool) -> None:
         """Read until the DAQ backlog is gone (e.g. after an operator prompt)."""
-        full = READ_SIZE // FRAME_LEN - 2  # a read this full means more is waiting
         for _ in range(10000):
-            if len(self._pump(check)) < full:
+            if len(self._pump(check)) < FULL_READ:
                 return
 
     def _poll(self, check: bool, force: bool = False) -> ActuatorStatus | None:
@@ -477,8 +477,12 @@ class RigSession:
                 raise RigFault(f"{what}: not done within {wall_guard:.3g} s")
 
     def _wait_motion_start(self, budget_s: float) -> float:
-        """DAQ time of the first sample with the drive's motion output set."""
-        t_start = self._stream.t
+        """DAQ time of the first sample with the drive's motion output set.
+
+        The budget counts from the first read that leaves no backlog (as `_wait`'s): the
+        drive started at its present, which a host that fell behind has not read yet; the
+        backlog is searched for the start all the same."""
+        t_start = math.nan
         wall_start = self.clock()
         prev = False
         while True:
@@ -490,6 +494,8 @@ class RigSession:
                 if rising.size:
                     return float(block.t_s[rising[0]])
                 prev = bool(bits[-1])
+            if math.isnan(t_start) and len(block) < FULL_READ:
+                t_start = self._stream.t
             self._poll(check=True)
             waited = self.clock() - wall_start
             if (

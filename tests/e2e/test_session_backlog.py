@@ -32,29 +32,36 @@ def test_samples_from_before_the_session_centred_the_ram_are_not_the_first_holds
     assert x.min() > -0.0005 and x.max() < 0.0055  # centre to +5 mm, nothing of the park
 
 
+def starve(monkeypatch, session: RigSession, method: str, stalls) -> None:  # type: ignore[no-untyped-def]
+    """The host stalls 1.5 s before the actuator call `method` when `stalls(args)`, and
+    then reads the DAQ slowly (25 ms a read): at 50x, 75 s of samples to read through."""
+    cls = type(session.actuator)
+    call, read = getattr(cls, method), DaqStream.read
+
+    def late(self, *args, **kwargs):  # type: ignore[no-untyped-def]
+        if stalls(args):
+            time.sleep(1.5)
+        return call(self, *args, **kwargs)
+
+    def slow_read(self, daq, check):  # type: ignore[no-untyped-def]
+        time.sleep(0.025)
+        return read(self, daq, check)
+
+    monkeypatch.setattr(cls, method, late)
+    monkeypatch.setattr(DaqStream, "read", slow_read)
+
+
 def test_a_host_starved_before_it_commands_a_move_still_sees_the_move(
     sim_rig_factory, monkeypatch
 ) -> None:
     # A move's budget is DAQ time (a fast simulated rig's clock). A host held up between
     # its last read and the command, and slow to read after it (a loaded CI machine: "move
     # to -5 mm: not done within 2.25 s of DAQ time"), starts the move 75 s of samples after
-    # its last read at 50x and takes more than MIN_WALL_S to read through them: the budget
-    # counts from when the command could act, not from that last read.
+    # its last read and takes more than MIN_WALL_S to read through them: the budget counts
+    # from when the command could act, not from that last read.
     sim = sim_rig_factory(speed=50)
     with RigSession(sim.rig_config()) as session:
-        write, read = type(session.actuator).write, DaqStream.read
-
-        def late_write(self, values):  # type: ignore[no-untyped-def]
-            if "position_command" in values:
-                time.sleep(1.5)
-            write(self, values)
-
-        def slow_read(self, daq, check):  # type: ignore[no-untyped-def]
-            time.sleep(0.025)
-            return read(self, daq, check)
-
-        monkeypatch.setattr(type(session.actuator), "write", late_write)
-        monkeypatch.setattr(DaqStream, "read", slow_read)
+        starve(monkeypatch, session, "write", lambda args: "position_command" in args[0])
         got: list[SampleBlock] = []
         arrived, end = session.hold_at(-0.005, None, 0.2, got.append)
         monkeypatch.undo()
@@ -70,19 +77,7 @@ def test_a_host_starved_before_it_starts_a_sine_still_finds_the_start(
     # to rise must not be spent reading the samples from before it.
     sim = sim_rig_factory(speed=50)
     with RigSession(sim.rig_config()) as session:
-        control, read = type(session.actuator).control, DaqStream.read
-
-        def late_start(self, *commands, **kwargs):  # type: ignore[no-untyped-def]
-            if "start" in commands:
-                time.sleep(1.5)
-            control(self, *commands, **kwargs)
-
-        def slow_read(self, daq, check):  # type: ignore[no-untyped-def]
-            time.sleep(0.025)
-            return read(self, daq, check)
-
-        monkeypatch.setattr(type(session.actuator), "control", late_start)
-        monkeypatch.setattr(DaqStream, "read", slow_read)
+        starve(monkeypatch, session, "control", lambda args: "start" in args)
         out = session.run_sine(0.01, 2.0, 0, 1, lambda block: None)
         monkeypatch.undo()
     assert out.status == "complete", out.reason

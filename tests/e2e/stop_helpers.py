@@ -37,6 +37,27 @@ def spawn_sweep(
     return subprocess.Popen(cmd, cwd=REPO, stdout=sink, stderr=sink, stdin=subprocess.DEVNULL)
 
 
+def still_running(proc: subprocess.Popen[bytes]) -> None:
+    """Fail, with the child's own last words, if the sweep has already ended.
+
+    Reading its pipes to the end also closes them: a failing test leaves no open file for
+    the garbage collector to warn about in whichever test runs next."""
+    if proc.poll() is None:
+        return
+    _, err = proc.communicate()
+    last = (err or b"").decode(errors="replace").strip().splitlines()[-1:] or ["(no stderr)"]
+    raise AssertionError(
+        f"the sweep ended (exit {proc.returncode}) before it could be stopped: {last[0]}"
+    )
+
+
+def reap(proc: subprocess.Popen[bytes]) -> None:
+    """However the test went: the child is gone and its pipes are closed."""
+    if proc.poll() is None:
+        proc.kill()
+    proc.communicate()
+
+
 class Probe:
     """A second Modbus master that only reads the drive's status."""
 
@@ -68,7 +89,7 @@ class Probe:
 def wait_running(probe: Probe, proc: subprocess.Popen[bytes], limit_s: float) -> None:
     deadline = time.monotonic() + limit_s
     while time.monotonic() < deadline:
-        assert proc.poll() is None, "the sweep ended before it could be stopped"
+        still_running(proc)
         st = probe.status()
         if st is not None and st.running:
             return
@@ -79,7 +100,7 @@ def wait_running(probe: Probe, proc: subprocess.Popen[bytes], limit_s: float) ->
 def wait_complete_tests(path: Path, n: int, proc: subprocess.Popen[bytes], limit_s: float) -> None:
     deadline = time.monotonic() + limit_s
     while time.monotonic() < deadline:
-        assert proc.poll() is None, "the sweep ended before it could be stopped"
+        still_running(proc)
         if path.exists():
             try:
                 if sum(m.status == "complete" for m in open_recording(path).tests) >= n:
@@ -94,7 +115,7 @@ def wait_test_running(path: Path, proc: subprocess.Popen[bytes], limit_s: float)
     """Until the recording shows a test begun and started (its start event is on disk)."""
     deadline = time.monotonic() + limit_s
     while time.monotonic() < deadline:
-        assert proc.poll() is None, "the sweep ended before it could be stopped"
+        still_running(proc)
         if path.exists():
             try:
                 rec = open_recording(path)

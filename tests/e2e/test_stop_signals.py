@@ -8,7 +8,14 @@ import subprocess
 import time
 
 import pytest
-from stop_helpers import Probe, rig_file_for, spawn_sweep, wait_complete_tests, wait_test_running
+from stop_helpers import (
+    Probe,
+    reap,
+    rig_file_for,
+    spawn_sweep,
+    wait_complete_tests,
+    wait_test_running,
+)
 
 from shockdyno.record import open_recording
 
@@ -39,6 +46,7 @@ def test_signal_mid_test_stops_centres_disables_and_records_why(sim_rig_factory,
         final = probe.status()
     finally:
         probe.close()
+        reap(proc)
     assert stopped is not None and disabled is not None, "ram left running or enabled"
     assert proc.returncode == 128 + sig, err
     assert b"Traceback" not in err
@@ -69,6 +77,7 @@ def test_second_ctrl_c_does_not_cut_the_stop_short(sim_rig_factory, tmp_path):
         final = probe.status()
     finally:
         probe.close()
+        reap(proc)
     assert proc.returncode == 130, err
     assert final is not None and not final.enabled and not final.running
     assert abs(final.position_m - sim.rig.stroke_centre_m) < 0.001
@@ -90,6 +99,7 @@ def test_kill_9_keeps_every_event_before_it_and_the_watchdog_disables(sim_rig_fa
         disabled = probe.wait_for(lambda s: not s.enabled and not s.running, limit_s=3)
     finally:
         probe.close()
+        reap(proc)
     assert disabled is not None and disabled < 2.0
     rec = open_recording(out)
     assert rec.truncated

@@ -154,11 +154,15 @@ def test_a_real_sweep_runs_on_the_reference_plant(tmp_path: Path) -> None:
     # The stiff solver can hold a 30-50-sample step for over a second on a shared core (a
     # fresh-clone run on an idle 2-core machine stopped on "DAQ frozen: no valid frame for
     # 1.00 s"); this test is the plant running a real sweep, the frozen-DAQ stop has its own
-    # (tests/contract/test_contract_sim.py), so this rig file waits 5 s for a frame.
+    # (tests/contract/test_contract_sim.py), so this rig file waits 5 s for a frame. A
+    # command waits for the batch under way, and a batch where the first solver gives up
+    # took 0.49 s on an idle machine (a loaded suite run timed out writing the clicks at
+    # rigs/sim.toml's 0.5 s); the Modbus timeout has its own tests too, so 3 s here.
     rig = tmp_path / "sim.toml"
     text = (REPO / "rigs/sim.toml").read_text()
-    assert "frozen_timeout_s = 1.0 " in text
-    rig.write_text(text.replace("frozen_timeout_s = 1.0 ", "frozen_timeout_s = 5.0 "))
+    assert "frozen_timeout_s = 1.0 " in text and "\ntimeout_s = 0.5 " in text
+    text = text.replace("frozen_timeout_s = 1.0 ", "frozen_timeout_s = 5.0 ")
+    rig.write_text(text.replace("\ntimeout_s = 0.5 ", "\ntimeout_s = 3.0 "))
     cli = [sys.executable, "-m", "shockdyno.cli", "sweep", "--rig", str(rig)]
     cli += ["--start-sim", "--speed", "0.5", "--clicks", "10", "--freq", "1.5", "--cycles", "2"]
     cli += ["--warmup-cycles", "1", "--scenario", str(sc), "-o", str(out), "--seed", "4"]

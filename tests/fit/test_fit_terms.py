@@ -97,10 +97,27 @@ UNDERSTATED = {
     "gas_spring.volume_factor": 1.55,
 }
 
+# The reported σ can also be too small at random, which no factor mends: a CI run fitted
+# the aerated sweep's air fraction at 0.020016 ± 0.0000021, 5x below its usual σ
+# (mean 0.0000104 over 44 recordings of this sweep, the smallest 0.0000076). The cause, found
+# by stepping each parameter by 0.1, 1 and 10x the Jacobian's step at the fit's end: on
+# the stiff click at 1.5 Hz the model's force on the ~8 samples after the top reversal
+# jumps by a fixed amount when the oil's air, the friction or the gas parameters move by
+# 1e-6 of themselves, so in some fits those columns are that jump over the step (their
+# norm 5-10x the smooth derivative's) and the information they report is not there. Until
+# the jump is found and removed from the model, the scatter used below is never less than
+# the spread measured over fresh recordings (bench_recovery.py, 10 seeds: 1.03e-5; 44
+# recordings of seed 7 here: 0.91e-5 and 1.00e-5).
+MEASURED_SPREAD = {"compressibility.air_fraction": 1.03e-5}
+
+
+def _scatter(qualified: str, sd: float) -> float:
+    return max(UNDERSTATED.get(qualified, 1.0) * sd, MEASURED_SPREAD.get(qualified, 0.0))
+
 
 def _recovered(fit: FitResult, qualified: str, truth: float, rel: float = 0.10) -> None:
     value, sd = _est(fit, qualified)
-    scatter = UNDERSTATED.get(qualified, 1.0) * sd
+    scatter = _scatter(qualified, sd)
     _note(
         f"{qualified}: true {truth:g}, fitted {value:.5g} ± {sd:.3g} "
         f"(z {(value - truth) / scatter:+.2f} of the measured scatter), E_t {_e_t(fit):.4f}"
@@ -309,14 +326,20 @@ def test_a_recording_made_in_two_parts_gives_the_same_terms(
     a1, s1 = _est(one_go, "compressibility.air_fraction")
     a2, s2 = _est(parts, "compressibility.air_fraction")
     _note(f"resume: air_fraction one go {a1:.6g} ± {s1:.2g}, two parts {a2:.6g} ± {s2:.2g}")
-    k = UNDERSTATED["compressibility.air_fraction"]
-    assert abs(a1 - a2) <= 3 * k * math.hypot(s1, s2), (a1, s1, a2, s2)
+    q = "compressibility.air_fraction"
+    assert abs(a1 - a2) <= 3 * math.hypot(_scatter(q, s1), _scatter(q, s2)), (a1, s1, a2, s2)
+    # The areas' σ, like the air's, can be too small at random (MEASURED_SPREAD's note): a
+    # run failed here with one area 5.60e-9 m² apart against 3σ = 5.10e-9. Spread of each
+    # area over 20 recordings of this sweep (seed 7), against its mean reported σ: click 3
+    # 1.09e-9 / 1.81e-9 (compression), 0.34e-9 / 0.59e-9 (rebound); click 12 3.75e-9 /
+    # 4.76e-9 and 0.22e-9 / 0.51e-9; the smallest σ reported 0.45-0.65 of the mean.
+    spread = {3: (1.09e-9, 0.34e-9), 12: (3.75e-9, 0.22e-9)}
     for c1, c2 in zip(one_go.clicks, parts.clicks, strict=True):
-        for v1, d1, v2, d2 in (
-            (c1.a_bc_m2, c1.a_bc_sd_m2, c2.a_bc_m2, c2.a_bc_sd_m2),
-            (c1.a_bt_m2, c1.a_bt_sd_m2, c2.a_bt_m2, c2.a_bt_sd_m2),
+        for v1, d1, v2, d2, floor in (
+            (c1.a_bc_m2, c1.a_bc_sd_m2, c2.a_bc_m2, c2.a_bc_sd_m2, spread[c1.clicks][0]),
+            (c1.a_bt_m2, c1.a_bt_sd_m2, c2.a_bt_m2, c2.a_bt_sd_m2, spread[c1.clicks][1]),
         ):
-            assert abs(v1 - v2) <= 3 * math.hypot(d1, d2)
+            assert abs(v1 - v2) <= 3 * math.hypot(max(d1, floor), max(d2, floor)), (v1, d1, v2, d2)
 
 
 def test_load_cell_lag_is_recovered(tmp: Path, clean_fit: FitResult) -> None:

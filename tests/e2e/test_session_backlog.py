@@ -81,3 +81,26 @@ def test_a_host_starved_before_it_starts_a_sine_still_finds_the_start(
         out = session.run_sine(0.01, 2.0, 0, 1, lambda block: None)
         monkeypatch.undo()
     assert out.status == "complete", out.reason
+
+
+def test_a_drive_that_never_starts_the_sine_is_reported_within_its_budget(
+    sim_rig_factory, monkeypatch
+) -> None:
+    # The start command lost on the way: the drive stays in hold, no motion output rises.
+    sim = sim_rig_factory(speed=50)
+    with RigSession(sim.rig_config()) as session:
+        cls = type(session.actuator)
+        control = cls.control
+
+        def no_start(self, *commands, **kwargs):  # type: ignore[no-untyped-def]
+            if "start" not in commands:
+                control(self, *commands, **kwargs)
+
+        monkeypatch.setattr(cls, "control", no_start)
+        t0 = time.monotonic()
+        out = session.run_sine(0.01, 2.0, 0, 1, lambda block: None)
+        waited = time.monotonic() - t0
+        monkeypatch.undo()
+    assert out.status == "aborted"
+    assert out.reason.startswith("the drive did not start the sine (no motion output within 1 s")
+    assert waited < 7.0  # the DAQ budget's half-second floor, not the 7 s host-time cap

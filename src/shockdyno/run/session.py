@@ -481,9 +481,14 @@ class RigSession:
 
         The budget counts from the first read that leaves no backlog (as `_wait`'s): the
         drive started at its present, which a host that fell behind has not read yet; the
-        backlog is searched for the start all the same."""
+        backlog is searched for the start all the same. A short read is not proof that the
+        backlog is gone (a starved simulated rig may not have handed the socket the rest
+        yet): a full read after it starts the budget again, and the host-time floor counts
+        from the same read as the budget. A suite run on a loaded machine aborted a sine
+        here with the rising edge still in the backlog."""
         t_start = math.nan
         wall_start = self.clock()
+        budget_wall = wall_start
         prev = False
         while True:
             block = self._pump(check=True)
@@ -494,14 +499,20 @@ class RigSession:
                 if rising.size:
                     return float(block.t_s[rising[0]])
                 prev = bool(bits[-1])
-            if math.isnan(t_start) and len(block) < FULL_READ:
-                t_start = self._stream.t
+            if len(block) >= FULL_READ:
+                t_start = math.nan
+            elif math.isnan(t_start):
+                t_start, budget_wall = self._stream.t, self.clock()
             self._poll(check=True)
-            waited = self.clock() - wall_start
+            now = self.clock()
+            waited = now - wall_start
             if (
-                self._stream.t - t_start > budget_s and waited > MIN_WALL_S
+                self._stream.t - t_start > budget_s and now - budget_wall > MIN_WALL_S
             ) or waited > 2 * budget_s + 5:
-                raise RigFault("the drive did not start the sine")
+                raise RigFault(
+                    f"the drive did not start the sine (no motion output within {budget_s:g} s of "
+                    f"DAQ time, {waited:.1f} s of host time)"
+                )
 
     def move_to(self, displacement_m: float) -> ActuatorStatus:
         """Ramp in hold mode to `displacement_m` from the stroke centre at the rig file's

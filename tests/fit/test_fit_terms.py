@@ -104,7 +104,7 @@ UNDERSTATED = {
 # the stiff click at 1.5 Hz the model's force on the ~8 samples after the top reversal
 # jumps by a fixed amount when the oil's air, the friction or the gas parameters move by
 # 1e-6 of themselves, so in some fits those columns are that jump over the step (their
-# norm 5-10x the smooth derivative's) and the information they report is not there. Until
+# norm 2-100x the smooth derivative's) and the information they report is not there. Until
 # the jump is found and removed from the model, the scatter used below is never less than
 # the spread measured over fresh recordings (bench_recovery.py, 10 seeds: 1.03e-5; 44
 # recordings of seed 7 here: 0.91e-5 and 1.00e-5).
@@ -332,7 +332,7 @@ def test_a_recording_made_in_two_parts_gives_the_same_terms(
     # run failed here with one area 5.60e-9 m² apart against 3σ = 5.10e-9. Spread of each
     # area over 20 recordings of this sweep (seed 7), against its mean reported σ: click 3
     # 1.09e-9 / 1.81e-9 (compression), 0.34e-9 / 0.59e-9 (rebound); click 12 3.75e-9 /
-    # 4.76e-9 and 0.22e-9 / 0.51e-9; the smallest σ reported 0.45-0.65 of the mean.
+    # 4.76e-9 and 0.22e-9 / 0.51e-9; the smallest σ reported 0.35-0.64 of the mean.
     spread = {3: (1.09e-9, 0.34e-9), 12: (3.75e-9, 0.22e-9)}
     for c1, c2 in zip(one_go.clicks, parts.clicks, strict=True):
         for v1, d1, v2, d2, floor in (

@@ -55,6 +55,31 @@ FULL_READ = READ_SIZE // FRAME_LEN - 2  # frames: a read this full means more is
 SETTLE_S = 0.05  # DAQ time allowed after a profile's end for the drive to report it
 
 
+class _DaqBudget:
+    """A wait's deadline on the DAQ clock, counted from the newest sample once the backlog
+    is read (a command acts at the drive's present, which a host that fell behind has not
+    read yet), with a host-time floor (MIN_WALL_S) from the same read. A short read is not
+    proof that the backlog is gone (a starved simulated rig may not have handed the socket
+    the rest yet): a full read after it starts both again. Loaded suite runs aborted a
+    sine and a move whose start was still in the backlog."""
+
+    def __init__(self, seconds: float, clock: Callable[[], float]) -> None:
+        self.seconds = seconds
+        self._clock = clock
+        self._t_start = math.nan
+        self._wall_start = math.nan
+
+    def read(self, frames: int, t: float) -> None:
+        """Note a read of `frames` frames that left the stream at DAQ time `t`."""
+        if frames >= FULL_READ:
+            self._t_start = math.nan
+        elif math.isnan(self._t_start):
+            self._t_start, self._wall_start = t, self._clock()
+
+    def spent(self, t: float) -> bool:
+        return t - self._t_start > self.seconds and self._clock() - self._wall_start > MIN_WALL_S
+
+
 @dataclass
 class SineOutcome:
     status: str  # "complete" | "aborted"
@@ -453,20 +478,19 @@ class RigSession:
         what: str,
         check: bool = True,
     ) -> ActuatorStatus:
-        """Pump and poll until done(status); budget on the DAQ clock, guard on the host's.
-
-        The budget counts from the newest sample once the backlog is read: the command
-        acts at the drive's present, which a host that fell behind has not read yet."""
+        """Pump and poll until done(status); budget on the DAQ clock (`_DaqBudget`), guard
+        on the host's."""
         self._catch_up(check)
-        t_start = self._stream.t
+        budget = _DaqBudget(daq_budget_s, self.clock)
+        budget.read(0, self._stream.t)  # the catch-up ended on a short read
         wall_start = self.clock()
         wall_guard = daq_budget_s * 2 + 5.0
         while True:
-            self._pump(check)
+            budget.read(len(self._pump(check)), self._stream.t)
             st = self._poll(check)
             if st is not None and done(st):
                 return st
-            if self._stream.t - t_start > daq_budget_s and self.clock() - wall_start > MIN_WALL_S:
+            if budget.spent(self._stream.t):
                 # Judge by a status read taken after the deadline, not one from before it
                 # (at high sim speeds one poll period spans seconds of DAQ time).
                 st = self._poll(check, force=True)
@@ -479,16 +503,10 @@ class RigSession:
     def _wait_motion_start(self, budget_s: float) -> float:
         """DAQ time of the first sample with the drive's motion output set.
 
-        The budget counts from the first read that leaves no backlog (as `_wait`'s): the
-        drive started at its present, which a host that fell behind has not read yet; the
-        backlog is searched for the start all the same. A short read is not proof that the
-        backlog is gone (a starved simulated rig may not have handed the socket the rest
-        yet): a full read after it starts the budget again, and the host-time floor counts
-        from the same read as the budget. A suite run on a loaded machine aborted a sine
-        here with the rising edge still in the backlog."""
-        t_start = math.nan
+        The budget is `_wait`'s (`_DaqBudget`); the backlog before it is searched for the
+        start all the same."""
+        budget = _DaqBudget(budget_s, self.clock)
         wall_start = self.clock()
-        budget_wall = wall_start
         prev = False
         while True:
             block = self._pump(check=True)
@@ -499,16 +517,10 @@ class RigSession:
                 if rising.size:
                     return float(block.t_s[rising[0]])
                 prev = bool(bits[-1])
-            if len(block) >= FULL_READ:
-                t_start = math.nan
-            elif math.isnan(t_start):
-                t_start, budget_wall = self._stream.t, self.clock()
+            budget.read(len(block), self._stream.t)
             self._poll(check=True)
-            now = self.clock()
-            waited = now - wall_start
-            if (
-                self._stream.t - t_start > budget_s and now - budget_wall > MIN_WALL_S
-            ) or waited > 2 * budget_s + 5:
+            waited = self.clock() - wall_start
+            if budget.spent(self._stream.t) or waited > 2 * budget_s + 5:
                 raise RigFault(
                     f"the drive did not start the sine (no motion output within {budget_s:g} s of "
                     f"DAQ time, {waited:.1f} s of host time)"

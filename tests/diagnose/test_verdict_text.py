@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from shockdyno.diagnose.engine import CalibrationRow, Finding
 from shockdyno.diagnose.verdict import describe, describe_calibration
 from shockdyno.model.params import Estimate
@@ -82,6 +84,54 @@ def test_imperial_text_is_the_si_text_converted() -> None:
     assert "x = +20 ± 1 mm (500 ± 10 N 10 mm past it)" in describe(bump, 1.6e6)
 
 
+def test_a_contact_side_the_stroke_never_reaches_is_not_described() -> None:
+    """A top-out "from x = -197 mm" on a ±30 mm sweep did nothing the data saw (issue 44)."""
+    both = _finding(
+        "contact",
+        {
+            "bump_onset_m": (0.021, 0.0005),
+            "bump_force_n": (200.0, 5.0),
+            "topout_onset_m": (-0.197, 0.01),
+            "topout_force_n": (40.0, 2.0),
+        },
+    )
+    text = describe(both, 1.6e6, reach_m=(-0.03, 0.03))
+    assert "a bump stop from x = +21" in text
+    assert "top-out" not in text and "-197" not in text
+    # Without the data's reach every moved side is read, as before.
+    assert "top-out" in describe(both, 1.6e6)
+
+
+def test_compressibility_text_gives_one_reading() -> None:
+    """A modulus carried by the oil's own compressibility is not also "4.2e-26 % free air"."""
+    oil = _finding(
+        "compressibility",
+        {"air_fraction": (4.2e-28, 7e-5), "oil_compressibility_per_gpa": (3.19, 0.05)},
+    )
+    text = describe(oil, 1.6e6)
+    assert "313 MPa" in text and "free air" in text and "no free air resolved" in text
+    assert "e-26" not in text and "%" not in text
+    air = _finding(
+        "compressibility",
+        {"air_fraction": (0.02, 0.0001), "oil_compressibility_per_gpa": (0.0, 0.01)},
+    )
+    text = describe(air, 1.6e6)
+    assert "about 2 ± 0.01 % free air" in text and "80 MPa" in text
+
+
+def test_a_sensor_never_leads_the_motion() -> None:
+    """The force channel's delay is bounded at 0; a lagging motion channel reads as such."""
+    from shockdyno.model.terms.sensor_lag import SensorLag
+
+    delay = next(p for p in SensorLag.PARAMS if p.name == "delay_s")
+    assert delay.lo == 0.0
+    lvdt = _finding(
+        "sensor_lag",
+        {"lvdt_lag_s": (0.003, 0.0002), "delay_s": (0.0, None), "load_cell_lag_s": (0.0, None)},
+    )
+    assert "the motion channel lags the force by 3 ms" in describe(lvdt, 1.6e6)
+
+
 def test_a_calibrated_gas_volume_reads_as_the_spec_s_error() -> None:
     small = CalibrationRow("gas_volume_m3", 1.0e-4, 1.4e-4, 1e-7, "m³")
     assert small.moved
@@ -127,6 +177,7 @@ def test_the_verdict_judges_significance_at_the_search_s_alpha() -> None:
             final=SimpleNamespace(
                 model=SimpleNamespace(spec=SimpleNamespace(gas_pressure_pa=1.6e6))
             ),
+            data=SimpleNamespace(prob=SimpleNamespace(inputs=SimpleNamespace(x=np.zeros(0)))),
         )
 
     loose = verdict_text(diagnosis(0.05))  # type: ignore[arg-type]

@@ -7,6 +7,8 @@ import re
 from itertools import pairwise
 from typing import Any
 
+import numpy as np
+
 from shockdyno.diagnose.engine import CalibrationRow, Diagnosis, Finding
 from shockdyno.diagnose.locate import Location
 from shockdyno.diagnose.settings import Settings
@@ -63,13 +65,23 @@ def _signature(loc: Location, s: Settings) -> str:
     return ", ".join(bits)
 
 
-def describe(f: Finding, spec_gas_pa: float, u: Units = SI) -> str:
+def describe(
+    f: Finding,
+    spec_gas_pa: float,
+    u: Units = SI,
+    reach_m: tuple[float, float] = (-math.inf, math.inf),
+) -> str:
     """One finding as physics with its numbers, forces, lengths and speeds in `u`: the
-    term's own words (Term.describe)."""
+    term's own words (Term.describe). `reach_m`: the stroke the data cover."""
     cls = LIBRARY.get(f.physics)
     if cls is None:
         return f.physics
-    return cls().describe(Reading(cls.PARAMS, f.parameters, u, spec_gas_pa))
+    return cls().describe(Reading(cls.PARAMS, f.parameters, u, spec_gas_pa, reach_m))
+
+
+def _reach(d: Diagnosis) -> tuple[float, float]:
+    x = d.data.prob.inputs.x
+    return (float(np.min(x)), float(np.max(x))) if x.size else (-math.inf, math.inf)
 
 
 _CALIBRATION_WORDS = {
@@ -173,8 +185,8 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
             else ""
         )
         lines.append(
-            f"Claimed {describe(f, spec_gas, u)}{alike}: p = {f.p_value:.2g}, it removes "
-            f"{100 * f.heldout_gain:.0f} % of the held-out structure (median fold)."
+            f"Claimed {describe(f, spec_gas, u, _reach(d))}{alike}: p = {f.p_value:.2g}, it "
+            f"removes {100 * f.heldout_gain:.0f} % of the held-out structure (median fold)."
         )
     for g in d.indistinguishable:
         by = in_units(str(g["separate_by"]), u)

@@ -19,6 +19,12 @@ class Reading:
     values: Mapping[str, Estimate]
     units: Units = SI
     spec_gas_pa: float = math.nan  # the spec's gas charge: the pressure air is counted at
+    # The stroke the data cover (x min, max): a place outside it is nothing the data showed.
+    reach_m: tuple[float, float] = (-math.inf, math.inf)
+
+    def reached(self, x_m: float) -> bool:
+        """Whether the data reach position `x_m` (a NaN is nowhere)."""
+        return self.reach_m[0] <= x_m <= self.reach_m[1]
 
     def v(self, name: str) -> float:
         est = self.values.get(name)  # a non-finite value (an off value) reads as NaN, as in JSON

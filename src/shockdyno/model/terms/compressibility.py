@@ -116,12 +116,15 @@ class Compressibility(Term):
         c_oil = r.v("oil_compressibility_per_gpa") * 1e-9
         comp = (1 - alpha) * c_oil + alpha / r.spec_gas_pa
         beta = 1 / comp if comp > 0 else math.inf
+        head = f"compressibility: effective bulk modulus {beta / 1e6:.3g} MPa at the gas charge"
+        # One reading of one term: free air only when the data moved it, else the modulus
+        # is the oil's (and what gives with it) alone, and a "0 % air" beside it would be a
+        # second reading that disagrees with the first.
+        if not r.moved("air_fraction"):
+            return f"{head}, as a stiffness of the oil itself (no free air resolved)"
         sd = r.sd_value("air_fraction")
         pm = f" ± {100 * sd:.1g}" if math.isfinite(sd) else ""
-        return (
-            f"compressibility: effective bulk modulus {beta / 1e6:.3g} MPa at the gas charge, "
-            f"about {100 * alpha:.2g}{pm} % free air"
-        )
+        return f"{head}, about {100 * alpha:.2g}{pm} % free air"
 
     def nesting_free(self) -> tuple[str, ...]:
         # The oil alone lags (β = 1.5 GPa): only with its compressibility free too can the

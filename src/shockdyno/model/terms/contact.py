@@ -94,7 +94,8 @@ class Contact(Term):
         (fn, fl), (ln, ll) = r.force, r.length
         sides = []
         for key, what in (("bump", "a bump stop"), ("topout", "a top-out spring")):
-            if r.moved(f"{key}_force_n"):
+            # A side whose onset the stroke never reaches did nothing the data saw.
+            if r.moved(f"{key}_force_n") and r.reached(r.v(f"{key}_onset_m")):
                 sides.append(
                     f"{what} from x = {ln * r.v(f'{key}_onset_m'):+.3g}"
                     f"{r.sd(f'{key}_onset_m', ln)} {ll} ({fn * r.v(f'{key}_force_n'):.3g}"

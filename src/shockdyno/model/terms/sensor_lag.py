@@ -40,11 +40,14 @@ class SensorLag(Term):
         "friction": "slow tests (below 25 mm/s) where friction dominates",
     }
     PARAMS = (
+        # A force channel is read at or after the motion it answers, never before it: a
+        # delay below 0 (the force leading the rod) is no sensor's. A motion channel that
+        # lags is the LVDT's lag, its own parameter.
         Param(
             "delay_s",
             "s",
             nominal=0.0,
-            lo=-0.05,
+            lo=0.0,
             hi=0.05,
             scale=1e-3,
             off=0.0,
@@ -69,6 +72,11 @@ class SensorLag(Term):
             if r.moved(key)
         ]
         detail = f" ({', '.join(parts)})" if parts else ""
+        if shift < 0:
+            return (
+                f"sensor lag: the motion channel lags the force by {-1e3 * shift:.3g} ms in "
+                f"all{detail}"
+            )
         return f"sensor lag: force lags the motion by {1e3 * shift:.3g} ms in all{detail}"
 
     def nesting_free(self) -> tuple[str, ...]:

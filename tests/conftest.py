@@ -36,6 +36,13 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             item.add_marker(skip)
 
 
+@pytest.fixture(autouse=True)
+def _no_terminal_width(monkeypatch: pytest.MonkeyPatch) -> None:
+    """pytest-xdist's workers (and some CI shells) set COLUMNS=80, which rich honours as a
+    terminal's width and wraps a table's names; a test that means a width sets its own."""
+    monkeypatch.delenv("COLUMNS", raising=False)
+
+
 @pytest.fixture
 def hardware_rig(request: pytest.FixtureRequest) -> Any:
     """The RigConfig of the real rig named by --rig (hardware tests only)."""

@@ -41,17 +41,21 @@ def eager_step(p_guess: float, args: tuple) -> tuple[float, float, float]:  # ty
     p = min(max(p_guess, lo), hi)
     if not lo < p < hi:
         p = 0.5 * (lo + hi)
+    tol = 1.0e-12 * (abs(args[3]) * args[4] + 1.0e-12) + 1.0e-22
+    tol += C.CONTENTS_ULPS * C.EPS * (abs(args[1]) + abs(args[0]) + abs(args[3]) * args[4])
+    moved = math.inf
     for _ in range(C.MAX_NEWTON):
         f, df, _, _ = C._balance(p, *args)
-        if abs(f) <= 1.0e-12 * (abs(args[3]) * args[4] + 1.0e-12) + 1.0e-22:
+        if abs(f) <= tol:
             break
         if f > 0.0:
             hi = p
         else:
             lo = p
         step = p - f / df if df > 0.0 else math.nan
-        if not (lo < step < hi) or not math.isfinite(step):
+        if not (lo < step < hi) or not math.isfinite(step) or abs(step - p) > 0.5 * moved:
             step = 0.5 * (lo + hi)
+        moved = abs(step - p)
         p = step
         if hi - lo <= 1.0e-12 * (abs(p) + 1.0):
             break

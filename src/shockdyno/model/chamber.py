@@ -56,6 +56,8 @@ IntArray = NDArray[np.intp]
 
 MIN_PRESSURE_PA = 1.0  # absolute: air cannot be compressed to nothing nor stretched past it
 MAX_NEWTON = 100
+EPS = 2.220446049250313e-16  # machine epsilon of a double (numpy.finfo(float).eps)
+CONTENTS_ULPS = 16.0  # the balance's rounding, in ulps of the contents it subtracts
 PERIODIC_PASSES = 4
 MAX_STEP_S = 1.0e-3  # the chamber's own step, whatever the samples' spacing
 GAS_CAP = 0.9  # the contents may take at most this share of the gas column (beyond any damper)
@@ -429,7 +431,12 @@ def _step(
     end unless the balance needs more vapour than that (the chamber falls below the
     floor, R_e > 0) or less (it rises above, condensing what is left at R_c).
     """
+    # Settled within 1e-12 of the step's flow, or within what the arithmetic resolves: the
+    # balance subtracts the chamber's contents (occ, of the order of the air's volume),
+    # which it cannot know better than a few ulps of them. At reversal (no flow) the first
+    # bound alone was below that rounding, so no iterate could meet it.
     tol = 1.0e-12 * (abs(q_demand) * dt + 1.0e-12) + 1.0e-22
+    tol += CONTENTS_ULPS * EPS * (abs(occ_old) + abs(vap_old) + abs(q_demand) * dt)
     lo, hi = -math.inf, math.inf
     if has_floor:
         # G(V) rises in V (`_floor_balance`); its root in [v_min, v_max] is the vapour at
@@ -460,6 +467,7 @@ def _step(
                 v_hi *= 2.0
             vv = min(max(vap_old, v_lo), v_hi)
             settled = False
+            moved = math.inf  # the last step's length (the safeguard below)
             for _ in range(MAX_NEWTON):
                 f, df, pc = _floor_balance(vv, *fargs)
                 if abs(f) <= tol:
@@ -470,8 +478,13 @@ def _step(
                 else:
                     v_lo = vv
                 step = vv - f / df
-                if not (v_lo < step < v_hi) or not math.isfinite(step):
+                if (
+                    not (v_lo < step < v_hi)
+                    or not math.isfinite(step)
+                    or abs(step - vv) > 0.5 * moved
+                ):
                     step = 0.5 * (v_lo + v_hi)
+                moved = abs(step - vv)
                 vv = step
                 if v_hi - v_lo <= 1.0e-12 * (vv + 1.0e-15):
                     break
@@ -510,6 +523,7 @@ def _step(
         p = 0.5 * (lo + hi)
     vv, pc = 0.0, base
     settled = False
+    moved = math.inf  # the last step's length (the safeguard below)
     for _ in range(MAX_NEWTON):
         f, df, pc, vv = _balance(p, *args)
         if abs(f) <= tol:
@@ -520,7 +534,13 @@ def _step(
         else:
             lo, lo_open = p, False
         step = p - f / df if df > 0.0 else math.nan
-        inside = math.isfinite(step)
+        # Newton's step must at least halve the last one (else bisect: a safeguarded
+        # Newton iteration, as Numerical Recipes' rtsafe). At reversal the flow law turns
+        # from one valve's √Δp to the other's, and Newton's steps there could cycle
+        # between the two sides of the root, each landing just inside the bracket: 100
+        # iterations later the step ended 350 Pa off its root on one side or the other,
+        # by the parity of the count, which the ninth digit of the air fraction decided.
+        inside = math.isfinite(step) and abs(step - p) <= 0.5 * moved
         if inside:
             if lo_open and not step > lo_at:
                 lo, lo_open = _bound(lo_from, -1.0, width, args), False
@@ -531,6 +551,7 @@ def _step(
             lo, hi = _pinned(lo, lo_open, lo_from, hi, hi_open, hi_from, width, args)
             lo_open = hi_open = False
             step = 0.5 * (lo + hi)
+        moved = abs(step - p)
         p = step
         # The bracket is at least this wide while a bound is still open.
         gap = (hi_at if hi_open else hi) - (lo_at if lo_open else lo)

@@ -25,6 +25,7 @@ from shockdyno.model.params import Param
 
 FloatArray = NDArray[np.float64]
 AREA_SCALE = 1e-6  # m²: areas are optimised in mm²
+CHECK_SOLVER_JACOBIAN = False  # tests: the solver's final Jacobian is jacobian(p) bit for bit
 
 
 @dataclass(frozen=True)
@@ -176,9 +177,16 @@ def calibrate(
         sol = least_squares(residual, sol.x, loss="soft_l1", f_scale=max(scale, 1e-3), **common)
         nfev += int(sol.nfev)
     p = sol.x
-    r_all = residual(p)
+    if robust:
+        r_all, jac = residual(p), jacobian(p)  # the soft-L1 solve's are its scaled ones
+    else:
+        # The solver's own residual and Jacobian at its end: trf evaluates both at every
+        # point it accepts, so these are residual(p) and jacobian(p) as computed there
+        # (a second Jacobian here was one of every nine model evaluations of a diagnosis).
+        r_all, jac = np.asarray(sol.fun), np.asarray(sol.jac)
+        if CHECK_SOLVER_JACOBIAN:
+            assert np.array_equal(jac, jacobian(p)) and np.array_equal(r_all, residual(p))
     r = r_all[: prob.size]
-    jac = jacobian(p)
     dof = max(r.size - p.size, 1)
     tau = autocorrelation_factor(r, prob.test_id)
     s2 = float(np.sum(r * r)) / dof

@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from shockdyno.errors import ConfigError
 from shockdyno.model.filters import segment_bounds
-from shockdyno.model.flow import solve_pressure_drop
+from shockdyno.model.flow import solve_signed_drop
 from shockdyno.model.gas import compression_pressure
 from shockdyno.model.params import Param
 from shockdyno.model.reading import Reading
@@ -342,25 +342,18 @@ def _samples(value: ArrayLike, n: int) -> FloatArray:
 def solve_flow(w: Work) -> FloatArray:
     spec = w.spec
     q = w.q_demand
-    dp = np.zeros_like(q)
-    common = (spec.discharge_coefficient, spec.oil_density_kg_m3)
     lam = w.bleed_laminar if w.bleed_laminar.size == q.size else np.zeros_like(q)
-    comp = q > 0
-    if np.any(comp):
-        dp[comp] = solve_pressure_drop(
-            q[comp],
-            w.bleed_compression_m2[comp],
-            spec.compression_valve,
-            *common,
-            w.k_leak[comp],
-            lam[comp],
-        )
-    reb = q < 0
-    if np.any(reb):
-        dp[reb] = -solve_pressure_drop(
-            q[reb], w.bleed_rebound_m2[reb], spec.rebound_valve, *common, w.k_leak[reb], lam[reb]
-        )
-    return dp
+    return solve_signed_drop(
+        q,
+        w.bleed_compression_m2,
+        w.bleed_rebound_m2,
+        spec.compression_valve,
+        spec.rebound_valve,
+        spec.discharge_coefficient,
+        spec.oil_density_kg_m3,
+        w.k_leak,
+        lam,
+    )
 
 
 @dataclass(frozen=True, eq=False)

@@ -29,11 +29,9 @@ from numpy.typing import NDArray
 from shockdyno.diagnose.candidates import (
     Candidate,
     Fold,
-    FoldBaseline,
-    baseline_folds,
     binned_means,
     folds,
-    heldout_gain,
+    heldout_gains,
     own_peak,
     try_candidate,
 )
@@ -356,8 +354,7 @@ def _backward(
         )
         gain = 0.0
         if fold_list:
-            held = baseline_folds(fold_list, reduced, s.fold_nfev, workers)
-            gain = heldout_gain(held, c, s.fold_nfev)[0]
+            gain = heldout_gains(fold_list, reduced, [c], s.fold_nfev, workers)[0][0]
         if c.p_value < s.alpha and gain >= s.min_gain_joining:
             continue
         others = [n for n in claimed if n != name]
@@ -537,10 +534,8 @@ def _round(
     scored: dict[str, tuple[float, str]] = {}
     top = [c for c in screened if c.p_value < s.alpha][: s.heldout_top]
     if top and fold_list:
-        report(f"round {rnd}: held-out baseline", 0.1 + 0.8 * (rnd - 0.3) / rounds)
-        baselines = baseline_folds(fold_list, base, s.fold_nfev, workers)
-        report(f"round {rnd}: held out, {len(top)} candidates", 0.1 + 0.8 * (rnd - 0.2) / rounds)
-        gains = workers.map(_held_out, (baselines, s.fold_nfev), top)
+        report(f"round {rnd}: held out, {len(top)} candidates", 0.1 + 0.8 * (rnd - 0.3) / rounds)
+        gains = heldout_gains(fold_list, base, top, s.fold_nfev, workers)
         scored = {c.name: g for c, g in zip(top, gains, strict=True)}
     elif top:
         scored = {c.name: (0.0, "no held-out split") for c in top}
@@ -597,11 +592,6 @@ def _round(
 def _try(shared: tuple[Data, Fitted, FloatArray, FloatArray, int], name: str) -> Candidate:
     search, base, base_means, noise, max_nfev = shared
     return try_candidate(search, base, base_means, name, noise, max_nfev)
-
-
-def _held_out(shared: tuple[list[FoldBaseline], int], c: Candidate) -> tuple[float, str]:
-    baselines, max_nfev = shared
-    return heldout_gain(baselines, c, max_nfev)
 
 
 def gated(

@@ -373,7 +373,7 @@ class FoldBaseline:
 
 
 def _baseline_structure(fold: Fold, base: Fitted, max_nfev: int) -> FloatArray:
-    b_train = refit(fold.train, base.model, base.free, base, max_nfev=max_nfev)
+    b_train = refit(fold.train, base.model, base.free, base, max_nfev, warm=True)
     return _structure(fold.test, predict(fold.test, b_train).residual)
 
 
@@ -449,7 +449,9 @@ def fold_outcome(fold: Fold, cand: Candidate, max_nfev: int) -> FoldOutcome:
             none = np.zeros(0, dtype=bool)
             return FoldOutcome(label, True, False, none, False, np.zeros(0))
         fold, halves = fold.halves, True
-    c_train = refit(fold.train, cand.fitted.model, cand.fitted.free, cand.fitted, max_nfev=max_nfev)
+    c_train = refit(
+        fold.train, cand.fitted.model, cand.fitted.free, cand.fitted, max_nfev, warm=True
+    )
     predicted = predict(fold.test, c_train)
     acts = _acting_tests(fold.test, predicted, cand)
     reaches = bool(np.any(acts))

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -41,6 +41,11 @@ class Calibration:
     tau: float  # variance inflation for correlated residuals
     nfev: int
     cost_rms_n: float
+    # The Jacobian at the end (rows: the residual's, samples then penalty; columns: the
+    # parameter vector, globals, terms, A_bc per group, A_bt per group), per unit of each
+    # parameter's scale, and those scales.
+    jac: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
+    scales: FloatArray = field(default_factory=lambda: np.zeros(0))
 
     def model(self, prob: StackedProblem, base: DamperModel) -> DamperModel:
         return DamperModel(prob.spec_with(self.overrides), base.terms, base.values).with_values(
@@ -78,8 +83,16 @@ def calibrate(
     a_max: float,
     max_nfev: int = 60,
     robust: bool = True,
+    jac0: FloatArray | None = None,
 ) -> Calibration:
-    """Least squares (then soft-L1) over globals, free term parameters and all areas."""
+    """Least squares (then soft-L1) over globals, free term parameters and all areas.
+
+    `jac0`: the Jacobian at the start, known already (a refit on part of the tests from a
+    fit on all of them has its rows), per unit of each parameter (not of its scale): the
+    solve starts with it and updates it by Broyden's rank-one rule at each point it
+    accepts instead of differencing the model again there (a quasi-Newton least squares;
+    its final σ are the updated Jacobian's). Without the robust loss only."""
+    assert jac0 is None or not robust
     n = prob.n_groups
     declared: dict[str, Param] = dict(base.param_list())
     ps = calibration_set(
@@ -95,6 +108,7 @@ def calibrate(
         a_max,
     )  # fmt: skip
     lb, ub = ps.bounds()
+    scales = np.array([q.scale for q in ps.items], dtype=float)
     p0 = np.clip(ps.theta0(), lb, np.where(ub > lb, ub - 1e-12 * np.maximum(np.abs(ub), 1), ub))
     shared = ps.span(GLOBAL, TERM)  # one Jacobian column each
     bc_at, bt_at = ps.span(AREA_BC), ps.span(AREA_BT)  # all areas in one evaluation
@@ -159,8 +173,26 @@ def calibrate(
 
     from scipy.optimize import least_squares  # here: a quarter of a second to import
 
+    quasi: dict[str, FloatArray] = {}
+
+    def updated(p: FloatArray) -> FloatArray:
+        """jac0 at the start; after, the last one with Broyden's update for the step to p:
+        J + (Δr - J s) sᵀ / sᵀs, which maps the step onto the change it made."""
+        r = residual(p)
+        if not quasi:
+            assert jac0 is not None and jac0.shape == (r.size, p.size)
+            jac = np.asarray(jac0 * scales, dtype=float)
+        else:
+            step = p - quasi["p"]
+            jac = quasi["jac"]
+            ss = float(step @ step)
+            if ss > 0:
+                jac = jac + np.outer(r - quasi["r"] - jac @ step, step / ss)
+        quasi.update(p=p.copy(), r=r.copy(), jac=jac)
+        return jac
+
     common: dict[str, Any] = {
-        "jac": jacobian,
+        "jac": jacobian if jac0 is None else updated,
         "bounds": (lb, ub),
         "method": "trf",
         "x_scale": "jac",
@@ -184,7 +216,7 @@ def calibrate(
         # point it accepts, so these are residual(p) and jacobian(p) as computed there
         # (a second Jacobian here was one of every nine model evaluations of a diagnosis).
         r_all, jac = np.asarray(sol.fun), np.asarray(sol.jac)
-        if CHECK_SOLVER_JACOBIAN:
+        if CHECK_SOLVER_JACOBIAN and jac0 is None:
             assert np.array_equal(jac, jacobian(p)) and np.array_equal(r_all, residual(p))
     r = r_all[: prob.size]
     dof = max(r.size - p.size, 1)
@@ -205,4 +237,6 @@ def calibrate(
         tau=tau,
         nfev=nfev,
         cost_rms_n=math.sqrt(float(np.mean(r * r))),
+        jac=jac,
+        scales=scales,
     )

@@ -12,7 +12,7 @@ import pytest
 
 from shockdyno.diagnose.candidates import folds
 from shockdyno.diagnose.data import Data
-from shockdyno.diagnose.fitting import Fitted, _warm_jacobian, refit, prepared_key
+from shockdyno.diagnose.fitting import Fitted, _warm_jacobian, prepared_key, refit
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.synthetic import synthetic_sweep
 from shockdyno.model import load_spec

@@ -82,8 +82,9 @@ def test_solve_agrees_with_brentq_on_the_equations_written_out_again():
 @pytest.mark.parametrize("land", [0.0, 2.0e9])
 def test_both_directions_in_one_pass_are_each_direction_apart(land: float) -> None:
     """The model's solve (`solve_signed_drop`: every sample through its own direction's
-    bleed and valve, one pass) gives what each direction's samples solved apart give, bit
-    for bit, and 0 where nothing flows."""
+    bleed and valve, one pass) gives what each direction's samples solved apart give, to
+    the solve's tolerance (each starts Newton from its neighbour's root, and the
+    neighbours differ), and 0 where nothing flows."""
     rng = np.random.default_rng(4)
     n = 4000
     q = rng.normal(0.0, 2e-4, n)
@@ -102,4 +103,5 @@ def test_both_directions_in_one_pass_are_each_direction_apart(land: float) -> No
     want[reb] = -solve_pressure_drop(
         q[reb], a_bt[reb], SPEC.rebound_valve, CD, RHO, k[reb], lam[reb]
     )
-    assert np.array_equal(got, want)
+    assert np.all(got[q == 0.0] == 0.0)
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=0.0)

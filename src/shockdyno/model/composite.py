@@ -353,6 +353,7 @@ def solve_flow(w: Work) -> FloatArray:
         spec.oil_density_kg_m3,
         w.k_leak,
         lam,
+        w.starts,
     )
 
 

@@ -118,9 +118,11 @@ def _solve_one(
     preload: float,
     k: float,
     max_lift: float,
+    guess: float,
 ) -> float:
     """s = √Δp that passes flow qi >= 0: Newton inside a bracket each step keeps (module
-    docstring)."""
+    docstring), from `guess` where it lies inside the first bracket (a neighbouring
+    sample's s: 2-3 iterations where the bracket's middle took 6-10), else its middle."""
     # Upper bracket: each path alone needs at least the true Δp, so the bleed-alone and
     # leak-alone drops bound it; so does the drop that passes q with the stack at full lift
     # (or the full-lift pressure, if higher). With every path shut the damper is
@@ -140,7 +142,7 @@ def _solve_one(
     s_valve = max(qi / (c * a_full), math.sqrt(p_full)) if c * a_full > 0 else math.inf
     hi = min(min(s_bleed, s_leak), min(s_valve, S_MAX))
     lo = 0.0
-    s = 0.5 * hi
+    s = guess if 0.0 < guess < hi else 0.5 * hi
     tol = REL_TOL * qi + 1e-18
     for _ in range(MAX_ITER):
         s2 = s * s
@@ -189,8 +191,10 @@ def _solve_s(
 ) -> FloatArray:
     """s = √Δp per sample, one direction's valve."""
     out = np.empty(q.size)
+    s = 0.0
     for i in range(q.size):
-        out[i] = _solve_one(q[i], a_b[i], kl[i], lam[i], c, perim, face, preload, k, max_lift)
+        s = _solve_one(q[i], a_b[i], kl[i], lam[i], c, perim, face, preload, k, max_lift, s)
+        out[i] = s
     return out
 
 
@@ -203,21 +207,31 @@ def _solve_signed(
     lam: FloatArray,
     c: float,
     valves: FloatArray,
+    first: NDArray[np.bool_],
 ) -> FloatArray:
     """Δp per sample through the valve of its flow's direction (rows of `valves`:
     perimeter, face area, preload, stiffness, lift; compression's then rebound's); 0
-    where nothing flows."""
+    where nothing flows. Each sample's Newton starts from the one before's root where
+    that flowed the same way in the same segment (`first`: a segment's first sample), so
+    a test's numbers do not depend on the test before it."""
     out = np.zeros(q.size)
+    s = 0.0  # the sample before's s (0: none, or the other direction's)
     for i in range(q.size):
         qi = q[i]
+        if first[i]:
+            s = 0.0
         if qi > 0:
             vc = valves[0]
-            s = _solve_one(qi, a_bc[i], kl[i], lam[i], c, vc[0], vc[1], vc[2], vc[3], vc[4])
+            guess = s if i > 0 and q[i - 1] > 0 else 0.0
+            s = _solve_one(qi, a_bc[i], kl[i], lam[i], c, vc[0], vc[1], vc[2], vc[3], vc[4], guess)
             out[i] = s * s
         elif qi < 0:
             vr = valves[1]
-            s = _solve_one(-qi, a_bt[i], kl[i], lam[i], c, vr[0], vr[1], vr[2], vr[3], vr[4])
+            guess = s if i > 0 and q[i - 1] < 0 else 0.0
+            s = _solve_one(-qi, a_bt[i], kl[i], lam[i], c, vr[0], vr[1], vr[2], vr[3], vr[4], guess)
             out[i] = -(s * s)
+        else:
+            s = 0.0
     return out
 
 
@@ -231,10 +245,14 @@ def solve_signed_drop(
     rho: float,
     k_leak: FloatArray,
     laminar: FloatArray,
+    starts: NDArray[np.intp] | None = None,
 ) -> FloatArray:
     """Δp per sample (signed as q: compression positive) for flows of either sign, each
-    through its own direction's bleed and valve; per-sample arrays of q's size. The same
-    as `solve_pressure_drop` on each direction's samples apart, in one pass (no masks)."""
+    through its own direction's bleed and valve; per-sample arrays of q's size, in
+    segments from `starts` (default one). The same as `solve_pressure_drop` on each
+    direction's samples apart, in one pass (no masks)."""
+    first = np.zeros(np.shape(q_m3_s), dtype=bool)
+    first[np.asarray(starts if starts is not None else [0], dtype=np.intp)] = True
     valves = np.array(
         [
             [v.perimeter_m, v.face_area_m2, v.preload_n, v.stiffness_n_per_m, v.max_lift_m]
@@ -250,6 +268,7 @@ def solve_signed_drop(
             np.ascontiguousarray(laminar, dtype=float),
             cd * math.sqrt(2 / rho),
             valves,
+            first,
         ),
         dtype=float,
     )

@@ -49,7 +49,7 @@ from shockdyno.fit.metrics import error_metrics
 from shockdyno.fit.parameters import spec_global
 from shockdyno.fit.prepare import PreparedTest, prepare_tests, whole_cycles
 from shockdyno.fit.result import FitResult
-from shockdyno.model.composite import DamperModel, Term
+from shockdyno.model.composite import FORCE, PRESSURE, DamperModel, Term
 from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, load_spec
 from shockdyno.model.terms import LIBRARY, make_term
@@ -520,14 +520,21 @@ def _round(
     noise = noise_draws(binned, rng, s.n_boot)
     n_done = 0
 
+    # The chamber's terms first: they take the longest, and started last they would keep
+    # one worker busy after the others finished (the results keep the library's order).
+    order = sorted(range(len(remaining)), key=lambda i: not chamber_term(remaining[i]))
+
     def tried(i: int) -> None:
         nonlocal n_done
         n_done += 1
         share = n_done / len(remaining)
-        report(f"round {rnd}: {remaining[i]} tried", 0.1 + 0.8 * (rnd - 1 + share) / rounds)
+        name = remaining[order[i]]
+        report(f"round {rnd}: {name} tried", 0.1 + 0.8 * (rnd - 1 + share) / rounds)
 
     report(f"round {rnd}: {len(remaining)} candidates", 0.1 + 0.8 * (rnd - 1) / rounds)
-    cands = workers.map(_try, (search, base, base_means, noise, s.max_nfev), remaining, tried)
+    shared = (search, base, base_means, noise, s.max_nfev)
+    got = workers.map(_try, shared, [remaining[i] for i in order], tried)
+    cands = [got[order.index(i)] for i in range(len(remaining))]
     screened = sorted(
         (c for c in cands if c.p_value < s.screen_alpha and c.lr > 0), key=lambda c: -c.lr
     )
@@ -587,6 +594,12 @@ def _round(
             )
         )
     return found, best, [c.name for c in pool]
+
+
+def chamber_term(name: str) -> bool:
+    """Whether candidate `name` integrates the rebound chamber (the slow refits)."""
+    term = LIBRARY.get(name)
+    return term is not None and term.stateful and PRESSURE <= term.stage < FORCE
 
 
 def _try(shared: tuple[Data, Fitted, FloatArray, FloatArray, int], name: str) -> Candidate:

@@ -95,13 +95,22 @@ def diagnose(venv: Path, rec: Path, out: Path, workers: int) -> Run:
     return Run(wall, cpu, os.getloadavg()[0], json.loads(out.read_text()))
 
 
+def _region(u: dict[str, Any]) -> str:
+    """An unexplained region by where it is (stroke, displacement and speed band,
+    frequencies, near reversal); its share and RMS are figures, free to move."""
+    where = {k: u.get(k) for k in ("stroke", "frequencies_hz", "near_reversal")}
+    for k in ("x_range_m", "v_range_m_s"):
+        where[k] = [round(float(x), 4) for x in u.get(k) or []]
+    return json.dumps(where, sort_keys=True)
+
+
 def verdict(d: dict[str, Any]) -> dict[str, Any]:
     """What must not change: the physics, the calibrations that moved, the unexplained."""
     v = d["verdict"]
     return {
         "physics": list(v["physics"]),
         "calibrated": sorted(r["parameter"] for r in v["calibration"] if r.get("moved")),
-        "unexplained": [json.dumps(u, sort_keys=True) for u in v.get("unexplained") or []],
+        "unexplained": sorted(_region(u) for u in v.get("unexplained") or []),
     }
 
 

@@ -18,7 +18,9 @@ from shockdyno.model.spec import load_spec
 
 
 def eager_step(p_guess: float, args: tuple) -> tuple[float, float, float]:  # type: ignore[type-arg]
-    """The step as it was: both bounds by doubling first, then Newton, then one more call."""
+    """The step with both bounds found by doubling first, then Newton (a step must halve
+    the last; one taken after a Newton step whose length and rate put its end within
+    tolerance ends the iteration unconfirmed), then one more call if none settled."""
     lo, hi = -math.inf, math.inf
     if args[13] > 0.0:  # air0: the air takes any volume as p falls to nothing
         lo = C.MIN_PRESSURE_PA
@@ -41,21 +43,30 @@ def eager_step(p_guess: float, args: tuple) -> tuple[float, float, float]:  # ty
     p = min(max(p_guess, lo), hi)
     if not lo < p < hi:
         p = 0.5 * (lo + hi)
+    tol = 1.0e-12 * (abs(args[3]) * args[4] + 1.0e-12) + 1.0e-22
+    tol += C.CONTENTS_ULPS * C.EPS * (abs(args[1]) + abs(args[0]) + abs(args[3]) * args[4])
+    moved = newton = math.inf
     for _ in range(C.MAX_NEWTON):
-        f, df, _, _ = C._balance(p, *args)
-        if abs(f) <= 1.0e-12 * (abs(args[3]) * args[4] + 1.0e-12) + 1.0e-22:
+        f, df, pc, _, dpc = C._balance(p, *args)
+        if abs(f) <= tol:
             break
         if f > 0.0:
             hi = p
         else:
             lo = p
         step = p - f / df if df > 0.0 else math.nan
-        if not (lo < step < hi) or not math.isfinite(step):
+        if not (lo < step < hi) or not math.isfinite(step) or abs(step - p) > 0.5 * moved:
             step = 0.5 * (lo + hi)
+            newton = math.inf
+        elif newton < math.inf and abs(step - p) ** 2 * df <= tol * newton:
+            return step, 0.0, pc + dpc * (step - p)  # a Newton step taken unconfirmed
+        else:
+            newton = abs(step - p)
+        moved = abs(step - p)
         p = step
         if hi - lo <= 1.0e-12 * (abs(p) + 1.0):
             break
-    _, _, pc, vv = C._balance(p, *args)
+    _, _, pc, vv, _ = C._balance(p, *args)
     return p, vv, pc
 
 

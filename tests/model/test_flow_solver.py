@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from shockdyno.model import load_spec
-from shockdyno.model.flow import passed_flow, solve_pressure_drop
+from shockdyno.model.flow import passed_flow, solve_pressure_drop, solve_signed_drop
 
 SPEC = load_spec()
 CD, RHO = SPEC.discharge_coefficient, SPEC.oil_density_kg_m3
@@ -77,3 +77,31 @@ def test_solve_agrees_with_brentq_on_the_equations_written_out_again():
                 expected = brentq(residual, 0.0, 1e10, xtol=1e-6, rtol=1e-13)
                 got = solve_pressure_drop(np.array([q]), a_b, valve, CD, RHO, k_leak)[0]
                 assert got == pytest.approx(expected, rel=1e-7)
+
+
+@pytest.mark.parametrize("land", [0.0, 2.0e9])
+def test_both_directions_in_one_pass_are_each_direction_apart(land: float) -> None:
+    """The model's solve (`solve_signed_drop`: every sample through its own direction's
+    bleed and valve, one pass) gives what each direction's samples solved apart give, to
+    the solve's tolerance (each starts Newton from its neighbour's root, and the
+    neighbours differ), and 0 where nothing flows."""
+    rng = np.random.default_rng(4)
+    n = 4000
+    q = rng.normal(0.0, 2e-4, n)
+    q[::50] = 0.0
+    a_bc, a_bt = rng.uniform(0.0, 8e-6, n), rng.uniform(0.0, 8e-6, n)
+    k = rng.uniform(0.0, 1e-12, n)
+    lam = np.full(n, land)
+    got = solve_signed_drop(
+        q, a_bc, a_bt, SPEC.compression_valve, SPEC.rebound_valve, CD, RHO, k, lam
+    )
+    comp, reb = q > 0, q < 0
+    want = np.zeros(n)
+    want[comp] = solve_pressure_drop(
+        q[comp], a_bc[comp], SPEC.compression_valve, CD, RHO, k[comp], lam[comp]
+    )
+    want[reb] = -solve_pressure_drop(
+        q[reb], a_bt[reb], SPEC.rebound_valve, CD, RHO, k[reb], lam[reb]
+    )
+    assert np.all(got[q == 0.0] == 0.0)
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=0.0)

@@ -87,15 +87,15 @@ def test_a_friction_step_reuses_the_solve_and_the_chamber_bit_for_bit(air: float
     )
     stepped = model.with_values({"friction.breakaway_n": 20.0 + 1e-3})
     model.force(inputs, 1e-6, 1e-6)
-    solves, runs = flow._recent_solve.hits, chamber._recent_run.hits
+    solves, runs = flow._recent_signed.hits, chamber._recent_run.hits
     reused = stepped.force(inputs, 1e-6, 1e-6)
-    assert flow._recent_solve.hits > solves
+    assert flow._recent_signed.hits > solves
     assert chamber._recent_run.hits > runs or air == 0.0
-    fresh_solve, fresh_run = flow._recent_solve, chamber._recent_run
+    fresh_solve, fresh_run = flow._recent_signed, chamber._recent_run
     try:
-        flow._recent_solve = Recent(flow._solve_s, size=0)
+        flow._recent_signed = Recent(flow._solve_signed, size=0)
         chamber._recent_run = Recent(chamber._run, size=0)
         fresh = stepped.force(inputs, 1e-6, 1e-6)
     finally:
-        flow._recent_solve, chamber._recent_run = fresh_solve, fresh_run
+        flow._recent_signed, chamber._recent_run = fresh_solve, fresh_run
     assert np.array_equal(reused, fresh)

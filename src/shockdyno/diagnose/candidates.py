@@ -6,6 +6,7 @@ import itertools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -372,7 +373,7 @@ class FoldBaseline:
 
 
 def _baseline_structure(fold: Fold, base: Fitted, max_nfev: int) -> FloatArray:
-    b_train = refit(fold.train, base.model, base.free, base, max_nfev=max_nfev)
+    b_train = refit(fold.train, base.model, base.free, base, max_nfev, warm=True)
     return _structure(fold.test, predict(fold.test, b_train).residual)
 
 
@@ -423,12 +424,55 @@ def judged_structure(
     return before, before - float(np.sum(b) - np.sum(c))
 
 
-def heldout_gain(
-    baselines: Sequence[FoldBaseline], cand: Candidate, max_nfev: int
+@dataclass(frozen=True)
+class FoldOutcome:
+    """A candidate trained on one fold's tests and predicting the ones it leaves out."""
+
+    label: str
+    skipped: bool  # the term acts on neither the training tests nor their first halves
+    halves: bool  # judged on the fold's halves split (Fold.halves)
+    acts: NDArray[np.bool_]  # the judged tests the term's own force, as trained, reaches
+    reaches: bool
+    structure: FloatArray  # per judged test, with the term
+
+
+def fold_outcome(fold: Fold, cand: Candidate, max_nfev: int) -> FoldOutcome:
+    """The candidate refitted on the fold's training tests, its prediction of the rest."""
+    label = fold.label
+    halves = False
+    if not _acts_on(fold.train, cand):
+        # A threshold reached only on the held-out tests (cavitation on the stiffest
+        # click): training cannot place it. Trained on the first halves of those
+        # tests as well, it is judged on their second halves; where it acts on
+        # neither, this fold says nothing either way.
+        if fold.halves is None or not _acts_on(fold.halves.train, cand):
+            none = np.zeros(0, dtype=bool)
+            return FoldOutcome(label, True, False, none, False, np.zeros(0))
+        fold, halves = fold.halves, True
+    c_train = refit(
+        fold.train, cand.fitted.model, cand.fitted.free, cand.fitted, max_nfev, warm=True
+    )
+    predicted = predict(fold.test, c_train)
+    acts = _acting_tests(fold.test, predicted, cand)
+    reaches = bool(np.any(acts))
+    if not reaches:
+        # Its own force is absent here, but with it the shared parameters are placed
+        # without its distortion: that gain is judged on all the held-out tests.
+        acts = np.ones_like(acts)
+    return FoldOutcome(
+        fold.label, False, halves, acts, reaches, _structure(fold.test, predicted.residual)
+    )
+
+
+def judge(
+    outcomes: Sequence[FoldOutcome],
+    whole: Sequence[FloatArray],
+    halves: Sequence[FloatArray | None],
 ) -> tuple[float, str]:
     """Share of the held-out structure on the tests the term acts on that it removes
     (change summed over every held-out test), in the median fold (1: all of it, 0: none,
-    < 0: the term makes held-out prediction worse).
+    < 0: the term makes held-out prediction worse), and the folds in words. `whole` and
+    `halves`: the baseline's structure per fold (on its halves split, where judged so).
 
     The median, not the folds pooled: a fold's short refit can extrapolate wildly to the
     tests it leaves out, and pooled, that one fold decides. On a held-out-plant sweep
@@ -440,36 +484,72 @@ def heldout_gain(
     gains: list[float] = []  # folds whose left-out tests the term's own force reaches
     elsewhere: list[float] = []
     parts = []
-    for fb in baselines:
-        fold, b = fb.fold, fb.structure
-        if not _acts_on(fold.train, cand):
-            # A threshold reached only on the held-out tests (cavitation on the stiffest
-            # click): training cannot place it. Trained on the first halves of those
-            # tests as well, it is judged on their second halves; where it acts on
-            # neither, this fold says nothing either way.
-            if fold.halves is None or not _acts_on(fold.halves.train, cand):
-                parts.append(f"{fold.label}: skipped, the term does not act on the rest")
-                continue
-            fold, b = fold.halves, fb.halves_structure()
-        c_train = refit(
-            fold.train, cand.fitted.model, cand.fitted.free, cand.fitted, max_nfev=max_nfev
-        )
-        predicted = predict(fold.test, c_train)
-        acts = _acting_tests(fold.test, predicted, cand)
-        reaches = bool(np.any(acts))
-        if not reaches:
-            # Its own force is absent here, but with it the shared parameters are placed
-            # without its distortion: that gain is judged on all the held-out tests.
-            acts = np.ones_like(acts)
-        c = _structure(fold.test, predicted.residual)
-        sb, sc = judged_structure(b, c, acts)
+    for o, b_whole, b_halves in zip(outcomes, whole, halves, strict=True):
+        if o.skipped:
+            parts.append(f"{o.label}: skipped, the term does not act on the rest")
+            continue
+        b = b_halves if o.halves else b_whole
+        assert b is not None
+        sb, sc = judged_structure(b, o.structure, o.acts)
         if sb > 0:
-            (gains if reaches else elsewhere).append(1.0 - sc / sb)
-        n = int(np.count_nonzero(acts)) * N_BINS
+            (gains if o.reaches else elsewhere).append(1.0 - sc / sb)
+        n = int(np.count_nonzero(o.acts)) * N_BINS
         shown = f"{math.sqrt(sb / n):.3g} → {math.sqrt(max(sc, 0.0) / n):.3g} N"
-        where = "" if np.all(acts) else f" (on the {int(np.count_nonzero(acts))} it acts on)"
-        parts.append(f"{fold.label}: {shown}{where}")
+        where = "" if np.all(o.acts) else f" (on the {int(np.count_nonzero(o.acts))} it acts on)"
+        parts.append(f"{o.label}: {shown}{where}")
     return median_gain(gains, elsewhere), "; ".join(parts)
+
+
+def heldout_gain(
+    baselines: Sequence[FoldBaseline], cand: Candidate, max_nfev: int
+) -> tuple[float, str]:
+    """The candidate's held-out gain and its folds in words (`judge`), fold by fold here."""
+    outcomes = [fold_outcome(fb.fold, cand, max_nfev) for fb in baselines]
+    halves = [
+        fb.halves_structure() if o.halves else None
+        for fb, o in zip(baselines, outcomes, strict=True)
+    ]
+    return judge(outcomes, [fb.structure for fb in baselines], halves)
+
+
+def _fold_task(
+    shared: tuple[Fitted, int], item: tuple[Fold, Candidate | None]
+) -> FloatArray | FoldOutcome:
+    """A baseline's held-out structure on a fold (no candidate), or a candidate's outcome."""
+    base, max_nfev = shared
+    fold, cand = item
+    if cand is None:
+        return _baseline_structure(fold, base, max_nfev)
+    return fold_outcome(fold, cand, max_nfev)
+
+
+def heldout_gains(
+    fold_list: Sequence[Fold],
+    base: Fitted,
+    cands: Sequence[Candidate],
+    max_nfev: int,
+    workers: Workers = SERIAL,
+) -> list[tuple[float, str]]:
+    """`heldout_gain` of each candidate beside `base`, every (candidate, fold) refit and
+    the baseline's on each fold an item of one map (then the baseline on each halves split
+    some candidate is judged on): as many items as folds times candidates, so the workers
+    stay busy where one candidate's folds one after another kept a worker waiting."""
+    items: list[tuple[Fold, Candidate | None]] = [(f, None) for f in fold_list]
+    items += [(f, c) for c in cands for f in fold_list]
+    got = workers.map(_fold_task, (base, max_nfev), items)
+    nf = len(fold_list)
+    whole = [cast(FloatArray, g) for g in got[:nf]]
+    outcomes = [
+        cast(list[FoldOutcome], got[nf + i * nf : nf + (i + 1) * nf]) for i in range(len(cands))
+    ]
+    need = [i for i in range(nf) if any(o[i].halves for o in outcomes)]
+    split = workers.map(
+        _fold_task, (base, max_nfev), [(cast(Fold, fold_list[i].halves), None) for i in need]
+    )
+    halves: list[FloatArray | None] = [None] * nf
+    for i, h in zip(need, split, strict=True):
+        halves[i] = cast(FloatArray, h)
+    return [judge(o, whole, halves) for o in outcomes]
 
 
 def median_gain(reaching: Sequence[float], elsewhere: Sequence[float]) -> float:

@@ -29,11 +29,9 @@ from numpy.typing import NDArray
 from shockdyno.diagnose.candidates import (
     Candidate,
     Fold,
-    FoldBaseline,
-    baseline_folds,
     binned_means,
     folds,
-    heldout_gain,
+    heldout_gains,
     own_peak,
     try_candidate,
 )
@@ -51,7 +49,7 @@ from shockdyno.fit.metrics import error_metrics
 from shockdyno.fit.parameters import spec_global
 from shockdyno.fit.prepare import PreparedTest, prepare_tests, whole_cycles
 from shockdyno.fit.result import FitResult
-from shockdyno.model.composite import DamperModel, Term
+from shockdyno.model.composite import FORCE, PRESSURE, DamperModel, Term
 from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, load_spec
 from shockdyno.model.terms import LIBRARY, make_term
@@ -356,8 +354,7 @@ def _backward(
         )
         gain = 0.0
         if fold_list:
-            held = baseline_folds(fold_list, reduced, s.fold_nfev, workers)
-            gain = heldout_gain(held, c, s.fold_nfev)[0]
+            gain = heldout_gains(fold_list, reduced, [c], s.fold_nfev, workers)[0][0]
         if c.p_value < s.alpha and gain >= s.min_gain_joining:
             continue
         others = [n for n in claimed if n != name]
@@ -523,24 +520,29 @@ def _round(
     noise = noise_draws(binned, rng, s.n_boot)
     n_done = 0
 
+    # The chamber's terms first: they take the longest, and started last they would keep
+    # one worker busy after the others finished (the results keep the library's order).
+    order = sorted(range(len(remaining)), key=lambda i: not chamber_term(remaining[i]))
+
     def tried(i: int) -> None:
         nonlocal n_done
         n_done += 1
         share = n_done / len(remaining)
-        report(f"round {rnd}: {remaining[i]} tried", 0.1 + 0.8 * (rnd - 1 + share) / rounds)
+        name = remaining[order[i]]
+        report(f"round {rnd}: {name} tried", 0.1 + 0.8 * (rnd - 1 + share) / rounds)
 
     report(f"round {rnd}: {len(remaining)} candidates", 0.1 + 0.8 * (rnd - 1) / rounds)
-    cands = workers.map(_try, (search, base, base_means, noise, s.max_nfev), remaining, tried)
+    shared = (search, base, base_means, noise, s.max_nfev)
+    got = workers.map(_try, shared, [remaining[i] for i in order], tried)
+    cands = [got[order.index(i)] for i in range(len(remaining))]
     screened = sorted(
         (c for c in cands if c.p_value < s.screen_alpha and c.lr > 0), key=lambda c: -c.lr
     )
     scored: dict[str, tuple[float, str]] = {}
     top = [c for c in screened if c.p_value < s.alpha][: s.heldout_top]
     if top and fold_list:
-        report(f"round {rnd}: held-out baseline", 0.1 + 0.8 * (rnd - 0.3) / rounds)
-        baselines = baseline_folds(fold_list, base, s.fold_nfev, workers)
-        report(f"round {rnd}: held out, {len(top)} candidates", 0.1 + 0.8 * (rnd - 0.2) / rounds)
-        gains = workers.map(_held_out, (baselines, s.fold_nfev), top)
+        report(f"round {rnd}: held out, {len(top)} candidates", 0.1 + 0.8 * (rnd - 0.3) / rounds)
+        gains = heldout_gains(fold_list, base, top, s.fold_nfev, workers)
         scored = {c.name: g for c, g in zip(top, gains, strict=True)}
     elif top:
         scored = {c.name: (0.0, "no held-out split") for c in top}
@@ -594,14 +596,15 @@ def _round(
     return found, best, [c.name for c in pool]
 
 
+def chamber_term(name: str) -> bool:
+    """Whether candidate `name` integrates the rebound chamber (the slow refits)."""
+    term = LIBRARY.get(name)
+    return term is not None and term.stateful and PRESSURE <= term.stage < FORCE
+
+
 def _try(shared: tuple[Data, Fitted, FloatArray, FloatArray, int], name: str) -> Candidate:
     search, base, base_means, noise, max_nfev = shared
     return try_candidate(search, base, base_means, name, noise, max_nfev)
-
-
-def _held_out(shared: tuple[list[FoldBaseline], int], c: Candidate) -> tuple[float, str]:
-    baselines, max_nfev = shared
-    return heldout_gain(baselines, c, max_nfev)
 
 
 def gated(

@@ -69,6 +69,14 @@ class Fitted:
     residual: FloatArray
     globals_sd: dict[str, float] = field(default_factory=dict)
     globals: tuple[str, ...] = GLOBALS  # the spec values this fit calibrated
+    # The calibration's Jacobian at the fit per unit of each parameter (fit/calibrate.py:
+    # rows the tests' samples then the penalty's; columns the globals, the free terms, A_bc
+    # then A_bt per click), with each test's rows (`prepared_key`: start, stop) and the
+    # clicks in column order: a refit on some of these tests from this fit starts from its
+    # rows (`warm` in refit).
+    jac: FloatArray | None = None
+    jac_rows: dict[tuple[int, int, float], tuple[int, int]] = field(default_factory=dict)
+    jac_keys: tuple[tuple[int, int], ...] = ()
 
     def area_vectors(self, data: Data) -> tuple[FloatArray, FloatArray]:
         keys = data.prob.keys
@@ -80,6 +88,36 @@ class Fitted:
         """The area vectors when the fit has areas for every click of `data`, else None."""
         bc, bt = self.area_vectors(data)
         return (bc, bt) if np.all(np.isfinite(bc)) and np.all(np.isfinite(bt)) else None
+
+
+def prepared_key(p: PreparedTest) -> tuple[int, int, float]:
+    """A test's identity across copies of it: its index, its objective samples' count and
+    first time (a half of a test in time has the test's index but other samples)."""
+    return (p.data.meta.index, int(p.obj.size), float(p.data.t[p.obj[0]]) if p.obj.size else 0.0)
+
+
+def _warm_jacobian(data: Data, start: Fitted) -> FloatArray | None:
+    """The start's Jacobian restricted to `data`'s tests and clicks (None when it lacks
+    one of them, or when the tests' measured gas charges differ: the model scales the gas
+    force by each test's charge over their mean, which a subset changes)."""
+    if start.jac is None:
+        return None
+    gas = data.prob.inputs.gas_pressure_pa
+    charges = gas[np.isfinite(gas)] if gas is not None else np.zeros(0)
+    if charges.size and float(np.max(charges) - np.min(charges)) > 0:
+        return None
+    rows = [start.jac_rows.get(prepared_key(p)) for p in data.prepared]
+    col = {k: i for i, k in enumerate(start.jac_keys)}
+    if any(r is None for r in rows) or any(k not in col for k in data.prob.keys):
+        return None
+    n_src = len(start.jac_keys)
+    ahead = start.jac.shape[1] - 2 * n_src  # globals and terms
+    idx = [*range(ahead), *(ahead + col[k] for k in data.prob.keys)]
+    idx += [ahead + n_src + col[k] for k in data.prob.keys]
+    n_obj = sum(b - a for a, b in start.jac_rows.values())
+    take = [np.arange(r[0], r[1]) for r in rows if r is not None]
+    take.append(np.arange(n_obj, start.jac.shape[0]))  # the penalty's rows
+    return np.asarray(start.jac[np.concatenate(take)][:, idx], dtype=float)
 
 
 def evaluate(data: Data, fitted: Fitted) -> Evaluation | None:
@@ -132,13 +170,17 @@ def refit(
     max_nfev: int = 25,
     calibrated: Sequence[str] | None = None,
     bounds_from: DamperSpec | None = None,
+    warm: bool = False,
 ) -> Fitted:
     """Least squares over the globals, the free term parameters and all areas.
 
     Warm start: the globals from `model.spec`, term values from `model.values`, areas
     from `start` (else a grid search). `calibrated`: the spec values to calibrate (by
     default the start's, else GLOBALS). The globals are bounded about `bounds_from`'s
-    values (default: the start's).
+    values (default: the start's). `warm`: `model` is the start's, on some of its tests:
+    the solve starts from the start's Jacobian there and updates it (calibrate's jac0)
+    rather than differencing the model at every step (where the start has no rows for
+    these tests, as on a test's halves, it differences as usual).
     """
     names = tuple(calibrated) if calibrated is not None else (start.globals if start else GLOBALS)
     prob = data.prob.with_base(model.spec).for_model(model, free)
@@ -152,11 +194,17 @@ def refit(
     else:
         bc0, bt0 = start_areas(prob, model, a_max)
     params = global_parameters(bounds_from or model.spec, names)
-    cal = calibrate(prob, model, params, free, bc0, bt0, a_max, max_nfev=max_nfev, robust=False)
+    jac0 = None
+    if warm and start is not None and tuple(free) == start.free and names == start.globals:
+        jac0 = _warm_jacobian(data, start)
+    cal = calibrate(
+        prob, model, params, free, bc0, bt0, a_max, max_nfev=max_nfev, robust=False, jac0=jac0
+    )
     fitted_model = cal.model(prob, model)
     prob = prob.for_model(fitted_model)
     force = prob.force(fitted_model, cal.a_bc, cal.a_bt)
     areas = {k: (float(a), float(b)) for k, a, b in zip(prob.keys, cal.a_bc, cal.a_bt, strict=True)}
+    bounds = np.cumsum([0, *(p.obj.size for p in data.prepared)])
     return Fitted(
         fitted_model,
         tuple(free),
@@ -166,4 +214,10 @@ def refit(
         force - prob.f,
         dict(cal.globals_sd),
         names,
+        cal.jac / cal.scales,
+        {
+            prepared_key(p): (int(a), int(b))
+            for p, a, b in zip(data.prepared, bounds[:-1], bounds[1:], strict=True)
+        },
+        tuple(prob.keys),
     )

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -20,11 +20,13 @@ from numpy.typing import NDArray
 
 from shockdyno.fit.parameters import AREA_BC, AREA_BT, GLOBAL, TERM, Parameter, calibration_set
 from shockdyno.fit.problem import StackedProblem
+from shockdyno.model.chamber import linearised
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Param
 
 FloatArray = NDArray[np.float64]
 AREA_SCALE = 1e-6  # m²: areas are optimised in mm²
+CHECK_SOLVER_JACOBIAN = False  # tests: the solver's final Jacobian is jacobian(p) bit for bit
 
 
 @dataclass(frozen=True)
@@ -40,6 +42,11 @@ class Calibration:
     tau: float  # variance inflation for correlated residuals
     nfev: int
     cost_rms_n: float
+    # The Jacobian at the end (rows: the residual's, samples then penalty; columns: the
+    # parameter vector, globals, terms, A_bc per group, A_bt per group), per unit of each
+    # parameter's scale, and those scales.
+    jac: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
+    scales: FloatArray = field(default_factory=lambda: np.zeros(0))
 
     def model(self, prob: StackedProblem, base: DamperModel) -> DamperModel:
         return DamperModel(prob.spec_with(self.overrides), base.terms, base.values).with_values(
@@ -77,8 +84,16 @@ def calibrate(
     a_max: float,
     max_nfev: int = 60,
     robust: bool = True,
+    jac0: FloatArray | None = None,
 ) -> Calibration:
-    """Least squares (then soft-L1) over globals, free term parameters and all areas."""
+    """Least squares (then soft-L1) over globals, free term parameters and all areas.
+
+    `jac0`: the Jacobian at the start, known already (a refit on part of the tests from a
+    fit on all of them has its rows), per unit of each parameter (not of its scale): the
+    solve starts with it and updates it by Broyden's rank-one rule at each point it
+    accepts instead of differencing the model again there (a quasi-Newton least squares;
+    its final σ are the updated Jacobian's). Without the robust loss only."""
+    assert jac0 is None or not robust
     n = prob.n_groups
     declared: dict[str, Param] = dict(base.param_list())
     ps = calibration_set(
@@ -94,6 +109,7 @@ def calibrate(
         a_max,
     )  # fmt: skip
     lb, ub = ps.bounds()
+    scales = np.array([q.scale for q in ps.items], dtype=float)
     p0 = np.clip(ps.theta0(), lb, np.where(ub > lb, ub - 1e-12 * np.maximum(np.abs(ub), 1), ub))
     shared = ps.span(GLOBAL, TERM)  # one Jacobian column each
     bc_at, bt_at = ps.span(AREA_BC), ps.span(AREA_BT)  # all areas in one evaluation
@@ -106,25 +122,35 @@ def calibrate(
         spec = prob.spec_with(ps.values(p, GLOBAL))
         return DamperModel(spec, base.terms, base.values).with_values(ps.values(p, TERM))
 
+    def evaluated(p: FloatArray) -> FloatArray:
+        model = model_at(p)
+        r = prob.force(model, ps.vector(p, AREA_BC), ps.vector(p, AREA_BT)) - prob.f
+        pen = model.penalty()
+        return np.concatenate([r, penalty_weight * pen]) if pen.size else r
+
     def residual(p: FloatArray) -> FloatArray:
         key = p.tobytes()
         if key not in cache:
             cache.clear()
-            model = model_at(p)
-            r = prob.force(model, ps.vector(p, AREA_BC), ps.vector(p, AREA_BT)) - prob.f
-            pen = model.penalty()
-            cache[key] = np.concatenate([r, penalty_weight * pen]) if pen.size else r
+            cache[key] = evaluated(p)
         return cache[key]
 
     def jacobian(p: FloatArray) -> FloatArray:
-        r0 = residual(p).copy()
+        # A chamber's columns are one Newton step a chamber step from its trajectory at p
+        # (model/chamber.linearised: 1 balance a step where a solve takes 2.3), within the
+        # columns' own finite-difference error. So p is evaluated first, in the block.
+        with linearised():
+            return differenced(p)
+
+    def differenced(p: FloatArray) -> FloatArray:
+        r0 = evaluated(p)
         jac = np.zeros((r0.size, p.size))
         h = 1e-6 * np.maximum(np.abs(p), 0.1)
         h = np.where(p + h > ub, -h, h)
         for j in range(shared.start, shared.stop):
             q = p.copy()
             q[j] += h[j]
-            jac[:, j] = (residual(q) - r0) / h[j]
+            jac[:, j] = (evaluated(q) - r0) / h[j]
         m = prob.size
         if history:
             # A state carries each area's effect past reversal (a chamber's pressure, a
@@ -139,14 +165,14 @@ def calibrate(
             for at in (bc_at, bt_at):
                 q = p.copy()
                 q[at] += h[at]
-                dr = residual(q) - r0
+                dr = evaluated(q) - r0
                 for g in range(n):
                     rows = np.flatnonzero(in_group[g])  # the penalty rows stay 0
                     jac[rows, at.start + g] = dr[rows] / h[at.start + g]
             return jac
         q = p.copy()
         q[bc_at.start :] += h[bc_at.start :]
-        dr = residual(q) - r0
+        dr = evaluated(q) - r0
         _, v, _ = model_at(p).motion(prob.inputs)  # the split the areas follow
         comp, reb = v > 0, v < 0
         for g in range(n):
@@ -158,8 +184,26 @@ def calibrate(
 
     from scipy.optimize import least_squares  # here: a quarter of a second to import
 
+    quasi: dict[str, FloatArray] = {}
+
+    def updated(p: FloatArray) -> FloatArray:
+        """jac0 at the start; after, the last one with Broyden's update for the step to p:
+        J + (Δr - J s) sᵀ / sᵀs, which maps the step onto the change it made."""
+        r = residual(p)
+        if not quasi:
+            assert jac0 is not None and jac0.shape == (r.size, p.size)
+            jac = np.asarray(jac0 * scales, dtype=float)
+        else:
+            step = p - quasi["p"]
+            jac = quasi["jac"]
+            ss = float(step @ step)
+            if ss > 0:
+                jac = jac + np.outer(r - quasi["r"] - jac @ step, step / ss)
+        quasi.update(p=p.copy(), r=r.copy(), jac=jac)
+        return jac
+
     common: dict[str, Any] = {
-        "jac": jacobian,
+        "jac": jacobian if jac0 is None else updated,
         "bounds": (lb, ub),
         "method": "trf",
         "x_scale": "jac",
@@ -176,9 +220,16 @@ def calibrate(
         sol = least_squares(residual, sol.x, loss="soft_l1", f_scale=max(scale, 1e-3), **common)
         nfev += int(sol.nfev)
     p = sol.x
-    r_all = residual(p)
+    if robust:
+        r_all, jac = residual(p), jacobian(p)  # the soft-L1 solve's are its scaled ones
+    else:
+        # The solver's own residual and Jacobian at its end: trf evaluates both at every
+        # point it accepts, so these are residual(p) and jacobian(p) as computed there
+        # (a second Jacobian here was one of every nine model evaluations of a diagnosis).
+        r_all, jac = np.asarray(sol.fun), np.asarray(sol.jac)
+        if CHECK_SOLVER_JACOBIAN and jac0 is None:
+            assert np.array_equal(jac, jacobian(p)) and np.array_equal(r_all, residual(p))
     r = r_all[: prob.size]
-    jac = jacobian(p)
     dof = max(r.size - p.size, 1)
     tau = autocorrelation_factor(r, prob.test_id)
     s2 = float(np.sum(r * r)) / dof
@@ -197,4 +248,6 @@ def calibrate(
         tau=tau,
         nfev=nfev,
         cost_rms_n=math.sqrt(float(np.mean(r * r))),
+        jac=jac,
+        scales=scales,
     )

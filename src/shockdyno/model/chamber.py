@@ -40,6 +40,9 @@ compiled (numba), so a sweep's hundreds of thousands of samples take millisecond
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import Any
 
@@ -56,6 +59,14 @@ IntArray = NDArray[np.intp]
 
 MIN_PRESSURE_PA = 1.0  # absolute: air cannot be compressed to nothing nor stretched past it
 MAX_NEWTON = 100
+EPS = 2.220446049250313e-16  # machine epsilon of a double (numpy.finfo(float).eps)
+CONTENTS_ULPS = 16.0  # the balance's rounding, in ulps of the contents it subtracts
+# A guided step (`linearised`) is one Newton step where the flow law is smooth over this
+# many times the step: the step's error, its square times the law's curvature (√Δp's:
+# 1/(4Δp)), is then at most 1/400000 of it. 1000 left column errors of 1e-3 of the
+# column near the onset of vapour, where the flow turns through the piston and the
+# chamber amplifies what a step leaves; 1e5 leaves 1e-6, below the solved columns' own.
+GUIDE_REACH = 1.0e5
 PERIODIC_PASSES = 4
 MAX_STEP_S = 1.0e-3  # the chamber's own step, whatever the samples' spacing
 GAS_CAP = 0.9  # the contents may take at most this share of the gas column (beyond any damper)
@@ -135,7 +146,11 @@ def integrate(
     lam = np.zeros(x.size) if bleed_laminar is None else bleed_laminar
     gas = np.zeros(x.size) if gas_volume is None else gas_volume
     sc = np.ones(x.size) if dp_scale is None else dp_scale
-    dp, vap, pce, state = _recent_run(
+    guides = _GUIDES.get()
+    layout = (x.size, np.asarray(starts).tobytes(), np.asarray(dt_s).tobytes(), periodic)
+    guide = guides.get(layout) if guides is not None and not use_carry else None
+    g_pre, g_fin, g_used = guide if guide is not None else (_NONE, _NONE, _NO_PASSES)
+    dp, vap, pce, state, p_pre, p_fin, used = _recent_run(
         np.ascontiguousarray(x, dtype=float),
         np.ascontiguousarray(v, dtype=float),
         np.ascontiguousarray(p_c, dtype=float),
@@ -164,8 +179,41 @@ def integrate(
         periodic,
         cin,
         use_carry,
+        g_pre,
+        g_fin,
+        g_used,
     )
+    if guides is not None and guide is None and not use_carry:
+        guides[layout] = (p_pre, p_fin, used)
     return dp, vap, pce, state
+
+
+_NONE = np.zeros(0)
+_NO_PASSES = np.zeros(0, dtype=np.int64)
+# Within `linearised`: per layout of samples (size, segments, steps), the chamber pressure
+# of the first integration there, as a guide for the later ones.
+_GUIDES: ContextVar[dict[Any, tuple[FloatArray, FloatArray, NDArray[np.int64]]] | None] = (
+    ContextVar("chamber_guides", default=None)
+)
+
+
+@contextmanager
+def linearised() -> Iterator[None]:
+    """Within this block, the first integration of a set of samples is solved as always
+    and the later ones of the same samples (a Jacobian's columns: the model a small step
+    away in one parameter) take one Newton step per chamber step from its trajectory:
+    the perturbed step's root to first order in its distance from the first one's (the
+    error is that distance squared times the balance's curvature, of the order of the
+    column's own finite-difference error). A step near a kink of the balance (no flow,
+    a valve cracking or at full lift, the release pressure, vapour) is solved in full;
+    so is a segment the first integration needed more than its usual passes for. One
+    balance a step instead of 2.3. The guide is the first integration's, whatever the
+    cache held, so the results are a function of the inputs alone."""
+    token = _GUIDES.set({})
+    try:
+        yield
+    finally:
+        _GUIDES.reset(token)
 
 
 @njit(cache=True)
@@ -215,6 +263,11 @@ def _signed_flow(
     """q and dq/dd through the piston at drop d, the flow law taken at d / sc: a term
     that scales the algebraic solve's Δp by sc (the oil's temperature) scales the drop
     each flow needs by the same."""
+    if sc == 1.0:  # as a rule: no term scaled the solve
+        if d >= 0.0:
+            return _flow(d, a_bc, valves[0], c, k_leak, lam)
+        q, slope = _flow(-d, a_bt, valves[1], c, k_leak, lam)
+        return -q, slope
     e = d / sc
     if e >= 0.0:
         q, slope = _flow(e, a_bc, valves[0], c, k_leak, lam)
@@ -240,7 +293,8 @@ def _occupied(p: float, vol: float, air0: float, p0: float, c_oil: float) -> tup
 @njit(cache=True)
 def _gas(
     base: float,
-    p: float,
+    occ_now: float,
+    docc: float,
     vapour: float,
     vol: float,
     gas_volume: float,
@@ -249,19 +303,19 @@ def _gas(
     c_oil: float,
     n: float,
 ) -> tuple[float, float, float]:
-    """(p_c, dp_c/dp, dp_c/dV_vap): the chamber's contents beyond the rigid oil's volume
-    (air expanded below the charge, vapour) are oil the rebound chamber did not take, so
-    the gas column is that much shorter and p_c = base (V_g / (V_g - ΔV))^n. No gas column
-    given: p_c = base."""
+    """(p_c, dp_c/dp, dp_c/dV_vap) with the contents at occ_now (their slope docc): the
+    chamber's contents beyond the rigid oil's volume (air expanded below the charge,
+    vapour) are oil the rebound chamber did not take, so the gas column is that much
+    shorter and p_c = base (V_g / (V_g - ΔV))^n. No gas column given: p_c = base."""
     if gas_volume <= 0.0:
         return base, 0.0, 0.0
-    occ_now, docc = _occupied(p, vol, air0, p0, c_oil)
     occ_ref, _ = _occupied(p0, vol, air0, p0, c_oil)
     grow = occ_now - occ_ref + vapour
     cap = GAS_CAP * gas_volume
     if grow >= cap:  # beyond any damper: held, so the balance stays monotone
         return base * (gas_volume / (gas_volume - cap)) ** n, 0.0, 0.0
-    pc = base * (gas_volume / (gas_volume - grow)) ** n
+    ratio = gas_volume / (gas_volume - grow)
+    pc = base * (ratio if n == 1.0 else ratio**n)  # isothermal: no power to take
     per_volume = n * pc / (gas_volume - grow)
     return pc, per_volume * docc, per_volume
 
@@ -309,20 +363,21 @@ def _balance(
     r_cond: float,
     gas_volume: float,
     gas_n: float,
-) -> tuple[float, float, float, float]:
-    """(F, dF/dp, p_c, vapour) of a step ending at chamber pressure p (off the floor):
+) -> tuple[float, float, float, float, float]:
+    """(F, dF/dp, p_c, vapour, dp_c/dp) of a step ending at chamber pressure p (off the floor):
     F = V_vap,old + dt (Q - q(p_c - p)) - occ(p) + occ(p_old) - V_vap(p), the volume the
     step leaves unaccounted for. It rises strictly with p: q falls as p rises and p_c
     falls, the contents shrink, and less vapour forms or more condenses."""
     g, dg = 0.0, 0.0
     if has_floor:
         g, dg = _vapour_at(p, vap_old, floor, dt, r_form, r_cond)
-    pc, dpc_dp, dpc_dv = _gas(base, p, g, vol, gas_volume, air0, p0, c_oil, gas_n)
-    q, dq = _signed_flow(pc - p, a_bc, a_bt, valves, c, k_leak, lam, sc)
     occ, docc = _occupied(p, vol, air0, p0, c_oil)
+    pc, dpc_dp, dpc_dv = _gas(base, occ, docc, g, vol, gas_volume, air0, p0, c_oil, gas_n)
+    q, dq = _signed_flow(pc - p, a_bc, a_bt, valves, c, k_leak, lam, sc)
     f = vap_old + dt * (q_demand - q) - occ + occ_old - g
-    df = -dt * dq * (dpc_dp + dpc_dv * dg - 1.0) - docc - dg
-    return f, df, pc, g
+    dpc = dpc_dp + dpc_dv * dg
+    df = -dt * dq * (dpc - 1.0) - docc - dg
+    return f, df, pc, g, dpc
 
 
 @njit(cache=True)
@@ -331,7 +386,7 @@ def _bound(start: float, direction: float, width: float, args: tuple[Any, ...]) 
     has that sign: an upper bound (F > 0) or a lower one (F < 0)."""
     at = start + direction * width
     for _ in range(200):
-        f, _, _, _ = _balance(at, *args)
+        f = _balance(at, *args)[0]
         if direction * f > 0.0:
             break
         width *= 2.0
@@ -383,7 +438,8 @@ def _floor_balance(
     """(G, dG/dV, p_c) of a step ending at the floor with vapour V:
     G(V) = V - rest - dt (Q - q(p_c(floor, V) - floor)), the volume left unaccounted for.
     It rises in V: more vapour shortens the gas column, p_c rises and so does the outflow."""
-    pc, _, dpc_dv = _gas(base, floor, vv, vol, gas_volume, air0, p0, c_oil, gas_n)
+    occ, docc = _occupied(floor, vol, air0, p0, c_oil)
+    pc, _, dpc_dv = _gas(base, occ, docc, vv, vol, gas_volume, air0, p0, c_oil, gas_n)
     q, dq = _signed_flow(pc - floor, a_bc, a_bt, valves, c, k_leak, lam, sc)
     return vv - rest - dt * (q_demand - q), 1.0 + dt * dq * dpc_dv, pc
 
@@ -429,7 +485,12 @@ def _step(
     end unless the balance needs more vapour than that (the chamber falls below the
     floor, R_e > 0) or less (it rises above, condensing what is left at R_c).
     """
+    # Settled within 1e-12 of the step's flow, or within what the arithmetic resolves: the
+    # balance subtracts the chamber's contents (occ, of the order of the air's volume),
+    # which it cannot know better than a few ulps of them. At reversal (no flow) the first
+    # bound alone was below that rounding, so no iterate could meet it.
     tol = 1.0e-12 * (abs(q_demand) * dt + 1.0e-12) + 1.0e-22
+    tol += CONTENTS_ULPS * EPS * (abs(occ_old) + abs(vap_old) + abs(q_demand) * dt)
     lo, hi = -math.inf, math.inf
     if has_floor:
         # G(V) rises in V (`_floor_balance`); its root in [v_min, v_max] is the vapour at
@@ -460,6 +521,7 @@ def _step(
                 v_hi *= 2.0
             vv = min(max(vap_old, v_lo), v_hi)
             settled = False
+            moved = math.inf  # the last step's length (the safeguard below)
             for _ in range(MAX_NEWTON):
                 f, df, pc = _floor_balance(vv, *fargs)
                 if abs(f) <= tol:
@@ -470,8 +532,13 @@ def _step(
                 else:
                     v_lo = vv
                 step = vv - f / df
-                if not (v_lo < step < v_hi) or not math.isfinite(step):
+                if (
+                    not (v_lo < step < v_hi)
+                    or not math.isfinite(step)
+                    or abs(step - vv) > 0.5 * moved
+                ):
                     step = 0.5 * (v_lo + v_hi)
+                moved = abs(step - vv)
                 vv = step
                 if v_hi - v_lo <= 1.0e-12 * (vv + 1.0e-15):
                     break
@@ -510,8 +577,10 @@ def _step(
         p = 0.5 * (lo + hi)
     vv, pc = 0.0, base
     settled = False
+    moved = math.inf  # the last step's length (the safeguard below)
+    newton = math.inf  # the last step's length if it was Newton's, else inf
     for _ in range(MAX_NEWTON):
-        f, df, pc, vv = _balance(p, *args)
+        f, df, pc, vv, dpc = _balance(p, *args)
         if abs(f) <= tol:
             settled = True
             break
@@ -520,7 +589,13 @@ def _step(
         else:
             lo, lo_open = p, False
         step = p - f / df if df > 0.0 else math.nan
-        inside = math.isfinite(step)
+        # Newton's step must at least halve the last one (else bisect: a safeguarded
+        # Newton iteration, as Numerical Recipes' rtsafe). At reversal the flow law turns
+        # from one valve's √Δp to the other's, and Newton's steps there could cycle
+        # between the two sides of the root, each landing just inside the bracket: 100
+        # iterations later the step ended 350 Pa off its root on one side or the other,
+        # by the parity of the count, which the ninth digit of the air fraction decided.
+        inside = math.isfinite(step) and abs(step - p) <= 0.5 * moved
         if inside:
             if lo_open and not step > lo_at:
                 lo, lo_open = _bound(lo_from, -1.0, width, args), False
@@ -531,6 +606,21 @@ def _step(
             lo, hi = _pinned(lo, lo_open, lo_from, hi, hi_open, hi_from, width, args)
             lo_open = hi_open = False
             step = 0.5 * (lo + hi)
+        elif newton < math.inf and abs(step - p) ** 2 * df <= tol * newton:
+            # Newton's step after Newton's step: this one's error is at most its length
+            # times the rate the last two show (|δ|²/|δ_last|: a quadratic convergence's
+            # is far less), and that leaves the balance within tolerance. Its end is
+            # taken without the balance that would only confirm it (2.1 balances a step
+            # where that took 3.1); p_c to first order in the step (its error is the
+            # step's square), the vapour at the end exactly.
+            pc += dpc * (step - p)
+            if has_floor:
+                vv = _vapour_at(step, vap_old, floor, dt, r_form, r_cond)[0]
+            p = step
+            settled = True
+            break
+        newton = abs(step - p) if inside else math.inf
+        moved = abs(step - p)
         p = step
         # The bracket is at least this wide while a bound is still open.
         gap = (hi_at if hi_open else hi) - (lo_at if lo_open else lo)
@@ -540,8 +630,22 @@ def _step(
             if hi - lo <= 1.0e-12 * (abs(p) + 1.0):
                 break
     if not settled:  # else pc and vv are the settled pressure's already
-        _, _, pc, vv = _balance(p, *args)
+        _, _, pc, vv, _ = _balance(p, *args)
     return p, vv, pc
+
+
+@njit(cache=True)
+def _smooth_around(d: float, reach: float, sc: float, valves: FloatArray) -> bool:
+    """Whether the flow law is smooth within `reach` of the drop d: no change of
+    direction, no valve cracking or reaching its full lift in between."""
+    e, r = abs(d / sc), reach / sc
+    if e <= r:
+        return False
+    valve = valves[0] if d > 0.0 else valves[1]
+    face, preload, stiff, lift_max = valve[1], valve[2], valve[3], valve[4]
+    crack = preload / face
+    full = (stiff * lift_max + preload) / face
+    return bool(abs(e - crack) > r and abs(e - full) > r)
 
 
 @njit(cache=True)
@@ -574,14 +678,28 @@ def _run(
     periodic: bool,
     carry: FloatArray,
     use_carry: bool,
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    guide_pre: FloatArray,
+    guide_fin: FloatArray,
+    guide_used: NDArray[np.int64],
+) -> tuple[
+    FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.int64]
+]:
+    """(Δp, vapour, p_c, final state) per sample, and the trajectory a later call may be
+    guided by (`linearised`): the chamber pressure per sample in a periodic segment's
+    first (part) pass and in its last pass, and the passes each segment took. With a
+    guide (guide_used not empty), a segment whose guide took as many passes as this one
+    would at the least takes them, each step one Newton step from the guide's pressure
+    where the balance is smooth about it."""
     n = x.size
     air0 = alpha * a_r * length  # the air at p0: α of the chamber's mid-stroke volume
     dp = np.empty(n)
     vap = np.empty(n)
     pce = np.empty(n)
-    state = np.zeros(5)
+    p_pre = np.full(n, math.nan)
+    p_fin = np.full(n, math.nan)
     nseg = starts.size
+    used = np.zeros(nseg, dtype=np.int64)
+    state = np.zeros(5)
     for k in range(nseg):
         lo = starts[k]
         hi = starts[k + 1] if k + 1 < nseg else n
@@ -593,6 +711,11 @@ def _run(
         # from nearly the state the segment ends in: one full pass where that holds.
         preroll = periodic and not use_carry and hi - lo >= 8
         i0 = hi - (hi - lo) // 4 if preroll else lo
+        m = max(1, int(math.ceil(dt / MAX_STEP_S - 1e-9)))  # noqa: RUF046 (numba)
+        # Guided: the guide's passes, the least this segment takes (the part pass and one
+        # full), at one step a sample.
+        least = 2 if preroll else 1
+        guided = guide_used.size == nseg and guide_used[k] == least and m == 1
         # The step before's state, for BDF2 (NaN: none yet, the next step is Euler's).
         p_prev, vv_prev = math.nan, math.nan
         if use_carry:
@@ -606,20 +729,27 @@ def _run(
             d = p_c[i0] - p
         pci = p_c[i0]
         passes = (PERIODIC_PASSES + (1 if preroll else 0)) if periodic else 1
+        if guided:
+            passes = least
+        off = 0.0  # guided: the state's departure from the guide's at the step before
         for it in range(passes):
             p_start, v_start = p, vv
+            guide = guide_pre if preroll and it == 0 else guide_fin
             for i in range(i0 if it == 0 else lo, hi):
                 if i == i0 and it == 0 and not use_carry:
                     dp[i] = d  # the initial state is the first sample's
                     vap[i] = vv
                     pce[i] = p_c[i]
+                    p_pre[i] = p
+                    p_fin[i] = p
+                    if guided:
+                        off = p - guide[i]
                     continue
                 # Sub-steps of at most MAX_STEP_S between samples, inputs interpolated
                 # linearly: a vapour volume's refill ends within a millisecond, which a
                 # fit's 5 ms samples would place a whole step late. The first sample of
                 # a periodic pass follows the segment's last; of a carried call, the last
                 # call's (inputs held).
-                m = max(1, int(math.ceil(dt / MAX_STEP_S - 1e-9)))  # noqa: RUF046 (numba)
                 for j in range(1, m + 1):
                     w = j / m
                     k0 = i - 1 if i > lo else (hi - 1 if it > 0 else i)
@@ -630,39 +760,60 @@ def _run(
                     gv = gas_vol[k0] + w * (gas_vol[i] - gas_vol[k0])
                     h = dt / m
                     occ_old, _ = _occupied(p, vol, air0, p0, c_oil)
+                    guess = p
                     if vv == 0.0 and vv_prev == 0.0 and math.isfinite(p_prev):
                         occ_m, _ = _occupied(p_prev, vol, air0, p0, c_oil)
                         h, occ_old = 2.0 * h / 3.0, occ_old + (occ_old - occ_m) / 3.0
+                        # Newton's start on the line through the last two steps' ends
+                        # (they are a step apart) rather than at the last: 3.1 balances
+                        # a step where it took 3.6 (aerated-oil sweep, 1.5 Hz).
+                        guess = 2.0 * p - p_prev
                     p_prev, vv_prev = p, vv
-                    p, vv, pci = _step(
-                        p,
-                        occ_old,
-                        vv,
-                        base,
-                        a_q * vi,
-                        h,
-                        vol,
-                        a_bc[i],
-                        a_bt[i],
-                        k_leak[i],
-                        lam[i],
-                        sc[i],
-                        valves,
-                        c,
-                        air0,
-                        p0,
-                        c_oil,
-                        floor,
-                        has_floor,
-                        r_form,
-                        r_cond,
-                        gv,
-                        gas_n,
-                    )
+                    args = (
+                        vv, occ_old, base, a_q * vi, h, vol, a_bc[i], a_bt[i], k_leak[i],
+                        lam[i], sc[i], valves, c, air0, p0, c_oil, floor, has_floor, r_form,
+                        r_cond, gv, gas_n,
+                    )  # fmt: skip
+                    solve = True
+                    # Off the floor (and no vapour) only: the balance below the floor is
+                    # a finite formation's, or none.
+                    g = guide[i] + off if guided else math.nan
+                    if guided and not (has_floor and (vv != 0.0 or not g > floor)):
+                        # From the guide's pressure moved as this state departs from the
+                        # guide's: a shift common to both chambers (a gas charge's) moves
+                        # p with the drop unchanged, and Newton's step is then that
+                        # departure's change, not the whole shift.
+                        f, df, pc_g, vv_g, dpc = _balance(g, *args)
+                        delta = f / df if df > 0.0 else math.nan
+                        reach = GUIDE_REACH * abs(delta)
+                        if (
+                            math.isfinite(delta)
+                            and abs(delta) <= 1.0e-4 * (abs(g) + 1.0e3)
+                            and _smooth_around(pc_g - g, reach, sc[i], valves)
+                            and (not has_floor or (vv == 0.0 and g - reach > floor))
+                        ):
+                            p, vv, pci = g - delta, vv_g, pc_g - dpc * delta
+                            solve = False
+                    if solve and guided and math.isfinite(g):
+                        guess = g
+                    if solve:
+                        p, vv, pci = _step(
+                            guess, occ_old, vv, base, a_q * vi, h, vol, a_bc[i], a_bt[i],
+                            k_leak[i], lam[i], sc[i], valves, c, air0, p0, c_oil, floor,
+                            has_floor, r_form, r_cond, gv, gas_n,
+                        )  # fmt: skip
                     d = pci - p
+                    if guided:
+                        off = p - guide[i]
                 dp[i] = d
                 vap[i] = vv
                 pce[i] = pci
+                if preroll and it == 0:
+                    p_pre[i] = p
+                p_fin[i] = p
+            used[k] = it + 1
+            if guided:
+                continue
             if it + 1 < passes and not (preroll and it == 0):
                 close = abs(p - p_start) <= 1.0e-6 * (abs(p_start) + 1.0e3)
                 if close and abs(vv - v_start) <= 1.0e-12:
@@ -672,7 +823,7 @@ def _run(
         state[2] = d
         state[3] = p_prev
         state[4] = vv_prev
-    return dp, vap, pce, state
+    return dp, vap, pce, state, p_pre, p_fin, used
 
 
 # A Jacobian column of a parameter that acts after the chamber repeats its inputs exactly,

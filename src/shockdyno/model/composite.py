@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from shockdyno.errors import ConfigError
 from shockdyno.model.filters import segment_bounds
-from shockdyno.model.flow import solve_pressure_drop
+from shockdyno.model.flow import solve_signed_drop
 from shockdyno.model.gas import compression_pressure
 from shockdyno.model.params import Param
 from shockdyno.model.reading import Reading
@@ -342,25 +342,19 @@ def _samples(value: ArrayLike, n: int) -> FloatArray:
 def solve_flow(w: Work) -> FloatArray:
     spec = w.spec
     q = w.q_demand
-    dp = np.zeros_like(q)
-    common = (spec.discharge_coefficient, spec.oil_density_kg_m3)
     lam = w.bleed_laminar if w.bleed_laminar.size == q.size else np.zeros_like(q)
-    comp = q > 0
-    if np.any(comp):
-        dp[comp] = solve_pressure_drop(
-            q[comp],
-            w.bleed_compression_m2[comp],
-            spec.compression_valve,
-            *common,
-            w.k_leak[comp],
-            lam[comp],
-        )
-    reb = q < 0
-    if np.any(reb):
-        dp[reb] = -solve_pressure_drop(
-            q[reb], w.bleed_rebound_m2[reb], spec.rebound_valve, *common, w.k_leak[reb], lam[reb]
-        )
-    return dp
+    return solve_signed_drop(
+        q,
+        w.bleed_compression_m2,
+        w.bleed_rebound_m2,
+        spec.compression_valve,
+        spec.rebound_valve,
+        spec.discharge_coefficient,
+        spec.oil_density_kg_m3,
+        w.k_leak,
+        lam,
+        w.starts,
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -585,6 +579,8 @@ def chamber_pressure(
         return p_c
     finite = np.isfinite(gp)
     ratio = np.where(finite, gp / float(np.mean(gp[finite])), 1.0)
+    if np.all(ratio == 1.0):  # one charge for every test: p_c + gas * 0, bit for bit
+        return p_c
     gas = compression_pressure(spec, x, np.zeros_like(x))
     return np.asarray(p_c + gas * (ratio[inputs.segment_of_sample()] - 1.0), dtype=float)
 

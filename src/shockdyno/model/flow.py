@@ -106,6 +106,76 @@ def solve_pressure_drop(
 
 
 # error_model="numpy": a zero slope gives an infinite step (then bisected), not an exception.
+@njit(cache=True, error_model="numpy", inline="always")
+def _solve_one(
+    qi: float,
+    ab: float,
+    kli: float,
+    li: float,
+    c: float,
+    perim: float,
+    face: float,
+    preload: float,
+    k: float,
+    max_lift: float,
+    guess: float,
+) -> float:
+    """s = √Δp that passes flow qi >= 0: Newton inside a bracket each step keeps (module
+    docstring), from `guess` where it lies inside the first bracket (a neighbouring
+    sample's s: 2-3 iterations where the bracket's middle took 6-10), else its middle."""
+    # Upper bracket: each path alone needs at least the true Δp, so the bleed-alone and
+    # leak-alone drops bound it; so does the drop that passes q with the stack at full lift
+    # (or the full-lift pressure, if higher). With every path shut the damper is
+    # hydraulically locked: Δp is capped at S_MAX² rather than infinity.
+    p_full = (k * max_lift + preload) / face
+    slope_open = perim * face / k
+    # Test the divisor itself: c·A_b can underflow to 0 for a subnormal area.
+    if li > 0:
+        # A laminar land: the bleed alone passes q at λq/A² + (q/(cA))², and the
+        # stack alone (the bleed's share unknown) at full lift.
+        s_bleed = math.sqrt(li * qi / (ab * ab) + (qi / (c * ab)) ** 2) if ab > 0 else math.inf
+        a_full = perim * max_lift
+    else:
+        s_bleed = qi / (c * ab) if c * ab > 0 else math.inf
+        a_full = ab + perim * max_lift
+    s_leak = math.sqrt(qi / kli) if kli > 0 else math.inf
+    s_valve = max(qi / (c * a_full), math.sqrt(p_full)) if c * a_full > 0 else math.inf
+    hi = min(min(s_bleed, s_leak), min(s_valve, S_MAX))
+    lo = 0.0
+    s = guess if 0.0 < guess < hi else 0.5 * hi
+    tol = REL_TOL * qi + 1e-18
+    for _ in range(MAX_ITER):
+        s2 = s * s
+        raw = (s2 * face - preload) / k
+        area = perim * min(max(raw, 0.0), max_lift)
+        da = slope_open if 0 < raw < max_lift else 0.0
+        if li > 0:
+            # q_b = 2A²s²/(λ + D), D = √(λ² + 4A²s²/c²); dq_b/ds by the quotient rule.
+            a2 = ab * ab
+            dd = math.sqrt(li * li + 4 * a2 * s2 / (c * c))
+            qb = 2 * a2 * s2 / (li + dd)
+            dqb = (4 * a2 * s * (li + dd) - 2 * a2 * s2 * (4 * a2 * s / (c * c * dd))) / (
+                (li + dd) ** 2
+            )
+            h = qb + c * area * s + kli * s2 - qi
+            if abs(h) <= tol:
+                break
+            dh = dqb + c * area + c * s * da * 2 * s + 2 * kli * s
+        else:
+            h = c * (ab + area) * s + kli * s2 - qi
+            if abs(h) <= tol:
+                break
+            dh = c * (ab + area) + c * s * da * 2 * s + 2 * kli * s
+        if h < 0:
+            lo = s
+        if h > 0:
+            hi = s
+        step = s - h / dh  # a non-finite step is caught below and bisected
+        bad = not math.isfinite(step) or step <= lo or step >= hi
+        s = 0.5 * (lo + hi) if bad else step
+    return s
+
+
 @njit(cache=True, error_model="numpy")
 def _solve_s(
     q: FloatArray,
@@ -119,64 +189,92 @@ def _solve_s(
     k: float,
     max_lift: float,
 ) -> FloatArray:
-    """s = √Δp per sample: Newton inside a bracket each step keeps (module docstring)."""
+    """s = √Δp per sample, one direction's valve."""
     out = np.empty(q.size)
-    # Upper bracket: each path alone needs at least the true Δp, so the bleed-alone and
-    # leak-alone drops bound it; so does the drop that passes q with the stack at full lift
-    # (or the full-lift pressure, if higher). With every path shut the damper is
-    # hydraulically locked: Δp is capped at S_MAX² rather than infinity.
-    p_full = (k * max_lift + preload) / face
-    slope_open = perim * face / k
+    s = 0.0
     for i in range(q.size):
-        qi, ab, kli, li = q[i], a_b[i], kl[i], lam[i]
-        # Test the divisor itself: c·A_b can underflow to 0 for a subnormal area.
-        if li > 0:
-            # A laminar land: the bleed alone passes q at λq/A² + (q/(cA))², and the
-            # stack alone (the bleed's share unknown) at full lift.
-            s_bleed = math.sqrt(li * qi / (ab * ab) + (qi / (c * ab)) ** 2) if ab > 0 else math.inf
-            a_full = perim * max_lift
-        else:
-            s_bleed = qi / (c * ab) if c * ab > 0 else math.inf
-            a_full = ab + perim * max_lift
-        s_leak = math.sqrt(qi / kli) if kli > 0 else math.inf
-        s_valve = max(qi / (c * a_full), math.sqrt(p_full)) if c * a_full > 0 else math.inf
-        hi = min(min(s_bleed, s_leak), min(s_valve, S_MAX))
-        lo = 0.0
-        s = 0.5 * hi
-        tol = REL_TOL * qi + 1e-18
-        for _ in range(MAX_ITER):
-            s2 = s * s
-            raw = (s2 * face - preload) / k
-            area = perim * min(max(raw, 0.0), max_lift)
-            da = slope_open if 0 < raw < max_lift else 0.0
-            if li > 0:
-                # q_b = 2A²s²/(λ + D), D = √(λ² + 4A²s²/c²); dq_b/ds by the quotient rule.
-                a2 = ab * ab
-                dd = math.sqrt(li * li + 4 * a2 * s2 / (c * c))
-                qb = 2 * a2 * s2 / (li + dd)
-                dqb = (4 * a2 * s * (li + dd) - 2 * a2 * s2 * (4 * a2 * s / (c * c * dd))) / (
-                    (li + dd) ** 2
-                )
-                h = qb + c * area * s + kli * s2 - qi
-                if abs(h) <= tol:
-                    break
-                dh = dqb + c * area + c * s * da * 2 * s + 2 * kli * s
-            else:
-                h = c * (ab + area) * s + kli * s2 - qi
-                if abs(h) <= tol:
-                    break
-                dh = c * (ab + area) + c * s * da * 2 * s + 2 * kli * s
-            if h < 0:
-                lo = s
-            if h > 0:
-                hi = s
-            step = s - h / dh  # a non-finite step is caught below and bisected
-            bad = not math.isfinite(step) or step <= lo or step >= hi
-            s = 0.5 * (lo + hi) if bad else step
+        s = _solve_one(q[i], a_b[i], kl[i], lam[i], c, perim, face, preload, k, max_lift, s)
         out[i] = s
     return out
+
+
+@njit(cache=True, error_model="numpy")
+def _solve_signed(
+    q: FloatArray,
+    a_bc: FloatArray,
+    a_bt: FloatArray,
+    kl: FloatArray,
+    lam: FloatArray,
+    c: float,
+    valves: FloatArray,
+    first: NDArray[np.bool_],
+) -> FloatArray:
+    """Δp per sample through the valve of its flow's direction (rows of `valves`:
+    perimeter, face area, preload, stiffness, lift; compression's then rebound's); 0
+    where nothing flows. Each sample's Newton starts from the one before's root where
+    that flowed the same way in the same segment (`first`: a segment's first sample), so
+    a test's numbers do not depend on the test before it."""
+    out = np.zeros(q.size)
+    s = 0.0  # the sample before's s (0: none, or the other direction's)
+    for i in range(q.size):
+        qi = q[i]
+        if first[i]:
+            s = 0.0
+        if qi > 0:
+            vc = valves[0]
+            guess = s if i > 0 and q[i - 1] > 0 else 0.0
+            s = _solve_one(qi, a_bc[i], kl[i], lam[i], c, vc[0], vc[1], vc[2], vc[3], vc[4], guess)
+            out[i] = s * s
+        elif qi < 0:
+            vr = valves[1]
+            guess = s if i > 0 and q[i - 1] < 0 else 0.0
+            s = _solve_one(-qi, a_bt[i], kl[i], lam[i], c, vr[0], vr[1], vr[2], vr[3], vr[4], guess)
+            out[i] = -(s * s)
+        else:
+            s = 0.0
+    return out
+
+
+def solve_signed_drop(
+    q_m3_s: FloatArray,
+    bleed_compression_m2: FloatArray,
+    bleed_rebound_m2: FloatArray,
+    compression: ShimStack,
+    rebound: ShimStack,
+    cd: float,
+    rho: float,
+    k_leak: FloatArray,
+    laminar: FloatArray,
+    starts: NDArray[np.intp] | None = None,
+) -> FloatArray:
+    """Δp per sample (signed as q: compression positive) for flows of either sign, each
+    through its own direction's bleed and valve; per-sample arrays of q's size, in
+    segments from `starts` (default one). The same as `solve_pressure_drop` on each
+    direction's samples apart, in one pass (no masks)."""
+    first = np.zeros(np.shape(q_m3_s), dtype=bool)
+    first[np.asarray(starts if starts is not None else [0], dtype=np.intp)] = True
+    valves = np.array(
+        [
+            [v.perimeter_m, v.face_area_m2, v.preload_n, v.stiffness_n_per_m, v.max_lift_m]
+            for v in (compression, rebound)
+        ]
+    )
+    return np.asarray(
+        _recent_signed(
+            np.ascontiguousarray(q_m3_s, dtype=float),
+            np.ascontiguousarray(bleed_compression_m2, dtype=float),
+            np.ascontiguousarray(bleed_rebound_m2, dtype=float),
+            np.ascontiguousarray(k_leak, dtype=float),
+            np.ascontiguousarray(laminar, dtype=float),
+            cd * math.sqrt(2 / rho),
+            valves,
+            first,
+        ),
+        dtype=float,
+    )
 
 
 # A Jacobian column of a parameter that acts after the flow solve repeats its inputs exactly
 # (friction + air: 12456 of 19676 solves repeated one of the last 8, 12664 of the last 16).
 _recent_solve = Recent(_solve_s, size=16)
+_recent_signed = Recent(_solve_signed, size=16)

@@ -231,29 +231,19 @@ def cavity_after(vc: float, p: float, k: FloatArray) -> float:
     rate = dv / math.sqrt(1.5 * k[RHO] * (abs(dv) + P_RATE_REG))
     a = k[H] * k[C_NUC] * rate
     c = vc + k[V_N]
-    u = c ** (1.0 / 3.0)
-    if a > 0.0:  # u³ - a u² - c = 0, one positive root; Newton from above
-        u = a + u
-        for _ in range(50):
-            g = u * u * u - a * u * u - c
-            dg = 3.0 * u * u - 2.0 * a * u
-            un = u - g / dg
-            if abs(un - u) <= 1e-12 * u:
-                u = un
-                break
+    # u³ - a u² - c = 0 in u = (V + V_n)^(1/3): one positive root whether the walls move
+    # out (a > 0) or in; Newton from above it converges without overshoot
+    u = max(a, 0.0) + c ** (1.0 / 3.0)
+    for _ in range(50):
+        g = u * u * u - a * u * u - c
+        dg = 3.0 * u * u - 2.0 * a * u
+        un = u - g / dg
+        if un <= 0.0:
+            un = 0.5 * u
+        if abs(un - u) <= 1e-12 * u:
             u = un
-    else:  # u³ + b u² - c = 0, b = -a
-        b = -a
-        for _ in range(50):
-            g = u * u * u + b * u * u - c
-            dg = 3.0 * u * u + 2.0 * b * u
-            un = u - g / dg
-            if un <= 0.0:
-                un = 0.5 * u
-            if abs(un - u) <= 1e-12 * u:
-                u = un
-                break
-            u = un
+            break
+        u = un
     out = u * u * u - k[V_N]
     return out if out > 0.0 else 0.0
 

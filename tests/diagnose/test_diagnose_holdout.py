@@ -8,20 +8,21 @@ effect and model it to near the clean sweep's own error."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pytest
+from plants import Made, assert_modelled, claimed_values
 
 from holdout.plant import Effects
 from holdout.recording import holdout_recording
 from shockdyno.diagnose.file import diagnose_file
 
-pytestmark = [pytest.mark.timeout(600), pytest.mark.slow]
+pytestmark = [pytest.mark.timeout(900), pytest.mark.slow]
 
 CLICKS = (2, 12)
-FREQS = (0.5, 1.0, 1.5)
+FREQS = (0.5, 1.5)
 SEED = 3  # the held-out plant's first seed no rule was looked at on
 # The middle of bench_holdout.py's fric_mid and contact_mid ranges, fixed before any
 # diagnosis of this plant was run in the suite.
@@ -35,65 +36,43 @@ HIDDEN = {
 
 
 @pytest.fixture(scope="module")
-def diagnosed(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Any]]:
-    out = {}
-    for name, fx in HIDDEN.items():
-        rec, truth = holdout_recording(
-            fx, tmp_path_factory.mktemp(name), SEED, clicks=CLICKS, freqs=FREQS
-        )
+def diagnosed(tmp_path_factory: pytest.TempPathFactory) -> Made:
+    def make(name: str) -> dict[str, Any]:
+        where = tmp_path_factory.mktemp(name)
+        rec, truth = holdout_recording(HIDDEN[name], where, SEED, clicks=CLICKS, freqs=FREQS)
         _, doc = diagnose_file(Path(rec))
-        out[name] = {"truth": truth.physics(), "doc": doc}
-    return out
+        (where / "DIAG.json").write_text(json.dumps(doc, default=str))  # to read after
+        return {"truth": truth.physics(), "doc": doc}
+
+    return Made(make)
 
 
-def _claimed(d: dict[str, Any], physics: str) -> dict[str, float]:
-    (f,) = [f for f in d["findings"] if f["physics"] == physics and f["claimed"]]
-    return {k: p["value"] for k, p in f["parameters"].items()}
+def test_a_clean_held_out_sweep_claims_nothing(diagnosed: Made) -> None:
+    d = diagnosed["clean"]
+    assert d["truth"] == []
+    assert d["doc"]["verdict"]["physics"] == [], d["doc"]["verdict"]["text"]
 
 
-def _assert_explained(d: dict[str, Any], clean: dict[str, Any]) -> None:
-    """Modelled to near the clean sweep's own level, and well below where it started."""
-    before = np.mean([t["E_t_before"] for t in d["tests"]])
-    after = np.mean([t["E_t_after"] for t in d["tests"]])
-    floor = np.mean([t["E_t_after"] for t in clean["tests"]])
-    assert after < 0.5 * before and after <= 1.5 * floor, (
-        before,
-        after,
-        floor,
-        d["verdict"]["text"],
-    )
+def test_a_held_out_seal_lip_is_named_friction_and_modelled(diagnosed: Made) -> None:
+    d = diagnosed["h-seal"]
+    assert d["truth"] == ["friction"]
+    assert d["doc"]["verdict"]["physics"] == ["friction"], d["doc"]["verdict"]["text"]
+    assert_modelled(d["doc"], diagnosed["clean"]["doc"])
 
 
-def test_the_plant_did_what_each_case_asks(diagnosed) -> None:
-    assert {n: d["truth"] for n, d in diagnosed.items()} == {
-        "clean": [],
-        "h-seal": ["friction"],
-        "h-bump": ["contact"],
-    }
-
-
-def test_a_clean_held_out_sweep_claims_nothing(diagnosed) -> None:
-    d = diagnosed["clean"]["doc"]
-    assert d["verdict"]["physics"] == [], d["verdict"]["text"]
-
-
-def test_a_held_out_seal_lip_is_named_friction_and_modelled(diagnosed) -> None:
-    d = diagnosed["h-seal"]["doc"]
-    assert d["verdict"]["physics"] == ["friction"], d["verdict"]["text"]
-    _assert_explained(d, diagnosed["clean"]["doc"])
-
-
-def test_a_held_out_bump_rubber_is_named_at_its_onset(diagnosed) -> None:
-    d = diagnosed["h-bump"]["doc"]
-    assert d["verdict"]["physics"] == ["contact"], d["verdict"]["text"]
-    assert _claimed(d, "contact")["bump_onset_m"] == pytest.approx(0.024, abs=0.002)
+def test_a_held_out_bump_rubber_is_named_at_its_onset(diagnosed: Made) -> None:
+    d = diagnosed["h-bump"]
+    assert d["truth"] == ["contact"]
+    assert d["doc"]["verdict"]["physics"] == ["contact"], d["doc"]["verdict"]["text"]
+    onset = claimed_values(d["doc"], "contact")["bump_onset_m"]
+    assert onset == pytest.approx(0.024, abs=0.002)
 
 
 @pytest.mark.xfail(
     strict=True,
     reason="a finding: the library's power-law bump leaves the rubber's densification and "
-    "rate hysteresis (measured at seed 3: E_t 0.1127 -> 0.0115 against the clean 0.0037, "
-    "3.1x)",
+    "rate hysteresis (seed 3: E_t 0.1191 -> 0.0116 against the clean 0.0040, 2.9x, 9.3 N "
+    "left in compression at 16-29 mm; the onset read at 22.0 mm where the rubber's is 24)",
 )
-def test_a_held_out_bump_rubber_is_modelled_to_the_clean_level(diagnosed) -> None:
-    _assert_explained(diagnosed["h-bump"]["doc"], diagnosed["clean"]["doc"])
+def test_a_held_out_bump_rubber_is_modelled_to_the_clean_level(diagnosed: Made) -> None:
+    assert_modelled(diagnosed["h-bump"]["doc"], diagnosed["clean"]["doc"])

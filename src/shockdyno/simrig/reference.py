@@ -33,14 +33,14 @@ Barnard & Thoma 2002), λ_c set so that the laminar limit is the slit's Poiseuil
   π h sin α (d - h sin α cos α) at lift h, smoothly capped at the seat's bore
   (A = A_f A_s / (A_f⁴ + A_s⁴)^¼), the seat's bore being the spec's open bleed area
   (`area_open_m2`: ≈ 3.9 mm compression, 2.3 mm rebound), the cone's half angle 45°
-  compression, 15° rebound (assumed), its land 3 mm (`needle_land_m`). The gas selector
+  compression, 15° rebound (assumed), its land 1 mm (`needle_land_m`). The gas selector
   opens a parallel jet of the spec's area per gas click.
 - the shim stacks: each a wedge beam (the shims as radial strips of width 2πr, clamped at
   the clamp radius, loaded at the outer edge, plate modulus E/(1 - ν²)), pre-bent by the
   spec's dish, stiffening as it bends (F = k₀ s (1 + c (s/t)²)), stopped by a backing shim
   past the spec's max lift; its lift follows the lift the pressure holds with an opening
   time and a (longer) closing time. The slit under it has the seat's perimeter and a
-  1 mm land (assumed).
+  0.3 mm land (`valve_land_m`).
 - the piston band: laminar flow through an eccentric annular gap (eccentricity 0.5:
   (1 + 1.5 ε²) the concentric gap's flow); the oil the band drags is left out (0.1 % of
   the swept flow).

@@ -1,7 +1,7 @@
 """Held-out benchmark of `shockdyno diagnose` on a plant its authors did not write.
 
-The plant (benchmarks/holdout/plant.py) is a monotube damper on a dyno written from first
-principles without reading the project's physics; benchmarks/holdout/sweep.py records a
+The plant (tests/holdout/plant.py) is a monotube damper on a dyno written from first
+principles without reading the project's physics; tests/holdout/sweep.py records a
 click sweep of it (clicks 2, 5, 10, 15, 20 × 0.5 / 1 / 1.5 Hz, 30 mm, 1 kHz, a ramped
 warm-up cycle + 4 measured cycles, state and heat carried test to test, rests between) in
 the CSV exchange format. For each case and seed this script writes the CSVs, runs the CLI as
@@ -60,7 +60,7 @@ pair_comp_fric   comp_mid + fric_mid.     pair_lag_contact   lag_mid + contact_m
 pair_thermal_fric thermal_mid + fric_lo.  pair_cav_lag       cav_mid + lag_lo.
 triple_comp_fric_lag  comp_mid + fric_mid + lag_mid.
 
-Visibility was checked only against the raw data (benchmarks/holdout/visibility.py: RMS
+Visibility was checked only against the raw data (benchmarks/holdout_visibility.py: RMS
 force difference from the clean sweep, per test, noise off; the numbers are in that file):
 at seed 0 every effect case differs from clean by 10-420 N RMS in its strongest tests
 (noise: 2 N); spec_gasvol by 4 N.
@@ -97,7 +97,8 @@ from typing import Any
 import numpy as np
 from scipy.stats import beta
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+# The plant and its sweep live with the tests (tests/holdout/), which diagnose it too.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from holdout.plant import Effects
 from holdout.sweep import run_sweep

@@ -1,43 +1,76 @@
-"""A reference damper plant written apart from the model the fit uses.
+"""A reference damper plant whose equations are not the fitting library's.
 
-The diagnosis fits the term library (`model/terms/`); a rig that evaluated the same code
-would only test the search against itself. This plant imports nothing from the model
-but the damper's description (`DamperSpec`: geometry, valves, bleed areas per click),
-and writes its physics in its own forms, as states integrated by a stiff solver
-(scipy's LSODA: BDF where stiff; Radau was as accurate, and stalled where the ram
-stops):
+The diagnosis fits the term library (`model/terms/`, with the paper's flow law, shim stack
+and bleed map); a rig that evaluated those equations, or re-typed them, would test the
+search against itself. This plant takes from the model package only the damper's
+description (`DamperSpec`: its geometry numbers, never its derived laws: not
+`bleed_areas`, not the shim stack's stiffness or preload force) and writes every effect in
+a form of its own. docs/diagnose.md has the table, form by form, plant against library.
 
-    p_r, p_k   rebound / compression chamber pressures, each a compliance
-               a₀ p₀/p² + (V - a₀ p₀/p)/β_oil (a fixed mass of isothermal air, a₀ = α of
-               the chamber's mid-stroke volume at p₀: Wood's law) filled by the flows
-               through the piston (the oil's mass passes: each side takes it at its
-               own density), the rod's and the gas piston's motion
-    y_g, u_g   floating gas piston: mass, gas spring p₀ (V_g/(V_g - A_g y_g))^n, seal
-    V_v        vapour / released gas in the rebound chamber: forms at rate
-               k_e (p_v - p_r) below the release pressure, condenses at k_c (p_r - p_v)
-    z          rod-seal bristle deflection (LuGre: Stribeck breakaway, presliding)
-    T_o, T_b   oil and body temperatures: oil <- dissipated power, oil -> body -> ambient
+Chambers. Both hold a fixed mass of oil that moves through the piston (mass, not volume,
+is what passes: each chamber takes it at its own density). The oil is a Tait liquid,
+v = v₀ (1 - C ln(1 + (p - p_atm)/B)), B = C K₀ (its tangent modulus K₀ at 1 atm rises
+with pressure by 1/C ≈ 11 per Pa), with free air mixed in it and carried with it (a fixed
+mass of air per kg of oil, polytropic with the bubbles' own index), so each chamber's air
+is that of the oil it holds, at its own pressure and volume. The floating piston is
+massless and frictionless; the gas behind it is an ideal gas with a temperature of its
+own, compressed adiabatically and relaxing to the wall over a thermal time (a gas spring
+between isothermal and adiabatic, with the small loop that leaves).
 
-Piston flow, Δp = p_k - p_r: each bleed is a laminar + turbulent resistance,
-Δp = R_l(T) q + R_t q|q| (R_l from Hagen-Poiseuille over a land, so viscosity acts on its
-laminar share); each shim stack opens smoothly (a softplus over its crack pressure, a
-rounded stop) to a
-turbulent orifice of its own discharge coefficient; the piston's gap leaks laminar flow
-and drags Couette flow. Viscosity follows the oil's temperature. A bump stop pushes
-k (x - x_b)^m past its onset. The sensor chain low-passes both channels (second-order
-Butterworth anti-alias) and samples the force channel `force_skew_s` after the position.
+Cavities. The rebound chamber holds a population of bubble nuclei. Below the release
+pressure p_v their walls move out at Rayleigh's speed, Ṙ = √(2 (p_v - p)/(3ρ)), and back in
+above it, so the cavity volume grows at N 4πR² Ṙ: nothing forms above p_v, and a stroke
+that outruns the flow pulls the chamber a little under it while the bubbles grow. Air
+comes out of solution through the cavities' walls while they stand (a desorption speed),
+and stays as free gas after they collapse, going back into solution over a time that
+shortens as the pressure rises.
 
-Defaults are a clean damper close to the paper's: oil as stiff as the paper assumes (100 GPa:
-mineral oil's 1.6 GPa is an effect here, as it lags visibly behind a nearly closed
-bleed), no air, vapour
-pressure 3 kPa, no breakaway beyond Coulomb, viscosity held, no bump stop, no skew.
+Piston flow, Δp = p_k - p_r. Each path is a slit-like passage whose discharge coefficient
+follows its flow number, C_d = C_d∞ tanh(2λ/λ_c) with λ = (D_h/ν) √(2Δp/ρ) (Borutzky,
+Barnard & Thoma 2002), λ_c set so that the laminar limit is the slit's Poiseuille flow:
+- the bleeds: the annulus between a tapered needle and its seat. The adjuster turns the
+  needle on a 0.5 mm thread, 4 clicks a turn (assumed); the annulus normal to the cone is
+  π h sin α (d - h sin α cos α) at lift h, smoothly capped at the seat's bore
+  (A = A_f A_s / (A_f⁴ + A_s⁴)^¼), the seat's bore being the spec's open bleed area
+  (`area_open_m2`: ≈ 3.9 mm compression, 2.3 mm rebound), the cone's half angle 45°
+  compression, 15° rebound (assumed), its land 1 mm (`needle_land_m`). The gas selector
+  opens a parallel jet of the spec's area per gas click.
+- the shim stacks: each a wedge beam (the shims as radial strips of width 2πr, clamped at
+  the clamp radius, loaded at the outer edge, plate modulus E/(1 - ν²)), pre-bent by the
+  spec's dish, stiffening as it bends (F = k₀ s (1 + c (s/t)²)), stopped by a backing shim
+  past the spec's max lift; its lift follows the lift the pressure holds with an opening
+  time and a (longer) closing time. The slit under it has the seat's perimeter and a
+  0.3 mm land (`valve_land_m`).
+- the piston band: laminar flow through an eccentric annular gap (eccentricity 0.5:
+  (1 + 1.5 ε²) the concentric gap's flow); the oil the band drags is left out (0.1 % of
+  the swept flow).
+Viscosity: the spec's 11 cSt held, or (`viscosity_at_100c_cst` > 0) Walther's ASTM D341
+line through the spec's 40 °C value and the 100 °C one: it acts on every passage's
+laminar share, the band's leak and the seal lip's drag.
+
+Rod seal: elasto-plastic (Dupont et al. 2002): a deflection z that is purely elastic up to
+a share of its steady value, then slides, dz/dx = 1 - α(z) z/z_ss, z_ss = g(v)/σ₀ with the
+Hess-Soom level g(v) = F_c + F_b/(1 + (v/v_s)²) (F_c the spec's friction), plus a lip's
+hydrodynamic drag ∝ (μ v)^0.4. Bump stop: an elastomer with an exponential backbone and a
+Maxwell branch in parallel (rate-dependent: loading above unloading), pushing only.
+Heat: oil ← the piston's dissipation, body ← the seal's, oil → body, body → ambient by
+natural convection (∝ ΔT^1.25). Sensors: the load cell's own mechanical resonance
+(second order), then a 4-pole Bessel anti-alias filter on both channels, and the force
+channel sampled `force_skew_s` after the position. The temperature channel is the body's.
+
+Integration: 8 implicit sub-steps a 1 kHz sample (reference_kernel.py, compiled),
+each solving both chambers' volume balances for the rebound pressure and the gas
+piston's travel.
+
+Defaults are a clean damper close to the paper's: oil as stiff as the paper assumes
+(K₀ 100 GPa), no air, release at 3 kPa, no breakaway beyond Coulomb, no lip drag,
+viscosity held, the gas's wall at its fill temperature, no bump stop, no skew.
 Scenario files select it with `[plant] kind = "reference"` (docs/scenarios.md).
 """
 
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 from typing import Annotated, Any
 
@@ -45,58 +78,76 @@ import numpy as np
 from msgspec import Meta
 from numpy.typing import NDArray
 
+from shockdyno.errors import ConfigError
 from shockdyno.model.spec import DamperSpec
-from shockdyno.schema import NonNegative, Positive, convert
+from shockdyno.schema import Fraction, NonNegative, Positive, convert
+from shockdyno.simrig import reference_kernel as kern
 
 FloatArray = NDArray[np.float64]
-P_ATM = 101_325.0
-# LSODA (BDF where the system is stiff, Adams where it is not): as accurate as Radau here
-# (0.006 N RMS apart on a sine, 0.12 N where vapour forms) and far quicker where the ram
-# stops, where the gas piston on its seal made Radau take 1.2 s for 40 samples (0.2 s).
-METHOD = "LSODA"
-FALLBACK = "Radau"  # where LSODA fails to converge (long offline sweeps, now and then)
-P_MIN = 500.0  # Pa absolute: the air law's floor (the vapour state keeps p_r above it)
+P_ATM = kern.P_ATM
+KELVIN = kern.KELVIN
+SUB_RATE_HZ = 8000.0  # implicit steps a second (8 a sample at 1 kHz)
+# The adjusters (assumptions: the spec gives areas, not needles).
+THREAD_PITCH_M = 0.5e-3
+CLICKS_PER_TURN = 4
+NEEDLE_HALF_ANGLE_DEG = (45.0, 15.0)  # compression, rebound
+SEAT_CAP_ORDER = 4.0
+BACKING_STOP = 30.0  # the backing shim's stiffness, × the stack's
+LEAK_ECCENTRICITY = 0.5
+LIP_REF_SPEED_M_S = 0.1
 
 
 @dataclass(frozen=True)
 class PlantParams:
     """A scenario's [plant] table (read through shockdyno.schema: the types are the checks)."""
 
-    # oil
-    oil_bulk_modulus_pa: Positive = 1.0e11  # the paper's rigid oil; mineral oil is 1.6e9
-    air_fraction: Annotated[float, Meta(ge=0, lt=0.5)] = 0.0  # free air by volume at the gas charge
-    release_pressure_pa: NonNegative = 3.0e3  # vapour / air release (absolute)
-    vapour_rate_m3_s_pa: NonNegative = 1.0e-7  # k_e: how fast vapour forms below p_v
-    condense_rate_m3_s_pa: NonNegative = 1.0e-8  # k_c: how fast it goes back above p_v
-    bleed_land_m: NonNegative = 0.004  # laminar length of a bleed passage
-    valve_discharge: Positive = 0.7
-    valve_smoothing_pa: Positive = 2.0e3  # softplus width of the stack's crack
+    # oil: a Tait liquid with entrained air carried in it
+    oil_bulk_modulus_pa: Positive = 1.0e11  # K₀ at 1 atm; mineral oil 1.6e9
+    air_fraction: Annotated[float, Meta(ge=0, lt=0.5)] = 0.0  # free air by volume at the charge
+    air_polytropic_index: Annotated[float, Meta(ge=1, le=1.4)] = 1.0
+    # cavities in the rebound chamber
+    release_pressure_pa: NonNegative = 3.0e3  # the cavities' inside: vapour + released air
+    nuclei_per_cm3: NonNegative = 200.0
+    nucleus_radius_m: Positive = 20e-6
+    gas_desorption_m_s: NonNegative = 1.0e-4  # air (at 1 atm) out per m² of cavity wall, per s
+    gas_resorption_time_s: Positive = 1.0  # at the charge; shorter at higher pressure
+    # flow paths
+    needle_land_m: Positive = 0.001  # the needle annulus's laminar length
+    valve_land_m: Positive = 3.0e-4  # the seat land under a shim stack's edge
+    discharge_coefficient: Positive = 0.7  # C_d∞ of every passage
+    valve_open_time_s: Positive = 3.0e-4
+    valve_close_time_s: Positive = 1.0e-3
+    valve_progression: NonNegative = 0.1  # c in F = k₀ s (1 + c (s/t)²)
     # gas
     gas_pressure_factor: Positive = 1.0  # × the spec's charge
     gas_volume_factor: Positive = 1.0  # × the spec's gas volume
-    polytropic_index: Positive = 1.0
-    gas_thermal_coupling: NonNegative = 0.0  # 1: the gas at the oil's temperature
-    gas_seal_n: NonNegative = 8.0
-    # rod seal (LuGre)
-    breakaway_n: NonNegative = 0.0  # above the spec's Coulomb friction
+    gas_heat_capacity_ratio: Annotated[float, Meta(ge=1, le=1.67)] = 1.4
+    gas_thermal_time_s: Positive = 0.02
+    gas_thermal_coupling: NonNegative = 0.0  # share of the body's warming the gas's wall sees
+    # rod seal: elasto-plastic, Hess-Soom level, lip drag
+    breakaway_n: NonNegative = 0.0  # static less sliding (F_s - F_c)
     stribeck_velocity_m_s: Positive = 0.005
-    seal_stiffness_n_m: NonNegative = 2.0e7
-    seal_damping_n_s_m: NonNegative = 0.0
-    seal_viscous_n_s_m: NonNegative = 0.0
-    # thermal network
-    viscosity_coeff_per_k: NonNegative = 0.0  # ν ∝ exp(-b (T_o - 40 °C))
+    seal_presliding_m: Positive = 10e-6  # steady deflection at the Coulomb level
+    seal_elastic_share: Fraction = 0.6  # purely elastic up to this share of it
+    lip_drag_n: NonNegative = 0.0  # at 0.1 m/s and 40 °C; ∝ (μ v)^0.4
+    # heat
+    viscosity_at_100c_cst: NonNegative = 0.0  # 0: the spec's viscosity held
     oil_heat_capacity_j_k: Positive = 300.0
     body_heat_capacity_j_k: Positive = 900.0
     oil_to_body_w_k: NonNegative = 6.0
-    body_to_ambient_w_k: NonNegative = 2.5
+    body_convection_w_k125: NonNegative = 1.0  # W / K^1.25
     heating_factor: NonNegative = 1.0  # × the dissipated power that reaches the oil
     start_temperature_c: Annotated[float, Meta(ge=-273.15)] = math.nan  # NaN: the rig's ambient
     # bump stop
     bump_onset_m: NonNegative = math.inf
-    bump_force_at_10mm_n: NonNegative = 0.0
-    bump_exponent: NonNegative = 2.3
+    bump_force_at_10mm_n: NonNegative = 0.0  # the backbone's force 10 mm past the onset
+    bump_length_m: Positive = 0.006  # the backbone's e-folding compression
+    bump_loss_share: NonNegative = 0.3  # the Maxwell branch's stiffness, × F_10 / 10 mm
+    bump_relaxation_time_s: Positive = 0.05
     # sensors
-    anti_alias_hz: Positive = 400.0
+    anti_alias_hz: Positive = 300.0  # 4-pole Bessel, -3 dB
+    load_cell_hz: Positive = 1500.0
+    load_cell_damping: Positive = 0.05
     force_skew_s: NonNegative = 0.0
 
     @staticmethod
@@ -106,179 +157,313 @@ class PlantParams:
 
 @dataclass
 class PlantState:
-    y: FloatArray  # p_r, p_k, y_g, u_g, V_v, z, T_o, T_b
+    s: FloatArray  # the kernel's state (reference_kernel.S)
+    ring: FloatArray  # the force channel's recent filtered sub-samples
     t_s: float
     x_m: float
     v_m_s: float
-    force_zi: FloatArray
-    pos_zi: FloatArray
-    skew_buf: FloatArray  # the last force samples, for the channel skew
+    a_m_s2: float
+
+
+def needle_area(clicks: float, seat_m: float, half_angle_deg: float) -> float:
+    """Flow area of a tapered needle `clicks` out of its seat: the cone's annulus normal to
+    its surface, smoothly capped at the seat's bore."""
+    h = clicks * THREAD_PITCH_M / CLICKS_PER_TURN
+    if h <= 0.0:
+        return 0.0
+    sa, ca = math.sin(math.radians(half_angle_deg)), math.cos(math.radians(half_angle_deg))
+    across = max(seat_m - h * sa * ca, 0.0)
+    cone = math.pi * h * sa * across
+    bore = math.pi / 4 * seat_m**2
+    if cone <= 0.0:
+        return bore
+    return float(
+        cone * bore / (cone**SEAT_CAP_ORDER + bore**SEAT_CAP_ORDER) ** (1 / SEAT_CAP_ORDER)
+    )
+
+
+def wedge_beam_stiffness(
+    n: int, thick: float, outer_m: float, clamp_m: float, e_pa: float, nu: float
+) -> float:
+    """A shim stack's edge stiffness as radial strips of width 2πr (no hoop stress),
+    clamped at the clamp radius b and loaded at the outer radius a (unit-load method):
+    k = n π E' t³ / (6 [a² ln(a/b) - 2a(a - b) + (a² - b²)/2]), E' = E/(1 - ν²)."""
+    a, b = outer_m / 2, clamp_m / 2
+    span = a * a * math.log(a / b) - 2 * a * (a - b) + (a * a - b * b) / 2
+    return n * math.pi * e_pa / (1 - nu * nu) * thick**3 / (6 * span)
+
+
+def _walther(nu40_cst: float, nu100_cst: float) -> tuple[float, float]:
+    """(A, B) of log10 log10(ν + 0.7) = A - B log10 T through (40 °C, ν40), (100 °C, ν100)."""
+    t1, t2 = math.log10(40 + KELVIN), math.log10(100 + KELVIN)
+    y1 = math.log10(math.log10(nu40_cst + 0.7))
+    y2 = math.log10(math.log10(nu100_cst + 0.7))
+    b = (y1 - y2) / (t2 - t1)
+    return y1 + b * t1, b
 
 
 class ReferencePlant:
     """The plant: `run` gives a chunk of samples, carrying its state explicitly."""
 
     def __init__(self, spec: DamperSpec, params: PlantParams, fs_hz: float) -> None:
+        from scipy import signal  # here: scipy.signal takes a second to import
+
         self.spec = spec
-        self.p = params
+        self.p = p = params
         self.fs = fs_hz
+        self.m = max(1, round(SUB_RATE_HZ / fs_hz))
+        h = 1.0 / (fs_hz * self.m)
         s = spec
-        self.a_p = s.piston_area_m2
-        self.a_rod = s.rod_area_m2
-        self.a_a = self.a_p - self.a_rod
-        self.a_g = s.gas_piston_area_m2
-        self.v_gas = self.a_g * s.gas_length_m * params.gas_volume_factor
-        self.p0 = s.gas_pressure_pa * params.gas_pressure_factor
-        self.length = s.oil_column_m
-        # Each chamber's free air at the charge: α of its mid-stroke volume, a fixed amount.
-        self.air_r = params.air_fraction * self.a_a * self.length
-        self.air_k = params.air_fraction * self.a_p * self.length
-        self.couette = s.leak_gap_m / 2 * math.pi * s.piston_diameter_m
-        self.gap_coeff = (
-            s.leak_gap_m**3 * math.pi * s.piston_diameter_m / (12 * s.leak_land_length_m)
+        k = np.zeros(kern.NK)
+        K = kern.K
+        k[K["H"]] = h
+        a_p, a_rod = math.pi / 4 * s.piston_diameter_m**2, math.pi / 4 * s.rod_diameter_m**2
+        a_g = math.pi / 4 * s.gas_piston_diameter_m**2
+        k[K["A_P"]], k[K["A_A"]], k[K["A_ROD"]], k[K["A_G"]] = a_p, a_p - a_rod, a_rod, a_g
+        k[K["L_COL"]] = s.oil_column_m
+        k[K["M_ROD"]] = s.piston_rod_mass_kg
+        rho = s.oil_density_kg_m3
+        k[K["RHO"]], k[K["V0"]] = rho, 1.0 / rho
+        k[K["TAIT_B"]] = kern.TAIT_C * p.oil_bulk_modulus_pa
+        self.p0 = s.gas_pressure_pa * p.gas_pressure_factor
+        k[K["P0"]] = self.p0
+        k[K["KAPPA"]] = p.air_polytropic_index
+        k[K["W_AIR"]] = 0.0
+        # air per kg of oil: α of the mixture's volume at the charge
+        v_liq0 = kern.specific_volume(k, self.p0)
+        k[K["W_AIR"]] = p.air_fraction / (1.0 - p.air_fraction) * v_liq0
+        k[K["VG0"]] = a_g * s.gas_length_m * p.gas_volume_factor
+        k[K["GAMMA"]], k[K["TAU_G"]] = p.gas_heat_capacity_ratio, p.gas_thermal_time_s
+        k[K["COUPLING"]] = p.gas_thermal_coupling
+        k[K["P_V"]] = p.release_pressure_pa
+        n_b = p.nuclei_per_cm3 * 1e6 * (a_p - a_rod) * s.oil_column_m
+        k[K["N_B"]] = n_b
+        k[K["V_N"]] = n_b * 4 / 3 * math.pi * p.nucleus_radius_m**3
+        k[K["C_NUC"]] = (36 * math.pi * n_b) ** (1 / 3)
+        k[K["U_DES"]], k[K["TAU_RES"]] = p.gas_desorption_m_s, p.gas_resorption_time_s
+        k[K["CD"]] = p.discharge_coefficient
+        k[K["NEEDLE_LAND"]], k[K["VALVE_LAND"]] = p.needle_land_m, p.valve_land_m
+        k[K["TAU_OPEN"]], k[K["TAU_CLOSE"]] = p.valve_open_time_s, p.valve_close_time_s
+        k[K["LEAK_G"]] = (
+            math.pi
+            * s.piston_diameter_m
+            * s.leak_gap_m**3
+            * (1 + 1.5 * LEAK_ECCENTRICITY**2)
+            / (12 * s.leak_land_length_m)
         )
-        self.mu40 = s.oil_viscosity_cst * 1e-6 * s.oil_density_kg_m3
-        self.k_bump = (
-            params.bump_force_at_10mm_n / 0.010**params.bump_exponent
-            if params.bump_force_at_10mm_n > 0
-            else 0.0
-        )
-        self.valves = []
-        for v in (s.compression_valve, s.rebound_valve):
-            self.valves.append(
-                (v.perimeter_m, v.face_area_m2, v.preload_n, v.stiffness_n_per_m, v.max_lift_m)
+        for tag, v in (("C", s.compression_valve), ("R", s.rebound_valve)):
+            k[K[f"K0_{tag}"]] = wedge_beam_stiffness(
+                v.n_shims,
+                v.thickness_m,
+                v.outer_diameter_m,
+                v.clamp_diameter_m,
+                v.youngs_modulus_pa,
+                v.poisson,
             )
-        from scipy.signal import butter  # here: scipy.signal takes a second to import
-
-        b, a = butter(2, min(params.anti_alias_hz, 0.45 * fs_hz), fs=fs_hz)
-        self._aa_b, self._aa_a = np.asarray(b, float), np.asarray(a, float)
-        self._skew = params.force_skew_s * fs_hz
-        self.areas = (0.0, 0.0)
-
-    # -- physics ------------------------------------------------------------------------
-    def _viscosity(self, t_oil: float) -> float:
-        return self.mu40 * math.exp(-self.p.viscosity_coeff_per_k * (t_oil - 40.0))
-
-    def _bleed(self, dp: float, area: float, mu: float) -> float:
-        if area <= 0.0 or dp == 0.0:
-            return 0.0
-        rho = self.spec.oil_density_kg_m3
-        cd = self.spec.discharge_coefficient
-        r_t = rho / (2 * cd * cd * area * area)
-        d_h = math.sqrt(4 * area / math.pi)
-        r_l = 128 * mu * self.p.bleed_land_m / (math.pi * d_h**4)
-        mag = 2 * abs(dp) / (r_l + math.sqrt(r_l * r_l + 4 * r_t * abs(dp)))
-        return math.copysign(mag, dp)
-
-    def _valve(self, dp: float) -> float:
-        perim, face, preload, stiff, lift_max = self.valves[0 if dp > 0 else 1]
-        over = (abs(dp) * face - preload) / face  # Pa above the crack pressure
-        w = self.p.valve_smoothing_pa
-        soft = w * (math.log1p(math.exp(over / w)) if over < 30 * w else over / w)
-        r = soft * face / (stiff * lift_max)  # the stack's free lift over its stop
-        lift = lift_max * r / (1.0 + r**8) ** 0.125  # a rounded stop, not a clip
-        q = (
-            self.p.valve_discharge
-            * perim
-            * lift
-            * math.sqrt(2 * abs(dp) / self.spec.oil_density_kg_m3)
+            k[K[f"DISH_{tag}"]], k[K[f"T_{tag}"]] = v.preload_m, v.thickness_m
+            k[K[f"YMAX_{tag}"]], k[K[f"FACE_{tag}"]] = v.max_lift_m, v.face_area_m2
+            k[K[f"PERIM_{tag}"]] = math.pi * v.seat_diameter_m
+        k[K["PROG"]], k[K["STOP"]] = p.valve_progression, BACKING_STOP
+        k[K["MU40"]] = s.oil_viscosity_cst * 1e-6 * rho
+        if p.viscosity_at_100c_cst > 0:
+            if p.viscosity_at_100c_cst >= s.oil_viscosity_cst:
+                raise ConfigError(
+                    "plant.viscosity_at_100c_cst: must be below the spec's 40 °C viscosity "
+                    f"({s.oil_viscosity_cst:g} cSt), got {p.viscosity_at_100c_cst:g}"
+                )
+            k[K["WALTHER"]] = 1.0
+            k[K["WA"]], k[K["WB"]] = _walther(s.oil_viscosity_cst, p.viscosity_at_100c_cst)
+        k[K["FC"]], k[K["FB"]], k[K["VS"]] = s.friction_n, p.breakaway_n, p.stribeck_velocity_m_s
+        k[K["SIG0"]] = max(s.friction_n, 1.0) / p.seal_presliding_m
+        k[K["ZBA"]], k[K["LIP"]] = p.seal_elastic_share, p.lip_drag_n
+        k[K["XB"]], k[K["F10"]], k[K["LB"]] = (
+            p.bump_onset_m,
+            p.bump_force_at_10mm_n,
+            p.bump_length_m,
         )
-        return math.copysign(q, dp)
-
-    def _compliance(self, volume: float, air0: float, p: float) -> float:
-        """dV/dp of a chamber's contents: a fixed mass of air (air0 of volume at p0,
-        isothermal) and the oil that fills the rest. With the air's amount fixed, a cycle
-        returns the contents to their volume and moves no oil on balance (a compliance
-        V(x)·α p0/p², air scaled with the chamber, pumped oil through the piston every
-        cycle and drained the gas side by some 18 kPa a cycle at 2 % air)."""
-        pe = max(p, P_MIN)
-        air = air0 * self.p0 / pe
-        return air0 * self.p0 / (pe * pe) + max(volume - air, 0.0) / self.p.oil_bulk_modulus_pa
-
-    def _volumes_moved(self, q: float, p_r: float, p_k: float) -> tuple[float, float]:
-        """(volume arriving in the rebound chamber, volume leaving the compression
-        chamber) per second for a piston flow q (k -> r positive, at the upstream
-        pressure). The oil's mass is what passes: ρ(p_up) q, with ρ ∝ exp(p/β_oil), so
-        the side downstream takes it at its own, lower density. One volume for both
-        sides lost mass at ρ q Δp/β, the dissipated power over β: at 1.6 GPa the gas
-        piston ended 61 µm off after three 30 mm cycles (click 10, 1.5 Hz), and a
-        sweep's force fell 13 N below stiff oil's by its last test."""
-        up = p_k if q > 0.0 else p_r
-        beta = self.p.oil_bulk_modulus_pa
-        return q * math.exp((up - p_r) / beta), q * math.exp((up - p_k) / beta)
-
-    def _gas(self, y_g: float, t_oil: float) -> float:
-        v = max(self.v_gas - self.a_g * y_g, 0.05 * self.v_gas)
-        p = self.p0 * (self.v_gas / v) ** self.p.polytropic_index
-        k = self.p.gas_thermal_coupling
-        if k:
-            p *= 1 + k * ((t_oil + 273.15) / (40.0 + 273.15) - 1)
-        return float(p)
-
-    def _seal_g(self, v: float) -> float:
-        p = self.p
-        g = self.spec.friction_n + p.breakaway_n * math.exp(-((v / p.stribeck_velocity_m_s) ** 2))
-        return max(g, 1e-3)  # no seal friction at all: the bristles never load
-
-    def rates(self, y: FloatArray, x: float, v: float) -> tuple[FloatArray, float]:
-        """dy/dt and the rod force (without inertia) at state y, position x, velocity v."""
-        p_r, p_k, y_g, u_g, vap, z, t_o, t_b = y
-        p = self.p
-        a_bc, a_bt = self.areas
-        mu = self._viscosity(t_o)
-        dp = p_k - p_r
-        q = self._bleed(dp, a_bc if dp > 0 else a_bt, mu) + self._valve(dp)
-        q += self.gap_coeff / mu * dp + self.couette * v
-        if p_r < p.release_pressure_pa:
-            dvap = p.vapour_rate_m3_s_pa * (p.release_pressure_pa - p_r)
-        else:
-            dvap = -p.condense_rate_m3_s_pa * (p_r - p.release_pressure_pa) * vap / (vap + 1e-9)
-        v_r = self.a_a * max(self.length + x, 0.1 * self.length)
-        v_k = max(self.a_p * (self.length - x) + self.a_g * y_g, 0.1 * self.a_p * self.length)
-        q_r, q_k = self._volumes_moved(q, p_r, p_k)
-        dp_r = (q_r - self.a_a * v + dvap) / self._compliance(
-            max(v_r - vap, 0.1 * v_r), self.air_r, p_r
+        k[K["KM"]] = p.bump_loss_share * p.bump_force_at_10mm_n / 0.010
+        k[K["TAU_M"]] = p.bump_relaxation_time_s
+        k[K["C_O"]], k[K["C_B"]] = p.oil_heat_capacity_j_k, p.body_heat_capacity_j_k
+        k[K["G_OB"]], k[K["H_CONV"]] = p.oil_to_body_w_k, p.body_convection_w_k125
+        k[K["HEAT"]] = p.heating_factor
+        fs_sub = fs_hz * self.m
+        wn = 2 * math.pi * p.load_cell_hz
+        warped = 2 * fs_sub * math.tan(wn / (2 * fs_sub))  # the resonance where it is
+        b, a = signal.bilinear(
+            [warped**2], [1.0, 2 * p.load_cell_damping * warped, warped**2], fs=fs_sub
         )
-        dp_k = (self.a_p * v - self.a_g * u_g - q_k) / self._compliance(v_k, self.air_k, p_k)
-        f_gs = p.gas_seal_n * math.tanh(u_g / 0.002)
-        du_g = ((p_k - self._gas(y_g, t_o)) * self.a_g - f_gs) / self.spec.gas_piston_mass_kg
-        g = self._seal_g(v)
-        dz = v - p.seal_stiffness_n_m * abs(v) * z / g
-        f_seal = p.seal_stiffness_n_m * z + p.seal_damping_n_s_m * dz + p.seal_viscous_n_s_m * v
-        power = abs(dp * q) + abs(f_seal * v)
-        dt_o = (
-            p.heating_factor * power - p.oil_to_body_w_k * (t_o - t_b)
-        ) / p.oil_heat_capacity_j_k
-        dt_b = (
-            p.oil_to_body_w_k * (t_o - t_b) - p.body_to_ambient_w_k * (t_b - self._ambient)
-        ) / p.body_heat_capacity_j_k
-        force = p_k * self.a_p - p_r * self.a_a - P_ATM * self.a_rod + f_seal
-        if x > p.bump_onset_m:
-            force += self.k_bump * (x - p.bump_onset_m) ** p.bump_exponent
-        return np.array([dp_r, dp_k, u_g, du_g, dvap, dz, dt_o, dt_b]), force
+        self._set_sos(k, "LC", signal.tf2sos(b, a)[0])
+        f_aa = min(p.anti_alias_hz, 0.45 * fs_sub)
+        aa = signal.bessel(4, f_aa, norm="mag", fs=fs_sub, output="sos")
+        self._set_sos(k, "AA0", aa[0])
+        self._set_sos(k, "AA1", aa[1])
+        k[K["SKEW"]] = p.force_skew_s * fs_sub
+        self.ring_size = math.ceil(p.force_skew_s * fs_sub) + 3
+        self.k = k
+        self.fixed = self._gap_table()
+        # compile (or load the cache) now, not in the middle of a sweep's first batch
+        self.run(
+            np.array([0.0]),
+            np.zeros(1),
+            np.zeros(1),
+            np.zeros(1),
+            (0, 0),
+            self.initial(0.0, 40.0),
+            40.0,
+        )
+
+    @staticmethod
+    def _set_sos(k: FloatArray, tag: str, sec: FloatArray) -> None:
+        sec = np.asarray(sec, float) / float(sec[3])
+        base = kern.K[f"{tag}_B0"]
+        k[base : base + 3] = sec[:3]
+        k[base + 3 : base + 5] = sec[4:6]
+
+    def _gap_table(self) -> dict[str, float]:
+        s = self.spec
+        return {
+            "seat_c": math.sqrt(4 * s.compression_bleed.area_open_m2 / math.pi),
+            "seat_r": math.sqrt(4 * s.rebound_bleed.area_open_m2 / math.pi),
+        }
+
+    # -- the adjusters --------------------------------------------------------------------
+    def paths(self, clicks: int, gas_clicks: int, ambient_c: float) -> FloatArray:
+        """The kernel's per-run array: each needle's area and slit gap at these clicks, the
+        gas selector's jet, the ambient temperature."""
+        s = self.spec
+        top = s.compression_bleed.max_clicks
+        if not 0 <= clicks <= top:
+            raise ConfigError(f"rod clicks must be 0-{top}, got {clicks}")
+        if not 0 <= gas_clicks <= s.max_gas_clicks:
+            raise ConfigError(f"gas-bottle clicks must be 0-{s.max_gas_clicks}, got {gas_clicks}")
+        f = np.zeros(kern.NF)
+        for i, (seat, law, angle) in enumerate(
+            (
+                (self.fixed["seat_c"], s.compression_bleed, NEEDLE_HALF_ANGLE_DEG[0]),
+                (self.fixed["seat_r"], s.rebound_bleed, NEEDLE_HALF_ANGLE_DEG[1]),
+            )
+        ):
+            area = law.area_closed_m2 + needle_area(clicks, seat, angle)
+            f[2 * i] = area
+            f[2 * i + 1] = area / (math.pi * seat)  # the slit of the seat's perimeter
+        jet = max(s.rebound_bleed.area_per_gas_click_m2 * gas_clicks, 0.0)
+        f[kern.F_AJ] = jet
+        f[kern.F_GJ] = math.sqrt(jet / math.pi)  # a round jet: its radius as the gap
+        f[kern.F_AMB] = ambient_c
+        return f
 
     # -- chunks -------------------------------------------------------------------------
     def initial(self, x0: float, ambient_c: float) -> PlantState:
-        self._ambient = ambient_c
+        """At rest at x0: filled at mid-stroke at the charge and the start temperature, the
+        gas piston where the rod's volume has pushed it."""
+        k, S = self.k, kern.S
         t0 = ambient_c if math.isnan(self.p.start_temperature_c) else self.p.start_temperature_c
-        # Static equilibrium at x0: the gas piston has taken the rod's volume.
-        y_g = self.a_rod * x0 / self.a_g
-        p = self._gas(y_g, t0)
-        y = np.array([p, p, y_g, 0.0, 0.0, 0.0, t0, t0])
-        from scipy.signal import lfilter_zi
+        k[kern.T_FILL] = t0 + KELVIN
+        a_a, a_p, a_g, col = k[kern.A_A], k[kern.A_P], k[kern.A_G], k[kern.L_COL]
+        v_fill = kern.specific_volume(k, self.p0)
+        m_tot = (a_a + a_p) * col / v_fill
+        vg0 = k[kern.VG0]
 
-        zi = lfilter_zi(self._aa_b, self._aa_a)
-        n_skew = math.ceil(self._skew) + 2
-        f0 = (p - P_ATM) * self.a_rod
+        def gas_p(y: float) -> float:
+            return float(self.p0 * vg0 / (vg0 - a_g * y))
+
+        def excess(y: float) -> float:
+            room = a_a * (col + x0) + a_p * (col - x0) + a_g * y
+            return float(m_tot * kern.specific_volume(k, gas_p(y)) - room)
+
+        lo, hi = -0.5 * vg0 / a_g, 0.9 * vg0 / a_g
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            if excess(mid) > 0:
+                lo = mid
+            else:
+                hi = mid
+        y_g = 0.5 * (lo + hi)
+        p = gas_p(y_g)
+        st = np.zeros(kern.NS)
+        st[S["PR"]] = st[S["PK"]] = p
+        st[S["YG"]], st[S["TG"]] = y_g, t0 + KELVIN
+        st[S["MR"]] = a_a * (col + x0) / kern.specific_volume(k, p)
+        st[S["MK"]] = m_tot - st[S["MR"]]
+        st[S["TO"]] = st[S["TB"]] = t0
+        st[S["X"]] = x0
+        f0 = (p - P_ATM) * k[kern.A_ROD]
+        st[S["FORCE"]] = f0
+        for tag, val in (("LC", f0), ("FAA0", f0), ("FAA1", f0), ("XAA0", x0), ("XAA1", x0)):
+            coef = "LC_B0" if tag == "LC" else f"AA{tag[-1]}_B0"
+            b0, b1, b2, a1, a2 = k[kern.K[coef] : kern.K[coef] + 5]
+            gain = (b0 + b1 + b2) / (1 + a1 + a2)
+            out = gain * val
+            st[S[f"{tag}_Z1"]] = out - b0 * val
+            st[S[f"{tag}_Z2"]] = b2 * val - a2 * out
         return PlantState(
-            y=y,
+            s=st,
+            ring=np.full(self.ring_size, f0),
             t_s=-1.0 / self.fs,
             x_m=x0,
             v_m_s=0.0,
-            force_zi=zi * f0,
-            pos_zi=zi * x0,
-            skew_buf=np.full(n_skew, f0),
+            a_m_s2=0.0,
         )
+
+    def run_detail(
+        self,
+        t: FloatArray,
+        x: FloatArray,
+        v: FloatArray,
+        a: FloatArray,
+        clicks: tuple[int, int],
+        state: PlantState,
+        ambient_c: float,
+    ) -> tuple[FloatArray, PlantState]:
+        """The kernel's rows for these samples (reference_kernel.advance: true force,
+        sensed force, sensed position, body and oil temperature, rebound pressure, cavity
+        volume, released air) and the new state. The motion between samples is the cubic
+        through each pair of samples' positions and speeds."""
+        n = t.size
+        m = self.m
+        x0 = np.concatenate([[state.x_m], x[:-1]])
+        v0 = np.concatenate([[state.v_m_s], v[:-1]])
+        a0 = np.concatenate([[state.a_m_s2], a[:-1]])
+        dt = np.diff(np.concatenate([[state.t_s], t]))
+        frac = (np.arange(1, m + 1) / m)[None, :]
+        s2, s3 = frac * frac, frac * frac * frac
+        d = dt[:, None]
+        xs = (
+            (2 * s3 - 3 * s2 + 1) * x0[:, None]
+            + (s3 - 2 * s2 + frac) * d * v0[:, None]
+            + (-2 * s3 + 3 * s2) * x[:, None]
+            + (s3 - s2) * d * v[:, None]
+        )
+        vs = (
+            (6 * s2 - 6 * frac) * x0[:, None] / d
+            + (3 * s2 - 4 * frac + 1) * v0[:, None]
+            + (-6 * s2 + 6 * frac) * x[:, None] / d
+            + (3 * s2 - 2 * frac) * v[:, None]
+        )
+        acc = a0[:, None] + frac * (a - a0)[:, None]
+        s = state.s.copy()
+        ring = state.ring.copy()
+        out = np.empty((8, n))
+        kern.advance(
+            s,
+            self.k,
+            self.paths(clicks[0], clicks[1], ambient_c),
+            ring,
+            np.ascontiguousarray(xs.ravel()),
+            np.ascontiguousarray(vs.ravel()),
+            np.ascontiguousarray(acc.ravel()),
+            m,
+            out,
+        )
+        new = PlantState(
+            s=s,
+            ring=ring,
+            t_s=float(t[-1]),
+            x_m=float(x[-1]),
+            v_m_s=float(v[-1]),
+            a_m_s2=float(a[-1]),
+        )
+        return out, new
 
     def run(
         self,
@@ -286,78 +471,30 @@ class ReferencePlant:
         x: FloatArray,
         v: FloatArray,
         a: FloatArray,
-        areas: tuple[float, float],
+        clicks: tuple[int, int],
         state: PlantState,
         ambient_c: float,
     ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, PlantState]:
         """(true force, sensed force, sensed position, body temperature, new state)."""
-        self.areas = areas
-        self._ambient = ambient_c
-        tt = np.concatenate([[state.t_s], t])
-        xx = np.concatenate([[state.x_m], x])
-        vv = np.concatenate([[state.v_m_s], v])
+        out, new = self.run_detail(t, x, v, a, clicks, state, ambient_c)
+        return out[0], out[1], out[2], out[3], new
 
-        def rhs(time: float, y: FloatArray) -> FloatArray:
-            xi = float(np.interp(time, tt, xx))
-            vi = float(np.interp(time, tt, vv))
-            return self.rates(y, xi, vi)[0]
+    # -- what the plant is --------------------------------------------------------------
+    def bulk_modulus_pa(self, p: float) -> float:
+        """The oil-and-air mixture's tangent bulk modulus at absolute pressure p."""
+        dp = 1e-4 * p
+        v = kern.specific_volume(self.k, p)
+        dv = kern.specific_volume(self.k, p + dp) - kern.specific_volume(self.k, p - dp)
+        return -v * 2 * dp / dv
 
-        def solve(method: str) -> Any:
-            from scipy.integrate import solve_ivp  # here: a third of a second to import
-
-            return solve_ivp(
-                rhs,
-                (float(tt[0]), float(tt[-1])),
-                state.y,
-                method=method,
-                t_eval=t,
-                rtol=1e-6,
-                atol=np.array([1.0, 1.0, 1e-9, 1e-6, 1e-12, 1e-9, 1e-4, 1e-4]),
-                max_step=float(tt[-1] - tt[0]) or 1e-3,
-            )
-
-        sol = None
-        with warnings.catch_warnings():
-            # LSODA says "repeated convergence failures" as a warning: take it as a failure
-            warnings.simplefilter("error", UserWarning)
-            try:
-                sol = solve(METHOD)
-            except (UserWarning, RuntimeError, ValueError):
-                sol = None
-        if sol is None or not sol.success:
-            sol = solve(FALLBACK)  # slower, and it has not failed where LSODA did
-        if not sol.success:
-            raise RuntimeError(f"reference plant: the integration failed ({sol.message})")
-        ys = sol.y
-        force = np.empty(t.size)
-        for i in range(t.size):
-            force[i] = self.rates(ys[:, i], float(x[i]), float(v[i]))[1]
-        force += self.spec.piston_rod_mass_kg * a
-        # Sensors: both channels through the anti-alias filter; the force channel sampled
-        # `force_skew_s` late (linear interpolation in the carried history).
-        from scipy.signal import lfilter
-
-        f_aa, fzi = lfilter(self._aa_b, self._aa_a, force, zi=state.force_zi)
-        x_aa, xzi = lfilter(self._aa_b, self._aa_a, x, zi=state.pos_zi)
-        hist = np.concatenate([state.skew_buf, f_aa])
-        pos = np.arange(state.skew_buf.size, hist.size) - self._skew
-        sensed = np.interp(pos, np.arange(hist.size), hist)
-        new = PlantState(
-            y=np.asarray(ys[:, -1], float),
-            t_s=float(t[-1]),
-            x_m=float(x[-1]),
-            v_m_s=float(v[-1]),
-            force_zi=np.asarray(fzi, float),
-            pos_zi=np.asarray(xzi, float),
-            skew_buf=hist[-state.skew_buf.size :],
-        )
-        return force, sensed, np.asarray(x_aa, float), ys[7].copy(), new
+    def viscosity_pa_s(self, t_c: float) -> float:
+        return kern.viscosity(self.k, t_c)
 
 
 @dataclass(frozen=True)
 class PlantTruth:
     """What the plant did, per sweep: the physics it actually showed (a release pressure
-    the chamber never reached made no vapour)."""
+    the chamber never reached made no cavities)."""
 
     max_vapour_m3: float
     oil_temperature_c: tuple[float, float]  # at the first and the last measured sample
@@ -382,9 +519,9 @@ def reference_sweep(
     seed: int = 0,
 ) -> tuple[list[Any], PlantTruth]:
     """A click sweep of the reference plant as a rig would record it, offline (no sockets:
-    for benchmarks, where a stiff solver is slower than a sim-rig's real time): tests in
-    order on one damper, its state (and its heat) carried from test to test, a rest at
-    mid-stroke between tests, warm-up cycles not kept. Returns TestData and the truth."""
+    for benchmarks and tests): tests in order on one damper, its state (and its heat)
+    carried from test to test, a rest at mid-stroke between tests, warm-up cycles not
+    kept. Returns TestData and the truth."""
     from shockdyno.record.types import TestData, TestMeta
 
     rng = np.random.default_rng(seed)
@@ -397,35 +534,26 @@ def reference_sweep(
     last_x = 0.0  # the rod is moved, never set: a jump would move no oil
 
     def advance(
-        x: FloatArray, v: FloatArray, a: FloatArray, areas: tuple[float, float]
-    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        x: FloatArray, v: FloatArray, a: FloatArray, c: int
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
         nonlocal state, clock, vapour, lowest
-        t = clock + dt * (1 + np.arange(x.size))
-        out = []
-        for lo in range(0, x.size, 2000):
-            s = slice(lo, lo + 2000)
-            got = plant.run(
-                np.asarray(t[s], dtype=float), x[s], v[s], a[s], areas, state, ambient_c
-            )
-            state = got[4]
-            out.append(got[:4])
-            vapour = max(vapour, float(state.y[4]))
-            lowest = min(lowest, float(state.y[0]))
+        t = np.asarray(clock + dt * (1 + np.arange(x.size)), dtype=np.float64)
+        out, state = plant.run_detail(t, x, v, a, (c, 0), state, ambient_c)
+        vapour = max(vapour, float(np.max(out[6])))
+        lowest = min(lowest, float(np.min(out[5])))
         clock = float(t[-1])
-        return tuple(np.concatenate([o[i] for o in out]) for i in range(4))  # type: ignore[return-value]
+        return out[1], out[2], out[3]
 
     for c in clicks:
-        bc, bt = spec.bleed_areas(c, 0)
-        areas = (float(bc), float(bt))
         for f in frequencies_hz:
             if last_x != 0.0:  # back to mid-stroke (the last test ended at the bottom)
                 s = np.arange(1, round(sample_rate_hz) + 1) * dt  # 1 s half-cosine move
                 move = last_x * (1 + np.cos(math.pi * s)) / 2
                 move_v = -last_x * math.pi / 2 * np.sin(math.pi * s)
                 move_a = -last_x * math.pi**2 / 2 * np.cos(math.pi * s)
-                advance(move, move_v, move_a, areas)
+                advance(move, move_v, move_a, c)
             rest = np.zeros(round(rest_s * sample_rate_hz))
-            advance(rest, rest, rest, areas)
+            advance(rest, rest, rest, c)
             w = 2 * math.pi * f
             n_warm = round((warmup_cycles + 0.75) / f * sample_rate_hz)
             n = round(cycles / f * sample_rate_hz)
@@ -434,16 +562,16 @@ def reference_sweep(
             # warm-up cycle, so nothing jerks.
             ramp = np.where(k < 1 / f, 0.5 - 0.5 * np.cos(math.pi * k * f), 1.0)
             x = amplitude_m * ramp * np.sin(w * k)
-            v = np.gradient(x, dt)
-            a = np.gradient(v, dt)
+            v = np.asarray(np.gradient(x, dt), dtype=np.float64)
+            a = np.asarray(np.gradient(v, dt), dtype=np.float64)
             vapour = 0.0 if not tests else vapour
-            _, f_s, x_s, temp = advance(x, v, a, areas)
+            f_s, x_s, temp = advance(x, v, a, c)
             last_x = float(x[-1])
             # Kept from the bottom of the stroke: a rig's recording starts anywhere but
             # exactly on a cycle's own up-crossing.
             first = n_warm
             keep = slice(first, first + n + 1)
-            temps.append(float(state.y[6]))
+            temps.append(float(state.s[kern.TO]))
             meta = TestMeta(
                 index=len(tests),
                 clicks=int(c),

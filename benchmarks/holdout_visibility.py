@@ -9,7 +9,7 @@ For the cavitation cases a second line compares with the same low charge and no 
 floor (the oil may take tension): what the void itself does, the charge aside (the charge is
 written in the manifest, so the lower gas force is no finding).
 
-    .venv/bin/python benchmarks/holdout/visibility.py [--seed S] [--only PREFIX] [--jobs J]
+    .venv/bin/python benchmarks/holdout_visibility.py [--seed S] [--only PREFIX] [--jobs J]
 
 Seed 0 (RMS force difference per test, N: min / median / max over the 15 tests; the force
 noise is 2 N):
@@ -41,7 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # bench_holdout
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the plant: tests/holdout
 
 import holdout.plant
 from bench_holdout import CASES, Case, draw

@@ -5,17 +5,23 @@ as a misaligned fixture's side load makes)."""
 
 from __future__ import annotations
 
+import base64
 from dataclasses import replace
+from html import unescape
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from shockdyno.diagnose.engine import Diagnosis, Settings, diagnose
+from shockdyno.diagnose.report import write_report
 from shockdyno.diagnose.verdict import to_json
 from shockdyno.fit.synthetic import synthetic_sweep
 from shockdyno.model import load_spec
 from shockdyno.model.kinematics import differentiate
 from shockdyno.record.types import TestData
+from shockdyno.report.build import build_report
+from shockdyno.units import IMPERIAL
 
 ONSET_M = -0.005  # the side load starts here and grows toward full extension
 RATE_N_PER_M = 1.5e3  # 1.5 N per mm: 37 N at -30 mm
@@ -71,3 +77,26 @@ def test_a_clean_sweep_gets_no_discovered_term() -> None:
     doc = to_json(d)
     claimed = [u for u in doc["verdict"]["unexplained"] if (u.get("term") or {}).get("claimed")]
     assert claimed == [], doc["verdict"]["text"]
+
+
+def _embedded_png(html: str) -> bytes:
+    start = html.index('src="data:image/png;base64,') + len('src="data:image/png;base64,')
+    return base64.b64decode(html[start : html.index('"', start)])
+
+
+def test_the_report_shows_it_with_a_figure_of_the_residual_against_what_it_follows(
+    side_load: Diagnosis, tmp_path: Path
+) -> None:
+    doc = to_json(side_load)
+    form = doc["verdict"]["unexplained"][0]["term"]["form"]
+    index = build_report([], tmp_path / "page", title="t", diagnose=doc)
+    html = unescape(index.read_text())
+    assert "What is left: described" in html and form in html
+    assert "the direction of motion, growing below" in html  # the signal, in words
+    png = _embedded_png(html)
+    assert png.startswith(b"\x89PNG") and len(png) > 5000
+    # the diagnose command's own page, in imperial units
+    page = write_report(side_load, doc, tmp_path / "diag", IMPERIAL)
+    text = unescape(page.read_text())
+    assert doc["verdict"]["unexplained"][0]["term"]["form_imperial"] in text
+    assert "lbf/in" in text and _embedded_png(text).startswith(b"\x89PNG")

@@ -443,9 +443,9 @@ def _discovered(
     elif rival and rival_share >= share:
         terms = sorted({t for k in rival for t in table.features[k].resembles})
         why = (
-            f"{' and '.join(table.features[k].label for k in rival)} explain as much "
+            f"signals of {' or '.join(terms)}'s form explain as much "
             f"({100 * rival_share:.0f} % against {100 * share:.0f} %): "
-            f"what {', '.join(terms)} would explain, not a new physics"
+            "the misfit of a named physics or one the search did not claim, not a new one"
         )
     return Discovered(
         coefficients, gain, detail, share, peak, not why, why, np.asarray(own, dtype=float)

@@ -54,6 +54,7 @@ from numpy.typing import NDArray
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.fitting import Fitted
 from shockdyno.model.filters import segment_bounds
+from shockdyno.units import SI, Units
 
 FloatArray = NDArray[np.float64]
 
@@ -78,6 +79,15 @@ class Feature:
     unit: str  # the feature's unit; a coefficient is in N per it
     family: str
     resembles: tuple[str, ...] = ()  # library terms (or calibrations) whose physics it is
+    # The lengths and areas the label and symbol name ({0}, {1}, ...), SI, each with its
+    # kind: "at" a position on the stroke, "len" a distance, "area" an area.
+    quantities: tuple[tuple[str, float], ...] = ()
+
+    def label_in(self, u: Units = SI) -> str:
+        return self.label.format(*(_quantity(k, v, u) for k, v in self.quantities))
+
+    def symbol_in(self, u: Units = SI) -> str:
+        return self.symbol.format(*(_quantity(k, v, u) for k, v in self.quantities))
 
     @property
     def unnamed(self) -> bool:
@@ -130,7 +140,18 @@ class Stroke:
         return np.linspace(self.lo_m, self.hi_m, N_KNOTS)
 
 
+def _quantity(kind: str, value: float, u: Units) -> str:
+    """A position, distance or area of a feature's words in the reader's units."""
+    ln, ll = u.length_per_m, u.length_label
+    if kind == "at":
+        return f"{ln * value:+.0f} {ll}" if not u.imperial else f"{ln * value:+.2f} {ll}"
+    if kind == "area":
+        return f"{ln**2 * value:.3g} {ll}²"
+    return f"{ln * value:.3g} {ll}"
+
+
 def _mm(x: float) -> str:
+    """A knot in a feature's key (keys stay SI: they name the feature, not a reading)."""
     return f"{1e3 * x:+.0f}"
 
 
@@ -291,95 +312,71 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
             lo = knots[i] if i > 0 else -np.inf
             hi = knots[j] if j < N_KNOTS - 1 else np.inf
             w = _band(x, lo, hi, edge)
-            where = _where(lo, hi)
-            sym = (
-                f"w[{_mm(knots[i]) if i > 0 else '…'},{_mm(knots[j]) if j < N_KNOTS - 1 else '…'}]"
-            )
+            where, sym, at = _where(lo, hi)
+
             add(
-                Feature(
-                    f"band{i}{j}*F_d",
-                    f"the damping force {where}",
-                    f"{sym}(x)·F_d",
-                    "1",
-                    "position × damping",
-                ),
+                Feature(f"band{i}{j}*F_d", f"the damping force {where}", f"{sym}·F_d", "1",
+                        "position × damping", (), at),
                 w * damping,
-            )
+            )  # fmt: skip
             for area, change in opened.items():
+                more = len(at)  # the area's place among the quantities
                 add(
                     Feature(
                         f"band{i}{j}*A+{1e6 * area:g}mm2",
-                        f"{1e6 * area:g} mm² more bleed {where}",
-                        f"{sym}(x)·ΔF_d(A+{1e6 * area:g} mm²)",
+                        f"{{{more}}} more bleed {where}",
+                        f"{sym}·ΔF_d(A + {{{more}}})",
                         "1",
                         "position × bleed",
+                        (),
+                        (*at, ("area", area)),
                     ),
                     w * change,
                 )
             add(
-                Feature(
-                    f"band{i}{j}*sgn_v",
-                    f"the direction of motion {where}",
-                    f"{sym}(x)·sgn ẋ",
-                    "1",
-                    "position × friction",
-                ),
+                Feature(f"band{i}{j}*sgn_v", f"the direction of motion {where}", f"{sym}·sgn ẋ",
+                        "1", "position × friction", (), at),
                 w * sign,
-            )
+            )  # fmt: skip
     for k in knots[1:-1]:
         below, above = np.maximum(k - x, 0.0), np.maximum(x - k, 0.0)
-        add(
-            Feature(
-                f"below{_mm(k)}*sgn_v",
-                f"the direction of motion, growing below x = {_mm(k)} mm",
-                f"({_mm(k)} mm − x)₊·sgn ẋ",
-                "m",
-                "position × friction",
-            ),
-            below * sign,
-        )
-        add(
-            Feature(
-                f"above{_mm(k)}*sgn_v",
-                f"the direction of motion, growing above x = {_mm(k)} mm",
-                f"(x − {_mm(k)} mm)₊·sgn ẋ",
-                "m",
-                "position × friction",
-            ),
-            above * sign,
-        )
-        add(
-            Feature(
-                f"below{_mm(k)}",
-                f"the displacement below x = {_mm(k)} mm",
-                f"({_mm(k)} mm − x)₊",
-                "m",
-                "position",
-                ("contact", "position_force"),
-            ),
-            below,
-        )
-        add(
-            Feature(
-                f"above{_mm(k)}",
-                f"the displacement above x = {_mm(k)} mm",
-                f"(x − {_mm(k)} mm)₊",
-                "m",
-                "position",
-                ("contact", "position_force"),
-            ),
-            above,
-        )
+        at = (("at", float(k)),)
+        for side, col, sym in (("below", below, "({0} − x)₊"), ("above", above, "(x − {0})₊")):
+            add(
+                Feature(
+                    f"{side}{_mm(k)}*sgn_v",
+                    f"the direction of motion, growing {side} x = {{0}}",
+                    f"{sym}·sgn ẋ",
+                    "m",
+                    "position × friction",
+                    (),
+                    at,
+                ),
+                col * sign,
+            )
+            add(
+                Feature(
+                    f"{side}{_mm(k)}",
+                    f"the displacement {side} x = {{0}}",
+                    sym,
+                    "m",
+                    "position",
+                    ("contact", "position_force"),
+                    at,
+                ),
+                col,
+            )
     # hysteresis of x: a seal's presliding turn
     for b in PLAY_HALF_WIDTHS_M:
         add(
             Feature(
                 f"play{1e3 * b:g}mm",
-                f"x through a play of ±{1e3 * b:g} mm",
-                f"(x − P_{1e3 * b:g}mm[x])/b",
+                "x through a play of ±{0}",
+                "(x − P_b[x])/b, b = {0}",
                 "1",
                 "hysteresis",
                 ("friction", "seal_turn"),
+                (("len", b),),
             ),
             (x - play(x, b, starts)) / b,
         )
@@ -388,11 +385,12 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
         add(
             Feature(
                 f"turn{1e3 * lam:g}mm",
-                f"the direction of motion, fading over {1e3 * lam:g} mm after a reversal",
-                f"sgn ẋ·e^(−s/{1e3 * lam:g} mm)",
+                "the direction of motion, fading over {0} after a reversal",
+                "sgn ẋ·e^(−s/{0})",
                 "1",
                 "hysteresis",
                 ("friction", "seal_turn"),
+                (("len", lam),),
             ),
             sign * np.exp(-travel / lam),
         )
@@ -416,15 +414,15 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
             Feature(
                 f"F_d{1e3 * lam:+g}mm",
                 (
-                    f"the damping force {1e3 * lam:g} mm of travel later (the force leads "
-                    "the measured motion)"
+                    "the damping force {0} of travel later (the force leads the measured motion)"
                     if lead
-                    else f"the damping force {-1e3 * lam:g} mm of travel earlier"
+                    else "the damping force {0} of travel earlier"
                 ),
-                f"[F_d(s{1e3 * lam:+g} mm) − F_d]",
+                "[F_d(s + {0}) − F_d]" if lead else "[F_d(s − {0}) − F_d]",
                 "1",
                 "force in travel",
                 () if lead else ("friction", "seal_turn"),
+                (("len", abs(lam)),),
             ),
             _travelled(damping_full, data, lam) - damping,
         )
@@ -449,9 +447,10 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
     return FeatureTable(tuple(f for f, _ in feats), np.column_stack([c for _, c in feats]))
 
 
-def _where(lo: float, hi: float) -> str:
+def _where(lo: float, hi: float) -> tuple[str, str, tuple[tuple[str, float], ...]]:
+    """A band's words, its symbol and the positions they name ({0}, {1})."""
     if not np.isfinite(lo):
-        return f"below x = {_mm(hi)} mm"
+        return "below x = {0}", "w[…, {0}](x)", (("at", hi),)
     if not np.isfinite(hi):
-        return f"above x = {_mm(lo)} mm"
-    return f"between x = {_mm(lo)} and {_mm(hi)} mm"
+        return "above x = {0}", "w[{0}, …](x)", (("at", lo),)
+    return "between x = {0} and {1}", "w[{0}, {1}](x)", (("at", lo), ("at", hi))

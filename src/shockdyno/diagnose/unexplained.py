@@ -44,8 +44,8 @@ def form_words(term: Discovered, u: Units = SI) -> str:
     """ "F ≈ (+1.2 ± 0.1 N/min)·t + (-0.05 ± 0.01)·w[-10,+10](x)·F_d", time in minutes."""
     parts = []
     for c in term.coefficients:
-        symbol = c.feature.symbol.replace("t", "t/min") if c.feature.unit == "s" else None
-        parts.append(f"({coefficient_text(c, u)})·{symbol or c.feature.symbol}")
+        symbol = "t/min" if c.feature.unit == "s" else c.feature.symbol_in(u)
+        parts.append(f"({coefficient_text(c, u)})·{symbol}")
     return "F ≈ " + " + ".join(parts)
 
 
@@ -72,7 +72,7 @@ def described_text(d: Described, remaining_rms_n: float, u: Units = SI) -> str:
         lines.append(
             "it follows "
             + ", ".join(
-                f"{f.feature.label} ({100 * f.share:.0f} % alone"
+                f"{f.feature.label_in(u)} ({100 * f.share:.0f} % alone"
                 + (f", as {' or '.join(f.feature.resembles)} would" if f.feature.resembles else "")
                 + ")"
                 for f in d.follows
@@ -100,7 +100,8 @@ def described_json(d: Described) -> dict[str, Any]:
     out["follows"] = [
         {
             "signal": f.feature.key,
-            "label": f.feature.label,
+            "label": f.feature.label_in(SI),
+            "label_imperial": f.feature.label_in(IMPERIAL),
             "family": f.feature.family,
             "share": f.share,
             "rises_with_it": f.sign > 0,
@@ -112,7 +113,8 @@ def described_json(d: Described) -> dict[str, Any]:
     if d.plot_feature is not None and d.plot:
         out["plot"] = {
             "signal": d.plot_feature.key,
-            "label": d.plot_feature.label,
+            "label": d.plot_feature.label_in(SI),
+            "label_imperial": d.plot_feature.label_in(IMPERIAL),
             "unit": d.plot_feature.unit,
             **d.plot,
         }
@@ -129,12 +131,16 @@ def _term_json(t: Discovered) -> dict[str, Any]:
         "coefficients": [
             {
                 "feature": c.feature.key,
-                "label": c.feature.label,
+                "label": c.feature.label_in(SI),
+                "label_imperial": c.feature.label_in(IMPERIAL),
                 "family": c.feature.family,
-                "symbol": c.feature.symbol,
+                "symbol": c.feature.symbol_in(SI),
+                "symbol_imperial": c.feature.symbol_in(IMPERIAL),
                 "value": _json_num(c.value),
                 "sd": _json_num(c.sd),
                 "unit": c.feature.coefficient_unit,
+                "text": coefficient_text(c, SI),
+                "text_imperial": coefficient_text(c, IMPERIAL),
             }
             for c in t.coefficients
         ],

@@ -186,7 +186,8 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
             "here; tests at two or more frequencies would separate them."
         )
     if d.described:  # what is left, described, with a discovered form (unexplained.py)
-        lines += [described_text(x, d.remaining.structured_rms_n, u) for x in d.described]
+        rms = d.remaining.structured_rms_n
+        lines += [in_units(described_text(x, rms, u), u) for x in d.described]
     elif d.unexplained.regions:
         r = d.unexplained.regions[0]
         vs, vl = (u.velocity_per_m_s, u.velocity_label) if u.imperial else (1.0, "m/s")

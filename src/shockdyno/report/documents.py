@@ -56,6 +56,7 @@ class Follows:
     signal: str
     label: str
     share: float  # of the structure left, explained by this signal alone
+    label_imperial: str | None = None
     rises_with_it: bool = True
     resembles: tuple[str, ...] = ()  # library terms whose physics the signal is
 
@@ -70,6 +71,10 @@ class Coefficient:
     value: float | None
     sd: float | None
     unit: str
+    label_imperial: str | None = None
+    symbol_imperial: str | None = None
+    text: str = ""  # value ± sd and unit in display units (SI, with time in minutes)
+    text_imperial: str = ""
 
 
 @dataclass(frozen=True)
@@ -96,6 +101,7 @@ class ResidualPlot:
     x: tuple[float, ...]
     residual: tuple[float, ...]
     term: tuple[float, ...] = ()
+    label_imperial: str | None = None
 
 
 @dataclass(frozen=True)

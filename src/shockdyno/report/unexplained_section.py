@@ -45,7 +45,8 @@ def figure_png(plot: ResidualPlot, units: Units = SI) -> bytes:
     if plot.term and len(plot.term) == len(plot.x):
         ax.plot(x, np.asarray(plot.term) * fn, ".", ms=3, color="#d62728", label="discovered term")
     ax.axhline(0.0, color="0.6", lw=0.8)
-    ax.set_xlabel(f"{plot.label}" + (f" ({label})" if label else ""))
+    name = plot.label_imperial if units.imperial and plot.label_imperial else plot.label
+    ax.set_xlabel(name + (f" ({label})" if label else ""))
     ax.set_ylabel(f"measured − model ({units.force_label})")
     ax.set_title("What is left (phase means, every test) against what it follows")
     ax.grid(alpha=0.3)
@@ -55,12 +56,15 @@ def figure_png(plot: ResidualPlot, units: Units = SI) -> bytes:
     return buf.getvalue()
 
 
-def _term_rows(term: UnnamedTerm) -> list[list[str]]:
-    def num(v: float | None, spec: str) -> str:
-        return "–" if v is None else format(v, spec)
-
+def _term_rows(term: UnnamedTerm, units: Units) -> list[list[str]]:
+    imperial = units.imperial
     return [
-        [c.label, c.symbol, num(c.value, "+.4g"), num(c.sd, ".2g"), c.unit]
+        [
+            (c.label_imperial if imperial and c.label_imperial else c.label),
+            (c.symbol_imperial if imperial and c.symbol_imperial else c.symbol),
+            (c.text_imperial if imperial and c.text_imperial else c.text)
+            or f"{c.value} ± {c.sd} {c.unit}",
+        ]
         for c in term.coefficients
     ]
 
@@ -79,7 +83,7 @@ def render_unexplained(page: Page, items: tuple[Unexplained, ...], units: Units 
                 ["signal", "share alone", "rises with it", "as a library term would"],
                 [
                     [
-                        f.label,
+                        f.label_imperial if units.imperial and f.label_imperial else f.label,
                         f"{100 * f.share:.0f} %",
                         "yes" if f.rises_with_it else "no (falls)",
                         ", ".join(f.resembles) or "– (none)",
@@ -103,16 +107,19 @@ def render_unexplained(page: Page, items: tuple[Unexplained, ...], units: Units 
                 warn=term.claimed,
             )
             page.table(
-                ["feature", "symbol", "coefficient", "± 1σ", "unit (SI)"],
-                _term_rows(term),
-                numeric=[False, False, True, True, False],
+                ["signal", "symbol", "coefficient (± 1σ)"],
+                _term_rows(term, units),
+                numeric=[False, False, True],
             )
-            if term.heldout_detail:
+            if term.heldout_detail and not units.imperial:  # its forces are N
                 page.paragraph(f"Held out (structure RMS per fold): {term.heldout_detail}.")
         if item.plot is not None and item.plot.x:
             data = base64.b64encode(figure_png(item.plot, units)).decode("ascii")
+            shown = item.plot.label
+            if units.imperial and item.plot.label_imperial:
+                shown = item.plot.label_imperial
             caption = (
-                f"The residual left (grey) against {item.plot.label}, and the discovered "
+                f"The residual left (grey) against {shown}, and the discovered "
                 "term's force (red): one point per test and phase bin."
             )
             page.raw(

@@ -100,3 +100,16 @@ def test_the_report_shows_it_with_a_figure_of_the_residual_against_what_it_follo
     text = unescape(page.read_text())
     assert doc["verdict"]["unexplained"][0]["term"]["form_imperial"] in text
     assert "lbf/in" in text and _embedded_png(text).startswith(b"\x89PNG")
+
+
+def test_one_setting_is_held_out_by_its_halves() -> None:
+    # One click at one frequency: the folds are its first and second halves in time.
+    tests = synthetic_sweep(load_spec(), [16], (1.0,), cycles=8, seed=12)
+    t = tests[0]
+    v, _ = differentiate(t.t, t.x)
+    load = RATE_N_PER_M * np.maximum(ONSET_M - t.x, 0.0) * np.tanh(v / 1e-3)
+    d = diagnose([replace(t, force=t.force + load)], settings=SETTINGS)
+    (left,) = d.described
+    assert left.term is not None
+    assert "half predicted" in left.term.heldout_detail, left.term.heldout_detail
+    assert "Still unexplained" in to_json(d)["verdict"]["text"]

@@ -144,7 +144,9 @@ def _quantity(kind: str, value: float, u: Units) -> str:
     """A position, distance or area of a feature's words in the reader's units."""
     ln, ll = u.length_per_m, u.length_label
     if kind == "at":
-        return f"{ln * value:+.0f} {ll}" if not u.imperial else f"{ln * value:+.2f} {ll}"
+        digits = 2 if u.imperial else 0
+        shown = round(ln * value, digits) + 0.0  # no "-0 mm" for a knot a hair below zero
+        return f"{shown:+.{digits}f} {ll}"
     if kind == "area":
         return f"{ln**2 * value:.3g} {ll}²"
     return f"{ln * value:.3g} {ll}"
@@ -152,7 +154,7 @@ def _quantity(kind: str, value: float, u: Units) -> str:
 
 def _mm(x: float) -> str:
     """A knot in a feature's key (keys stay SI: they name the feature, not a reading)."""
-    return f"{1e3 * x:+.0f}"
+    return f"{round(1e3 * x) + 0:+d}"
 
 
 def _band(x: FloatArray, lo: float, hi: float, edge: float) -> FloatArray:

@@ -433,6 +433,8 @@ def _discovered(
     share = _explained_share(r, phi, chosen)
     rival = greedy(r, phi, named, size)
     rival_share = _explained_share(r, phi, rival)
+    bases = [table.index(table.features[k].base) if table.features[k].base else k for k in chosen]
+    twin_share = _explained_share(r, phi, list(dict.fromkeys(bases)))
     why = ""
     if not chosen:
         why = "no feature explains any of it"
@@ -440,6 +442,12 @@ def _discovered(
         why = f"held-out gain {gain:.2g} < {s.unnamed_min_gain:g}"
     elif peak < effect_limit_n:
         why = f"its own force peaks at {peak:.2g} N, too small to matter"
+    elif bases != chosen and twin_share >= s.unnamed_position_share * share:
+        why = (
+            f"over the whole stroke the same signals explain {100 * twin_share:.0f} % (the "
+            f"bands {100 * share:.0f} %): not a force of part of the stroke, what the areas "
+            "or heat would take"
+        )
     elif rival and rival_share >= share:
         terms = sorted({t for k in rival for t in table.features[k].resembles})
         why = (

@@ -15,6 +15,8 @@ force less its gas, inertia and Coulomb parts; positions over the stroke the dat
 
 - time: the elapsed time t since the recording's first sample, and 1 - exp(-t/τ)
   (τ = 1, 3, 10 min): a load cell's zero drifting, the damper changing over a session.
+  Heat's (`thermal`) when the temperature channel moved with the elapsed time (by 1 K or
+  more, correlation 0.9 or more): the two cannot be told apart on such a recording.
 - temperature: T - T̄ and (T - T̄)·F_d: the oil's temperature, which `thermal` models.
 - motion: x, ẋ, |ẋ|ẋ, sgn ẋ, ẍ: the gas spring, a bleed's and a seal's laws, a moving
   mass: each a library term's or a calibration's.
@@ -22,7 +24,8 @@ force less its gas, inertia and Coulomb parts; positions over the stroke the dat
   changes over part of the stroke (a bypass groove, a position-sensitive valve, a
   scored tube).
 - position × bleed: w(x)·[F_d(A + ΔA) − F_d(A)], the model's damping force with ΔA more
-  bleed each way (the model's own flow law, each click's areas) over part of the stroke:
+  bleed each way (the model's own flow law, each click's areas) over part of the stroke
+  (over the whole stroke it is the areas' or heat's: the motion family):
   a bypass groove or port uncovered over part of the stroke (ΔA = 0.5-4 mm²; a
   coefficient near 1 is that path, a negative one a restriction).
 - position × friction: w(x)·sgn ẋ and (k - x)₊·sgn ẋ, (x - k)₊·sgn ẋ: friction that
@@ -63,6 +66,8 @@ SHIFTS_S = (-0.008, -0.004, -0.002, 0.002, 0.004, 0.008, 0.016)
 PLAY_HALF_WIDTHS_M = (2e-4, 5e-4, 1e-3, 2e-3)
 TURN_TRAVELS_M = (3e-4, 1e-3, 3e-3)
 FORCE_PLAY_SHARES = (0.02, 0.05, 0.1)
+WARMED_K = 1.0  # a temperature channel that moved this much over the recording
+WARMED_CORRELATION = 0.9  # ... in step with the elapsed time
 TRAVEL_SHIFTS_M = (-1e-3, 2e-4, 5e-4, 1e-3, 2e-3)
 EXTRA_AREAS_M2 = (0.5e-6, 1e-6, 2e-6, 4e-6)  # a second flow path, each way (the model's law)
 N_KNOTS = 7  # knots over the stroke, its ends included: 6 sixths
@@ -82,6 +87,9 @@ class Feature:
     # The lengths and areas the label and symbol name ({0}, {1}, ...), SI, each with its
     # kind: "at" a position on the stroke, "len" a distance, "area" an area.
     quantities: tuple[tuple[str, float], ...] = ()
+    # A feature of a band of the stroke: the key of the same signal over the whole stroke
+    # (what it follows if the band is not what matters).
+    base: str = ""
 
     def label_in(self, u: Units = SI) -> str:
         return self.label.format(*(_quantity(k, v, u) for k, v in self.quantities))
@@ -198,6 +206,21 @@ def travel_since_reversal(x: FloatArray, v: FloatArray, starts: Sequence[int]) -
     return out
 
 
+def _warmed_with_time(t: FloatArray, temp: FloatArray | None) -> bool:
+    """Whether the temperature channel followed the elapsed time over the recording (it
+    moved by WARMED_K at least, correlated with t by WARMED_CORRELATION): then a drift over
+    the session and the oil's heat cannot be told apart (a heat term's misfit followed the
+    session as closely as a load cell's drift would)."""
+    if temp is None:
+        return False
+    ok = np.isfinite(temp)
+    if np.count_nonzero(ok) < 3 or float(np.ptp(temp[ok])) < WARMED_K:
+        return False
+    if float(np.std(t[ok])) == 0.0:
+        return False
+    return abs(float(np.corrcoef(t[ok], temp[ok])[0, 1])) >= WARMED_CORRELATION
+
+
 def _force_play(force: FloatArray, share: float, starts: Sequence[int]) -> FloatArray:
     """P[F] − F, P the play operator of half-width `share` of each test's peak |F|."""
     out = np.empty_like(force)
@@ -260,8 +283,11 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
     def add(f: Feature, col: FloatArray) -> None:
         feats.append((f, np.asarray(col, dtype=float)))
 
-    # time: a zero drift, or the damper changing over the session
-    add(Feature("t", "the elapsed time", "t", "s", "time"), t)
+    # time: a zero drift, or the damper changing over the session; heat's when the
+    # temperature channel rose or fell with the session (no telling them apart then)
+    warmed = _warmed_with_time(t, inputs.temperature_c)
+    heat = ("thermal",) if warmed else ()
+    add(Feature("t", "the elapsed time", "t", "s", "time", heat), t)
     for tau in DRIFT_TAUS_S:
         add(
             Feature(
@@ -270,6 +296,7 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
                 f"(1 − e^(−t/{tau / 60:.0f} min))",
                 "1",
                 "time",
+                heat,
             ),
             1.0 - np.exp(-t / tau),
         )
@@ -305,6 +332,19 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
     )
     # position: bands and hinges over the stroke
     opened = {a: _damping_full(data, fitted, a)[1] - damping for a in EXTRA_AREAS_M2}
+    for area, change in opened.items():  # over the whole stroke: the areas', or heat's
+        add(
+            Feature(
+                f"A+{1e6 * area:g}mm2",
+                "{0} more bleed over the whole stroke",
+                "ΔF_d(A + {0})",
+                "1",
+                "motion",
+                ("bleed areas", "thermal"),
+                (("area", area),),
+            ),
+            change,
+        )
     knots = stroke.knots
     edge = EDGE_SHARE * (stroke.hi_m - stroke.lo_m)
     for i in range(N_KNOTS - 1):
@@ -318,7 +358,7 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
 
             add(
                 Feature(f"band{i}{j}*F_d", f"the damping force {where}", f"{sym}·F_d", "1",
-                        "position × damping", (), at),
+                        "position × damping", (), at, "F_d"),
                 w * damping,
             )  # fmt: skip
             for area, change in opened.items():
@@ -332,12 +372,13 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
                         "position × bleed",
                         (),
                         (*at, ("area", area)),
+                        f"A+{1e6 * area:g}mm2",
                     ),
                     w * change,
                 )
             add(
                 Feature(f"band{i}{j}*sgn_v", f"the direction of motion {where}", f"{sym}·sgn ẋ",
-                        "1", "position × friction", (), at),
+                        "1", "position × friction", (), at, "sgn_v"),
                 w * sign,
             )  # fmt: skip
     for k in knots[1:-1]:
@@ -353,6 +394,7 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
                     "position × friction",
                     (),
                     at,
+                    "sgn_v",
                 ),
                 col * sign,
             )

@@ -87,7 +87,9 @@ def build_rows(data: Data, fitted: Fitted, stroke: Stroke) -> tuple[Rows, Featur
     binned = data.binned(on.residual)
     jac, _ = binned_jacobian(data, on)
     table = feature_table(data, on, stroke)
-    phi = data.bin_matrix(table.values)
+    # a signal a model cannot give everywhere (a held chamber's NaN) explains nothing there
+    phi = np.nan_to_num(data.bin_matrix(table.values), nan=0.0, posinf=0.0, neginf=0.0)
+    jac = np.nan_to_num(jac, nan=0.0, posinf=0.0, neginf=0.0)
     rows = Rows(
         # measured − model (a Fitted's residual is model − measured): the force left out
         -np.concatenate([b.mean for b in binned]),
@@ -388,7 +390,9 @@ def discover(
 
 
 def _round(values: FloatArray) -> list[float]:
-    return [float(f"{v:.4g}") for v in np.asarray(values, dtype=float)]
+    """Four digits, as the figure needs them (a result file holds no NaN: 0 instead)."""
+    finite = np.nan_to_num(np.asarray(values, dtype=float), nan=0.0, posinf=0.0, neginf=0.0)
+    return [float(f"{v:.4g}") for v in finite]
 
 
 def _discovered(

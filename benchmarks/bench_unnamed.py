@@ -196,10 +196,12 @@ def summarise(rows: list[dict[str, Any]]) -> None:
     other = [o for o in rows if o["modelled"] is None]
     modelled = sum(bool(o["modelled"]) for o in effect)
     wrong_named = sum(bool(o["fp"]) for o in effect)
+    both = sum(bool(o["modelled"]) and not o["fp"] for o in effect)
     unnamed_fp = sum(bool(o["fp"]) for o in other)
     print(
         f"\nunnamed effects modelled (claimed, gain >= {MIN_GAIN}, the effect's family): "
-        f"{modelled}/{len(effect)}; with a wrong named physics claimed: {wrong_named}/{len(effect)}"
+        f"{modelled}/{len(effect)}; with a wrong named physics claimed: "
+        f"{wrong_named}/{len(effect)}; modelled and no wrong named physics: {both}/{len(effect)}"
     )
     print(f"discovered terms claimed on clean or named-effect sweeps: {unnamed_fp}/{len(other)}")
 

@@ -81,7 +81,7 @@ class Feature:
     key: str  # stable name (DIAG.json)
     label: str  # in words: "the elapsed time"
     symbol: str  # in a form: "t"
-    unit: str  # the feature's unit; a coefficient is in N per it
+    unit: str  # the feature's unit ("N": a force, whose coefficient is a share); SI
     family: str
     resembles: tuple[str, ...] = ()  # library terms (or calibrations) whose physics it is
     # The lengths and areas the label and symbol name ({0}, {1}, ...), SI, each with its
@@ -103,7 +103,8 @@ class Feature:
 
     @property
     def coefficient_unit(self) -> str:
-        return "N" if self.unit == "1" else f"N/{self.unit}"
+        """The unit of a coefficient on this feature: N per its unit (a force's: 1)."""
+        return {"1": "N", "N": "1", "N·K": "1/K"}.get(self.unit, f"N/{self.unit}")
 
 
 @dataclass(frozen=True)
@@ -311,7 +312,7 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
                     "T*F_d",
                     "the damping force as the temperature changes",
                     "(T − T̄)·F_d",
-                    "K",
+                    "N·K",
                     "temperature",
                     ("thermal",),
                 ),
@@ -327,7 +328,7 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
     add(Feature("sgn_v", "the direction of motion", "sgn ẋ", "1", "motion", ("friction",)), sign)
     add(Feature("a", "the acceleration", "ẍ", "m/s²", "motion", ("fixture_mass",)), a)
     add(
-        Feature("F_d", "the damping force", "F_d", "1", "motion", ("bleed areas", "valves")),
+        Feature("F_d", "the damping force", "F_d", "N", "motion", ("bleed areas", "valves")),
         damping,
     )
     # position: bands and hinges over the stroke
@@ -338,7 +339,7 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
                 f"A+{1e6 * area:g}mm2",
                 "{0} more bleed over the whole stroke",
                 "ΔF_d(A + {0})",
-                "1",
+                "N",
                 "motion",
                 ("bleed areas", "thermal"),
                 (("area", area),),
@@ -357,7 +358,7 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
             where, sym, at = _where(lo, hi)
 
             add(
-                Feature(f"band{i}{j}*F_d", f"the damping force {where}", f"{sym}·F_d", "1",
+                Feature(f"band{i}{j}*F_d", f"the damping force {where}", f"{sym}·F_d", "N",
                         "position × damping", (), at, "F_d"),
                 w * damping,
             )  # fmt: skip
@@ -368,7 +369,7 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
                         f"band{i}{j}*A+{1e6 * area:g}mm2",
                         f"{{{more}}} more bleed {where}",
                         f"{sym}·ΔF_d(A + {{{more}}})",
-                        "1",
+                        "N",
                         "position × bleed",
                         (),
                         (*at, ("area", area)),
@@ -445,7 +446,7 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
                 f"Fplay{100 * share:g}%",
                 f"the damping force through a play of ±{100 * share:g} % of its peak",
                 f"(P_{100 * share:g}%[F_d] − F_d)",
-                "1",
+                "N",
                 "force hysteresis",
             ),
             _force_play(damping, share, starts),
@@ -463,7 +464,7 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
                     else "the damping force {0} of travel earlier"
                 ),
                 "[F_d(s + {0}) − F_d]" if lead else "[F_d(s − {0}) − F_d]",
-                "1",
+                "N",
                 "force in travel",
                 () if lead else ("friction", "seal_turn"),
                 (("len", abs(lam)),),
@@ -482,7 +483,7 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
                     else f"the damping force {-1e3 * tau:g} ms earlier (the force lags the motion)"
                 ),
                 f"[F_d(t{1e3 * tau:+g} ms) − F_d]",
-                "1",
+                "N",
                 "force in time",
                 () if lead else ("sensor_lag", "compressibility"),
             ),

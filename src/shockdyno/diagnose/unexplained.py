@@ -29,6 +29,8 @@ def coefficient_text(c: Coefficient, u: Units = SI) -> str:
     unit = c.feature.unit
     scale, label = {
         "1": (fn, fl),
+        "N": (1.0, ""),  # a share of a force
+        "N·K": ((1 / 1.8, "/°F") if u.imperial else (1.0, "/K")),
         "s": (60.0 * fn, f"{fl}/min"),
         "K": ((fn / 1.8, f"{fl}/°F") if u.imperial else (fn, f"{fl}/K")),
         "m": (fn / ln, f"{fl}/{ll}"),
@@ -37,7 +39,7 @@ def coefficient_text(c: Coefficient, u: Units = SI) -> str:
         "m²/s²": (fn / ln**2, f"{fl}·s²/{ll}²"),
     }.get(unit, (1.0, c.feature.coefficient_unit))
     sd = f" ± {abs(scale * c.sd):.2g}" if math.isfinite(c.sd) else ""
-    return f"{scale * c.value:+.3g}{sd} {label}"
+    return f"{scale * c.value:+.3g}{sd}" + (f" {label}" if label else "")
 
 
 def form_words(term: Discovered, u: Units = SI) -> str:

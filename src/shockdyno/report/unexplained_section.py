@@ -29,6 +29,8 @@ def _axis(unit: str, units: Units) -> tuple[float, str]:
         return 1 / 60, "min"
     if unit == "m":
         return units.length_per_m, units.length_label
+    if unit == "N":
+        return units.force_per_n, units.force_label
     if unit == "1":
         return 1.0, ""
     return 1.0, unit

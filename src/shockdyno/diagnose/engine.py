@@ -38,6 +38,7 @@ from shockdyno.diagnose.candidates import (
 from shockdyno.diagnose.consistency import SENSOR, alike, delay_spread, inconsistent
 from shockdyno.diagnose.cycles import BinnedTest
 from shockdyno.diagnose.data import Data
+from shockdyno.diagnose.discover import Described, discover
 from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted, full_rate_force, refit
 from shockdyno.diagnose.locate import Location, locate
 from shockdyno.diagnose.settings import Settings as Settings
@@ -161,6 +162,8 @@ class Diagnosis:
     settings: Settings = field(default_factory=Settings)  # what the search used; the verdict too
     sensor: list[str] = field(default_factory=list)  # faults of the sensors, not physics
     short_tests: list[ShortTest] = field(default_factory=list)  # left out, see ShortTest
+    # What the search left (significant), described, with a discovered term (discover.py)
+    described: list[Described] = field(default_factory=list)
 
     @property
     def alpha(self) -> float:
@@ -855,6 +858,14 @@ def _diagnose(
     unexplained = (
         locate(data, final_binned, s) if remaining_stat.p_value < s.alpha else Location([], {})
     )
+    # -- physics outside the library (issue 45): describe what is left, try a form for it
+    described = []
+    if unexplained.regions:
+        report("unexplained: described", 0.97)
+        limit = _effect_limit(final_binned, force_peak, s)
+        rms = remaining_stat.structured_rms_n
+        described = [discover(data, base, final_binned, unexplained, rms, s, limit)]
+    # -- end of the hook
     freqs = {round(p.data.meta.frequency_hz, 3) for p in data.prepared}
     report("done", 1.0)
     return Diagnosis(
@@ -878,6 +889,7 @@ def _diagnose(
         settings=s,
         sensor=sensor,
         short_tests=short,
+        described=described,
     )
 
 

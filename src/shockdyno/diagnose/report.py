@@ -11,8 +11,9 @@ from shockdyno.diagnose.engine import Diagnosis
 from shockdyno.diagnose.plots import loops, residual_maps
 from shockdyno.diagnose.verdict import in_units
 from shockdyno.report.diagnose_section import spec_shown
-from shockdyno.report.documents import SpecUsed, typed
+from shockdyno.report.documents import SpecUsed, Verdict, typed
 from shockdyno.report.html import Page
+from shockdyno.report.unexplained_section import render_unexplained
 from shockdyno.units import SI, Units
 
 # The figures' names in DIR and their keys in DIAG.json's info.figures.
@@ -38,6 +39,8 @@ def write_report(d: Diagnosis, doc: dict[str, Any], out: Path, units: Units = SI
     page = Page("Diagnosis: where the model and the recording differ, and why")
     page.section("Verdict")
     page.paragraph(doc["verdict"]["text_imperial" if units.imperial else "text"])
+    # what is left, described, with its discovered term and figure (issue 45)
+    render_unexplained(page, typed(doc["verdict"], Verdict, "the verdict").unexplained, units)
     used = doc.get("info", {}).get("spec")
     if used is not None:
         page.paragraph(f"Damper spec: {spec_shown(typed(used, SpecUsed, 'info.spec'))}.")

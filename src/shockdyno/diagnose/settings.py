@@ -95,3 +95,18 @@ class Settings:
     frequency_growth: float = 1.5
     stroke_share: float = 0.75
     session_change: float = 0.4
+    # Physics outside the library (diagnose/discover.py): what the search leaves, while
+    # significant, is described (the `unnamed_follows` signals that explain most of it
+    # alone) and a discovered term of at most `unnamed_max_features` features tried for
+    # it: claimed ("unnamed: F ≈ ...") when it removes `unnamed_min_gain` of the held-out
+    # structure (median fold), the fewest features within `unnamed_size_tolerance` of the
+    # best gain.
+    unnamed_follows: int = 3
+    unnamed_max_features: int = 3
+    unnamed_min_gain: float = 0.3
+    unnamed_size_tolerance: float = 0.05
+    # A form of bands of the stroke is refused when the same signals over the whole stroke
+    # explain this share of what the bands do: the position is then not what it follows
+    # (on a heat sweep, dev seed 901, two complementary bands of "1 mm² more bleed" had
+    # taken a thermal claim's misfit, 64 % held out).
+    unnamed_position_share: float = 0.8

@@ -12,6 +12,7 @@ import numpy as np
 from shockdyno.diagnose.engine import CalibrationRow, Diagnosis, Finding
 from shockdyno.diagnose.locate import Location
 from shockdyno.diagnose.settings import Settings
+from shockdyno.diagnose.unexplained import described_json, described_text
 from shockdyno.model.reading import Reading
 from shockdyno.model.terms import LIBRARY
 from shockdyno.units import IMPERIAL, SI, Units
@@ -196,7 +197,10 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
             "One frequency only: a lag, a delay and compressibility all open the loop alike "
             "here; tests at two or more frequencies would separate them."
         )
-    if d.unexplained.regions:
+    if d.described:  # what is left, described, with a discovered form (unexplained.py)
+        rms = d.remaining.structured_rms_n
+        lines += [in_units(described_text(x, rms, u), u) for x in d.described]
+    elif d.unexplained.regions:
         r = d.unexplained.regions[0]
         vs, vl = (u.velocity_per_m_s, u.velocity_label) if u.imperial else (1.0, "m/s")
         lines.append(
@@ -248,7 +252,9 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
         ],
         "verdict": {
             "physics": [f.physics for f in order],
-            "unexplained": [r.to_json() for r in d.unexplained.regions],
+            # described residuals (unexplained.py); regions alone where none was described
+            "unexplained": [described_json(x) for x in d.described]
+            or [r.to_json() for r in d.unexplained.regions],
             "indistinguishable": d.indistinguishable,
             "calibration": [
                 {

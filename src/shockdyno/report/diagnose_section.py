@@ -9,7 +9,8 @@ nothing. Shown:
 - ``findings``: each candidate term, its parameters in the page's units, greyed unless claimed
 - ``verdict``: its words in SI or in imperial units (``text_imperial`` is newer: an older
   file's page in imperial shows ``text`` and says its numbers are SI), the physics named,
-  the regions still unexplained
+  the regions still unexplained and, newer, what is left described with a discovered
+  term and its figure (report/unexplained_section.py)
 - ``tests``: E_t per test before and after the named physics
 - ``info.spec``: the damper spec the diagnosis started from
 - ``info.figures``: the PNGs `diagnose --report DIR` drew, relative to the JSON's folder;
@@ -39,6 +40,7 @@ from shockdyno.report.documents import (
     Verdict,
 )
 from shockdyno.report.html import Page
+from shockdyno.report.unexplained_section import render_unexplained
 from shockdyno.units import SI, Units
 
 
@@ -83,12 +85,12 @@ def _render_verdict(page: Page, verdict: Verdict, units: Units) -> None:
             )
     page.paragraph(f"Physics named: {_join(verdict.physics)}.")
     if verdict.unexplained:
+        regions = [r for u in verdict.unexplained for r in (u.regions or (u,))]
         page.paragraph(
-            "Still unexplained: "
-            + "; ".join(region_text(r, units) for r in verdict.unexplained)
-            + ".",
+            "Still unexplained: " + "; ".join(region_text(r, units) for r in regions) + ".",
             warn=True,
         )
+        render_unexplained(page, verdict.unexplained, units)  # described, with its form
 
 
 def region_text(r: Region, units: Units = SI) -> str:

@@ -50,6 +50,73 @@ class Region:
 
 
 @dataclass(frozen=True)
+class Follows:
+    """A signal what is left follows (`verdict.unexplained[].follows[]`)."""
+
+    signal: str
+    label: str
+    share: float  # of the structure left, explained by this signal alone
+    label_imperial: str | None = None
+    rises_with_it: bool = True
+    resembles: tuple[str, ...] = ()  # library terms whose physics the signal is
+
+
+@dataclass(frozen=True)
+class Coefficient:
+    """One feature of a discovered term, its coefficient in SI `unit` (N per feature)."""
+
+    feature: str
+    label: str
+    symbol: str
+    value: float | None
+    sd: float | None
+    unit: str
+    label_imperial: str | None = None
+    symbol_imperial: str | None = None
+    text: str = ""  # value ± sd and unit in display units (SI, with time in minutes)
+    text_imperial: str = ""
+
+
+@dataclass(frozen=True)
+class UnnamedTerm:
+    """The discovered term tried for what is left (`verdict.unexplained[].term`)."""
+
+    claimed: bool
+    form: str  # SI
+    coefficients: tuple[Coefficient, ...]
+    heldout_gain: float | None
+    form_imperial: str | None = None
+    heldout_detail: str = ""
+    hint: str = ""
+    why_not: str = ""
+
+
+@dataclass(frozen=True)
+class ResidualPlot:
+    """Phase means of what is left against the signal it follows most, and the term's."""
+
+    signal: str
+    label: str
+    unit: str
+    x: tuple[float, ...]
+    residual: tuple[float, ...]
+    term: tuple[float, ...] = ()
+    label_imperial: str | None = None
+
+
+@dataclass(frozen=True)
+class Unexplained(Region):
+    """`verdict.unexplained[]`: what the search left, its largest region's keys (an older
+    file has these only) and, newer, its description and a discovered term."""
+
+    regions: tuple[Region, ...] = ()
+    phase: str = ""
+    follows: tuple[Follows, ...] = ()
+    term: UnnamedTerm | None = None
+    plot: ResidualPlot | None = None
+
+
+@dataclass(frozen=True)
 class Mismatch:
     significant: bool
     p_value: float | None  # null when not tested
@@ -98,7 +165,7 @@ class Calibration:
 class Verdict:
     text: str  # in SI
     physics: tuple[str, ...]  # claimed, most important first
-    unexplained: tuple[Region, ...]
+    unexplained: tuple[Unexplained, ...]
     text_imperial: str | None = None  # newer: the same words in lbf, in, in/s
     calibration: tuple[Calibration, ...] = ()
     sensor: tuple[str, ...] = ()

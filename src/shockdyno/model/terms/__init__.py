@@ -2,7 +2,7 @@
 
 Names are an interface (fit --terms, the fit JSON's `terms`, diagnose's findings):
 compressibility, thermal, friction, cavitation, sensor_lag, gas_spring, contact,
-position_force.
+position_force, fixture_mass.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ from shockdyno.model.composite import Term
 from shockdyno.model.terms.cavitation import Cavitation
 from shockdyno.model.terms.compressibility import Compressibility
 from shockdyno.model.terms.contact import Contact
+from shockdyno.model.terms.fixture_mass import FixtureMass
 from shockdyno.model.terms.friction import Friction
 from shockdyno.model.terms.gas_spring import GasSpring
 from shockdyno.model.terms.position_force import PositionForce
@@ -29,6 +30,7 @@ LIBRARY: dict[str, type[Term]] = {
         GasSpring,
         Contact,
         PositionForce,
+        FixtureMass,
     )
 }
 
@@ -45,6 +47,7 @@ __all__ = [
     "Cavitation",
     "Compressibility",
     "Contact",
+    "FixtureMass",
     "Friction",
     "GasSpring",
     "PositionForce",

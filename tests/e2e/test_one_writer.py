@@ -4,6 +4,7 @@ first is lost."""
 
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import sys
@@ -63,3 +64,39 @@ def test_a_second_writer_is_refused_by_name_and_the_first_goes_on(tmp_path: Path
     tests = open_recording(rec).require_recording().tests
     assert tests and all(t.clicks == i for i, t in enumerate(tests[:-1]))
     assert not lock_path(rec).exists()
+
+
+def test_a_link_to_a_recording_being_written_is_the_same_recording(tmp_path: Path) -> None:
+    """Issue 46.3: the lock was keyed on the name, so a sweep through a symlink or a hard
+    link to the recording another sweep was writing replaced its file (both exited 0, the
+    first's three tests were gone). The file itself is locked now."""
+    rec = tmp_path / "w.mcap"
+    first = subprocess.Popen(
+        [*SWEEP, "--speed", "4", "--clicks", "0-21", "--freq", "1", "-o", str(rec)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        _wait_for(rec)
+        soft, hard = tmp_path / "wlink.mcap", tmp_path / "whard.mcap"
+        soft.symlink_to(rec.name)
+        os.link(rec, hard)
+        for link, extra in ((soft, "--force"), (hard, "--force"), (hard, "--resume")):
+            second = subprocess.run(
+                [*SWEEP, "--speed", "50", "--clicks", "0", "--freq", "1", "-o", str(link), extra],
+                capture_output=True,
+                text=True,
+                timeout=60,
+            )
+            err = second.stderr.strip()
+            assert second.returncode != 0 and err.count("\n") == 0, (link, extra, err)
+            assert f"being written by process {first.pid}" in err, err
+            assert first.poll() is None
+        assert not (tmp_path / "wlink.new.mcap").exists()
+        assert not (tmp_path / "whard.new.mcap").exists()
+    finally:
+        first.send_signal(signal.SIGINT)
+        first.wait(timeout=60)
+    tests = open_recording(rec).require_recording().tests
+    assert tests and all(t.clicks == i for i, t in enumerate(tests[:-1]))  # the first's, all
+    assert hard.samefile(rec)  # nothing replaced it

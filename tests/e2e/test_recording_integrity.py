@@ -196,3 +196,57 @@ def test_a_temperature_band_that_is_not_two_numbers_is_a_usage_error(tmp_path, c
         main(["sweep", "--rig", str(NOWHERE), "--temp-band-c", "nan,nan", "-o", "x.mcap"])
     assert exc.value.code == 2
     assert "LOW <= HIGH" in capsys.readouterr().err
+
+
+def _chunks(data: bytes) -> list[tuple[int, int]]:
+    """(offset, length) of every top-level Chunk record, walking the MCAP record framing."""
+    import struct
+
+    pos, out = 8, []
+    while pos + 9 <= len(data):
+        op, length = data[pos], struct.unpack_from("<Q", data, pos + 1)[0]
+        if op == 0x06:
+            out.append((pos, 9 + length))
+        if op == 0x02:  # footer
+            break
+        pos += 9 + length
+    return out
+
+
+def test_a_damaged_test_is_named_and_skipped_by_fit_and_export_and_redone_by_resume(
+    sim_rig_factory, tmp_path, capsys
+) -> None:
+    """Issue 46.5: 32 bytes overwritten in the middle of a recording: `info` said complete,
+    `fit` used the test without a word, `export` blamed the data, `--resume` counted it
+    done. Now the test is `damaged` everywhere, and a resumed sweep runs it again."""
+    sim = sim_rig_factory(speed=20.0)
+    rig = rig_file_for(sim, tmp_path)
+    out = tmp_path / "d.mcap"
+    plan = ["--clicks", "0,10", "--freq", "2", "--cycles", "2", "--warmup-cycles", "0",
+            "--no-gas-measure"]  # fmt: skip
+    assert main(["sweep", "--rig", str(rig), *plan, "-o", str(out)]) == 0
+    data = bytearray(out.read_bytes())
+    first = next(c for c in _chunks(bytes(data)) if c[1] > 10_000)  # test 0's samples
+    middle = first[0] + first[1] // 2
+    data[middle : middle + 32] = b"\x00" * 32
+    out.write_bytes(bytes(data))
+    capsys.readouterr()
+
+    assert main(["info", str(out)]) == 0
+    info = capsys.readouterr().out
+    assert "(1 complete, 0 aborted, 1 damaged)" in info and "DAMAGED: " in info
+
+    fit = tmp_path / "fit.json"
+    assert main(["fit", str(out), "--json", str(fit)]) == 0
+    err = capsys.readouterr().err
+    assert "1 damaged tests left out (test 0: " in err
+    assert [t["clicks"] for t in __import__("json").loads(fit.read_text())["tests"]] == [10]
+
+    assert main(["export", str(out), "--csv", str(tmp_path / "csv")]) == 0
+    err = capsys.readouterr().err
+    assert "damaged tests left out" in err
+    assert (tmp_path / "csv" / "manifest.csv").read_text().count("\n") == 2  # header + test 1
+
+    assert main(["sweep", "--rig", str(rig), *plan, "-o", str(out), "--resume"]) == 0
+    assert "1 tests done, 1 to go" in " ".join(capsys.readouterr().out.split())
+    assert open_recording(out).completed_keys() == {(0, 0, 2.0), (10, 0, 2.0)}

@@ -7,6 +7,7 @@ exports), so neither package imports the other for it.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +22,7 @@ from shockdyno.lists import parse_floats, parse_ints
 from shockdyno.model.kinematics import differentiate
 from shockdyno.outputs import check_output
 from shockdyno.record.csv_export import export_csv
+from shockdyno.record.reader import open_recording
 from shockdyno.result_files import starts_as_mcap
 from shockdyno.ride.damper_table import IMPERIAL_SPEEDS_M_S, UNITS, click_tables, write_tables
 
@@ -72,7 +74,11 @@ def _export(args: argparse.Namespace) -> int:
             raise ConfigError(
                 "--csv writes SI units (time_s, force_N, ...); --units goes with --damper-table"
             )
-        files = export_csv(args.source, args.csv, force=args.force, velocity=_velocity)
+        rec = open_recording(args.source).require_recording()
+        loss = rec.loss_note()
+        if loss:  # a cut-off or damaged recording: what the export leaves out, said
+            print(f"shockdyno export: warning: {args.source}: {loss}", file=sys.stderr)
+        files = export_csv(rec, args.csv, force=args.force, velocity=_velocity)
         print(
             f"exported {len(files) - 1} tests to {args.csv} ({files[0].name} lists them), "
             "in SI units as the column names say"

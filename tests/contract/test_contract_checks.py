@@ -47,6 +47,6 @@ def test_limits_beyond_the_drives_own_are_refused_before_enabling(sim_rig_factor
     rig = sim.rig_config()
     # 49 mm of travel trips at 51.45 mm with the margin: beyond the drive's own 50 mm.
     wide = replace(rig, limits=replace(rig.limits, travel_m=0.049))
-    with pytest.raises(ConfigError, match="beyond the drive's own travel_limit of 0.05"):
+    with pytest.raises(ConfigError, match=r"beyond the drive's own travel_limit of 0\.05"):
         RigSession(wide).__enter__()
     assert not any(word & 1 for _, word in sim.registers.control_log)

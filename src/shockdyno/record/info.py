@@ -89,6 +89,8 @@ def format_text(doc: dict[str, Any], max_events: int = 20) -> str:
         state = "TRUNCATED: " + (f["problem"] or "") if f["truncated"] else "complete file"
         if not f["truncated"] and f["problem"]:
             state += f" ({f['problem']})"
+        if f["bad_messages"]:
+            state += f"; {f['bad_messages']} messages could not be read"
         lines.append(f"  file {f['path']}: {f['size_bytes']} bytes, {state}")
     for f in doc["foreign_parts"]:
         lines.append(f"  NOT PART OF THIS RECORDING, not read: {f['path']} ({f['why']})")

@@ -315,7 +315,7 @@ def _take(part: _PartData, topics: dict[int, str], record: object) -> None:
         topic = topics.get(record.channel_id)
         try:
             _message(part, topic, record.data)
-        except (RecordingError, ValueError, KeyError, TypeError):
+        except (RecordingError, ValueError, KeyError, TypeError, RecursionError):
             part.info.bad_messages += 1
     elif isinstance(record, Channel):
         topics[record.id] = record.topic

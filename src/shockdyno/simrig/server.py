@@ -11,6 +11,7 @@ import asyncio
 import contextlib
 import copy
 import logging
+import math
 import os
 import threading
 import time
@@ -95,8 +96,11 @@ class SimRig:
     ) -> None:
         if modbus not in ("tcp", "rtu"):
             raise ConfigError(f"modbus must be tcp or rtu, got {modbus!r}")
-        if speed <= 0:
-            raise ConfigError(f"speed must be > 0, got {speed}")
+        if not (isinstance(speed, int | float) and math.isfinite(speed) and speed > 0):
+            raise ConfigError(f"speed must be a number > 0, got {speed}")
+        for name, port in (("modbus_port", modbus_port), ("serial_port", serial_port)):
+            if not 0 <= port <= 65535:
+                raise ConfigError(f"{name} must be 0-65535 (0: any free port), got {port}")
         if serial not in ("socket", "pty", "both"):
             raise ConfigError(f"serial must be socket, pty or both, got {serial!r}")
         self.rig = rig
@@ -257,8 +261,8 @@ class SimRig:
         finally:
             for task in (ticker, watchdog):
                 task.cancel()
-                with contextlib.suppress(asyncio.CancelledError):
-                    await task
+                with contextlib.suppress(asyncio.CancelledError, Exception):
+                    await task  # one that failed is ended all the same
             if self._stepper is not None:
                 self._stepper.shutdown(wait=True)  # the step under way ends first
             await server.shutdown()  # type: ignore[no-untyped-call]

@@ -202,3 +202,22 @@ def test_output_to_a_reader_that_goes_away_is_not_an_error() -> None:
     err = p.stderr.read()
     p.stderr.close()
     assert p.wait(timeout=60) == 0 and err == b""
+
+
+def test_export_refuses_a_damper_no_dyno_measures(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """Issue 46.11: a fit with a gas pressure of 1e300 Pa was written out as a damper
+    table of 1.5e296 N."""
+    from shockdyno.fit.result import FitResult
+    from shockdyno.model.spec import default_spec_path
+
+    fit = FitResult.from_spec(default_spec_path(), [0, 21])
+    good, bad = tmp_path / "good.json", tmp_path / "bad.json"
+    fit.save(good)
+    doc = json.loads(good.read_text())
+    doc["globals"]["gas_pressure_pa"] = 1e300
+    bad.write_text(json.dumps(doc))
+    assert main(["export", str(bad), "--damper-table", str(tmp_path / "t")]) == 2
+    err = capsys.readouterr().err
+    assert "beyond any damper dyno's 1e+06 N; not written" in err and err.count("\n") == 1
+    assert not (tmp_path / "t").exists()
+    assert main(["export", str(good), "--damper-table", str(tmp_path / "t")]) == 0

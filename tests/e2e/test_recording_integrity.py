@@ -198,21 +198,6 @@ def test_a_temperature_band_that_is_not_two_numbers_is_a_usage_error(tmp_path, c
     assert "LOW <= HIGH" in capsys.readouterr().err
 
 
-def _chunks(data: bytes) -> list[tuple[int, int]]:
-    """(offset, length) of every top-level Chunk record, walking the MCAP record framing."""
-    import struct
-
-    pos, out = 8, []
-    while pos + 9 <= len(data):
-        op, length = data[pos], struct.unpack_from("<Q", data, pos + 1)[0]
-        if op == 0x06:
-            out.append((pos, 9 + length))
-        if op == 0x02:  # footer
-            break
-        pos += 9 + length
-    return out
-
-
 def test_a_damaged_test_is_named_and_skipped_by_fit_and_export_and_redone_by_resume(
     sim_rig_factory, tmp_path, capsys
 ) -> None:
@@ -225,8 +210,10 @@ def test_a_damaged_test_is_named_and_skipped_by_fit_and_export_and_redone_by_res
     plan = ["--clicks", "0,10", "--freq", "2", "--cycles", "2", "--warmup-cycles", "0",
             "--no-gas-measure"]  # fmt: skip
     assert main(["sweep", "--rig", str(rig), *plan, "-o", str(out)]) == 0
+    from rec_helpers import chunk_offsets
+
     data = bytearray(out.read_bytes())
-    first = next(c for c in _chunks(bytes(data)) if c[1] > 10_000)  # test 0's samples
+    first = next(c for c in chunk_offsets(bytes(data)) if c[1] > 10_000)  # test 0's samples
     middle = first[0] + first[1] // 2
     data[middle : middle + 32] = b"\x00" * 32
     out.write_bytes(bytes(data))

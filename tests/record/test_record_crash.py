@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import struct
 import subprocess
 import sys
 import textwrap
@@ -13,7 +12,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from rec_helpers import SAMPLES_PER_TEST, TESTS, block, meta, seq_range, write_small
+from rec_helpers import (
+    SAMPLES_PER_TEST,
+    TESTS,
+    block,
+    chunk_offsets,
+    meta,
+    seq_range,
+    write_small,
+)
 
 from shockdyno.cli import main
 from shockdyno.record import RecordingWriter, open_recording
@@ -128,7 +135,7 @@ def test_a_damaged_chunk_costs_only_that_chunk_and_its_test_reads_as_damaged(
     data = bytearray(path.read_bytes())
     # Each test's samples fill one big chunk; its closing event and end record follow in
     # small chunks of their own (each event is synced as it is written).
-    chunks = [c for c in _chunk_offsets(bytes(data)) if c[1] > 10_000]
+    chunks = [c for c in chunk_offsets(bytes(data)) if c[1] > 10_000]
     assert len(chunks) == len(TESTS)
     off, length = chunks[damaged]
     data[off + length // 2] ^= 0xFF
@@ -178,7 +185,7 @@ def test_a_partly_lost_test_and_an_undecodable_sample_message_read_as_damaged(
                 w.write_samples(block(k * 10_000 + i * 250, 250))
             w.end_test(meta(k, k))
     data = bytearray(path.read_bytes())
-    middle = [c for c in _chunk_offsets(bytes(data)) if c[1] > 2000][5]
+    middle = [c for c in chunk_offsets(bytes(data)) if c[1] > 2000][5]
     data[middle[0] + middle[1] // 2 : middle[0] + middle[1] // 2 + 32] = b"\x55" * 32
     path.write_bytes(bytes(data))
     rec = open_recording(path)
@@ -191,16 +198,3 @@ def test_a_partly_lost_test_and_an_undecodable_sample_message_read_as_damaged(
     out = capsys.readouterr().out
     assert "(1 complete, 0 aborted, 2 damaged)" in out
     assert out.count(" damaged ") == 2  # the status column, each test
-
-
-def _chunk_offsets(data: bytes) -> list[tuple[int, int]]:
-    """(offset, length) of every top-level Chunk record, walking the MCAP record framing."""
-    pos, out = 8, []
-    while pos + 9 <= len(data):
-        op, length = data[pos], struct.unpack_from("<Q", data, pos + 1)[0]
-        if op == 0x06:
-            out.append((pos, 9 + length))
-        if op == 0x02:  # footer
-            break
-        pos += 9 + length
-    return out

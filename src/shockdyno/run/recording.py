@@ -96,7 +96,6 @@ def _record_sweep(
         raise RecordingError(
             f"-o {output}: cannot create {output.parent} ({exc.strerror})"
         ) from None
-    writer = _open_writer(rig, output, metadata, overwrite=overwrite, resume=resume)
     view = LiveView(len(todo), console=console, units=units)
     LiveView.warm_up()  # nothing the loop calls may take its first long time with the drive on
 
@@ -104,6 +103,7 @@ def _record_sweep(
         with view.paused():  # hold the live display while the operator reads and answers
             console.input(f"[bold yellow]{message}[/] - press Enter when done ")
 
+    writer = _open_writer(rig, output, metadata, overwrite=overwrite, resume=resume)
     started = False
     try:
         # The recording is open and writable before the rig is enabled; a rig that does not

@@ -285,7 +285,9 @@ class RigSession:
         self._wait(lambda s: s.enabled, daq_budget_s=2.0, what="enable")
         self._armed = True
         self._event("enable", "actuator enabled, heartbeat fed by the control loop")
-        self._move_to_centre(check=True)
+        # Centred when the drive says so and the DAQ's samples show it: a host that fell
+        # behind reads the park long after the drive reports the centre.
+        self._move_to_centre(check=True, seen=True)
         # The drive says "centred" before a host that fell behind has read the samples
         # that show it (the park, the ramp): read them now, limits checked, so that the
         # session's clock is current and the next hold's backlog is its own.
@@ -663,8 +665,13 @@ class RigSession:
             self._stream.on_block = None
         return SampleBlock.concat(captured) if captured else SampleBlock.empty()
 
-    def _move_to_centre(self, check: bool) -> None:
-        distance, _ = self._move(self.rig.stroke_centre_m, check=check, what="ramp to centre")
+    def _move_to_centre(self, check: bool, seen: bool = False) -> None:
+        """`seen`: also wait for the DAQ's samples to show the ram centred (not in a stop,
+        where the DAQ may be what failed)."""
+        settled = (lambda: abs(self._stream.x) < CENTRE_TOLERANCE_M) if seen else (lambda: True)
+        distance, _ = self._move(
+            self.rig.stroke_centre_m, check=check, what="ramp to centre", settled=settled
+        )
         self._event("centre", f"at stroke centre ({distance * 1e3:.1f} mm ramp)")
 
     def _move(

@@ -540,7 +540,7 @@ HOSTILE: list[tuple[str, Callable[[Any, Path], Any]]] = [
 @contextlib.contextmanager
 def burning(n: int) -> Iterator[None]:
     """n CPU-bound processes at the normal priority for as long as the block runs."""
-    code = "while True:\n    pass\n"
+    code = "import os\nparent = os.getppid()\nwhile os.getppid() == parent:\n    pass\n"
     procs = [subprocess.Popen([sys.executable, "-c", code]) for _ in range(n)]
     try:
         yield

@@ -59,6 +59,7 @@ def summarise(rec: Recording) -> dict[str, Any]:
             for p in rec.parts
         ],
         "metadata": rec.metadata,
+        "identity": rec.identity,
         "foreign_parts": [{"path": str(p), "why": why} for p, why in rec.foreign],
         "rig_file_attached": rec.rig_toml is not None,
         "totals": {

@@ -50,6 +50,7 @@ class PartInfo:
     # Wall-clock time (ns since the Unix epoch) of t_s = 0: log_time = origin + t_s. None in
     # format 1 files, whose log_time is the DAQ time itself.
     wall_clock_origin_ns: int | None = None
+    identity: dict[str, str] = field(default_factory=dict)  # shockdyno.identity, if any
 
 
 @dataclass
@@ -79,6 +80,8 @@ class Recording:
         first = dict(parts[0].info.metadata) if parts else {}
         first.pop("part", None)
         self.metadata: dict[str, str] = first
+        # What the set measures (a sweep's rig set-up and plan; empty before it was kept)
+        self.identity: dict[str, str] = dict(parts[0].info.identity) if parts else {}
         self.rig_toml: str | None = next((p.rig_toml for p in parts if p.rig_toml), None)
         self.truncated = any(p.info.truncated for p in parts)
         self.tests: list[TestMeta] = []
@@ -321,6 +324,8 @@ def _take(part: _PartData, topics: dict[int, str], record: object) -> None:
         topics[record.id] = record.topic
     elif isinstance(record, Metadata) and record.name == s.METADATA_NAME:
         part.info.metadata = dict(record.metadata)
+    elif isinstance(record, Metadata) and record.name == s.IDENTITY_METADATA_NAME:
+        part.info.identity = dict(record.metadata)
     elif isinstance(record, Metadata) and record.name == s.CLOCK_METADATA_NAME:
         try:
             part.info.wall_clock_origin_ns = int(record.metadata["wall_clock_origin_ns"])

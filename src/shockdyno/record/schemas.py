@@ -25,6 +25,9 @@ from shockdyno.rig.types import SampleBlock
 FORMAT_VERSION = "2"  # 2: SampleBlock2 (velocity_m_s), wall-clock log_time
 METADATA_NAME = "shockdyno.recording"
 CLOCK_METADATA_NAME = "shockdyno.clock"  # wall_clock_origin_ns: log_time = origin + t_s
+# What a sweep's set is a measurement of (rig set-up, plan), kept apart from the
+# recording's metadata, which pages and `info` show: a resumed part must match it.
+IDENTITY_METADATA_NAME = "shockdyno.identity"
 RIG_ATTACHMENT = "rig.toml"
 
 TOPIC_SAMPLES = "/dyno/samples"

@@ -125,6 +125,7 @@ class RecordingWriter:
         chunk_size: int = 1 << 20,
         wall_clock_origin_ns: int | None = None,
         replaces: Path | None = None,
+        identity: dict[str, str] | None = None,
     ) -> None:
         base = Path(path)
         if compression not in _COMPRESSION:
@@ -173,6 +174,8 @@ class RecordingWriter:
             else:
                 meta.pop("set_id", None)
             self._mcap.add_metadata(s.METADATA_NAME, meta)
+            if identity:
+                self._mcap.add_metadata(s.IDENTITY_METADATA_NAME, dict(identity))
             if rig_toml is not None:
                 self._mcap.add_attachment(
                     0, 0, s.RIG_ATTACHMENT, "application/toml", rig_toml.encode()

@@ -62,13 +62,14 @@ def _record_sweep(
     console = console or Console()
     done: set[tuple[int, int, float]] = set()
     first_index = 0
-    metadata = {**metadata, **identity(rig, plan)}
+    ident = identity(rig, plan)
     if resume:
         if not output.is_file():
             raise RecordingError(f"nothing to resume: {output} does not exist")
         previous = open_recording(output).require_recording()
         _check_resume_matches(previous.tests, plan, output)
         _check_same_set(previous.metadata, metadata, output)
+        _check_same_identity(previous.identity, ident, output)
         done = previous.completed_keys()
         first_index = len(previous.tests)
         console.print(
@@ -103,7 +104,7 @@ def _record_sweep(
         with view.paused():  # hold the live display while the operator reads and answers
             console.input(f"[bold yellow]{message}[/] - press Enter when done ")
 
-    writer = _open_writer(rig, output, metadata, overwrite=overwrite, resume=resume)
+    writer = _open_writer(rig, output, metadata, ident, overwrite=overwrite, resume=resume)
     started = False
     try:
         # The recording is open and writable before the rig is enabled; a rig that does not
@@ -131,7 +132,13 @@ def _record_sweep(
 
 
 def _open_writer(
-    rig: RigConfig, output: Path, metadata: dict[str, str], *, overwrite: bool, resume: bool
+    rig: RigConfig,
+    output: Path,
+    metadata: dict[str, str],
+    ident: dict[str, str],
+    *,
+    overwrite: bool,
+    resume: bool,
 ) -> QueuedWriter:
     """The sweep's writer, in a thread of its own (record/queued.py). A recording that
     replaces one (--force) is written beside it and takes its place when its first test
@@ -148,7 +155,12 @@ def _open_writer(
             target.unlink()
     return QueuedWriter(
         RecordingWriter(
-            target, metadata=metadata, rig_toml=rig.raw_toml, resume=resume, replaces=replaces
+            target,
+            metadata=metadata,
+            rig_toml=rig.raw_toml,
+            resume=resume,
+            replaces=replaces,
+            identity=ident,
         )
     )
 
@@ -232,10 +244,18 @@ def _check_same_set(before: dict[str, str], now: dict[str, str], output: Path) -
             f"{output} was recorded on rig {before.get('rig')!r}; resuming on "
             f"{now.get('rig')!r} would mix two rigs in one set"
         )
+
+
+def _check_same_identity(before: dict[str, str], now: dict[str, str], output: Path) -> None:
+    """The rig set-up and plan the set was recorded with (record/schemas.py
+    IDENTITY_METADATA_NAME), where it kept them."""
     for key, what in (("rig_identity", "rig set-up"), ("plan", "plan")):
         if key not in before:
             continue  # recorded before this was stored: the checks above are all there is
-        was, is_now = json.loads(before[key]), json.loads(now[key])
+        try:
+            was, is_now = json.loads(before[key]), json.loads(now[key])
+        except ValueError:
+            was, is_now = {"(unreadable)": before[key]}, {}
         changed = sorted(k for k in set(was) | set(is_now) if was.get(k) != is_now.get(k))
         if changed:
             said = ", ".join(f"{k} {was.get(k)!r} -> {is_now.get(k)!r}" for k in changed[:3])

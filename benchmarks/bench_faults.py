@@ -12,7 +12,7 @@ session can be hurt. Prints figures; asserts nothing.
    is run idle, and again beside 2x cores of CPU-bound processes (--load).
 3. Time to rest per rig (Modbus TCP, Modbus RTU) and per frequency, at real time (speed 1):
    SIGTERM in the measured cycles of a 20 mm sine; the stop on the wire, the ram at rest and
-   disabled, against the drive's own ramp-out (max(ramp.stop_time_s, one cycle)).
+   disabled, against the drive's own ramp-out (max(its stop time, one cycle)).
 
     .venv/bin/python benchmarks/bench_faults.py [--quick] [--no-load] [--no-rest]
 """
@@ -41,6 +41,7 @@ from shockdyno.rig.config import load_rig
 from shockdyno.rig.daq import plausible_counts
 from shockdyno.rig.frames import FRAME_DTYPE, FRAME_LEN, FrameDecoder, Plausible, encode_frames
 from shockdyno.simrig import start_sim_rig
+from shockdyno.simrig.drive import DriveParams
 from shockdyno.simrig.faults import Fault
 
 REPO = Path(__file__).resolve().parents[1]
@@ -417,7 +418,7 @@ def table_sessions(quick: bool, load: str = "idle") -> None:
         ("fault freeze (DAQ)", inject(Fault("freeze")), {}),
         ("fault daq_disconnect", inject(Fault("daq_disconnect")), {}),
         ("fault drop 120 frames", inject(Fault("drop", count=120)), {}),
-        ("fault garble 25 frames", inject(Fault("garble", count=25)), {}),
+        ("fault garble 25 frames", inject(Fault("garble", count=25)), {"stops": False}),
         (
             "fault modbus_timeout 3 s",
             inject(Fault("modbus_timeout", duration_s=3.0)),
@@ -583,11 +584,14 @@ def rest_case(modbus: str, frequency: float) -> tuple[float, float, float, float
         return stop_on_wire(sim, t0) * 1e3, stopped, disabled, rtt * 1e3
 
 
+DRIVE_STOP_S = DriveParams(0.0, 0.0, 0.0, 0.0).stop_time_s  # the simulated drive's own
+
+
 def table_rest(quick: bool) -> None:
-    rig = load_rig(SIM)
     print(
         "\n3. time to rest after SIGTERM, real time (speed 1), 20 mm sine, per rig and "
-        "frequency; ramp-out: the drive's own, max(ramp.stop_time_s, one cycle)"
+        f"frequency; ramp-out: the drive's own, max(its stop time {DRIVE_STOP_S:g} s, one "
+        "cycle)"
     )
     print(f"{'rig':<14} {'f Hz':>5} {'stop ms':>7} {'rtt ms':>6} {'at rest s':>9} "
           f"{'ramp-out s':>10} {'ratio':>6} {'disabled s':>10}")  # fmt: skip
@@ -595,7 +599,7 @@ def table_rest(quick: bool) -> None:
     for modbus in ("tcp", "rtu"):
         for f in freqs:
             wire, rest, off, rtt = rest_case(modbus, f)
-            ramp = max(rig.ramp.stop_time_s, 1.0 / f)
+            ramp = max(DRIVE_STOP_S, 1.0 / f)
             print(f"{'sim ' + modbus:<14} {f:>5g} {wire:>7.0f} {rtt:>6.1f} {rest:>9.2f} "
                   f"{ramp:>10.2f} {rest / ramp:>6.2f} {off:>10.2f}")  # fmt: skip
     print(

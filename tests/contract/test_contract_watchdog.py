@@ -103,7 +103,7 @@ def test_a_ram_moved_while_the_drive_was_off_is_not_enabled_again(sim_rig_factor
         intruder.control("fault_reset", enable=True)
         intruder.write({"position_command": rig.stroke_centre_m + 0.049})
         t0 = time.monotonic()
-        while time.monotonic() - t0 < watchdog_s + 2.0:
+        while time.monotonic() - t0 < watchdog_s + 3.0:  # a starved simulator runs late
             if not intruder.status().enabled:
                 off_after.append(time.monotonic() - t0)
                 return
@@ -115,5 +115,7 @@ def test_a_ram_moved_while_the_drive_was_off_is_not_enabled_again(sim_rig_factor
         final = intruder.status()
     finally:
         intruder.close()
-    assert off_after and off_after[0] < watchdog_s + 0.5, off_after
+    # Off during the prompt, with only the drive's own watchdog to do it (a heartbeat
+    # thread kept it enabled for as long as the prompt waited).
+    assert off_after and off_after[0] >= watchdog_s * 0.9, off_after
     assert not final.enabled and final.position_m - rig.stroke_centre_m > 0.045

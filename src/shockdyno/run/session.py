@@ -181,6 +181,7 @@ class RigSession:
         self._armed = False
         self._stop_sent = False  # the stop command went out since the last start or enable
         self._last_status: ActuatorStatus | None = None
+        self._poll_rtt = 0.0  # host time the last status poll took
         self._nice_before: int | None = None
         self._closed = False
         self._disarm_reason = ""
@@ -217,7 +218,7 @@ class RigSession:
     def __enter__(self) -> RigSession:
         self._nice_before, nice = priority.raise_priority()
         try:
-            self.actuator = ModbusActuator(self.rig)
+            self.actuator = ModbusActuator(self.rig, guard=signals.hold)
             self.actuator.connect()
             self.daq = self._open_daq(self.rig.daq, self.rig.stroke_centre_m)
             self._first_samples()
@@ -277,7 +278,7 @@ class RigSession:
         st = act.status()
         if st.fault:
             raise RigFault(f"actuator fault will not reset: {st.fault_text}")
-        self._catch_up(check=True)  # limits on the latest samples before the drive is on
+        self._check_present()  # limits on samples of now, before the drive is on
         self._heartbeat.start()
         act.write({"position_command": st.position_m})  # enabling must not move the ram
         act.control(enable=True)
@@ -545,6 +546,14 @@ class RigSession:
     def _beat(self) -> None:
         self._act().beat()
 
+    def _check_present(self) -> None:
+        """Read (limits checked) until a read brings samples and the backlog is gone: an
+        empty read (none arrived in its few ms) would otherwise end a catch-up that checked
+        nothing (a ram another master moved beyond the travel limit was enabled again)."""
+        while not len(self._pump(check=True)):
+            pass  # a DAQ that stays silent trips daq_frozen after daq.frozen_timeout_s
+        self._catch_up(check=True)
+
     def _catch_up(self, check: bool) -> None:
         """Read until the DAQ backlog is gone (e.g. after an operator prompt)."""
         for _ in range(10000):
@@ -562,6 +571,7 @@ class RigSession:
             if check:
                 raise SafetyTrip(SafetyEvent(self._stream.t, "link_lost", str(exc))) from None
             raise
+        self._poll_rtt = self.clock() - now
         self._last_status = st
         self._emit_actuator(st.fields())
         if check:
@@ -720,7 +730,10 @@ class RigSession:
         if self._stop_sent:
             return True
         st = self._last_status
-        fresh = st is not None and self.clock() - self._last_poll_wall < 4 * self.rig.poll_period_s
+        # Fresh: about one poll old (on RTU a poll takes ~0.1 s: a read before the stop
+        # would double the time to the stop)
+        age = self.clock() - self._last_poll_wall
+        fresh = st is not None and age < 4 * self.rig.poll_period_s + 2 * self._poll_rtt
         try:
             # A drive someone else disabled stays disabled: the stop goes without the
             # enable bit, which would otherwise re-enable it.

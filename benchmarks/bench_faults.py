@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -255,7 +256,13 @@ def describe(out: Path) -> str:
         "",
     )
     cut = "cut" if rec.truncated else "closed"
-    return f"{''.join(status) or '-':<5} {len(rec.events):>3} ev {safe:<19} {cut:<6} {reason[:110]}"
+    # the control loop's longest gap between two heartbeats (the session's closed event)
+    gaps = [re.search(r"between two (\d+) ms", m) for _, k, m in rec.events if k == "closed"]
+    gap = gaps[-1].group(1) if gaps and gaps[-1] else "-"
+    return (
+        f"{''.join(status) or '-':<5} {len(rec.events):>3} ev {gap:>4} {safe:<19} {cut:<6} "
+        f"{reason[:110]}"
+    )
 
 
 Action = Callable[[Any, subprocess.Popen[bytes]], "str | None"]
@@ -411,7 +418,7 @@ def table_sessions(quick: bool, load: str = "idle") -> None:
         "wire; at rest, disabled: s from the cause (probe client)"
     )
     print(f"{'event':<30} {'stop':>6} {'at rest':>7} {'disabled':>8} {'exit':>5}  "
-          f"{'tests':<5} {'events':>6} {'teardown':<19} {'file':<6} reason")  # fmt: skip
+          f"{'tests':<5} {'events':>6} {'gap':>4} {'teardown':<19} {'file':<6} reason")  # fmt: skip
     cases: list[tuple[str, Action, dict[str, Any]]] = [
         ("fault over_force", inject(Fault("over_force", duration_s=2.0)), {}),
         ("fault actuator_fault", inject(Fault("actuator_fault")), {}),
@@ -457,8 +464,9 @@ def table_sessions(quick: bool, load: str = "idle") -> None:
     print(
         "tests: c complete, a aborted, d degraded, i interrupted (begun, cut by the kill); "
         "events: safety events in the file; teardown: stop/centre/disable events after the "
-        "last start; kill -9 leaves the stop to the drive's watchdog (heartbeat.timeout_s = "
-        "1.0 s in rigs/sim.toml, host time); the DAQ's freeze is seen after "
+        "last start; gap: the control loop's longest time between two heartbeats, ms "
+        "(the drive's watchdog: 1000 ms); kill -9 leaves the stop to the drive's watchdog "
+        "(heartbeat.timeout_s = 1.0 s in rigs/sim.toml, host time); the DAQ's freeze is seen after "
         "daq.frozen_timeout_s (1.0 s). Ramps run on DAQ time, 4x faster than at 1x; "
         "garble is counted, not a stop: its times are the sweep's normal end. Hostile "
         "inputs (issue 46): the command's time to its answer, whether the drive was ever "

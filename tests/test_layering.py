@@ -21,6 +21,7 @@ UTILITY = {
     "result_files",
     "atomic",
     "schema",
+    "priority",
 }
 # Package -> the project packages it may import (utilities aside). `commands` is the
 # command-line glue (each subcommand's arguments, progress and files) and may use any;

@@ -173,3 +173,18 @@ def test_a_folder_of_someone_elses_figures_is_not_written_over(capsys, rec, tmp_
     assert main(["report", str(rec), "-o", str(other)]) == 0
     assert main(["report", str(rec), "-o", str(mine), "--force"]) == 0
     assert (mine / "peaks.png").read_bytes() != b"my own plot"
+
+
+def test_force_replaces_only_a_report_this_tool_wrote(capsys, rec, tmp_path):
+    """Issue 46.4: --force may replace a report folder this tool wrote, never another page."""
+    theirs = tmp_path / "theirs"
+    theirs.mkdir()
+    (theirs / "index.html").write_text("<html>a web site</html>")
+    assert main(["report", str(rec), "-o", str(theirs), "--force"]) == 2
+    err = capsys.readouterr().err
+    assert "not a page shockdyno wrote" in err and err.count("\n") == 1
+    assert (theirs / "index.html").read_text() == "<html>a web site</html>"
+    ours = tmp_path / "ours"
+    assert main(["report", str(rec), "-o", str(ours)]) == 0
+    assert '<meta name="generator" content="shockdyno">' in (ours / "index.html").read_text()
+    assert main(["report", str(rec), "-o", str(ours), "--force"]) == 0

@@ -1,6 +1,8 @@
 """Results carry their recording's hash (issue 21.4): a fit, diagnosis or ride of another
-recording is refused by `report` and `diagnose --fit` (or, with --force, said so on the
-page); an unusable fit (negative area, NaN) is refused in one line."""
+recording, or one that does not say which, is refused by `report`, `diagnose --fit` and
+`batch report|diagnose --fit`; only --allow-other-recording accepts it, and the terminal and
+the page say so. --force replaces outputs and waives no input check (issue 46.7). An
+unusable fit (negative area, NaN) is refused in one line."""
 
 from __future__ import annotations
 
@@ -37,31 +39,62 @@ def test_the_fit_json_carries_the_recording_hash(two: tuple[Path, Path, Path]) -
     assert info == {"file": "a.mcap", "sha256": hashlib.sha256(a.read_bytes()).hexdigest()}
 
 
-def test_report_refuses_a_fit_of_another_recording_unless_forced(
+def test_report_refuses_a_fit_of_another_recording_unless_explicitly_allowed(
     two: tuple[Path, Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     a, b, fit = two
     out = tmp_path / "rep"
-    assert main(["report", str(b), "--fit", str(fit), "-o", str(out)]) == 2
-    err = capsys.readouterr().err
-    assert "another recording" in err and "--force" in err and err.count("\n") == 1
-    assert not (out / "index.html").exists()
-    assert main(["report", str(b), "--fit", str(fit), "-o", str(out), "--force"]) == 0
-    assert "FROM ANOTHER RECORDING" in (out / "index.html").read_text()
+    for extra in ([], ["--force"]):  # --force replaces the page; it accepts no other input
+        assert main(["report", str(b), "--fit", str(fit), "-o", str(out), *extra]) == 2
+        err = capsys.readouterr().err
+        assert "another recording" in err and "--allow-other-recording" in err
+        assert err.count("\n") == 1 and not (out / "index.html").exists()
+    allow = ["--allow-other-recording"]
+    assert main(["report", str(b), "--fit", str(fit), "-o", str(out), *allow]) == 0
+    assert "another recording" in capsys.readouterr().err  # said on the terminal
+    assert "NOT CHECKED AGAINST THIS RECORDING" in (out / "index.html").read_text()
     ok = tmp_path / "ok"
     assert main(["report", str(a), "--fit", str(fit), "-o", str(ok)]) == 0
     assert "made from this recording" in (ok / "index.html").read_text()
 
 
-def test_an_old_fit_is_shown_as_not_checked(two: tuple[Path, Path, Path], tmp_path: Path) -> None:
+def test_a_fit_that_does_not_name_its_recording_is_refused(
+    two: tuple[Path, Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Removing info.recording from the JSON used to give 'not checked', exit 0."""
     a, _, fit = two
     doc = json.loads(fit.read_text())
     del doc["info"]["recording"]
     old = tmp_path / "old.json"
     old.write_text(json.dumps(doc))
     out = tmp_path / "rep"
-    assert main(["report", str(a), "--fit", str(old), "-o", str(out)]) == 0
-    assert "not checked" in (out / "index.html").read_text()
+    assert main(["report", str(a), "--fit", str(old), "-o", str(out), "--force"]) == 2
+    assert "does not say which recording" in capsys.readouterr().err
+    allow = ["--allow-other-recording"]
+    assert main(["report", str(a), "--fit", str(old), "-o", str(out), *allow]) == 0
+    assert "no info.recording" in (out / "index.html").read_text()
+
+
+def test_batch_report_checks_the_fit_of_each_recording(
+    two: tuple[Path, Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`batch report DIR --fit FIT.json` did not check at all: now a recording the fit is
+    not of is a failed row, unless --allow-other-recording (and then its page says so)."""
+    a, b, fit = two
+    recs = tmp_path / "recs"
+    recs.mkdir()
+    for r in (a, b):
+        shutil.copy(r, recs / r.name)
+    out = tmp_path / "out"
+    base = ["batch", "report", str(recs), "--fit", str(fit), "--workers", "1", "--out"]
+    assert main([*base, str(out)]) == 3
+    said = capsys.readouterr().out
+    assert "1 done" in said and "failed" in said and "b.mcap" in said
+    assert "another recording" in said and "--allow-other-recording" in said
+    assert main([*base, str(tmp_path / "out2"), "--allow-other-recording"]) == 0
+    assert "--allow-other-recording" in capsys.readouterr().err
+    pages = sorted((tmp_path / "out2").glob("*/index.html"))
+    assert [("NOT CHECKED AGAINST" in p.read_text()) for p in pages] == [False, True]
 
 
 def test_diagnose_refuses_a_fit_of_another_recording(

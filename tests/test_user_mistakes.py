@@ -118,3 +118,106 @@ def test_a_wrong_result_file_is_named_in_one_short_line(
     assert said in err and str(paths[given]) in err, err
     assert "\n" not in err and len(err) < 300 and "Traceback" not in err
     assert not out.exists() and not (tmp_path / "o.json").exists()
+
+
+def _deep(tmp_path: Path) -> dict[str, Path]:
+    files = {
+        "deep.toml": "a = " + "[" * 100_000 + "]" * 100_000 + "\n",
+        "deep.json": "[" * 100_000 + "]" * 100_000,
+    }
+    fit = json.loads(json.dumps({"spec_path": "x.toml", "globals": {}, "clicks": []}))
+    files["digits.json"] = json.dumps(fit).replace(
+        '"globals": {}', '"globals": {"g": ' + "7" * 5000 + "}"
+    )
+    out = {}
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+        out[name] = tmp_path / name
+    return out
+
+
+def test_no_traceback_for_the_inputs_of_issue_46(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """Issue 46.10: a rig TOML or fit JSON nested 100 000 deep (RecursionError), a
+    5000-digit integer in a fit JSON, a NUL byte in a manifest's file name, `sim-rig
+    --speed nan`, `--duration -1`, `--modbus-port 70000` ('port in use?')."""
+    f = _deep(tmp_path)
+    manifest = tmp_path / "m" / "manifest.csv"
+    shutil.copytree(REPO / "recordings" / "examples" / "csv", manifest.parent)
+    rows = manifest.read_text().splitlines()
+    rows[1] = rows[1].replace(".csv", "\x00.csv", 1)
+    manifest.write_text("\n".join(rows) + "\n")
+    report = ["report", str(EXAMPLE), "-o", str(tmp_path / "r"), "--fit"]
+    cases = [
+        (["sweep", "--rig", str(f["deep.toml"]), "-o", str(tmp_path / "x.mcap")], "nested too"),
+        ([*report, str(f["deep.json"])], "nested too deeply"),
+        ([*report, str(f["digits.json"])], "4300 digits"),
+        (["import", str(manifest), "-o", str(tmp_path / "i.mcap")], "NUL character"),
+        (["sim-rig", "--speed", "nan", "--duration", "0.1"], "--speed must be a number > 0"),
+        (["sim-rig", "--duration", "-1"], "--duration must be a number of seconds > 0"),
+        (["sim-rig", "--modbus-port", "70000"], "--modbus-port must be 0-65535"),
+        (["demo", "--speed", "nan", "--out-dir", str(tmp_path / "d")], "speed must be a number"),
+    ]
+    for args, said in cases:
+        assert main(args) == 2, args
+        err = capsys.readouterr().err
+        assert said in err and err.count("\n") == 1 and "Traceback" not in err, (args, err)
+
+
+def test_a_test_record_of_the_wrong_type_is_a_bad_message(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """A /dyno/test record with frequency_hz "fast" was a TypeError in info and fit: it is
+    a message that could not be read, and its test reads as interrupted."""
+    import sys
+    from dataclasses import replace
+
+    sys.path.insert(0, str(REPO / "tests" / "record"))
+    from rec_helpers import block, meta
+
+    from shockdyno.record import RecordingWriter, open_recording
+
+    path = tmp_path / "fast.mcap"
+    with RecordingWriter(path, metadata={}) as w:
+        for k in range(2):
+            w.begin_test(meta(k, k))
+            w.write_samples(block(k * 1000, 500))
+            w.end_test(replace(meta(k, k), frequency_hz="fast") if k == 0 else meta(k, k))
+    rec = open_recording(path)
+    assert rec.parts[0].bad_messages == 1 and [m.index for m in rec.tests] == [1]
+    assert main(["info", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "1 messages could not be read" in out and "interrupted" in out
+
+
+def test_output_to_a_reader_that_goes_away_is_not_an_error() -> None:
+    """`info REC | head` printed 'error: Broken pipe' and exited 2."""
+    import subprocess
+    import sys
+
+    p = subprocess.Popen(
+        [sys.executable, "-m", "shockdyno.cli", "info", str(EXAMPLE)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert p.stdout is not None and p.stderr is not None
+    p.stdout.close()  # before it writes: its first write meets a closed pipe
+    err = p.stderr.read()
+    p.stderr.close()
+    assert p.wait(timeout=60) == 0 and err == b""
+
+
+def test_export_refuses_a_damper_no_dyno_measures(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """Issue 46.11: a fit with a gas pressure of 1e300 Pa was written out as a damper
+    table of 1.5e296 N."""
+    from shockdyno.fit.result import FitResult
+    from shockdyno.model.spec import default_spec_path
+
+    fit = FitResult.from_spec(default_spec_path(), [0, 21])
+    good, bad = tmp_path / "good.json", tmp_path / "bad.json"
+    fit.save(good)
+    doc = json.loads(good.read_text())
+    doc["globals"]["gas_pressure_pa"] = 1e300
+    bad.write_text(json.dumps(doc))
+    assert main(["export", str(bad), "--damper-table", str(tmp_path / "t")]) == 2
+    err = capsys.readouterr().err
+    assert "beyond any damper dyno's 1e+06 N; not written" in err and err.count("\n") == 1
+    assert not (tmp_path / "t").exists()
+    assert main(["export", str(good), "--damper-table", str(tmp_path / "t")]) == 0

@@ -7,8 +7,10 @@ line with a non-zero exit code; only a bug gives a traceback.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import logging
+import os
 import signal
 import sys
 from collections.abc import Sequence
@@ -141,6 +143,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ShockdynoError as exc:
         print(f"shockdyno {args.command}: error: {exc}", file=sys.stderr)
         return exc.exit_code
+    except BrokenPipeError:  # the reader of the output went away (`| head`): not an error
+        with contextlib.suppress(OSError):  # nor at exit, when Python flushes stdout again
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except OSError as exc:  # a path the user named cannot be read or written
         where = f": {exc.filename}" if exc.filename else ""
         print(f"shockdyno {args.command}: error: {exc.strerror or exc}{where}", file=sys.stderr)

@@ -4,6 +4,11 @@ No command overwrites an existing file without `--force`, none ever writes over 
 own inputs (with or without `--force`), and `-` means standard output. Commands call
 `check_output` before doing any work, so a refused path costs nothing and writes nothing,
 then `write_output` once the result is complete.
+
+`--force` replaces what the command itself writes, never another kind of file: a
+recording only by a recording (`check_recording_output`), a report folder only when a
+shockdyno page is its index.html, and nothing replaces a FIFO or a device (which would
+block or swallow the output) or, but a recording, an MCAP recording.
 """
 
 from __future__ import annotations
@@ -15,8 +20,13 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from shockdyno.errors import ConfigError
+from shockdyno.result_files import starts_as_mcap
 
 STDOUT = "-"
+# How a page this project wrote says so (report/html.py); older pages carry the print
+# script's function name instead.
+GENERATOR_MARK = '<meta name="generator" content="shockdyno">'
+OLD_PAGE_MARK = "shockdynoEager"
 
 
 def is_stdout(path: str | os.PathLike[str] | None) -> bool:
@@ -61,6 +71,47 @@ def check_output(
         raise ConfigError(f"{flag} {out} is a directory")
     if out.exists() and not force:
         raise ConfigError(f"{flag} {out} exists (use --force to overwrite it)")
+    if out.exists():
+        _refuse_other_kind(out, flag, recording=False)
+    _check_parent(out, flag)
+    return out
+
+
+def _refuse_other_kind(out: Path, flag: str, *, recording: bool) -> None:
+    """--force replaces a file of the kind the command writes, nothing else."""
+    if not out.is_file():
+        raise ConfigError(f"{flag} {out} is not a regular file (a FIFO or a device); refused")
+    try:
+        mcap = out.stat().st_size > 0 and starts_as_mcap(out)
+    except OSError as exc:
+        raise ConfigError(f"{flag} {out}: cannot read it ({exc.strerror})") from None
+    if recording and out.stat().st_size > 0 and not mcap:
+        raise ConfigError(
+            f"{flag} {out} exists and is not a recording; --force replaces only a recording "
+            "(refused, whatever the flags: choose another name)"
+        )
+    if not recording and mcap:
+        raise ConfigError(
+            f"{flag} {out} is an MCAP recording; --force does not replace a recording with "
+            "another kind of file (choose another name)"
+        )
+
+
+def check_recording_output(path: Path, *, force: bool, flag: str = "-o") -> None:
+    """A recording's output before anything is done: not a folder, a FIFO or a device, an
+    existing file only with `force` and only when it is a recording, in a folder that
+    takes new files."""
+    if path.is_dir():
+        raise ConfigError(f"{flag} {path} is a directory")
+    if path.exists() or path.is_symlink():
+        if not force:
+            raise ConfigError(f"{flag} {path} exists (use --force to replace the recording)")
+        _refuse_other_kind(path, flag, recording=True)
+    _check_parent(path, flag)
+
+
+def _check_parent(out: Path, flag: str) -> None:
+    """The folder must exist and take new files (found by creating and removing one)."""
     parent = out.parent
     if not parent.is_dir():
         raise ConfigError(f"{flag}: directory {parent} does not exist")
@@ -70,7 +121,6 @@ def check_output(
         raise ConfigError(f"{flag}: cannot create files in {parent} ({exc.strerror})") from None
     os.close(fd)
     os.unlink(probe)
-    return out
 
 
 REPORT_FILES = ("index.html", "click_chart.csv", "click_chart_reference.csv")
@@ -87,6 +137,11 @@ def check_report_dir(
     index = out / "index.html"
     if index.is_file() and index.stat().st_size > 0 and not force:
         raise ConfigError(f"{flag}: {index} exists (use --force to replace it)")
+    if index.exists() and not _our_page(index):
+        raise ConfigError(
+            f"{flag}: {index} is not a page shockdyno wrote; --force replaces only a report "
+            "this tool wrote (choose another folder)"
+        )
     own = {(out / name).resolve() for name in REPORT_FILES}
     for source in inputs:
         path = Path(source)
@@ -110,6 +165,18 @@ def check_report_dir(
         base = base.parent
     if not os.access(base, os.W_OK | os.X_OK):
         raise ConfigError(f"{flag}: cannot create files in {base}")
+
+
+def _our_page(index: Path) -> bool:
+    """Whether index.html is a page this project wrote (an empty one is nobody's)."""
+    if not index.is_file():
+        return False
+    try:
+        with index.open("rb") as fh:
+            head = fh.read(1 << 16).decode("utf-8", errors="replace")
+    except OSError:
+        return False
+    return not head or GENERATOR_MARK in head or OLD_PAGE_MARK in head
 
 
 def write_output(

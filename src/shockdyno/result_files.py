@@ -81,6 +81,11 @@ def read_result(path: str | Path, flag: str, expected: str) -> dict[str, Any]:
         what = what_bytes_are(raw[:64])
         where = f" ({exc.msg}, line {exc.lineno})" if what == "not JSON" else ""
         raise ConfigError(f"{flag}: {p} is {what}{where}; expected {want}") from None
+    except RecursionError:
+        raise ConfigError(f"{flag}: {p} is nested too deeply; expected {want}") from None
+    except ValueError as exc:  # an integer of more digits than Python converts (4300)
+        said = str(exc).split(";")[0]
+        raise ConfigError(f"{flag}: {p} holds a value no result holds ({said})") from None
     got = kind_of(doc)
     if got != expected:
         what = KINDS[got][0] if got is not None else "JSON of another kind"

@@ -67,6 +67,8 @@ def parse_toml(text: str, source: str) -> dict[str, Any]:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{source}: not valid TOML ({exc})") from None
+    except RecursionError:
+        raise ConfigError(f"{source}: nested too deeply to be a config file") from None
 
 
 def read_text(path: Path, missing: str) -> str:
@@ -102,11 +104,13 @@ def convert(data: Any, cls: type[T], source: str, at: str = "", *, unknown_keys:
     a newer file. Non-finite numbers are refused in both: a result holds null for one,
     so a NaN in it was not written by this project."""
     info = mi.type_info(cls)
-    _check_keys(data, info, source, at, unknown_keys)
     try:
+        _check_keys(data, info, source, at, unknown_keys)
         return msgspec.convert(data, cls, strict=True)
     except msgspec.ValidationError as exc:
         raise _explain(str(exc), data, info, source, at) from None
+    except RecursionError:
+        raise fail(source, at, "nested too deeply") from None
 
 
 def check(obj: Any, source: str) -> None:

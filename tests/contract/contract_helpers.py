@@ -25,9 +25,19 @@ class Collector:
     def __init__(self) -> None:
         self.blocks: list[SampleBlock] = []
         self.actuator: list[tuple[float, dict[str, Any]]] = []
+        self.motion_start_s: float | None = None  # DAQ time the motion output rose
 
     def block(self, b: SampleBlock) -> None:
         self.blocks.append(b)
+        moving = np.flatnonzero(b.status & STATUS_MOTION)
+        if self.motion_start_s is None and moving.size:
+            self.motion_start_s = float(b.t_s[moving[0]])
+
+    def moved_for(self, seconds: float) -> bool:
+        """Whether the sine has run `seconds` of DAQ time: a trigger that does not depend on
+        how many samples each read brings (a loaded host reads fewer, larger blocks)."""
+        start = self.motion_start_s
+        return start is not None and float(self.blocks[-1].t_s[-1]) >= start + seconds
 
     def act(self, t: float, fields: dict[str, Any]) -> None:
         self.actuator.append((t, fields))

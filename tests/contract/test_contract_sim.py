@@ -71,12 +71,13 @@ def test_corrupted_and_dropped_frames_are_counted_and_never_delivered(
     sim = sim_rig_factory(speed=20.0)
     rec = Collector()
 
+    faults = [(0.3, Fault("garble", count=25)), (1.3, Fault("drop", count=6))]
+
     def collect(block) -> None:
         rec.block(block)
-        if len(rec.blocks) == 4:
-            sim.inject(Fault("garble", count=25))
-        if len(rec.blocks) == 12:  # apart: one gap holding both is split by an estimate
-            sim.inject(Fault("drop", count=6))
+        # s into the motion, apart: one gap holding both is split by an estimate
+        if faults and rec.moved_for(faults[0][0]):
+            sim.inject(faults.pop(0)[1])
 
     with RigSession(sim.rig_config()) as session:
         out = session.run_sine(0.03, 1.5, 1, 3, collect)

@@ -31,9 +31,12 @@ def test_a_setpoint_another_master_rewrites_is_a_controlled_stop(
     rogue.connect()
     rec = Collector()
 
+    written: list[bool] = []
+
     def collect(block) -> None:
         rec.block(block)
-        if len(rec.blocks) == 20:
+        if not written and rec.moved_for(1.5):
+            written.append(True)
             rogue.write({register: value})
 
     try:
@@ -67,9 +70,12 @@ def test_another_master_that_disables_or_stops_the_drive_ends_the_test(
     rogue.connect()
     rec = Collector()
 
+    written: list[bool] = []
+
     def collect(block) -> None:
         rec.block(block)
-        if len(rec.blocks) == 20:
+        if not written and rec.moved_for(1.5):
+            written.append(True)
             if intrusion == "disable":
                 rogue.write({"control_word": 0})
             else:
@@ -101,6 +107,7 @@ def test_a_test_whose_ram_stood_still_is_not_complete(sim_rig_factory) -> None:
     rig = sim.rig_config()
     rec = Collector()
     regs = sim.registers
+    stalled: list[bool] = []
 
     def stall() -> None:
         # The ram eases to a stop over a cycle while the drive still says "running".
@@ -109,7 +116,8 @@ def test_a_test_whose_ram_stood_still_is_not_complete(sim_rig_factory) -> None:
 
     def collect(block) -> None:
         rec.block(block)
-        if len(rec.blocks) == 40:
+        if not stalled and rec.moved_for(2.5):  # in the measured cycles (ramp 1 + warm-up 1)
+            stalled.append(True)
             sim.call(stall)
 
     with RigSession(rig) as session:
@@ -145,9 +153,12 @@ def test_a_test_losing_too_many_frames_is_degraded_not_complete(sim_rig_factory)
     sim = sim_rig_factory(speed=10.0)
     rec = Collector()
 
+    drops = [0.5, 1.5, 2.5]  # s into the motion: 3 x 40 frames, each below daq.max_gap_s
+
     def collect(block) -> None:
         rec.block(block)
-        if len(rec.blocks) in (10, 25, 40):  # 3 x 40 frames: each gap below daq.max_gap_s
+        if drops and rec.moved_for(drops[0]):
+            drops.pop(0)
             sim.inject(Fault("drop", count=40))
 
     with RigSession(sim.rig_config()) as session:

@@ -23,6 +23,8 @@ def rig_file_for(sim: Any, folder: Path, text: str | None = None) -> Path:
     """rigs/sim.toml (or `text`) pointed at this simulated rig's ports."""
     text = (text or SIM_RIG.read_text()).replace("port = 5020", f"port = {sim.modbus_port}")
     text = text.replace("socket://127.0.0.1:5021", f"socket://127.0.0.1:{sim.serial_port}")
+    # Its DAQ runs `speed` times real time: the frame rate the session checks says so.
+    text = text.replace("[daq]\n", f"[daq]\ntime_scale = {sim.speed}\n", 1)
     path = folder / "rig.toml"
     path.write_text(text)
     return path

@@ -4,6 +4,7 @@ first is lost."""
 
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import sys
@@ -25,23 +26,32 @@ def _wait_for(path: Path, timeout_s: float = 30.0) -> None:
         time.sleep(0.05)
 
 
-def test_a_second_writer_is_refused_by_name_and_the_first_goes_on(tmp_path: Path) -> None:
-    rec = tmp_path / "one.mcap"
-    first = subprocess.Popen(
+def _first_writer(rec: Path) -> subprocess.Popen[bytes]:
+    """A long sweep writing `rec` (22 tests at 4x): the one every other writer meets."""
+    return subprocess.Popen(
         [*SWEEP, "--speed", "4", "--clicks", "0-21", "--freq", "1", "-o", str(rec)],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
+
+
+def _second(out: Path, *extra: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [*SWEEP, "--speed", "50", "--clicks", "0", "--freq", "1", "-o", str(out), *extra],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+
+
+def test_a_second_writer_is_refused_by_name_and_the_first_goes_on(tmp_path: Path) -> None:
+    rec = tmp_path / "one.mcap"
+    first = _first_writer(rec)
     try:
         _wait_for(rec)  # the writer has the lock before it creates the file
         assert lock_path(rec).exists()
         for extra in (["--resume"], ["--force"], []):
-            second = subprocess.run(
-                [*SWEEP, "--speed", "50", "--clicks", "0", "--freq", "1", "-o", str(rec), *extra],
-                capture_output=True,
-                text=True,
-                timeout=60,
-            )
+            second = _second(rec, *extra)
             assert second.returncode != 0, extra
             err = second.stderr.strip()
             assert err.count("\n") == 0, err
@@ -63,3 +73,30 @@ def test_a_second_writer_is_refused_by_name_and_the_first_goes_on(tmp_path: Path
     tests = open_recording(rec).require_recording().tests
     assert tests and all(t.clicks == i for i, t in enumerate(tests[:-1]))
     assert not lock_path(rec).exists()
+
+
+def test_a_link_to_a_recording_being_written_is_the_same_recording(tmp_path: Path) -> None:
+    """Issue 46.3: the lock was keyed on the name, so a sweep through a symlink or a hard
+    link to the recording another sweep was writing replaced its file (both exited 0, the
+    first's three tests were gone). The file itself is locked now."""
+    rec = tmp_path / "w.mcap"
+    first = _first_writer(rec)
+    try:
+        _wait_for(rec)
+        soft, hard = tmp_path / "wlink.mcap", tmp_path / "whard.mcap"
+        soft.symlink_to(rec.name)
+        os.link(rec, hard)
+        for link, extra in ((soft, "--force"), (hard, "--force"), (hard, "--resume")):
+            second = _second(link, extra)
+            err = second.stderr.strip()
+            assert second.returncode != 0 and err.count("\n") == 0, (link, extra, err)
+            assert f"being written by process {first.pid}" in err, err
+            assert first.poll() is None
+        assert not (tmp_path / "wlink.new.mcap").exists()
+        assert not (tmp_path / "whard.new.mcap").exists()
+    finally:
+        first.send_signal(signal.SIGINT)
+        first.wait(timeout=60)
+    tests = open_recording(rec).require_recording().tests
+    assert tests and all(t.clicks == i for i, t in enumerate(tests[:-1]))  # the first's, all
+    assert hard.samefile(rec)  # nothing replaced it

@@ -33,18 +33,21 @@ def test_samples_from_before_the_session_centred_the_ram_are_not_the_first_holds
 
 
 def starve(monkeypatch, session: RigSession, method: str, stalls) -> None:  # type: ignore[no-untyped-def]
-    """The host stalls 1.5 s before the actuator call `method` when `stalls(args)`, and
-    then reads the DAQ slowly (25 ms a read): at 50x, 75 s of samples to read through."""
+    """The host stalls 0.6 s before the actuator call `method` when `stalls(args)`, and
+    then reads the DAQ slowly (50 ms a read, 73 k frames/s against the rig's 50 k): at 50x,
+    30 s of samples to read through, more than a second of reads. The stall is shorter
+    than the drive's watchdog (1 s in rigs/sim.toml): a loop that stalls longer stops the
+    drive, as it must (test_contract_watchdog.py)."""
     cls = type(session.actuator)
     call, read = getattr(cls, method), DaqStream.read
 
     def late(self, *args, **kwargs):  # type: ignore[no-untyped-def]
         if stalls(args):
-            time.sleep(1.5)
+            time.sleep(0.6)
         return call(self, *args, **kwargs)
 
     def slow_read(self, daq, check):  # type: ignore[no-untyped-def]
-        time.sleep(0.025)
+        time.sleep(0.05)
         return read(self, daq, check)
 
     monkeypatch.setattr(cls, method, late)
@@ -56,7 +59,7 @@ def test_a_host_starved_before_it_commands_a_move_still_sees_the_move(
 ) -> None:
     # A move's budget is DAQ time (a fast simulated rig's clock). A host held up between
     # its last read and the command, and slow to read after it (a loaded CI machine: "move
-    # to -5 mm: not done within 2.25 s of DAQ time"), starts the move 75 s of samples after
+    # to -5 mm: not done within 2.25 s of DAQ time"), starts the move 30 s of samples after
     # its last read and takes more than MIN_WALL_S to read through them: the budget counts
     # from when the command could act, not from that last read.
     sim = sim_rig_factory(speed=50)
@@ -72,7 +75,7 @@ def test_a_host_starved_before_it_commands_a_move_still_sees_the_move(
 def test_a_host_starved_before_it_starts_a_sine_still_finds_the_start(
     sim_rig_factory, monkeypatch
 ) -> None:
-    # The same stall before the start command: the drive starts the sine 75 s of samples
+    # The same stall before the start command: the drive starts the sine 30 s of samples
     # after the host's last read, and the host's one-second budget for the motion output
     # to rise must not be spent reading the samples from before it.
     sim = sim_rig_factory(speed=50)

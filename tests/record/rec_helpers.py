@@ -75,3 +75,18 @@ def write_small(
                 s, i = s + n, i + 1
             w.write_event(hi / RATE, "info", f"test {index} done")
             w.end_test(m)
+
+
+def chunk_offsets(data: bytes) -> list[tuple[int, int]]:
+    """(offset, length) of every top-level Chunk record, walking the MCAP record framing."""
+    import struct
+
+    pos, out = 8, []
+    while pos + 9 <= len(data):
+        op, length = data[pos], struct.unpack_from("<Q", data, pos + 1)[0]
+        if op == 0x06:
+            out.append((pos, 9 + length))
+        if op == 0x02:  # footer
+            break
+        pos += 9 + length
+    return out

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import struct
 import subprocess
 import sys
 import textwrap
@@ -13,7 +12,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from rec_helpers import SAMPLES_PER_TEST, TESTS, block, meta, seq_range, write_small
+from rec_helpers import (
+    SAMPLES_PER_TEST,
+    TESTS,
+    block,
+    chunk_offsets,
+    meta,
+    seq_range,
+    write_small,
+)
 
 from shockdyno.cli import main
 from shockdyno.record import RecordingWriter, open_recording
@@ -116,14 +123,19 @@ def test_every_cut_point_reads_without_error_and_loses_at_most_the_open_test(
 
 
 @pytest.mark.parametrize("damaged", [0, 1])  # chunk 0 also holds the channel definitions
-def test_a_damaged_chunk_costs_only_that_chunk(tmp_path: Path, damaged: int) -> None:
+def test_a_damaged_chunk_costs_only_that_chunk_and_its_test_reads_as_damaged(
+    tmp_path: Path, damaged: int
+) -> None:
+    """Issue 46.5: a test whose samples were in the damaged chunk is not "complete with 0
+    samples": it is `damaged`, left out of every analysis and named, and a resumed sweep
+    runs it again."""
     path = tmp_path / "d.mcap"
     write_small(path)
     good = open_recording(path)
     data = bytearray(path.read_bytes())
     # Each test's samples fill one big chunk; its closing event and end record follow in
     # small chunks of their own (each event is synced as it is written).
-    chunks = [c for c in _chunk_offsets(bytes(data)) if c[1] > 10_000]
+    chunks = [c for c in chunk_offsets(bytes(data)) if c[1] > 10_000]
     assert len(chunks) == len(TESTS)
     off, length = chunks[damaged]
     data[off + length // 2] ^= 0xFF
@@ -132,22 +144,57 @@ def test_a_damaged_chunk_costs_only_that_chunk(tmp_path: Path, damaged: int) -> 
     assert rec.parts[0].bad_chunks == 1
     assert not rec.parts[0].truncated  # the footer is intact
     assert [m.index for m in rec.tests] == [m.index for m in good.tests]
-    for k, test in enumerate(rec.load_all()):
-        if test.meta.index == damaged:  # its samples are gone, its end record is not
-            assert test.t.size == 0
-            continue
+    assert [m.index for m in rec.damaged] == [damaged]
+    hurt = rec.tests[damaged]
+    assert hurt.status == "damaged" and hurt.extra["recorded_status"] == "complete"
+    assert hurt.extra["damage"] == f"0 of its {SAMPLES_PER_TEST} samples read"
+    note = rec.loss_note()
+    assert note is not None and f"test {damaged}: 0 of its {SAMPLES_PER_TEST}" in note
+    loaded = rec.load_all()
+    assert [t.meta.index for t in loaded] == [m.index for m in good.tests if m.index != damaged]
+    for test in loaded:
         lo, _ = seq_range(test.meta.index)
-        assert np.array_equal(test.force, block(lo, SAMPLES_PER_TEST).force_n), k
+        assert np.array_equal(test.force, block(lo, SAMPLES_PER_TEST).force_n)
+    _, clicks, freq = TESTS[damaged]
+    assert (clicks, 2, freq) not in rec.completed_keys()  # --resume runs it again
+    assert len(rec.completed_keys()) == len(TESTS) - 1
 
 
-def _chunk_offsets(data: bytes) -> list[tuple[int, int]]:
-    """(offset, length) of every top-level Chunk record, walking the MCAP record framing."""
-    pos, out = 8, []
-    while pos + 9 <= len(data):
-        op, length = data[pos], struct.unpack_from("<Q", data, pos + 1)[0]
-        if op == 0x06:
-            out.append((pos, 9 + length))
-        if op == 0x02:  # footer
-            break
-        pos += 9 + length
-    return out
+def test_a_partly_lost_test_and_an_undecodable_sample_message_read_as_damaged(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """32 bytes overwritten in the middle of a test (a chunk of its messages lost), and a
+    sample message that cannot be decoded (its chunk's CRC is good): both tests are short
+    of the samples they wrote, and say so."""
+    from shockdyno.record import schemas
+
+    encode = schemas.encode_samples
+    calls = [0]
+
+    def one_broken(test, part, velocity):  # type: ignore[no-untyped-def]
+        calls[0] += 1
+        data = encode(test, part, velocity)
+        return data[:-1] if calls[0] == 55 else data  # in the third test
+
+    monkeypatch.setattr(schemas, "encode_samples", one_broken)
+    path = tmp_path / "d.mcap"
+    with RecordingWriter(path, metadata={}, chunk_size=4096, max_block_samples=250) as w:
+        for k in range(3):
+            w.begin_test(meta(k, k))
+            for i in range(20):
+                w.write_samples(block(k * 10_000 + i * 250, 250))
+            w.end_test(meta(k, k))
+    data = bytearray(path.read_bytes())
+    middle = [c for c in chunk_offsets(bytes(data)) if c[1] > 2000][5]
+    data[middle[0] + middle[1] // 2 : middle[0] + middle[1] // 2 + 32] = b"\x55" * 32
+    path.write_bytes(bytes(data))
+    rec = open_recording(path)
+    assert rec.parts[0].bad_chunks == 1 and rec.parts[0].bad_messages == 1
+    assert [m.status for m in rec.tests] == ["damaged", "complete", "damaged"]
+    lost = rec.tests[0].extra["damage"]
+    assert lost.endswith("of its 5000 samples read") and not lost.startswith("0 ")
+    assert rec.tests[2].extra["damage"] == "4750 of its 5000 samples read"
+    assert main(["info", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "(1 complete, 0 aborted, 2 damaged)" in out
+    assert out.count(" damaged ") == 2  # the status column, each test

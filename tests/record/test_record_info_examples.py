@@ -46,6 +46,7 @@ def test_info_json_of_a_resumed_set_with_faults(
         "tests": 3,
         "complete": 2,
         "aborted": 1,
+        "damaged": 0,
         "interrupted": 0,
         "samples": 1999 + 500 + 1000,
         "duration_s": pytest.approx(2.0 + 0.499 + 0.999),

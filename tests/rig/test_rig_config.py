@@ -149,3 +149,28 @@ def test_calibration_counts_to_si_relative_to_centre() -> None:
     assert np.allclose(b.force_n, [100.0, -100.0])  # 0.05 N/count
     assert np.allclose(b.displacement_m, [0.0, 0.030])  # 1 µm/count, centre 75 mm
     assert np.allclose(b.temperature_c, [40.0, 40.1])
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "fragment"),
+    [
+        ("travel_m = 0.045", "travel_m = 10", "limits.travel_m: must be at most 0.5 m"),
+        ("force_n = 6000.0", "force_n = 1e9", "limits.force_n: must be at most 200000 N"),
+        ("velocity_m_s = 0.6", "velocity_m_s = 100", "limits.velocity_m_s: must be at most 15"),
+        ("temperature_c = 90.0", "temperature_c = 250", "limits.temperature_c: must be at most"),
+        ("move_velocity_m_s = 0.02", "move_velocity_m_s = 0.9", "exceeds limits.velocity_m_s"),
+        ("timeout_s = 1.0\n", "timeout_s = 60\n", "heartbeat.timeout_s: must be at most 5 s"),
+        ("[daq]", "[daq]\nposition_range_m = [0.0, 0.1]", "trips at [0.02775, 0.12225]"),
+        ("[daq]", "[daq]\nforce_range_n = [-5000, 5000]", "outside the sensor's daq.force_range_n"),
+        ("[daq]", "[daq]\ntemperature_range_c = [-40, 80]", "limits.temperature_c: trips at"),
+    ],
+)  # fmt: skip
+def test_absurd_limits_and_limits_no_sensor_can_see_are_refused(
+    old: str, new: str, fragment: str
+) -> None:
+    """Issue 46.2: travel 10 m, 1e9 N and 100 m/s were accepted, and only the simulated
+    drive refused what followed."""
+    assert old in SIM_TEXT
+    with pytest.raises(ConfigError, match=r"^rig\.toml: ") as exc:
+        parse_rig(SIM_TEXT.replace(old, new, 1), "rig.toml")
+    assert fragment in str(exc.value) and "\n" not in str(exc.value)

@@ -3,36 +3,47 @@ through a whole session on the simulated rig)."""
 
 from __future__ import annotations
 
-import threading
+import pytest
 
 from shockdyno.errors import RigFault
 from shockdyno.run.events import EventLog
-from shockdyno.run.heartbeat import Heartbeat
+from shockdyno.run.heartbeat import LoopHeartbeat
 from shockdyno.run.safety import SafetyEvent
 
 
-def test_the_heartbeat_beats_until_stopped_and_remembers_a_lost_link() -> None:
-    beats = threading.Semaphore(0)
-    fail = threading.Event()
+def test_the_heartbeat_beats_only_when_the_loop_feeds_it() -> None:
+    """No thread of its own: no feed, no beat, however long it waits (issue 46.1)."""
+    now = [0.0]
+    beats: list[float] = []
+    fail: list[str] = []
 
     def beat() -> None:
-        if fail.is_set():
-            raise RigFault("timeout")
-        beats.release()
+        if fail:
+            raise RigFault(fail[0])
+        beats.append(now[0])
 
-    hb = Heartbeat(beat, period_s=0.001)
+    hb = LoopHeartbeat(beat, period_s=0.1, clock=lambda: now[0])
+    hb.feed()
+    assert beats == []  # not started: a disabled drive needs no beats
     hb.start()
-    assert all(beats.acquire(timeout=5) for _ in range(3))  # it beats on its own
-    assert hb.error is None and hb.running
-    fail.set()
-    hb._thread.join(5)  # type: ignore[union-attr]  # the thread ends at the failed beat
-    assert not hb.running
-    assert hb.error == "lost link to actuator (heartbeat): timeout"
+    assert beats == [0.0]  # a beat at once
+    for t in (0.05, 0.1, 0.15, 0.2, 0.95, 1.0):
+        now[0] = t
+        hb.feed()
+    assert beats == [0.0, 0.1, 0.2, 0.95]  # a period apart, and only when fed
+    assert hb.worst_gap_s == pytest.approx(0.75)  # the loop was away 0.75 s
+    fail.append("timeout")
+    now[0] = 2.0
+    with pytest.raises(RigFault, match="timeout"):
+        hb.feed()  # the loop that feeds it hears of a failed beat
     fail.clear()
-    hb.start()  # a new start clears the error and beats again
-    assert hb.error is None and beats.acquire(timeout=5)
+    hb.feed()  # tried again at the next feed
+    assert beats[-1] == 2.0 and hb.beats == 5
     hb.stop()
-    assert not hb.running
+    now[0] = 5.0
+    hb.feed()
+    assert beats[-1] == 2.0
+    assert "longest gap between two 1050 ms" in hb.describe(1.0)
 
 
 def test_the_log_sends_each_event_and_survives_a_sink_that_fails() -> None:

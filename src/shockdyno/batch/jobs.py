@@ -144,6 +144,7 @@ def _diagnose(job: Job, row: Row) -> None:
         alpha=float(o.get("alpha", 0.01)),
         seed=int(o.get("seed", 0)),
         terms=o.get("terms", "all"),
+        allow_other_recording=bool(o.get("allow_other_recording", False)),
     )
     # Its residual maps and loops beside it, named in it: `batch report` shows them. The
     # JSON first: a plotting failure must not lose the diagnosis.
@@ -174,6 +175,12 @@ def _report(job: Job, row: Row) -> None:
     out = Path(job.out_dir) / job.name
     title = f"{rec.metadata.get('damper_id') or job.name}: dyno report"
     metadata = {"recording": Path(job.recording).name, **rec.metadata}
+    if fit is not None:  # a fit of another recording is refused, as by `report` (issue 46.7)
+        from shockdyno.record.identity import provenance, stored_sha256
+
+        stored = stored_sha256(fit.info, "recording", "sha256")
+        allow = bool(job.options.get("allow_other_recording", False))
+        metadata["fit"] = provenance(stored, job.sha256, "the fit", "--fit", allow)
     build_report(tests, out, title=title, metadata=metadata, fit=fit, diagnose=diag,
                  diagnose_dir=diag_path.parent)  # fmt: skip
     _from_tests(row, tests)

@@ -11,6 +11,7 @@ from shockdyno.batch.jobs import KINDS
 from shockdyno.commands.args import add_seed, add_spec
 from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError
+from shockdyno.record.identity import add_allow_argument
 
 
 def register(sub: Any) -> None:
@@ -49,6 +50,7 @@ def register(sub: Any) -> None:
         metavar="FILE|DIR",
         help="diagnose/report: a fit JSON for all, or a folder of NAME.fit.json (a batch fit's)",
     )
+    add_allow_argument(g, "a --fit (diagnose/report)")
     p.set_defaults(func=run)
 
 
@@ -60,6 +62,8 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
         opts["spec"] = str(Path(args.spec).resolve())
     if args.fit:
         opts["fit"] = str(Path(args.fit).resolve())
+        if args.allow_other_recording:  # in the key: a result made without it is redone
+            opts["allow_other_recording"] = True
     if args.kind == "fit":
         opts["optimizer"] = args.optimizer
         if args.terms is not None:
@@ -88,6 +92,12 @@ def run(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {out}: is a file, not a directory")
     options = _options(args)
+    if options.get("allow_other_recording"):
+        print(
+            "batch: --allow-other-recording: a --fit made from another recording is used "
+            "(each result says so)",
+            file=sys.stderr,
+        )
     recordings = collect(args.paths)
     jobs = plan_jobs(args.kind, recordings, out.resolve(), options)
     console = Console(stderr=True)

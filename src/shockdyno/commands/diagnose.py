@@ -13,6 +13,7 @@ from shockdyno.commands.args import add_seed, add_spec, add_term_list
 from shockdyno.diagnose.file import diagnose_file, parse_candidates
 from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError
+from shockdyno.record.identity import add_allow_argument
 
 
 def register(sub: Any) -> None:
@@ -59,9 +60,9 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--force",
         action="store_true",
-        help="overwrite an existing DIAG.json or --report page; accept a --fit made from "
-        "another recording (DIAG.json says so)",
+        help="overwrite an existing DIAG.json or --report page",
     )
+    add_allow_argument(p, "a --fit")
     units_mod.add_argument(p, "the terminal text, table and --report page")
     p.set_defaults(func=run_diagnose)
 
@@ -123,7 +124,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
             alpha=args.alpha,
             seed=args.seed,
             terms=args.terms,
-            force=args.force,
+            allow_other_recording=args.allow_other_recording,
             progress=progress,
             warn=lambda line: print(line, file=sys.stderr),
             workers=workers,

@@ -7,6 +7,8 @@ exports), so neither package imports the other for it.
 from __future__ import annotations
 
 import argparse
+import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -16,11 +18,13 @@ from numpy.typing import NDArray
 from shockdyno import __version__
 from shockdyno.commands.args import add_force
 from shockdyno.errors import ConfigError
+from shockdyno.fit.file import MAX_FORCE_N
 from shockdyno.fit.result import FitResult
 from shockdyno.lists import parse_floats, parse_ints
 from shockdyno.model.kinematics import differentiate
 from shockdyno.outputs import check_output
 from shockdyno.record.csv_export import export_csv
+from shockdyno.record.reader import open_recording
 from shockdyno.result_files import starts_as_mcap
 from shockdyno.ride.damper_table import IMPERIAL_SPEEDS_M_S, UNITS, click_tables, write_tables
 
@@ -72,7 +76,11 @@ def _export(args: argparse.Namespace) -> int:
             raise ConfigError(
                 "--csv writes SI units (time_s, force_N, ...); --units goes with --damper-table"
             )
-        files = export_csv(args.source, args.csv, force=args.force, velocity=_velocity)
+        rec = open_recording(args.source).require_recording()
+        loss = rec.loss_note()
+        if loss:  # a cut-off or damaged recording: what the export leaves out, said
+            print(f"shockdyno export: warning: {args.source}: {loss}", file=sys.stderr)
+        files = export_csv(rec, args.csv, force=args.force, velocity=_velocity)
         print(
             f"exported {len(files) - 1} tests to {args.csv} ({files[0].name} lists them), "
             "in SI units as the column names say"
@@ -102,6 +110,21 @@ def _load_fit(path: Path) -> FitResult:
     return FitResult.load(path)
 
 
+def _check_tables(tables: list[Any], source: Path) -> None:
+    """Refuse a damper no dyno measures (issue 46.11: a fit with a gas pressure of 1e300 Pa
+    was written out as a table of 1.5e296 N): every force finite and within MAX_FORCE_N,
+    the bound a recording's forces are held to (fit/file.py)."""
+    for t in tables:
+        forces = np.append(np.asarray(t.force_n, dtype=float), t.gas_force_n)
+        worst = float(np.max(np.abs(forces))) if np.all(np.isfinite(forces)) else math.inf
+        if worst > MAX_FORCE_N:
+            raise ConfigError(
+                f"{source}: the fitted damper at {t.clicks} clicks gives {worst:.3g} N, beyond "
+                f"any damper dyno's {MAX_FORCE_N:.0e} N; not written (is the fit from this "
+                "project, unedited?)"
+            )
+
+
 def _damper_table(args: argparse.Namespace) -> int:
     out: Path = args.damper_table
     if out.exists() and not out.is_dir():
@@ -116,6 +139,7 @@ def _damper_table(args: argparse.Namespace) -> int:
     elif args.units == "imperial":
         speeds = list(IMPERIAL_SPEEDS_M_S)
     tables = click_tables(fit, clicks, speeds)
+    _check_tables(tables, args.source)
     if out.is_dir():  # every target refused before anything is written
         for t in tables:
             for suffix in (".csv", ".dpr"):

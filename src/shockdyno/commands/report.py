@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.outputs import check_report_dir
+from shockdyno.record.identity import add_allow_argument
 from shockdyno.report import temperature
 from shockdyno.report.documents import (
     DiagnosisDoc,
@@ -44,12 +46,8 @@ def register(sub: Any) -> None:
         "(default: damping force, the gas force measured at mid-stroke, or estimated from "
         "the reversals, removed)",
     )
-    p.add_argument(
-        "--force",
-        action="store_true",
-        help="replace an existing DIR/index.html; show a result made from another recording "
-        "(the page says so) (default: refuse both)",
-    )
+    p.add_argument("--force", action="store_true", help="replace an existing DIR/index.html")
+    add_allow_argument(p, "a --fit, --diagnose or --ride result")
     add_units_argument(p, "the page's numbers, tables and plots")
     p.set_defaults(func=run_report)
 
@@ -81,7 +79,8 @@ def _provenance(
     args: argparse.Namespace, fit: Any, diagnose: DiagnosisDoc | None, ride: RideDoc | None
 ) -> dict[str, str]:
     """Each result given against the recording's hash: a page row each; a result of
-    another recording is refused unless --force (issue 21.4)."""
+    another recording (or of none it names) is refused unless --allow-other-recording
+    (issue 46.7: --force used to waive it), and then said on the terminal as well."""
     from shockdyno.record.identity import provenance, recording_sha256, stored_sha256
 
     given = []  # (row, what, flag, the hash it stores)
@@ -94,9 +93,14 @@ def _provenance(
     if not given:
         return {}
     actual = recording_sha256(Path(args.recording))
-    return {
-        row: provenance(stored, actual, what, flag, args.force) for row, what, flag, stored in given
+    rows = {
+        row: provenance(stored, actual, what, flag, args.allow_other_recording)
+        for row, what, flag, stored in given
     }
+    for line in rows.values():
+        if not line.startswith("made from this recording"):
+            print(f"report: warning: {line}", file=sys.stderr)
+    return rows
 
 
 def run_report(args: argparse.Namespace) -> int:

@@ -21,6 +21,7 @@ from shockdyno.model.spec import default_spec_path, load_spec
 from shockdyno.outputs import refuse_inputs
 from shockdyno.run.plan import SweepPlan, frequencies_for_velocities, parse_velocities_mm_s
 from shockdyno.run.recording import record_sweep
+from shockdyno.run.refusals import MIN_FREQUENCY_HZ
 from shockdyno.run.signals import stop_on_signals
 
 if TYPE_CHECKING:
@@ -56,6 +57,8 @@ def _band(text: str) -> tuple[float, float]:
         lo, hi = (float(v) for v in text.split(","))
     except ValueError:
         raise argparse.ArgumentTypeError("use LOW,HIGH in °C, e.g. 35,45") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+        raise argparse.ArgumentTypeError(f"use LOW,HIGH in °C with LOW <= HIGH, got {text!r}")
     return lo, hi
 
 
@@ -137,7 +140,6 @@ def register(sub: Any) -> None:
     r.set_defaults(func=cmd_replay)
 
 
-MIN_PLANNED_HZ = 1 / 600  # one cycle in 10 min: slower is a mistyped velocity, not a test
 SAFETY_SHARE = 0.95  # of the rig's velocity limit a planned sine may reach
 
 
@@ -149,7 +151,7 @@ def _frequencies(args: argparse.Namespace, rig: RigConfig | None) -> list[float]
     amplitude_m = getattr(args, "amplitude_mm", 30.0) / 1e3
     velocities = parse_velocities_mm_s(text)
     slowest = min(velocities) / (2 * math.pi * amplitude_m)
-    if slowest < MIN_PLANNED_HZ:
+    if slowest < MIN_FREQUENCY_HZ:
         raise ConfigError(
             f"--velocities-mm-s: {min(velocities) * 1e3:g} mm/s at {amplitude_m * 1e3:g} mm "
             f"needs {slowest:.3g} Hz, a cycle of {1 / slowest / 3600:.3g} h; the slowest "

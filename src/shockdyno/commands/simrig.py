@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 
 from shockdyno.commands.args import add_seed, add_spec
+from shockdyno.errors import ConfigError
 from shockdyno.rig.config import default_rig_path, load_rig
 from shockdyno.simrig.faults import parse_fault
 from shockdyno.simrig.server import start_sim_rig
@@ -70,6 +72,13 @@ def _port_from_url(url: str) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    if not (math.isfinite(args.speed) and args.speed > 0):
+        raise ConfigError(f"--speed must be a number > 0, got {args.speed:g}")
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
+        raise ConfigError(f"--duration must be a number of seconds > 0, got {args.duration:g}")
+    for flag, port in (("--modbus-port", args.modbus_port), ("--serial-port", args.serial_port)):
+        if port is not None and not 0 <= port <= 65535:
+            raise ConfigError(f"{flag} must be 0-65535 (0: any free port), got {port}")
     rig = load_rig(args.rig)
     faults = [parse_fault(f) for f in args.fault]
     modbus_port = args.modbus_port if args.modbus_port is not None else rig.actuator.port

@@ -34,7 +34,7 @@ def diagnose_file(
     alpha: float = 0.01,
     seed: int = 0,
     terms: str = "all",
-    force: bool = False,
+    allow_other_recording: bool = False,
     progress: Any = None,
     warn: Any = None,
     workers: int = 1,
@@ -60,7 +60,9 @@ def diagnose_file(
     fit_from = None
     if fit is not None:
         stored = stored_sha256(fit.info, "recording", "sha256")
-        fit_from = provenance(stored, info["sha256"], "the fit", "--fit", force)
+        fit_from = provenance(stored, info["sha256"], "the fit", "--fit", allow_other_recording)
+        if warn is not None and not fit_from.startswith("made from this recording"):
+            warn(f"warning: {fit_from}")
     rec = open_recording(recording).require_recording()
     loss = rec.loss_note()
     if loss and warn is not None:

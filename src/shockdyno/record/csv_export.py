@@ -145,17 +145,21 @@ def export_csv(
     force: bool = False,
     velocity: Differentiate | None = None,
 ) -> list[Path]:
-    """Write DIR/manifest.csv and one data CSV per test (complete and aborted); with
-    `velocity` (t, x -> dx/dt), a velocity_m_s column as well (see the module's doc)."""
+    """Write DIR/manifest.csv and one data CSV per test (complete and aborted; a damaged
+    one is left out: its samples are a part of the test, `Recording.loss_note` names it);
+    with `velocity` (t, x -> dx/dt), a velocity_m_s column as well (see the module's doc)."""
     rec = recording if isinstance(recording, Recording) else open_recording(recording)
-    if not rec.tests:
-        raise RecordingError(f"{rec.path}: no complete or aborted test to export")
-    names = _file_names(rec.tests)
+    kept = [i for i, m in enumerate(rec.tests) if m.status != "damaged"]
+    if not kept:
+        damaged = f" ({len(rec.damaged)} damaged)" if rec.damaged else ""
+        raise RecordingError(f"{rec.path}: no complete or aborted test to export{damaged}")
+    metas = [rec.tests[i] for i in kept]
+    names = _file_names(metas)
     with atomic_dir(out_dir, force) as tmp:
         try:
-            for i, name in enumerate(names):
+            for i, name in zip(kept, names, strict=True):
                 _write_data(tmp / name, rec.load(i), velocity)
-            _write_manifest(tmp / MANIFEST_NAME, rec.tests, names)
+            _write_manifest(tmp / MANIFEST_NAME, metas, names)
         except OSError as exc:
             raise RecordingError(f"cannot write {out_dir}: {exc.strerror}") from exc
     return [out_dir / MANIFEST_NAME, *(out_dir / n for n in names)]

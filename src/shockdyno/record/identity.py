@@ -46,14 +46,32 @@ def stored_sha256(doc: Any, *keys: str) -> str | None:
     return node if isinstance(node, str) and node else None
 
 
-def provenance(stored: str | None, actual: str, what: str, flag: str, force: bool) -> str:
-    """One line for the page on where a result came from; a result of another recording
-    is refused unless `force` (and then the line says so)."""
-    if stored is None:
-        return f"not checked: {what} was written before results carried their recording's hash"
+ALLOW_FLAG = "--allow-other-recording"
+
+
+def provenance(stored: str | None, actual: str, what: str, flag: str, allow: bool) -> str:
+    """One line for the page on where a result came from. A result of another recording,
+    or one that does not say which recording it was made from, is refused unless `allow`
+    (ALLOW_FLAG, explicitly: --force replaces outputs and waives no input check), and then
+    the line says so (the caller prints it on the terminal too)."""
     if stored == actual:
         return f"made from this recording (sha256 {actual[:12]})"
-    line = f"{what} was made from another recording (sha256 {stored[:12]}, this one {actual[:12]})"
-    if not force:
-        raise ConfigError(f"{flag}: {line}; use --force to show it anyway")
-    return f"FROM ANOTHER RECORDING: {line}; shown because of --force"
+    if stored is None:
+        line = f"{what} does not say which recording it was made from (no info.recording)"
+    else:
+        line = (
+            f"{what} was made from another recording (sha256 {stored[:12]}, this one {actual[:12]})"
+        )
+    if not allow:
+        raise ConfigError(f"{flag}: {line}; use {ALLOW_FLAG} to show it anyway")
+    return f"NOT CHECKED AGAINST THIS RECORDING: {line}; shown because of {ALLOW_FLAG}"
+
+
+def add_allow_argument(p: Any, what: str) -> None:
+    """The one flag that accepts a result of another recording, in every command."""
+    p.add_argument(
+        ALLOW_FLAG,
+        action="store_true",
+        help=f"accept {what} made from another recording, or one that does not say which "
+        "(refused by default; the terminal and the output say so)",
+    )

@@ -24,6 +24,8 @@ def _test_row(rec: Recording, meta: TestMeta) -> dict[str, Any]:
         "amplitude_m": meta.amplitude_m,
         "motion": meta.motion,
         "status": meta.status,
+        # Why a test is `damaged` (its samples read back are not those it wrote), else None.
+        "damage": meta.extra.get("damage") if meta.status == "damaged" else None,
         "samples": n,
         "sample_rate_hz": meta.sample_rate_hz,
         "t_start_s": t0,
@@ -57,11 +59,14 @@ def summarise(rec: Recording) -> dict[str, Any]:
             for p in rec.parts
         ],
         "metadata": rec.metadata,
+        "identity": rec.identity,
+        "foreign_parts": [{"path": str(p), "why": why} for p, why in rec.foreign],
         "rig_file_attached": rec.rig_toml is not None,
         "totals": {
             "tests": len(tests),
             "complete": sum(t["status"] == "complete" for t in tests),
             "aborted": sum(t["status"] == "aborted" for t in tests),
+            "damaged": sum(t["status"] == "damaged" for t in tests),
             "interrupted": len(interrupted),
             "samples": sum(t["samples"] for t in tests),
             "duration_s": sum(t["duration_s"] or 0.0 for t in tests),
@@ -85,13 +90,18 @@ def format_text(doc: dict[str, Any], max_events: int = 20) -> str:
         state = "TRUNCATED: " + (f["problem"] or "") if f["truncated"] else "complete file"
         if not f["truncated"] and f["problem"]:
             state += f" ({f['problem']})"
+        if f["bad_messages"]:
+            state += f"; {f['bad_messages']} messages could not be read"
         lines.append(f"  file {f['path']}: {f['size_bytes']} bytes, {state}")
+    for f in doc["foreign_parts"]:
+        lines.append(f"  NOT PART OF THIS RECORDING, not read: {f['path']} ({f['why']})")
     for k, v in doc["metadata"].items():
         lines.append(f"  {k}: {v}")
     lines.append(f"  rig file attached: {'yes' if doc['rig_file_attached'] else 'no'}")
     tot = doc["totals"]
     lines.append(
-        f"tests: {tot['tests']} ({tot['complete']} complete, {tot['aborted']} aborted), "
+        f"tests: {tot['tests']} ({tot['complete']} complete, {tot['aborted']} aborted, "
+        f"{tot['damaged']} damaged), "
         f"{tot['interrupted']} interrupted; {tot['samples']} samples, {tot['duration_s']:.1f} s; "
         f"dropped frames {tot['dropped_frames']}, corrupt frames {tot['corrupt_frames']}"
     )
@@ -107,6 +117,8 @@ def format_text(doc: dict[str, Any], max_events: int = 20) -> str:
             f"{t['samples']:>8} {dur:>7} {_opt(t['dropped_frames']):>7} "
             f"{_opt(t['corrupt_frames']):>7}"
         )
+        if t["damage"]:
+            lines.append(f"{'':>4} DAMAGED: {t['damage']}; left out of fit and diagnose")
     if doc["event_counts"]:
         counts = ", ".join(f"{k} {n}" for k, n in doc["event_counts"].items())
         lines.append(f"events: {counts}")

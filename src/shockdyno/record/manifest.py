@@ -207,6 +207,8 @@ def _gas_force(
 
 def _data_path(manifest: Path, name: str, allow_outside: bool, where: str) -> Path:
     """A manifest's data file; it must lie under the manifest's folder unless allowed."""
+    if "\x00" in name:  # no file system takes it; os.path raised ValueError on it
+        raise RecordingError(f"{where}: {name!r} holds a NUL character: not a file name")
     path = manifest.parent / name
     if allow_outside:
         return path

@@ -3,6 +3,16 @@
 The file is read front to back, chunk by chunk, without its summary section: a file cut off by
 kill -9 or power loss has no summary, and every complete chunk before the cut is still good.
 A chunk whose CRC fails is skipped and counted; reading goes on with the next one.
+
+A test read back is checked against its own end record: the samples it wrote
+(`sample_count`) must all be there, in order, with no gap beyond the frames its DAQ lost.
+A test that fails is `damaged` (a skipped chunk, an undecodable message): `load_all` leaves
+it out and `loss_note` names it, so an analysis never takes a part of a test for the whole,
+and `completed_keys` does not count it, so `sweep --resume` runs it again.
+
+A part file belongs to the set only when its identity says so (`set_id` in its metadata,
+the first file's; before set ids, the same damper, operator and rig): a separate sweep
+saved as NAME.part2.mcap is not merged into NAME.mcap's tests (`foreign` names it).
 """
 
 from __future__ import annotations
@@ -40,6 +50,7 @@ class PartInfo:
     # Wall-clock time (ns since the Unix epoch) of t_s = 0: log_time = origin + t_s. None in
     # format 1 files, whose log_time is the DAQ time itself.
     wall_clock_origin_ns: int | None = None
+    identity: dict[str, str] = field(default_factory=dict)  # shockdyno.identity, if any
 
 
 @dataclass
@@ -47,7 +58,8 @@ class _PartData:
     info: PartInfo
     rig_toml: str | None = None
     begun: dict[int, TestMeta] = field(default_factory=dict)
-    ended: list[tuple[int, TestMeta]] = field(default_factory=list)
+    # (serial, meta, samples the writer wrote for it: None in files before the count)
+    ended: list[tuple[int, TestMeta, int | None]] = field(default_factory=list)
     samples: dict[int, list[bytes]] = field(default_factory=dict)
     events: list[tuple[float, str, str]] = field(default_factory=list)
     actuator: list[tuple[float, dict[str, Any]]] = field(default_factory=list)
@@ -59,26 +71,36 @@ class Recording:
     never ended (the process died) are in `interrupted`, with status "interrupted".
     """
 
-    def __init__(self, path: Path, parts: list[_PartData]) -> None:
+    def __init__(
+        self, path: Path, parts: list[_PartData], foreign: list[tuple[Path, str]] | None = None
+    ) -> None:
         self.path = path
+        self.foreign = list(foreign or [])  # part files of another recording: (path, why)
         self.parts = [p.info for p in parts]
         first = dict(parts[0].info.metadata) if parts else {}
         first.pop("part", None)
         self.metadata: dict[str, str] = first
+        # What the set measures (a sweep's rig set-up and plan; empty before it was kept)
+        self.identity: dict[str, str] = dict(parts[0].info.identity) if parts else {}
         self.rig_toml: str | None = next((p.rig_toml for p in parts if p.rig_toml), None)
         self.truncated = any(p.info.truncated for p in parts)
         self.tests: list[TestMeta] = []
         self.interrupted: list[TestMeta] = []
+        self.damaged: list[TestMeta] = []  # also in `tests`, with status "damaged"
         self._keys: list[tuple[int, int]] = []
         self._interrupted_keys: list[tuple[int, int]] = []
         self._samples: dict[tuple[int, int], list[bytes]] = {}
         self.events: list[tuple[float, str, str]] = []
         self.actuator: list[tuple[float, dict[str, Any]]] = []
         for i, part in enumerate(parts):
-            for serial, meta in part.ended:
+            for serial, meta, count in part.ended:
+                damage = _damage(part.samples.get(serial, []), meta, count)
+                if damage is not None:
+                    meta = _as_damaged(meta, damage)
+                    self.damaged.append(meta)
                 self.tests.append(meta)
                 self._keys.append((i, serial))
-            ended = {serial for serial, _ in part.ended}
+            ended = {serial for serial, _, _ in part.ended}
             for serial, meta in part.begun.items():
                 if serial not in ended:
                     self.interrupted.append(replace(meta, status="interrupted"))
@@ -89,23 +111,30 @@ class Recording:
             self.actuator.extend(part.actuator)
 
     def loss_note(self) -> str | None:
-        """What a cut-off recording lost, in one line for an analysis to print (None when
-        it is whole): the tests interrupted mid-write are left out, and nothing after the
-        cut was written."""
-        if not self.truncated and not self.interrupted:
-            return None
-        problem = next((p.problem for p in self.parts if p.problem), "cut off")
-        lost = len(self.interrupted)
-        which = ", ".join(str(m.index) for m in self.interrupted)
-        return (
-            f"the recording is cut off ({problem}): {len(self.tests)} tests read; "
-            + (
-                f"{lost} interrupted mid-write left out (test {which}); "
-                if lost
-                else "no test was interrupted; "
+        """What a cut-off or damaged recording lost, in one line for an analysis to print
+        (None when it is whole): the tests interrupted mid-write and the damaged tests are
+        left out (named), nothing after a cut was written, and a part file of another
+        recording is not read."""
+        said = []
+        if self.truncated or self.interrupted:
+            problem = next((p.problem for p in self.parts if p.problem), "cut off")
+            lost = len(self.interrupted)
+            which = ", ".join(str(m.index) for m in self.interrupted)
+            said.append(
+                f"the recording is cut off ({problem}): {len(self.tests)} tests read; "
+                + (
+                    f"{lost} interrupted mid-write left out (test {which}); "
+                    if lost
+                    else "no test was interrupted; "
+                )
+                + "any test after the cut was never written"
             )
-            + "any test after the cut was never written"
-        )
+        if self.damaged:
+            which = "; ".join(f"test {m.index}: {m.extra.get('damage', '')}" for m in self.damaged)
+            said.append(f"{len(self.damaged)} damaged tests left out ({which})")
+        for path, why in self.foreign:
+            said.append(f"{path.name} is not part of this recording ({why}); not read")
+        return "; ".join(said) or None
 
     def require_recording(self) -> Recording:
         """Refuse (one RecordingError line) a file that holds no shockdyno recording at all:
@@ -162,8 +191,10 @@ class Recording:
             temperature=None if temp.size == 0 or np.isnan(temp).all() else temp,
         )
 
-    def load_all(self) -> list[TestData]:
-        return [self.load(i) for i in range(len(self.tests))]
+    def load_all(self, damaged: bool = False) -> list[TestData]:
+        """Every ended test, complete and aborted; damaged ones only when asked (their
+        samples are a part of the test, which no analysis should take for the whole)."""
+        return [self.load(i) for i, m in enumerate(self.tests) if damaged or m.status != "damaged"]
 
     def sample_count(self, index: int | TestMeta) -> int:
         payloads = self._samples.get(self._key(index), [])
@@ -177,12 +208,71 @@ class Recording:
 
 
 def open_recording(path: str | os.PathLike[str]) -> Recording:
-    """Read NAME.mcap and its part files NAME.part2.mcap, ... (see recordings/FORMAT.md)."""
+    """Read NAME.mcap and its part files NAME.part2.mcap, ... (see recordings/FORMAT.md);
+    a part file of another recording (another set id, damper, operator or rig) is left
+    out and named in `foreign`."""
     base = Path(path)
     paths = set_paths(base)
     if not paths:
         raise RecordingError(f"{base}: no such recording")
-    return Recording(base, [_read_part(p) for p in paths])
+    parts = [_read_part(p) for p in paths]
+    if not base.exists():
+        return Recording(base, parts)
+    members, foreign = [parts[0]], []
+    for part in parts[1:]:
+        why = not_in_set(parts[0].info.metadata, part.info.metadata)
+        if why is None:
+            members.append(part)
+        else:
+            foreign.append((part.info.path, why))
+    return Recording(base, members, foreign)
+
+
+IDENTITY_KEYS = ("damper_id", "operator", "rig")
+
+
+def not_in_set(first: dict[str, str], part: dict[str, str]) -> str | None:
+    """Why a part file with metadata `part` is not of the set whose first file has
+    `first` (None: it is). A set id decides where the first file has one; before set
+    ids, the damper, operator and rig must agree."""
+    set_id = first.get("set_id", "")
+    if set_id:
+        if part.get("set_id", "") != set_id:
+            return f"set id {part.get('set_id') or 'none'}, the recording's is {set_id}"
+        return None
+    if part.get("set_id", ""):
+        return f"set id {part['set_id']}, the recording has none"
+    for key in IDENTITY_KEYS:
+        if part.get(key, "") != first.get(key, ""):
+            return f"{key} {part.get(key, '')!r}, the recording's is {first.get(key, '')!r}"
+    return None
+
+
+def part_metadata(path: Path) -> dict[str, str]:
+    """The `shockdyno.recording` metadata of one file, read from its start only (empty
+    when there is none or the file cannot be read as MCAP)."""
+    if not path.is_file():  # a FIFO would block, a device never end
+        return {}
+    try:
+        with path.open("rb") as f:
+            for record in StreamReader(f, emit_chunks=True).records:
+                if isinstance(record, Metadata) and record.name == s.METADATA_NAME:
+                    return dict(record.metadata)
+                if isinstance(record, Chunk | Message | Footer):
+                    break  # the writer puts the metadata before the first chunk
+    except Exception:  # a damaged or foreign file holds no identity to read
+        return {}
+    return {}
+
+
+def set_members(base: Path) -> list[Path]:
+    """The files of the recording set at `base` (first file first): its part files that
+    belong to it, not a separate recording that happens to be named like one."""
+    paths = set_paths(base)
+    if not base.is_file():
+        return [p for p in paths if p.is_file()]
+    first = part_metadata(base)
+    return [base] + [p for p in paths[1:] if not_in_set(first, part_metadata(p)) is None]
 
 
 def _read_part(path: Path) -> _PartData:
@@ -228,12 +318,14 @@ def _take(part: _PartData, topics: dict[int, str], record: object) -> None:
         topic = topics.get(record.channel_id)
         try:
             _message(part, topic, record.data)
-        except (RecordingError, ValueError, KeyError, TypeError):
+        except (RecordingError, ValueError, KeyError, TypeError, RecursionError):
             part.info.bad_messages += 1
     elif isinstance(record, Channel):
         topics[record.id] = record.topic
     elif isinstance(record, Metadata) and record.name == s.METADATA_NAME:
         part.info.metadata = dict(record.metadata)
+    elif isinstance(record, Metadata) and record.name == s.IDENTITY_METADATA_NAME:
+        part.info.identity = dict(record.metadata)
     elif isinstance(record, Metadata) and record.name == s.CLOCK_METADATA_NAME:
         try:
             part.info.wall_clock_origin_ns = int(record.metadata["wall_clock_origin_ns"])
@@ -257,7 +349,9 @@ def _message(part: _PartData, topic: str | None, data: bytes) -> None:
         if obj["phase"] == "begin":
             part.begun[serial] = meta
         else:
-            part.ended.append((serial, meta))
+            count = obj.get("sample_count")
+            count = count if isinstance(count, int) and not isinstance(count, bool) else None
+            part.ended.append((serial, meta, count))
     elif topic == s.TOPIC_EVENTS:
         part.events.append((float(obj["t_s"]), str(obj["kind"]), str(obj["message"])))
     else:
@@ -273,3 +367,30 @@ def _mcap_magic(path: Path) -> bool:
         return starts_as_mcap(path)
     except OSError:
         return True  # unreadable: say what is known, not that it is no MCAP
+
+
+def _damage(payloads: list[bytes], meta: TestMeta, written: int | None) -> str | None:
+    """Why a test's samples are not the whole test its end record describes (None: they
+    are): fewer than it wrote, out of order, or with a gap beyond the frames its DAQ lost."""
+    counts = [s.samples_header(p)[1] for p in payloads]
+    n = sum(counts)
+    if written is not None and n != written:
+        return f"{n} of its {written} samples read"
+    if n < 2:
+        return None
+    seq = np.concatenate(
+        [np.frombuffer(p, "<i8", c, 12) for p, c in zip(payloads, counts, strict=True)]
+    )
+    steps = np.diff(seq)
+    if np.any(steps <= 0):
+        return "its samples are out of order"
+    gaps = int(np.sum(steps - 1))
+    known = (meta.dropped_frames or 0) + (meta.corrupt_frames or 0)
+    if written is None and gaps > known:
+        return f"{gaps} samples missing from its time base, {known} lost by its DAQ"
+    return None
+
+
+def _as_damaged(meta: TestMeta, why: str) -> TestMeta:
+    extra = {**meta.extra, "damage": why, "recorded_status": meta.status}
+    return replace(meta, status="damaged", extra=extra)

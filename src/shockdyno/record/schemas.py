@@ -10,6 +10,7 @@ a JSON Schema: readable by eye and by every MCAP tool.
 from __future__ import annotations
 
 import json
+import math
 import struct
 from dataclasses import asdict, fields
 from typing import Any
@@ -24,6 +25,9 @@ from shockdyno.rig.types import SampleBlock
 FORMAT_VERSION = "2"  # 2: SampleBlock2 (velocity_m_s), wall-clock log_time
 METADATA_NAME = "shockdyno.recording"
 CLOCK_METADATA_NAME = "shockdyno.clock"  # wall_clock_origin_ns: log_time = origin + t_s
+# What a sweep's set is a measurement of (rig set-up, plan), kept apart from the
+# recording's metadata, which pages and `info` show: a resumed part must match it.
+IDENTITY_METADATA_NAME = "shockdyno.identity"
 RIG_ATTACHMENT = "rig.toml"
 
 TOPIC_SAMPLES = "/dyno/samples"
@@ -233,11 +237,50 @@ def meta_to_json(meta: TestMeta) -> dict[str, Any]:
 
 
 _META_FIELDS = {f.name for f in fields(TestMeta)}
+# What each field of a test record must be: a record that says otherwise (a frequency of
+# "fast") is a bad message, counted, never a TypeError in whatever reads it later.
+_INTS = ("index", "clicks", "gas_clicks", "warmup_cycles", "measured_cycles")
+_NUMBERS = ("frequency_hz", "amplitude_m", "sample_rate_hz")
+_OPTIONAL_INTS = ("dropped_frames", "corrupt_frames")
+_OPTIONAL_NUMBERS = (
+    "measured_start_s",
+    "measured_end_s",
+    "gas_pressure_pa",
+    "start_temperature_c",
+    "gas_force_n",
+)
+_TEXTS = ("motion", "status")
+_OPTIONAL_TEXTS = ("abort_reason", "gas_force_source")
+
+
+def _check_types(kw: dict[str, Any]) -> None:
+    def is_int(v: Any) -> bool:
+        return isinstance(v, int) and not isinstance(v, bool)
+
+    def is_number(v: Any) -> bool:
+        return (is_int(v) or isinstance(v, float)) and math.isfinite(v)
+
+    rules = (
+        (_INTS, is_int, False, "a whole number"),
+        (_NUMBERS, is_number, False, "a number"),
+        (_OPTIONAL_INTS, is_int, True, "a whole number"),
+        (_OPTIONAL_NUMBERS, is_number, True, "a number"),
+        (_TEXTS, lambda v: isinstance(v, str), False, "text"),
+        (_OPTIONAL_TEXTS, lambda v: isinstance(v, str), True, "text"),
+    )
+    for names, ok, optional, what in rules:
+        for name in names:
+            if name not in kw or (optional and kw[name] is None):
+                continue
+            if not ok(kw[name]):
+                raise RecordingError(f"bad test record: {name} must be {what}, got {kw[name]!r}")
 
 
 def meta_from_json(d: dict[str, Any]) -> TestMeta:
-    """TestMeta from a /dyno/test record; unknown keys (newer writers) are ignored."""
+    """TestMeta from a /dyno/test record; unknown keys (newer writers) are ignored, a
+    field of the wrong type is a RecordingError."""
     kw = {k: v for k, v in d.items() if k in _META_FIELDS}
+    _check_types(kw)
     try:
         kw["cycle_start_s"] = tuple(float(v) for v in kw.get("cycle_start_s", ()))
         extra = {str(k): str(v) for k, v in dict(kw.get("extra", {})).items()}

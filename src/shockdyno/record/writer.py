@@ -1,7 +1,14 @@
 """Crash-safe MCAP recording writer.
 
 Every `end_test` closes the current MCAP chunk, flushes it and fsyncs the file, so a completed
-test survives kill -9 or power loss; only the test in progress is at risk. Small sample blocks
+test survives kill -9 or power loss; only the test in progress is at risk.
+
+A recording that replaces another (`replaces=`, `sweep --force`) is written beside it under
+its own name and takes the old one's place (and removes the old set's part files, only
+those that belong to it) when its first test completes: a sweep whose rig or first test
+fails leaves the old recording as it was. The file a writer creates is locked by its inode
+(record/lock.py) for as long as the writer has it open. Each new recording gets a `set_id`
+(metadata), which the parts of a resumed sweep carry too (record/reader.py). Small sample blocks
 are coalesced into messages of up to `max_block_samples` samples: fewer, larger messages write
 and decode faster (figures in recordings/FORMAT.md).
 
@@ -12,6 +19,7 @@ clock at the first sample minus that sample's t_s, recorded as metadata `shockdy
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import math
@@ -19,6 +27,7 @@ import os
 import signal
 import threading
 import time
+import uuid
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
@@ -33,7 +42,9 @@ from numpy.typing import NDArray
 from shockdyno import __version__
 from shockdyno.errors import RecordingError
 from shockdyno.record import schemas as s
-from shockdyno.record.layout import next_part_path, part_paths
+from shockdyno.record.layout import next_part_path
+from shockdyno.record.lock import lock_file
+from shockdyno.record.reader import part_metadata, set_members
 from shockdyno.record.types import TestMeta
 from shockdyno.rig.types import SampleBlock
 
@@ -96,7 +107,9 @@ class RecordingWriter:
 
     `path` is NAME.mcap. An existing file is never overwritten unless overwrite=True (which also
     removes the set's part files). With resume=True and NAME.mcap present, writing goes to the
-    next free NAME.partN.mcap; `open_recording(NAME.mcap)` reads the whole set.
+    next free NAME.partN.mcap; `open_recording(NAME.mcap)` reads the whole set. With
+    `replaces=OLD.mcap`, `path` (a new file beside it) replaces the set at OLD.mcap when its
+    first complete test ends (`replaced` then says so, and `path` is OLD.mcap).
     """
 
     def __init__(
@@ -111,6 +124,8 @@ class RecordingWriter:
         compression: str = "zstd",
         chunk_size: int = 1 << 20,
         wall_clock_origin_ns: int | None = None,
+        replaces: Path | None = None,
+        identity: dict[str, str] | None = None,
     ) -> None:
         base = Path(path)
         if compression not in _COMPRESSION:
@@ -123,43 +138,64 @@ class RecordingWriter:
             target, part = next_part_path(base)
         elif base.exists() and not overwrite:
             raise RecordingError(f"{base} exists (overwrite it explicitly, or resume into it)")
+        set_id = part_metadata(base).get("set_id", "") if resume else uuid.uuid4().hex
         try:
             target.parent.mkdir(parents=True, exist_ok=True)
             if overwrite:
-                for stale in part_paths(base):
+                for stale in set_members(base)[1:]:  # its own parts, not another recording
                     stale.unlink()
             self._file: IO[bytes] = open(target, "wb" if overwrite else "xb")  # noqa: SIM115
         except FileExistsError as exc:
             raise RecordingError(f"{target} exists") from exc
         except OSError as exc:
             raise RecordingError(f"cannot create {target}: {exc.strerror}") from exc
+        try:
+            lock_file(target, self._file.fileno(), target)
+        except RecordingError:
+            self._file.close()
+            raise
         self.path = target
         self.part = part
+        self.replaces = replaces
+        self.replaced = False
+        self.tests_begun = 0
         self._max_block = max(1, int(max_block_samples))
-        self._mcap = Writer(
-            self._file, chunk_size=chunk_size, compression=_COMPRESSION[compression]
-        )
-        self._mcap.start(profile="", library=f"shockdyno {__version__}")
-        meta = {str(k): str(v) for k, v in metadata.items()}
-        meta.setdefault("software", f"shockdyno {__version__}")
-        meta["format_version"] = s.FORMAT_VERSION
-        meta["part"] = str(part)
-        self._mcap.add_metadata(s.METADATA_NAME, meta)
-        if rig_toml is not None:
-            self._mcap.add_attachment(0, 0, s.RIG_ATTACHMENT, "application/toml", rig_toml.encode())
-        # Registered in this order, so channel ids are always those of schemas.CHANNEL_IDS
-        self._ch_samples = self._channel(
-            s.TOPIC_SAMPLES,
-            s.SAMPLES_SCHEMA_NAME,
-            SchemaEncoding.ROS2,
-            s.SAMPLES_SCHEMA.encode(),
-            MessageEncoding.CDR,
-        )
-        self._ch_test = self._json_channel(s.TOPIC_TEST, s.TEST_SCHEMA_NAME, s.TEST_SCHEMA)
-        self._ch_act = self._json_channel(
-            s.TOPIC_ACTUATOR, s.ACTUATOR_SCHEMA_NAME, s.ACTUATOR_SCHEMA
-        )
-        self._ch_event = self._json_channel(s.TOPIC_EVENTS, s.EVENT_SCHEMA_NAME, s.EVENT_SCHEMA)
+        try:
+            self._mcap = Writer(
+                self._file, chunk_size=chunk_size, compression=_COMPRESSION[compression]
+            )
+            self._mcap.start(profile="", library=f"shockdyno {__version__}")
+            meta = {str(k): str(v) for k, v in metadata.items()}
+            meta.setdefault("software", f"shockdyno {__version__}")
+            meta["format_version"] = s.FORMAT_VERSION
+            meta["part"] = str(part)
+            if set_id:  # a resumed set from before set ids has none: its parts have none either
+                meta["set_id"] = set_id
+            else:
+                meta.pop("set_id", None)
+            self._mcap.add_metadata(s.METADATA_NAME, meta)
+            if identity:
+                self._mcap.add_metadata(s.IDENTITY_METADATA_NAME, dict(identity))
+            if rig_toml is not None:
+                self._mcap.add_attachment(
+                    0, 0, s.RIG_ATTACHMENT, "application/toml", rig_toml.encode()
+                )
+            # Registered in this order, so channel ids are always those of schemas.CHANNEL_IDS
+            self._ch_samples = self._channel(
+                s.TOPIC_SAMPLES,
+                s.SAMPLES_SCHEMA_NAME,
+                SchemaEncoding.ROS2,
+                s.SAMPLES_SCHEMA.encode(),
+                MessageEncoding.CDR,
+            )
+            self._ch_test = self._json_channel(s.TOPIC_TEST, s.TEST_SCHEMA_NAME, s.TEST_SCHEMA)
+            self._ch_act = self._json_channel(
+                s.TOPIC_ACTUATOR, s.ACTUATOR_SCHEMA_NAME, s.ACTUATOR_SCHEMA
+            )
+            self._ch_event = self._json_channel(s.TOPIC_EVENTS, s.EVENT_SCHEMA_NAME, s.EVENT_SCHEMA)
+        except OSError as exc:  # a full disk at the first write: nothing of it is kept
+            self._abandon(target)
+            raise RecordingError(f"cannot write {target} ({exc.strerror or exc})") from None
         self._seq = 0
         self._test_serial = -1
         self._open: TestMeta | None = None
@@ -175,7 +211,17 @@ class RecordingWriter:
         self._origin_ns: int | None = None
         if wall_clock_origin_ns is not None:
             self._set_origin(int(wall_clock_origin_ns), "given by the caller")
-        self._sync()
+        try:
+            self._sync()
+        except RecordingError:
+            self._abandon(target)
+            raise
+
+    def _abandon(self, target: Path) -> None:
+        """Close and remove a file the writer could not even start (a full disk)."""
+        with contextlib.suppress(OSError):  # its buffer cannot be written either
+            self._file.close()
+        target.unlink(missing_ok=True)
 
     # -- channels and low-level writes --------------------------------------------------------
 
@@ -233,6 +279,7 @@ class RecordingWriter:
         self._flush_samples()
         self._vel_tail = None
         self._test_serial += 1
+        self.tests_begun += 1
         self._open = meta
         self._last_seq = None
         self._gaps = 0
@@ -324,6 +371,35 @@ class RecordingWriter:
         self._open = None
         self._vel_tail = None
         self._sync()
+        if self.replaces is not None and meta.status == "complete":
+            self._take_the_place_of(self.replaces)
+
+    def _take_the_place_of(self, old: Path) -> None:
+        """This recording's first test is complete and on disk: it becomes `old`, and the
+        old set's part files go (a crash between the two leaves them as parts of another
+        set, which the reader leaves out and names)."""
+        stale = set_members(old)[1:]
+        try:
+            os.replace(self.path, old)
+            for p in stale:
+                p.unlink(missing_ok=True)
+            dir_fd = os.open(old.parent, os.O_RDONLY)
+            try:
+                os.fsync(dir_fd)
+            finally:
+                os.close(dir_fd)
+        except OSError as exc:
+            raise RecordingError(
+                f"cannot put {self.path} in place of {old} ({exc.strerror}); both are kept"
+            ) from None
+        self.path, self.replaces, self.replaced = old, None, True
+
+    def discard(self) -> None:
+        """Close and remove the file: nothing in it is worth keeping (the session never
+        started). Only a file with no test begun is removed."""
+        self.close()
+        if self.tests_begun == 0 and not self.replaced:
+            self.path.unlink(missing_ok=True)
 
     @_whole_records
     def close(self) -> None:

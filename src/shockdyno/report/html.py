@@ -234,6 +234,7 @@ class Page:
         return (
             "<!DOCTYPE html>\n"
             '<html lang="en"><head><meta charset="utf-8">'
+            '<meta name="generator" content="shockdyno">'  # outputs.py: --force may replace it
             '<meta name="viewport" content="width=device-width, initial-scale=1">'
             f"<title>{escape(self.title)}</title><style>{CSS}{PRINT_CSS}</style>"
             f"<script>{PRINT_SCRIPT}</script></head>\n"

@@ -1,15 +1,19 @@
 """Modbus actuator driver (pymodbus 3.16, TCP or RTU), driven by the rig file's register map.
 
 Control paths use short timeouts and no retries: a request that fails raises `RigFault`
-at once and the caller (RigSession) decides what to do. Calls are serialised by a lock
-so the heartbeat thread and the session can share one connection.
+at once and the caller (RigSession) decides what to do. Calls are serialised by a lock.
+Each request runs inside `guard()` (RigSession passes run/signals.hold): a signal that
+arrives mid-request is raised when its answer is in, so the stop command that follows goes
+out on a clean line (an RTU request torn by Ctrl-C left its answer to be read as the
+stop's, which then timed out: 0.73 s before the stop reached the drive).
 """
 
 from __future__ import annotations
 
 import logging
 import threading
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
+from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -77,8 +81,11 @@ class ActuatorStatus:
 class ModbusActuator:
     """One drive on Modbus. `connect()` opens the transport; `close()` always releases it."""
 
-    def __init__(self, rig: RigConfig) -> None:
+    def __init__(
+        self, rig: RigConfig, guard: Callable[[], AbstractContextManager[None]] = nullcontext
+    ) -> None:
         self.rig = rig
+        self._guard = guard
         self.map = rig.registers
         self._lock = threading.Lock()
         t = rig.actuator
@@ -117,7 +124,7 @@ class ModbusActuator:
             self._client.close()  # type: ignore[no-untyped-call]
 
     def _call(self, what: str, fn: Any, *args: Any, **kw: Any) -> Any:
-        with self._lock:
+        with self._lock, self._guard():
             try:
                 rr = fn(*args, device_id=self._device, **kw)
             except (ModbusException, OSError) as exc:

@@ -49,7 +49,17 @@ REQUIRED_REGISTERS = (
     "sine_cycles",
     "sine_ramp_cycles",
 )
-OPTIONAL_REGISTERS = ("rod_clicks", "gas_clicks", "force_actual", "cycle_count")
+# The drive's own limits (travel_limit, velocity_limit, force_limit), where it has them, are
+# read back before enabling: the rig file's trips must lie within them (run/session.py).
+OPTIONAL_REGISTERS = (
+    "rod_clicks",
+    "gas_clicks",
+    "force_actual",
+    "cycle_count",
+    "travel_limit",
+    "velocity_limit",
+    "force_limit",
+)
 
 DEFAULT_CONTROL_BITS = {"enable": 0, "start": 1, "stop": 2, "quick_stop": 3, "fault_reset": 7}
 DEFAULT_STATUS_BITS = {
@@ -149,6 +159,10 @@ class DaqConfig:
     sample_rate_hz: Positive
     calibration: Calibration
     baudrate: Annotated[int, Meta(ge=300, le=20_000_000)] = 921600
+    # DAQ seconds per wall-clock second: 1 for hardware; a simulated rig run at --speed N
+    # says N. The frame rate measured before enabling is checked against
+    # sample_rate_hz × time_scale (run/session.py).
+    time_scale: Annotated[float, Meta(gt=0, le=1000)] = 1.0
     frozen_timeout_s: Positive = 0.5  # wall time without a valid frame: the DAQ is frozen
     max_gap_s: Positive = 0.05  # a longer run of lost frames leaves the limits unwatched: stop
     max_frame_loss: Fraction = 0.01  # a test losing a larger fraction of its frames is degraded
@@ -157,6 +171,17 @@ class DaqConfig:
     position_range_m: tuple[float, float] = (-math.inf, math.inf)
     force_range_n: tuple[float, float] = (-math.inf, math.inf)
     temperature_range_c: tuple[float, float] = (-40.0, 200.0)
+
+
+# What a shock-absorber dyno can be at all. A limit beyond is a typo or another unit (mm
+# for m), and a session would check every sample against a limit the ram can never reach.
+PLAUSIBLE_LIMITS = {
+    "travel_m": (0.5, "m (a damper's stroke is well below a metre)"),
+    "force_n": (200_000.0, "N (200 kN: beyond any damper dyno's load cell)"),
+    "velocity_m_s": (15.0, "m/s (beyond any damper dyno's actuator)"),
+    "temperature_c": (200.0, "°C (beyond any damper oil's)"),
+}
+MAX_WATCHDOG_S = 5.0  # a longer drive watchdog leaves a dead host's ram moving too long
 
 
 @dataclass(frozen=True)
@@ -366,6 +391,26 @@ def _daq(doc: dict[str, Any], limits: Limits, centre: float, src: str) -> DaqCon
         lo, hi = ranges.get(key, getattr(daq, key))
         if not lo < hi:
             raise fail(src, f"daq.{key}", f"must be [LOW, HIGH] with LOW < HIGH, got {doc[key]}")
+    # A trip the sensor cannot read never trips: each limit (with its margin) must lie
+    # inside the range of the sensor that watches it.
+    m = 1 + limits.trip_margin
+    travel = limits.travel_m * m
+    watched = (
+        ("position_range_m", "travel_m", centre - travel, centre + travel),
+        ("force_range_n", "force_n", -limits.force_n * m, limits.force_n * m),
+        ("temperature_range_c", "temperature_c", limits.temperature_c, limits.temperature_c),
+    )
+    for key, limit, lo_needed, hi_needed in watched:
+        if key not in doc:
+            continue
+        lo, hi = getattr(daq, key)
+        if lo_needed < lo or hi_needed > hi:
+            raise fail(
+                src,
+                f"limits.{limit}",
+                f"trips at [{lo_needed:g}, {hi_needed:g}] (with trip_margin), outside the "
+                f"sensor's daq.{key} [{lo:g}, {hi:g}]: the sensor could never show the trip",
+            )
     return replace(
         daq,
         position_range_m=ranges.get("position_range_m", daq.position_range_m),
@@ -383,8 +428,24 @@ def parse_rig(text: str, source: str = "<rig>") -> RigConfig:
     hb = f.heartbeat
     if hb.timeout_s < 2 * hb.period_s:
         raise fail(source, "heartbeat.timeout_s", "must be at least twice period_s")
-    if hb.timeout_s * 1000 > 65535:
-        raise fail(source, "heartbeat.timeout_s", "must be below 65.5 s (a uint16 of ms)")
+    if hb.timeout_s > MAX_WATCHDOG_S:
+        raise fail(
+            source,
+            "heartbeat.timeout_s",
+            f"must be at most {MAX_WATCHDOG_S:g} s (the time a ram moves on after the host "
+            f"is gone), got {hb.timeout_s:g}",
+        )
+    for key, (most, what) in PLAUSIBLE_LIMITS.items():
+        value = getattr(f.limits, key)
+        if value > most:
+            raise fail(source, f"limits.{key}", f"must be at most {most:g} {what}, got {value:g}")
+    if f.ramp.move_velocity_m_s > f.limits.velocity_m_s:
+        raise fail(
+            source,
+            "ramp.move_velocity_m_s",
+            f"{f.ramp.move_velocity_m_s:g} m/s exceeds limits.velocity_m_s "
+            f"({f.limits.velocity_m_s:g} m/s)",
+        )
     return RigConfig(
         name=f.rig.name,
         source=source,

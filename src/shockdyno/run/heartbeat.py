@@ -1,51 +1,64 @@
-"""The drive's watchdog fed from a thread of its own.
+"""The drive's watchdog as a proof of life of the control loop.
 
-The drive disables itself when no heartbeat arrives within its watchdog time, so a host
-that hangs or dies leaves the ram stopped. A beat that fails is remembered, never raised
-in the thread: the session trips on `error` at its next sample ("lost link").
+The drive disables itself when no heartbeat arrives within its watchdog time. The beat is
+written by the loop that reads the DAQ's samples and checks the limits (`RigSession._pump`),
+never by a thread of its own: a thread that beats on its own keeps the drive enabled while
+the main thread is blocked (an operator prompt, a file that never opens) and nothing
+watches the ram. So when the loop stops, the beats stop, and the drive stops the ram in
+its watchdog time (issue 46.1).
+
+`feed` is called after every read; it beats once a period has passed since the last beat.
+The longest time between two beats is kept: how close the loop came to the watchdog
+(`worst_gap_s`, recorded when the session ends and printed by benchmarks/bench_faults.py).
 """
 
 from __future__ import annotations
 
-import threading
+import math
+import time
 from collections.abc import Callable
 
-from shockdyno.errors import RigFault
 
-
-class Heartbeat:
-    def __init__(self, beat: Callable[[], None], period_s: float) -> None:
+class LoopHeartbeat:
+    def __init__(
+        self,
+        beat: Callable[[], None],
+        period_s: float,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
         self._beat = beat
-        self._period_s = period_s
-        self._thread: threading.Thread | None = None
-        self._stop = threading.Event()
-        self.error: str | None = None  # why the beats stopped, once one failed
-
-    @property
-    def running(self) -> bool:
-        return self._thread is not None and self._thread.is_alive()
+        self.period_s = period_s
+        self._clock = clock
+        self._last = -math.inf
+        self.active = False
+        self.beats = 0
+        self.worst_gap_s = 0.0
 
     def start(self) -> None:
-        """Beat every period until `stop` (a running heartbeat goes on as it is)."""
-        if self.running:
-            return
-        self._stop.clear()
-        self.error = None
-
-        def run() -> None:
-            while not self._stop.is_set():
-                try:
-                    self._beat()
-                except RigFault as exc:
-                    self.error = f"lost link to actuator (heartbeat): {exc}"
-                    return
-                self._stop.wait(self._period_s)
-
-        self._thread = threading.Thread(target=run, name="rig-heartbeat", daemon=True)
-        self._thread.start()
+        """Beat now and from now on at every `feed` a period after the last beat."""
+        self.active = True
+        self._last = -math.inf
+        self.feed()
 
     def stop(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(5)
-            self._thread = None
+        self.active = False
+
+    def feed(self) -> None:
+        """Beat if a period has passed since the last beat (a failed beat raises RigFault
+        and is tried again at the next feed)."""
+        if not self.active:
+            return
+        now = self._clock()
+        if now - self._last < self.period_s:
+            return
+        self._beat()
+        if math.isfinite(self._last):
+            self.worst_gap_s = max(self.worst_gap_s, now - self._last)
+        self._last = now
+        self.beats += 1
+
+    def describe(self, watchdog_s: float) -> str:
+        return (
+            f"control loop: {self.beats} heartbeats, longest gap between two "
+            f"{self.worst_gap_s * 1e3:.0f} ms (drive watchdog {watchdog_s * 1e3:.0f} ms)"
+        )

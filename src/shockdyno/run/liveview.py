@@ -41,6 +41,7 @@ from rich.text import Text
 from shockdyno.record.types import TestData, TestMeta
 from shockdyno.report.summary import TestSummary, summarise
 from shockdyno.rig.types import SampleBlock
+from shockdyno.run.verify import RunKeeper
 from shockdyno.units import SI, Units
 
 __all__ = ["LiveStats", "LiveView", "TestSummary", "summarise"]
@@ -152,7 +153,9 @@ class LiveView:
         self.summaries: list[TestSummary] = []
         self.current: TestMeta | None = None
         self.stats = LiveStats()
-        self._blocks: list[SampleBlock] = []
+        # The running test's samples, bounded (run/verify.py): its end-of-test line is
+        # summarised from them; a longer test's from its last MAX_KEPT_SAMPLES.
+        self._kept = RunKeeper()
         self._velocity = _RunningVelocity(1000.0)
         self._last_seq: int | None = None
         self._seq_gaps = 0
@@ -222,7 +225,7 @@ class LiveView:
             description=f"clicks {meta.clicks} gas {meta.gas_clicks} {meta.frequency_hz:g} Hz",
         )
         self.stats = LiveStats()
-        self._blocks = []
+        self._kept = RunKeeper()
         self._velocity = _RunningVelocity(meta.sample_rate_hz)
         self._last_seq = None
         self._seq_gaps = 0
@@ -241,7 +244,7 @@ class LiveView:
         self.stats.dropped_frames = max(self._seq_gaps, self._counter_delta)
 
     def _take(self, block: SampleBlock) -> None:
-        self._blocks.append(block)
+        self._kept.add(block)
         s = self.stats
         self._seq_gaps += block.frames_missing(self._last_seq)
         self._last_seq = int(block.seq[-1])
@@ -260,6 +263,16 @@ class LiveView:
             s.peak_rebound_velocity_m_s = min(s.peak_rebound_velocity_m_s, float(v.min()))
         s.temperature_c = float(block.temperature_c[-1])
 
+    @staticmethod
+    def warm_up() -> None:
+        """Summarise a made-up test once, before the drive is enabled: the first summary
+        imports scipy.signal (two seconds on a busy host), which between two tests of a
+        running sweep is two seconds without a heartbeat, and the drive stops itself."""
+        t = np.arange(400) / 100.0
+        x = 0.01 * np.sin(2 * np.pi * t)
+        meta = TestMeta(0, 0, 0, 1.0, 0.01, 100.0, measured_start_s=1.0, measured_end_s=3.0)
+        summarise(TestData(meta, t, x, 100.0 * x, np.full(t.size, 20.0)))
+
     def end_test(self, meta: TestMeta) -> TestSummary:
         """Close the running test with its final metadata; prints and returns its summary.
 
@@ -269,7 +282,7 @@ class LiveView:
         """
         if self.current is None:
             raise RuntimeError("LiveView.end_test() before start_test()")
-        data = SampleBlock.concat(self._blocks)
+        data = self._kept.tail
         test = TestData(meta, data.t_s, data.displacement_m, data.force_n, data.temperature_c)
         summary = summarise(
             test, dropped_frames=self.stats.dropped_frames, gas_force_n=meta.gas_force_n
@@ -277,9 +290,16 @@ class LiveView:
         self.done += 1
         self.summaries.append(summary)
         self.current = None
-        self._blocks = []
+        trimmed = self._kept.trimmed
+        self._kept = RunKeeper()
         self._progress.update(self._task, advance=1, description=self.title)
         self._emit(summary)
+        if trimmed and self.enabled and data.t_s.size:
+            self.console.print(
+                f"  (test {meta.index}: peaks over its last {data.t_s[-1] - data.t_s[0]:.0f} s; "
+                "the recording holds every sample)",
+                soft_wrap=True,
+            )
         return summary
 
     def _emit(self, summary: TestSummary) -> None:

@@ -6,29 +6,38 @@ The commands (`sweep`, `demo`) call `record_sweep`; it holds no argument parsing
 
 from __future__ import annotations
 
+import json
 import math
 import sys
+from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rich.console import Console
 
 from shockdyno.errors import ConfigError, RecordingError
-from shockdyno.outputs import check_output
+from shockdyno.outputs import check_recording_output
 from shockdyno.run.plan import SweepPlan
 from shockdyno.units import SI, Units
 
+NEW_SUFFIX = ".new.mcap"  # a forced sweep's recording, until its first test completes
+
 if TYPE_CHECKING:
+    from shockdyno.record.queued import QueuedWriter
     from shockdyno.rig.config import RigConfig
 
 
 def record_sweep(rig: RigConfig, plan: SweepPlan, output: Path, **options: Any) -> Any:
     """Run the plan on the rig into the recording; returns the SweepResult (`options`:
     `_record_sweep`'s). The recording has one writer: a second sweep, resume or --force
-    on it is refused (record/lock.py)."""
+    on it, under any name (a link), is refused (record/lock.py)."""
     from shockdyno.record.lock import recording_lock
 
+    if output.exists() and not output.is_file():
+        check_recording_output(output, force=True)  # a folder, a FIFO, a device: refused
     with recording_lock(output):
+        if not options.get("resume", False):
+            check_recording_output(output, force=options.get("overwrite", False))
         return _record_sweep(rig, plan, output, **options)
 
 
@@ -44,21 +53,23 @@ def _record_sweep(
     units: Units = SI,
 ) -> Any:
     """Run the plan on the rig into the recording; returns the SweepResult."""
-    from shockdyno.record import RecordingWriter, open_recording
+    from shockdyno.record import open_recording
     from shockdyno.run.liveview import LiveView
-    from shockdyno.run.refusals import check_sine
+    from shockdyno.run.refusals import check_band, check_sine
     from shockdyno.run.session import RigSession, exit_reason
     from shockdyno.run.sweep import run_sweep
 
     console = console or Console()
     done: set[tuple[int, int, float]] = set()
     first_index = 0
+    ident = identity(rig, plan)
     if resume:
-        if not output.exists():
+        if not output.is_file():
             raise RecordingError(f"nothing to resume: {output} does not exist")
         previous = open_recording(output).require_recording()
         _check_resume_matches(previous.tests, plan, output)
-        _check_same_damper(previous.metadata, metadata, output)
+        _check_same_set(previous.metadata, metadata, output)
+        _check_same_identity(previous.identity, ident, output)
         done = previous.completed_keys()
         first_index = len(previous.tests)
         console.print(
@@ -73,6 +84,8 @@ def _record_sweep(
     # Everything that can be refused is refused here, before the rig is touched.
     for frequency in plan.frequencies_hz:
         check_sine(rig, plan.amplitude_m, frequency, plan.warmup_cycles, plan.measured_cycles)
+    if plan.temperature_band_c is not None:
+        check_band(rig, plan.temperature_band_c)
     if rig.adjuster == "operator" and not sys.stdin.isatty():
         raise ConfigError(
             f"{rig.source}: the adjuster is set by an operator, who confirms each setting at a "
@@ -84,39 +97,120 @@ def _record_sweep(
         raise RecordingError(
             f"-o {output}: cannot create {output.parent} ({exc.strerror})"
         ) from None
-    # The recording must be creatable before the ram moves (found by a probe file now).
-    check_output(output, force=True, flag="-o")
-
     view = LiveView(len(todo), console=console, units=units)
+    LiveView.warm_up()  # nothing the loop calls may take its first long time with the drive on
 
     def prompt(message: str) -> None:
         with view.paused():  # hold the live display while the operator reads and answers
             console.input(f"[bold yellow]{message}[/] - press Enter when done ")
 
-    # Connect before creating the file: a rig that does not answer leaves no empty recording.
-    with (
-        view,
-        RigSession(rig, prompt=prompt) as session,
+    writer = _open_writer(rig, output, metadata, ident, overwrite=overwrite, resume=resume)
+    started = False
+    try:
+        # The recording is open and writable before the rig is enabled; a rig that does not
+        # answer (or refuses to start) leaves no empty recording behind.
+        with view, RigSession(rig, prompt=prompt) as session:
+            started = True
+            session.record_events(writer.write_event)
+            try:
+                return run_sweep(
+                    session,
+                    plan,
+                    writer,
+                    view,
+                    first_index=first_index,
+                    done=done,
+                    sample_rate_hz=rig.sample_rate_hz,
+                    log=console.print,
+                )
+            finally:
+                # Tear down before the recording closes, so the stop and its reason are in it.
+                session.close(exit_reason(sys.exc_info()[1]))
+                session.record_events(None)
+    finally:
+        _close_writer(writer, started, output, console)
+
+
+def _open_writer(
+    rig: RigConfig,
+    output: Path,
+    metadata: dict[str, str],
+    ident: dict[str, str],
+    *,
+    overwrite: bool,
+    resume: bool,
+) -> QueuedWriter:
+    """The sweep's writer, in a thread of its own (record/queued.py). A recording that
+    replaces one (--force) is written beside it and takes its place when its first test
+    completes (record/writer.py)."""
+    from shockdyno.record.queued import QueuedWriter
+    from shockdyno.record.writer import RecordingWriter
+
+    target, replaces = output, None
+    if not resume and output.exists():
+        target = output.with_name(f"{output.name.removesuffix('.mcap')}{NEW_SUFFIX}")
+        replaces = output
+        if target.exists() or target.is_symlink():  # the leftover of an earlier forced run
+            check_recording_output(target, force=True)
+            target.unlink()
+    return QueuedWriter(
         RecordingWriter(
-            output, metadata=metadata, rig_toml=rig.raw_toml, overwrite=overwrite, resume=resume
-        ) as writer,
-    ):
-        session.record_events(writer.write_event)
-        try:
-            return run_sweep(
-                session,
-                plan,
-                writer,
-                view,
-                first_index=first_index,
-                done=done,
-                sample_rate_hz=rig.sample_rate_hz,
-                log=console.print,
-            )
-        finally:
-            # Tear down before the recording closes, so the stop and its reason are in it.
-            session.close(exit_reason(sys.exc_info()[1]))
-            session.record_events(None)
+            target,
+            metadata=metadata,
+            rig_toml=rig.raw_toml,
+            resume=resume,
+            replaces=replaces,
+            identity=ident,
+        )
+    )
+
+
+def _close_writer(writer: QueuedWriter, started: bool, output: Path, console: Console) -> None:
+    """Close the recording; say where this run's recording is when it did not replace the
+    old one. A close that fails while another error is on its way does not hide it."""
+    failing = sys.exc_info()[0] is not None
+    inner = writer.writer
+    try:
+        if not started or (inner.replaces is not None and inner.tests_begun == 0):
+            writer.discard()
+        else:
+            writer.close()
+    except RecordingError:
+        if not failing:
+            raise
+    if inner.replaces is not None and inner.tests_begun:
+        console.print(
+            f"the first test did not complete: {output} is kept as it was; this run's "
+            f"recording is {inner.path}",
+            soft_wrap=True,
+        )
+
+
+def identity(rig: RigConfig, plan: SweepPlan) -> dict[str, str]:
+    """What a recording set is a measurement of, besides its damper and operator: the rig
+    (its limits, calibration and rate, not where it is reached) and the plan. A resumed
+    sweep must match it (item 46.8)."""
+    d = rig.daq
+    rig_doc = {
+        "name": rig.name,
+        "stroke_centre_m": rig.stroke_centre_m,
+        "limits": asdict(rig.limits),
+        "sample_rate_hz": d.sample_rate_hz,
+        "calibration": asdict(d.calibration),
+    }
+    plan_doc = {
+        "clicks": list(plan.clicks),
+        "gas_clicks": plan.gas_clicks,
+        "frequencies_hz": list(plan.frequencies_hz),
+        "amplitude_m": plan.amplitude_m,
+        "warmup_cycles": plan.warmup_cycles,
+        "measured_cycles": plan.measured_cycles,
+        "gas_pressure_pa": plan.gas_pressure_pa,
+    }
+    return {
+        "rig_identity": json.dumps(rig_doc, sort_keys=True),
+        "plan": json.dumps(plan_doc, sort_keys=True),
+    }
 
 
 def _check_resume_matches(tests: list[Any], plan: SweepPlan, output: Path) -> None:
@@ -135,11 +229,37 @@ def _check_resume_matches(tests: list[Any], plan: SweepPlan, output: Path) -> No
             )
 
 
-def _check_same_damper(before: dict[str, str], now: dict[str, str], output: Path) -> None:
-    """One recording set holds one damper, measured by one operator."""
+def _check_same_set(before: dict[str, str], now: dict[str, str], output: Path) -> None:
+    """One recording set holds one damper, measured by one operator, on one rig set-up
+    (another rig file, its limits or calibration), to one plan (another gas pressure, other
+    frequencies or clicks): a resumed part must be all of that (issue 46.8)."""
     for key, flag in (("damper_id", "--damper-id"), ("operator", "--operator")):
         if before.get(key, "") != now.get(key, ""):
             raise ConfigError(
                 f"{output} was recorded with {key} {before.get(key, '')!r}; resuming with "
                 f"{flag} {now.get(key, '')!r} would mix two in one set (give the same {flag})"
+            )
+    if before.get("rig", now.get("rig")) != now.get("rig"):
+        raise ConfigError(
+            f"{output} was recorded on rig {before.get('rig')!r}; resuming on "
+            f"{now.get('rig')!r} would mix two rigs in one set"
+        )
+
+
+def _check_same_identity(before: dict[str, str], now: dict[str, str], output: Path) -> None:
+    """The rig set-up and plan the set was recorded with (record/schemas.py
+    IDENTITY_METADATA_NAME), where it kept them."""
+    for key, what in (("rig_identity", "rig set-up"), ("plan", "plan")):
+        if key not in before:
+            continue  # recorded before this was stored: the checks above are all there is
+        try:
+            was, is_now = json.loads(before[key]), json.loads(now[key])
+        except ValueError:
+            was, is_now = {"(unreadable)": before[key]}, {}
+        changed = sorted(k for k in set(was) | set(is_now) if was.get(k) != is_now.get(k))
+        if changed:
+            said = ", ".join(f"{k} {was.get(k)!r} -> {is_now.get(k)!r}" for k in changed[:3])
+            raise ConfigError(
+                f"{output} was recorded with another {what} ({said}); --resume continues "
+                "the same sweep: give the same rig file and plan, or start a new recording"
             )

@@ -11,6 +11,12 @@ import numpy as np
 from shockdyno.errors import ConfigError
 from shockdyno.rig.config import RigConfig
 
+MIN_FREQUENCY_HZ = 1 / 600  # one cycle in 10 min: slower is a typo, and a test without end
+# The smallest amplitude a sine may have, in LVDT counts: the rig's amplitude check
+# (verify.amplitude_tolerance, 5 %) must see a few counts, and below this the ram's
+# motion is the sensor's noise (a 1 nm sine ran and was only then called degraded).
+MIN_AMPLITUDE_COUNTS = 100
+
 
 def check_sine(rig: RigConfig, a: float, f: float, warmup: int, measured: int) -> None:
     """Refuse a sine the rig must not run (ConfigError), before anything moves."""
@@ -19,6 +25,19 @@ def check_sine(rig: RigConfig, a: float, f: float, warmup: int, measured: int) -
         raise ConfigError(f"amplitude must be > 0 m, got {a!r}")
     if not (isinstance(f, int | float) and math.isfinite(f) and f > 0):
         raise ConfigError(f"frequency must be > 0 Hz, got {f!r}")
+    if f < MIN_FREQUENCY_HZ:
+        raise ConfigError(
+            f"frequency {f:g} Hz is a cycle of {1 / f / 60:.3g} min; the slowest a sweep runs "
+            "is one cycle in 10 min; refused before moving"
+        )
+    smallest = MIN_AMPLITUDE_COUNTS * rig.daq.calibration.position_m_per_count
+    if a < smallest:
+        raise ConfigError(
+            f"amplitude {a * 1e3:g} mm is below {smallest * 1e3:g} mm, "
+            f"{MIN_AMPLITUDE_COUNTS} counts of the LVDT ({rig.source} "
+            "daq.calibration.position_m_per_count): a motion it cannot measure; refused "
+            "before moving"
+        )
     for name, n, lo in (("warmup_cycles", warmup, 0), ("measured_cycles", measured, 1)):
         if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < lo:
             raise ConfigError(f"{name} must be a whole number >= {lo}, got {n!r}")
@@ -61,3 +80,24 @@ def check_hold(
     if dwell_s <= 0:
         raise ConfigError(f"hold: dwell must be > 0 s, got {dwell_s:g}")
     return float(velocity_m_s)
+
+
+def check_band(rig: RigConfig, band_c: tuple[float, float]) -> None:
+    """Refuse a temperature band the damper can never be in (ConfigError): not numbers,
+    LOW above HIGH, beyond the rig's temperature limit or the thermometer's range. A sweep
+    would wait for it with the drive off until its timeout (30 min)."""
+    lo, hi = band_c
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+        raise ConfigError(f"--temp-band-c must be LOW,HIGH in °C with LOW <= HIGH, got {lo},{hi}")
+    limit = rig.limits.temperature_c
+    if lo >= limit:
+        raise ConfigError(
+            f"--temp-band-c {lo:g},{hi:g}: the damper would trip the rig's temperature limit "
+            f"of {limit:g} °C ({rig.source} limits.temperature_c) before it got there"
+        )
+    t_lo, t_hi = rig.daq.temperature_range_c
+    if hi < t_lo or lo > t_hi:
+        raise ConfigError(
+            f"--temp-band-c {lo:g},{hi:g}: outside what the thermometer reads "
+            f"({t_lo:g} to {t_hi:g} °C, {rig.source} daq.temperature_range_c)"
+        )

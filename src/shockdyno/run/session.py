@@ -4,10 +4,16 @@
         rig.set_clicks(10, 0)
         outcome = rig.run_sine(0.03, 1.5, warmup_cycles=2, measured_cycles=5, on_block=rec)
 
-Entering connects the drive (Modbus) and the DAQ (pyserial URL), resets faults, enables,
-starts the heartbeat and ramps to the stroke centre. Leaving, whatever the reason
-(normal end, exception, Ctrl-C, fault), makes a controlled stop, ramps to the centre,
-disables, stops the heartbeat and closes both transports; the reason goes to `events`.
+Entering connects the drive (Modbus) and the DAQ (pyserial URL), checks the drive's own
+limits against the rig file's and the DAQ's frame rate against its stated rate, resets
+faults, enables and ramps to the stroke centre. Leaving, whatever the reason (normal end,
+exception, Ctrl-C, fault), sends the stop command first, then ramps to the centre,
+disables and closes both transports; the reason goes to `events`.
+
+The drive's watchdog is fed by the loop that reads the samples and checks the limits
+(`_pump`, heartbeat.py), never by a thread of its own: a blocked main thread leaves the
+drive to stop itself. Before a wait on a person (the operator's clicks, the damper's
+temperature) the drive is disabled, and enabled again after it.
 
 Time: every wait is measured on the DAQ's clock (its sample counter), so a simulated rig
 running N times faster finishes N times sooner. Only the watchdogs for a frozen DAQ or a
@@ -21,14 +27,18 @@ the event log (events.py).
 
 from __future__ import annotations
 
+import functools
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from types import TracebackType
+from typing import ParamSpec, TypeVar
 
 import numpy as np
 
+from shockdyno import priority
 from shockdyno.errors import ConfigError, RigFault
 from shockdyno.rig.actuator import ActuatorStatus, ModbusActuator
 from shockdyno.rig.config import DaqConfig, RigConfig
@@ -38,10 +48,10 @@ from shockdyno.rig.types import Daq, SampleBlock
 from shockdyno.run import signals
 from shockdyno.run.daq_stream import BlockSink, DaqStream
 from shockdyno.run.events import EventLog, EventSink
-from shockdyno.run.heartbeat import Heartbeat
+from shockdyno.run.heartbeat import LoopHeartbeat
 from shockdyno.run.refusals import check_hold, check_sine
 from shockdyno.run.safety import SafetyEvent, SafetyTrip
-from shockdyno.run.verify import judge_run
+from shockdyno.run.verify import RunKeeper, judge_run
 from shockdyno.run.watch import DriveWatch
 
 CENTRE_TOLERANCE_M = 0.001
@@ -53,6 +63,46 @@ HOLD_TOLERANCE_M = 0.0005  # a hold has arrived when the DAQ's displacement is t
 MIN_WALL_S = 0.5
 FULL_READ = READ_SIZE // FRAME_LEN - 2  # frames: a read this full means more is waiting
 SETTLE_S = 0.05  # DAQ time allowed after a profile's end for the drive to report it
+# The DAQ's frame rate, measured before enabling, against daq.sample_rate_hz ×
+# daq.time_scale: within this factor (a wrong rate scales every velocity and ramp). It is
+# measured over at least RATE_MIN_WINDOW_S and passes as soon as it agrees; a host or a
+# simulated rig that stalled a moment agrees a little later, a wrong rate never does.
+RATE_TOLERANCE = 1.25
+RATE_MIN_WINDOW_S = 0.2
+RATE_MAX_WINDOW_S = 2.0
+RATE_MIN_FRAMES = 20
+# The drive's own limits, read back where its register map has them: (register, the
+# rig file's key, the monitor's trip attribute).
+DRIVE_LIMITS = (
+    ("travel_limit", "travel_m", "travel_trip_m"),
+    ("velocity_limit", "velocity_m_s", "velocity_trip_m_s"),
+    ("force_limit", "force_n", "force_trip_n"),
+)
+
+P = ParamSpec("P")
+R = TypeVar("R")
+
+
+def _stops_on_interrupt(method: Callable[P, R]) -> Callable[P, R]:
+    """A signal (Ctrl-C, SIGTERM, SIGHUP) or any other exception leaving a motion (a
+    recording that cannot be written) puts the stop command on the wire at once, before the
+    exception unwinds through the sweep's bookkeeping (the recording, the live view) to the
+    teardown, which then centres and disables. A ConfigError is a refusal before anything
+    was sent: nothing to stop."""
+
+    @functools.wraps(method)
+    def stopping(*args: P.args, **kwargs: P.kwargs) -> R:
+        try:
+            return method(*args, **kwargs)
+        except ConfigError:
+            raise
+        except BaseException:
+            session = args[0]
+            assert isinstance(session, RigSession)
+            session._halt()
+            raise
+
+    return stopping
 
 
 class _DaqBudget:
@@ -127,8 +177,12 @@ class RigSession:
         self.actuator: ModbusActuator | None = None
         self.daq: Daq | None = None
         self._stream = DaqStream(rig.daq, rig.limits, clock)  # the DAQ: clock, limits, sink
-        self._heartbeat: Heartbeat | None = None
+        self._heartbeat = LoopHeartbeat(self._beat, rig.heartbeat.period_s, clock)
         self._armed = False
+        self._stop_sent = False  # the stop command went out since the last start or enable
+        self._last_status: ActuatorStatus | None = None
+        self._poll_rtt = 0.0  # host time the last status poll took
+        self._nice_before: int | None = None
         self._closed = False
         self._disarm_reason = ""
         self._last_poll_wall = -math.inf
@@ -162,12 +216,19 @@ class RigSession:
 
     # -- enter / exit ------------------------------------------------------------------
     def __enter__(self) -> RigSession:
+        self._nice_before, nice = priority.raise_priority()
         try:
-            self.actuator = ModbusActuator(self.rig)
+            self.actuator = ModbusActuator(self.rig, guard=signals.hold)
             self.actuator.connect()
             self.daq = self._open_daq(self.rig.daq, self.rig.stroke_centre_m)
-            self._event("connect", f"{self.rig.actuator.describe()}, DAQ {self.rig.daq.url}")
             self._first_samples()
+            limits = self._check_drive_limits()
+            rate = self._check_daq_rate()
+            self._event(
+                "connect",
+                f"{self.rig.actuator.describe()}, DAQ {self.rig.daq.url} ({rate}){limits}; "
+                f"control loop {nice}",
+            )
             self.enable()
         except BaseException as exc:
             self._teardown(f"failed to start: {exc}" if str(exc) else type(exc).__name__)
@@ -190,8 +251,13 @@ class RigSession:
         """
         self._teardown(reason)
 
+    @_stops_on_interrupt
     def enable(self) -> None:
-        """Reset faults, enable, start the heartbeat, ramp to centre (re-arms after an abort)."""
+        """Reset faults, enable, start the heartbeat, ramp to centre (re-arms after an abort).
+
+        The samples are read and checked before the drive is enabled: a ram beyond a
+        limit (moved by hand, or by another master while the drive was off) is a trip,
+        and the drive stays disabled."""
         act = self._act()
         hb = self.rig.heartbeat
         watchdog_ms = round(hb.timeout_s * 1000)
@@ -205,17 +271,24 @@ class RigSession:
             )
         self._watch.expect({"heartbeat_timeout_ms": float(watchdog_ms)})
         act.set_mode("hold")
+        before = act.status()
+        if before.fault:
+            self._event("reset", f"fault before enabling, reset: {before.fault_text}")
         act.control("fault_reset", enable=False)
         st = act.status()
         if st.fault:
             raise RigFault(f"actuator fault will not reset: {st.fault_text}")
-        self._start_heartbeat()
+        self._check_present()  # limits on samples of now, before the drive is on
+        self._heartbeat.start()
         act.write({"position_command": st.position_m})  # enabling must not move the ram
         act.control(enable=True)
+        self._stop_sent = False
         self._wait(lambda s: s.enabled, daq_budget_s=2.0, what="enable")
         self._armed = True
-        self._event("enable", "actuator enabled, heartbeat running")
-        self._move_to_centre(check=True)
+        self._event("enable", "actuator enabled, heartbeat fed by the control loop")
+        # Centred when the drive says so and the DAQ's samples show it: a host that fell
+        # behind reads the park long after the drive reports the centre.
+        self._move_to_centre(check=True, seen=True)
         # The drive says "centred" before a host that fell behind has read the samples
         # that show it (the park, the ramp): read them now, limits checked, so that the
         # session's clock is current and the next hold's backlog is its own.
@@ -235,18 +308,39 @@ class RigSession:
             self._watch.expect({"rod_clicks": float(rod_clicks), "gas_clicks": float(gas_clicks)})
             self._event("adjust", f"adjuster set to rod {rod_clicks}, gas {gas_clicks} clicks")
         else:
-            self.prompt(
-                f"Set the rod adjuster to {rod_clicks} clicks "
-                f"and the gas bottle to {gas_clicks} clicks"
-            )
+            with self.parked("the operator sets the clicks"):
+                self.prompt(
+                    f"Set the rod adjuster to {rod_clicks} clicks "
+                    f"and the gas bottle to {gas_clicks} clicks"
+                )
             self._event("adjust", f"operator set rod {rod_clicks}, gas {gas_clicks} clicks")
 
+    @contextmanager
+    def parked(self, why: str) -> Iterator[None]:
+        """Disable the drive for a wait on a person (or anything else the control loop
+        cannot watch through), and enable it again when the wait ends normally: nothing
+        feeds the watchdog meanwhile, and nothing should have to. The DAQ's backlog of the
+        wait is read (unchecked: the drive was off) before enabling checks the present."""
+        was_armed = self._armed
+        if was_armed:
+            st = self._act().status()
+            if st.running:
+                self._safe_stop(f"waiting for {why}")
+            else:
+                self._disable(f"waiting for {why}")
+        yield
+        if was_armed:
+            self._catch_up(check=False)
+            self.enable()
+
+    @_stops_on_interrupt
     def read_temperature_c(self) -> float:
         self._catch_up(check=True)
         if math.isnan(self._stream.temp):
             raise RigFault("DAQ has sent no temperature yet")
         return self._stream.temp
 
+    @_stops_on_interrupt
     def run_sine(
         self,
         amplitude_m: float,
@@ -270,10 +364,10 @@ class RigSession:
         t0: float | None = None
         m_start: float | None = None
         m_end: float | None = None
-        captured: list[SampleBlock] = []
+        captured = RunKeeper()  # bounded: a day-long test keeps what its judgement needs
 
         def sink(block: SampleBlock) -> None:
-            captured.append(block)
+            captured.add(block)
             on_block(block)
 
         try:
@@ -301,11 +395,14 @@ class RigSession:
                     }
                 )
                 self._stream.motion = False
+                self._stop_sent = False
                 act.control("start")
                 self._event("start", f"sine {amplitude_m * 1e3:g} mm at {frequency_hz:g} Hz")
                 t0 = self._wait_motion_start(budget_s=1.0)
                 m_start = t0 + (ramp + warmup_cycles) / frequency_hz
                 m_end = m_start + measured_cycles / frequency_hz
+                full_amplitude = t0 + ramp / frequency_hz  # warm-up and measured cycles
+                captured.measure((full_amplitude, m_end), frequency_hz)
                 end = t0 + total_s
                 # Half a cycle of slack: the ramp-out ends at `end` by the drive's clock.
                 self._watch.sine_running(end - 0.5 / frequency_hz, cycles + 2 * ramp)
@@ -322,11 +419,11 @@ class RigSession:
                 reason = f"{cycles + 2 * ramp} cycles done"
                 status = "complete"
                 self._event("complete", reason)
-                full_amplitude = t0 + ramp / frequency_hz  # warm-up and measured cycles
                 status, reason, stop_sweep = self._verify(
                     captured, full_amplitude, m_end, amplitude_m, frequency_hz, dropped0, corrupt0
                 )
             except RigFault as exc:
+                self._halt()  # the stop on the wire first, the bookkeeping after
                 ev = exc.event if isinstance(exc, SafetyTrip) else self._event("fault", str(exc))
                 if isinstance(exc, SafetyTrip):
                     self._record(ev)
@@ -348,6 +445,7 @@ class RigSession:
             stop_sweep=stop_sweep,
         )
 
+    @_stops_on_interrupt
     def hold_at(
         self, offset_m: float, velocity_m_s: float | None, dwell_s: float, on_block: BlockSink
     ) -> tuple[float, float]:
@@ -383,6 +481,7 @@ class RigSession:
                        what="hold")  # fmt: skip
             return arrived, self._stream.t
         except (RigFault, SafetyTrip) as exc:
+            self._halt()
             ev = exc.event if isinstance(exc, SafetyTrip) else self._event("fault", str(exc))
             if isinstance(exc, SafetyTrip):
                 self._record(ev)
@@ -393,7 +492,7 @@ class RigSession:
 
     def _verify(
         self,
-        blocks: list[SampleBlock],
+        run: RunKeeper,
         m_start: float,
         m_end: float,
         amplitude_m: float,
@@ -402,7 +501,6 @@ class RigSession:
         corrupt0: int,
     ) -> tuple[str, str, bool]:
         """Judge a finished run by its own samples: (status, reason, stop the sweep)."""
-        run = SampleBlock.concat(blocks) if blocks else SampleBlock.empty()
         daq = self._daq()
         lost = daq.dropped_frames - dropped0 + daq.corrupt_frames - corrupt0
         j = judge_run(run, (m_start, m_end), amplitude_m, frequency_hz, self.rig, lost)
@@ -432,12 +530,29 @@ class RigSession:
         raise RigFault(f"DAQ {self.rig.daq.url}: no valid frames")
 
     def _pump(self, check: bool) -> SampleBlock:
-        """Read the DAQ once (daq_stream.py); a heartbeat that lost the link trips too."""
+        """Read the DAQ once (daq_stream.py: the limits on every sample), then feed the
+        drive's watchdog: only a loop that reads and checks keeps the drive alive. A beat
+        that fails is a lost link (stopping, the stop's own requests will say so)."""
         block = self._stream.read(self._daq, check)
-        link_error = self._heartbeat.error if self._heartbeat is not None else None
-        if check and link_error is not None:
-            raise SafetyTrip(SafetyEvent(self._stream.t, "link_lost", link_error))
+        try:
+            self._heartbeat.feed()
+        except RigFault as exc:
+            if check:
+                raise SafetyTrip(
+                    SafetyEvent(self._stream.t, "link_lost", f"lost link to actuator: {exc}")
+                ) from None
         return block
+
+    def _beat(self) -> None:
+        self._act().beat()
+
+    def _check_present(self) -> None:
+        """Read (limits checked) until a read brings samples and the backlog is gone: an
+        empty read (none arrived in its few ms) would otherwise end a catch-up that checked
+        nothing (a ram another master moved beyond the travel limit was enabled again)."""
+        while not len(self._pump(check=True)):
+            pass  # a DAQ that stays silent trips daq_frozen after daq.frozen_timeout_s
+        self._catch_up(check=True)
 
     def _catch_up(self, check: bool) -> None:
         """Read until the DAQ backlog is gone (e.g. after an operator prompt)."""
@@ -456,6 +571,8 @@ class RigSession:
             if check:
                 raise SafetyTrip(SafetyEvent(self._stream.t, "link_lost", str(exc))) from None
             raise
+        self._poll_rtt = self.clock() - now
+        self._last_status = st
         self._emit_actuator(st.fields())
         if check:
             self._watch.check_setpoints(st.setpoints, "at a status poll", self._stream.t)
@@ -526,6 +643,7 @@ class RigSession:
                     f"DAQ time, {waited:.1f} s of host time)"
                 )
 
+    @_stops_on_interrupt
     def move_to(self, displacement_m: float) -> ActuatorStatus:
         """Ramp in hold mode to `displacement_m` from the stroke centre at the rig file's
         move velocity, limits watched on every sample (a trip raises `SafetyTrip`; the
@@ -543,6 +661,7 @@ class RigSession:
         self._event("move", f"at {displacement_m * 1e3:+.2f} mm from centre")
         return st
 
+    @_stops_on_interrupt
     def dwell(self, duration_s: float) -> SampleBlock:
         """Hold where the ram is for `duration_s` of DAQ time, limits and the drive watched
         as in a sine; the samples read meanwhile."""
@@ -556,8 +675,13 @@ class RigSession:
             self._stream.on_block = None
         return SampleBlock.concat(captured) if captured else SampleBlock.empty()
 
-    def _move_to_centre(self, check: bool) -> None:
-        distance, _ = self._move(self.rig.stroke_centre_m, check=check, what="ramp to centre")
+    def _move_to_centre(self, check: bool, seen: bool = False) -> None:
+        """`seen`: also wait for the DAQ's samples to show the ram centred (not in a stop,
+        where the DAQ may be what failed)."""
+        settled = (lambda: abs(self._stream.x) < CENTRE_TOLERANCE_M) if seen else (lambda: True)
+        distance, _ = self._move(
+            self.rig.stroke_centre_m, check=check, what="ramp to centre", settled=settled
+        )
         self._event("centre", f"at stroke centre ({distance * 1e3:.1f} mm ramp)")
 
     def _move(
@@ -596,12 +720,37 @@ class RigSession:
         )
         return distance, arrived
 
+    def _halt(self) -> bool:
+        """Put the controlled-stop command on the wire now, without waiting for anything
+        (no event, no status read when a poll is fresh): the first request of every stop.
+        Whether the stop has been sent (now or since the last start)."""
+        act = self.actuator
+        if act is None or self._closed:
+            return False
+        if self._stop_sent:
+            return True
+        st = self._last_status
+        # Fresh: about one poll old (on RTU a poll takes ~0.1 s: a read before the stop
+        # would double the time to the stop)
+        age = self.clock() - self._last_poll_wall
+        fresh = st is not None and age < 4 * self.rig.poll_period_s + 2 * self._poll_rtt
+        try:
+            # A drive someone else disabled stays disabled: the stop goes without the
+            # enable bit, which would otherwise re-enable it.
+            enabled = st.enabled if fresh and st is not None else act.status().enabled
+            act.control("stop", enable=enabled)
+        except RigFault:
+            return False  # the stop sequence's own stop step tries again, and says why
+        self._stop_sent = True
+        return True
+
     def _safe_stop(self, reason: str) -> None:
         """Controlled stop, ramp to centre, disable. Every step is tried; none may raise."""
+        sent = self._halt()
         self._event("stop", f"controlled stop: {reason}")
         steps: list[tuple[str, Callable[[], None]]] = [
             ("watchdog", self._restore_watchdog),
-            ("stop", self._stop_motion),
+            ("stop", self._wait_stopped if sent else self._stop_motion),
             ("reset", self._reset_fault),
             ("centre", lambda: self._move_to_centre(check=False)),
         ]
@@ -624,6 +773,10 @@ class RigSession:
         # A drive someone else disabled stays disabled: the stop goes without the enable
         # bit, which would otherwise re-enable it.
         act.control("stop", enable=act.status().enabled)
+        self._stop_sent = True
+        self._wait_stopped()
+
+    def _wait_stopped(self) -> None:
         self._wait(
             lambda s: not s.running,
             daq_budget_s=self.rig.ramp.stop_time_s + 2.0,
@@ -649,17 +802,68 @@ class RigSession:
             self._event("disable", "actuator disabled")
         except RigFault as exc:
             self._event("stop_step_failed", f"disable: {exc}")
-        self._stop_heartbeat()
+        self._heartbeat.stop()
 
-    # -- heartbeat -----------------------------------------------------------------------
-    def _start_heartbeat(self) -> None:
-        if self._heartbeat is None:
-            self._heartbeat = Heartbeat(self._act().beat, self.rig.heartbeat.period_s)
-        self._heartbeat.start()
+    # -- checks before enabling ------------------------------------------------------------
+    def _check_drive_limits(self) -> str:
+        """The rig file's trips (limits with their margin) within the drive's own limits,
+        where its register map has them: a drive that stops first ends a test with a fault
+        instead of the session's controlled stop, and a limit the drive cannot reach is a
+        rig file that describes another machine."""
+        names = [reg for reg, _, _ in DRIVE_LIMITS if reg in self.rig.registers]
+        if not names:
+            return ""
+        got = self._act().read(names)
+        for reg, key, trip_attr in DRIVE_LIMITS:
+            if reg not in got:
+                continue
+            trip = float(getattr(self._stream.monitor, trip_attr))
+            if not got[reg] > 0 or trip > got[reg] * (1 + 1e-6):
+                raise ConfigError(
+                    f"{self.rig.source} limits.{key}: the session trips at {trip:g} (with "
+                    f"limits.trip_margin), beyond the drive's own {reg} of {got[reg]:g}; "
+                    "lower the limit (refused before enabling)"
+                )
+        return "; the drive's own " + ", ".join(f"{reg} {got[reg]:g}" for reg in names)
 
-    def _stop_heartbeat(self) -> None:
-        if self._heartbeat is not None:
-            self._heartbeat.stop()
+    def _check_daq_rate(self) -> str:
+        """The frames per host second against daq.sample_rate_hz × daq.time_scale, before
+        the drive is enabled: a DAQ at 1 kHz described as 50 Hz reads velocities 20x low,
+        and every limit and ramp timed on its clock is wrong.
+
+        Measured over consecutive windows of RATE_MIN_WINDOW_S (and RATE_MIN_FRAMES); the
+        first window that agrees passes. A stream that stalled a moment and catches up (a
+        busy host, a simulated rig starting) agrees in a later window; a wrong rate in
+        none, and after RATE_MAX_WINDOW_S it is refused. A simulated rig at another speed
+        than real time (time_scale != 1) may fall behind for good (a slow plant), so only
+        a faster DAQ than stated is refused for it."""
+        cfg = self.rig.daq
+        expected = cfg.sample_rate_hz * cfg.time_scale
+        self._catch_up(check=False)
+        start = self.clock()
+        seq0, wall0 = self._stream.seq, start
+        seen: list[float] = []
+        while seq0 is not None:
+            self._catch_up(check=False)
+            now = self.clock()
+            frames = (self._stream.seq or seq0) - seq0
+            last = now - start >= RATE_MAX_WINDOW_S
+            if (now - wall0 >= RATE_MIN_WINDOW_S and frames >= RATE_MIN_FRAMES) or last:
+                measured = frames / max(now - wall0, 1e-9)
+                seen.append(measured)
+                slow = measured * RATE_TOLERANCE < expected and cfg.time_scale == 1.0
+                if not slow and measured <= expected * RATE_TOLERANCE:
+                    return f"{measured:.0f} frames/s"
+                if last:
+                    break
+                seq0, wall0 = self._stream.seq, now
+        scale = "" if cfg.time_scale == 1.0 else f" x daq.time_scale {cfg.time_scale:g}"
+        got = f"{min(seen):.0f}-{max(seen):.0f}" if seen else "no"
+        raise ConfigError(
+            f"DAQ {cfg.url} delivers {got} frames/s, the rig file says {expected:g} "
+            f"({self.rig.source} daq.sample_rate_hz {cfg.sample_rate_hz:g}{scale}): a wrong "
+            "rate scales every velocity and time; refused before enabling"
+        )
 
     # -- teardown ------------------------------------------------------------------------
     def _teardown(self, reason: str) -> None:
@@ -669,13 +873,15 @@ class RigSession:
             self._teardown_held(reason)
 
     def _teardown_held(self, reason: str) -> None:
+        if self._armed:
+            self._halt()  # on the wire before the exit is logged
         self._event("exit", reason)
         self._stream.on_block = self._on_actuator = None
         if self.actuator is not None and self.daq is not None and self._armed:
             self._safe_stop(reason)
         elif self.actuator is not None:
             self._disable(reason)
-        self._stop_heartbeat()
+        self._heartbeat.stop()
         self._closed = True
         for closer in (self.actuator, self.daq):
             if closer is not None:
@@ -683,4 +889,8 @@ class RigSession:
                     closer.close()
                 except Exception as exc:  # closing must not hide the original problem
                     self._record(SafetyEvent(self._stream.t, "close_failed", str(exc)))
-        self._event("closed", "transports closed")
+        beats = self._heartbeat
+        loop = f"; {beats.describe(self.rig.heartbeat.timeout_s)}" if beats.beats else ""
+        self._event("closed", f"transports closed{loop}")
+        priority.restore(self._nice_before)
+        self._nice_before = None

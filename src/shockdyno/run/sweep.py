@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field, replace
 from typing import Protocol
 
@@ -34,6 +35,10 @@ class _Outcome(Protocol):
 
 class Session(Holder, Adjuster, Protocol):  # Holder: hold_at, for the gas-force measurement
     def read_temperature_c(self) -> float: ...
+
+    def parked(self, why: str) -> AbstractContextManager[None]:
+        """The drive disabled for a wait on a person (or the damper's temperature)."""
+        ...
 
     def run_sine(
         self,
@@ -81,22 +86,23 @@ def wait_for_temperature(
     log: Callable[[str], None],
     sleep: Callable[[float], None] = time.sleep,
 ) -> float:
-    """Block until the damper is inside the band; the operator cools or warms it meanwhile."""
+    """Block until the damper is inside the band; the operator cools or warms it meanwhile,
+    with the drive disabled (nothing moves, and nothing needs the watchdog fed)."""
     lo, hi = band_c
-    waited = 0.0
     temp = session.read_temperature_c()
-    announced = False
-    while not lo <= temp <= hi:
-        if waited >= timeout_s:
-            raise RigFault(
-                f"damper at {temp:.1f} °C did not reach {lo:g}-{hi:g} °C within {timeout_s:g} s"
-            )
-        if not announced:
-            log(f"waiting for damper temperature {lo:g}-{hi:g} °C (now {temp:.1f} °C)")
-            announced = True
-        sleep(1.0)
-        waited += 1.0
-        temp = session.read_temperature_c()
+    if lo <= temp <= hi:
+        return temp
+    log(f"waiting for damper temperature {lo:g}-{hi:g} °C (now {temp:.1f} °C)")
+    waited = 0.0
+    with session.parked("the damper's temperature"):
+        while not lo <= temp <= hi:
+            if waited >= timeout_s:
+                raise RigFault(
+                    f"damper at {temp:.1f} °C did not reach {lo:g}-{hi:g} °C within {timeout_s:g} s"
+                )
+            sleep(1.0)
+            waited += 1.0
+            temp = session.read_temperature_c()
     return temp
 
 

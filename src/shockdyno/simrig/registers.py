@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Callable
 
 from pymodbus.constants import ExcCodes
@@ -22,6 +23,9 @@ class DriveRegisters:
         self.control_word = 0
         self.heartbeat = 0
         self.last_beat_wall = clock()
+        # Every control word written, with the clock time it arrived: what an independent
+        # observer of the wire sees (benchmarks/bench_faults.py times the stop command).
+        self.control_log: deque[tuple[float, int]] = deque(maxlen=4096)
         self.start, self.count = rm.span
         self._owner: dict[int, str] = {}
         for reg in rm.registers.values():
@@ -54,6 +58,9 @@ class DriveRegisters:
             "sine_ramp_cycles": d.sine_ramp_cycles,
             "force_actual": d.last_force_n,
             "cycle_count": d.cycle_count(t),
+            "travel_limit": d.params.travel_m,
+            "velocity_limit": d.params.velocity_limit_m_s,
+            "force_limit": d.params.force_capacity_n,
         }
         return float(values.get(name, 0.0))
 
@@ -137,6 +144,7 @@ class DriveRegisters:
 
     def _control(self, word: int, t: float) -> None:
         self.control_word = word
+        self.control_log.append((self.clock(), word))
         bits = self.map.control_bits
         d = self.engine.drive
 

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import copy
 import logging
+import math
 import os
 import threading
 import time
@@ -25,6 +27,7 @@ from pymodbus.framer import FramerType
 from pymodbus.server import ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
+from shockdyno import priority
 from shockdyno.errors import ConfigError, RigFault
 from shockdyno.model.spec import load_spec
 from shockdyno.rig.config import RigConfig, default_rig_path, load_rig
@@ -43,6 +46,8 @@ SINK_LIMIT = 1 << 20  # bytes queued for a slow reader before new frames are dis
 SERVER_FAULTS = ("modbus_timeout", "daq_disconnect")  # faults of the wires, not the engine
 MAX_BATCH = 5000  # samples per engine step: keeps Modbus answers prompt when behind
 BEHIND_PAUSE_S = 0.002  # between batches when behind: the loop answers Modbus meanwhile
+WATCHDOG_PERIOD_S = 0.01  # the simulated drive's watchdog cycle (host time)
+LATE_S = 0.005  # a watchdog turn this much late: the loop was starved, not idle (_watchdog)
 
 
 @dataclass
@@ -91,8 +96,11 @@ class SimRig:
     ) -> None:
         if modbus not in ("tcp", "rtu"):
             raise ConfigError(f"modbus must be tcp or rtu, got {modbus!r}")
-        if speed <= 0:
-            raise ConfigError(f"speed must be > 0, got {speed}")
+        if not (isinstance(speed, int | float) and math.isfinite(speed) and speed > 0):
+            raise ConfigError(f"speed must be a number > 0, got {speed}")
+        for name, port in (("modbus_port", modbus_port), ("serial_port", serial_port)):
+            if not 0 <= port <= 65535:
+                raise ConfigError(f"{name} must be 0-65535 (0: any free port), got {port}")
         if serial not in ("socket", "pty", "both"):
             raise ConfigError(f"serial must be socket, pty or both, got {serial!r}")
         self.rig = rig
@@ -114,6 +122,11 @@ class SimRig:
             seed=seed,
             faults=sched,
         )
+        # A first step costs what later ones do not (lazy imports, compiled kernels: 0.4 s,
+        # more on a busy host), and on the loop it would hold up the first Modbus answers
+        # past the host's timeout. A real drive answers from the moment it listens: the
+        # first step is taken here, on a copy, before the servers start.
+        copy.deepcopy(self.engine).advance(self.engine.min_batch)
         self.registers = DriveRegisters(self.engine, rig.registers, clock)
         self._serial_mode = serial
         self._modbus = modbus
@@ -139,6 +152,7 @@ class SimRig:
         # deterministic, steps on the loop as before.
         self._stepper: ThreadPoolExecutor | None = None
         self._stepping: asyncio.Future[bytes] | None = None
+        self._nice_before: int | None = None  # the plant's steps run at the host's priority
 
     # -- lifecycle ---------------------------------------------------------------------
     def start(self) -> SimRig:
@@ -171,6 +185,9 @@ class SimRig:
             self._thread.join(10)
 
     def _run(self) -> None:
+        # The simulated drive answers as a drive with a processor of its own would: a busy
+        # host must not starve it (where the process may raise its priority).
+        self._nice_before, _ = priority.raise_priority()
         loop = asyncio.new_event_loop()
         self._loop = loop
         try:
@@ -230,15 +247,22 @@ class SimRig:
             self.pty_path = self._pty.path
             self.endpoints.append(f"serial {self.pty_path}")
         if self.engine.plant is not None:
-            self._stepper = ThreadPoolExecutor(1, thread_name_prefix="sim-plant")
+            self._stepper = ThreadPoolExecutor(
+                1,
+                thread_name_prefix="sim-plant",
+                initializer=priority.restore,
+                initargs=(self._nice_before,),
+            )
         ticker = asyncio.create_task(self._tick())
+        watchdog = asyncio.create_task(self._watchdog())
         self._ready.set()
         try:
             await self._stop.wait()
         finally:
-            ticker.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await ticker
+            for task in (ticker, watchdog):
+                task.cancel()
+                with contextlib.suppress(asyncio.CancelledError, Exception):
+                    await task  # one that failed is ended all the same
             if self._stepper is not None:
                 self._stepper.shutdown(wait=True)  # the step under way ends first
             await server.shutdown()  # type: ignore[no-untyped-call]
@@ -310,19 +334,44 @@ class SimRig:
             # loaded machine) let requests time out at 0.5 s.
             await asyncio.sleep(sleep if due <= self.engine.max_batch else BEHIND_PAUSE_S)
 
+    async def _watchdog(self) -> None:
+        """The drive's heartbeat watchdog, every WATCHDOG_PERIOD_S.
+
+        A real drive's watchdog runs on the drive's own processor. The simulated one runs
+        on this loop, which a loaded host can starve (other processes, or another thread
+        of its process holding the interpreter's lock): the time the loop ran late is not
+        time the host failed to beat in (its beats wait in the socket meanwhile), so the
+        watchdog's period is moved on by it. Without this, a starved simulator tripped
+        "heartbeat lost" on a host that beat on time (issue 46.12). A loop on time (late
+        by less than LATE_S a turn) moves nothing: a host that stops beating trips it in
+        its watchdog time."""
+        last = time.monotonic()  # the loop's own starvation, whatever clock paces the rig
+        while True:
+            await asyncio.sleep(WATCHDOG_PERIOD_S)
+            woke = time.monotonic()
+            late = woke - last - WATCHDOG_PERIOD_S
+            if late > LATE_S:
+                self.registers.last_beat_wall += late
+            last = woke
+            d = self.engine.drive
+            timeout = d.heartbeat_timeout_ms / 1000.0
+            if d.enabled and timeout > 0 and self.clock() - self.registers.last_beat_wall > timeout:
+                step = self._stepping
+                if step is not None:  # the drive's state changes between the plant's steps
+                    with contextlib.suppress(Exception):
+                        await asyncio.shield(step)
+                t = self.engine.now_s
+                if not d.fault_code:
+                    d.trip(HEARTBEAT_LOST, t, disable=True)
+                elif d.disable_at is None:
+                    d.disable_at = max(d.sine_end, t) + 0.05
+
     def _watchdogs(self, now: float) -> None:
-        d = self.engine.drive
         t = self.engine.now_s
         while self._wire_faults and self._wire_faults[0].at_s <= t:
             self._server_fault(self._wire_faults.pop(0), now)
         for f in self.engine.state.extra.pop("server_faults", []):
             self._server_fault(f, now)
-        timeout = d.heartbeat_timeout_ms / 1000.0
-        if d.enabled and timeout > 0 and now - self.registers.last_beat_wall > timeout:
-            if not d.fault_code:
-                d.trip(HEARTBEAT_LOST, t, disable=True)
-            elif d.disable_at is None:
-                d.disable_at = max(d.sine_end, t) + 0.05
 
     def _server_fault(self, f: Fault, now: float) -> None:
         if f.kind == "modbus_timeout":
@@ -372,6 +421,8 @@ class SimRig:
 
     def _with_daq(self, url: str) -> RigConfig:
         rig = self.rig.with_endpoints(host="127.0.0.1", port=self.modbus_port, daq_url=url)
+        # Its DAQ delivers `speed` DAQ seconds of frames per wall second (the host checks).
+        rig = replace(rig, daq=replace(rig.daq, time_scale=self.speed))
         if self._modbus == "rtu":
             act = replace(
                 self.rig.actuator,

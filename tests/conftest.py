@@ -27,7 +27,27 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     )
 
 
+def _browser() -> Any:
+    """tests/report/browser.py: where the browser tests find a Chromium already here."""
+    import importlib.util
+    import sys
+
+    name = "shockdyno_tests_browser"
+    if name not in sys.modules:
+        spec = importlib.util.spec_from_file_location(name, REPO / "tests/report/browser.py")
+        assert spec is not None and spec.loader is not None
+        sys.modules[name] = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(sys.modules[name])
+    return sys.modules[name]
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    # The browser tests need a Chromium that is already on the machine (nothing is
+    # installed): without one they are left out, and the summary says so in one line.
+    if any("browser" in item.keywords for item in items) and _browser().find_chromium() is None:
+        left_out = [item for item in items if "browser" in item.keywords]
+        items[:] = [item for item in items if "browser" not in item.keywords]
+        config.hook.pytest_deselected(items=left_out)
     if config.getoption("--rig"):
         return
     skip = pytest.mark.skip(reason="needs a real rig: pytest --rig rigs/<file>.toml")
@@ -88,3 +108,8 @@ def leak_check() -> Iterator[None]:
     assert not extra_threads, f"threads left behind: {extra_threads}"
     extra_fds = open_fds() - fds
     assert not extra_fds, f"descriptors left behind: {sorted(extra_fds)}"
+
+
+def pytest_terminal_summary(terminalreporter: Any) -> None:
+    if _browser().find_chromium() is None:
+        terminalreporter.write_line(_browser().HOW_TO_ENABLE)

@@ -27,7 +27,7 @@ lint: $(VENV)/.installed
 
 # The report's browser tests need a Chromium that is already on this machine (the PATH,
 # $$SHOCKDYNO_CHROMIUM, Playwright's cache): nothing is installed, `make test` never changes
-# the system. Without one the tests are left out and pytest's summary says so in one line;
+# the system. Without one they skip, and pytest's summary says so in one line;
 # `make browser` tells beforehand which browser the tests will use.
 browser:
 	@python3 tests/report/browser.py

@@ -42,12 +42,6 @@ def _browser() -> Any:
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    # The browser tests need a Chromium that is already on the machine (nothing is
-    # installed): without one they are left out, and the summary says so in one line.
-    if any("browser" in item.keywords for item in items) and _browser().find_chromium() is None:
-        left_out = [item for item in items if "browser" in item.keywords]
-        items[:] = [item for item in items if "browser" not in item.keywords]
-        config.hook.pytest_deselected(items=left_out)
     if config.getoption("--rig"):
         return
     skip = pytest.mark.skip(reason="needs a real rig: pytest --rig rigs/<file>.toml")
@@ -110,6 +104,8 @@ def leak_check() -> Iterator[None]:
     assert not extra_fds, f"descriptors left behind: {sorted(extra_fds)}"
 
 
-def pytest_terminal_summary(terminalreporter: Any) -> None:
-    if _browser().find_chromium() is None:
-        terminalreporter.write_line(_browser().HOW_TO_ENABLE)
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    # The browser tests need a Chromium that is already on the machine (nothing is
+    # installed): without one they skip from this one line, so the summary says it once.
+    if "browser" in item.keywords and _browser().find_chromium() is None:
+        pytest.skip(_browser().HOW_TO_ENABLE)

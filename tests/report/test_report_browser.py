@@ -8,12 +8,12 @@ import shutil
 from pathlib import Path
 
 import pytest
-from browser import HOW_TO_ENABLE, find_chromium, open_page
+from browser import find_chromium, open_page
 
 from shockdyno.report.html import PRINT_CSS, PRINT_SCRIPT
 
 CHROMIUM = find_chromium()
-pytestmark = [pytest.mark.browser, pytest.mark.skipif(CHROMIUM is None, reason=HOW_TO_ENABLE)]
+pytestmark = pytest.mark.browser  # skipped without Chromium (tests/conftest.py)
 
 
 def test_the_probe_sees_a_broken_image_and_a_script_error(tmp_path: Path) -> None:

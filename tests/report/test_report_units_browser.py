@@ -9,10 +9,10 @@ import re
 from pathlib import Path
 
 import pytest
-from browser import HOW_TO_ENABLE, find_chromium, open_page
+from browser import find_chromium, open_page
 
 CHROMIUM = find_chromium()
-pytestmark = [pytest.mark.browser, pytest.mark.skipif(CHROMIUM is None, reason=HOW_TO_ENABLE)]
+pytestmark = pytest.mark.browser  # skipped without Chromium (tests/conftest.py)
 
 LBF = 4.4482216152605  # N per lbf
 INCH = 0.0254

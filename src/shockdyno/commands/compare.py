@@ -50,7 +50,7 @@ def register(sub: Any) -> None:
 def run_compare(args: argparse.Namespace) -> int:
     from shockdyno.compare.inputs import default_labels, load_input
     from shockdyno.compare.page import render
-    from shockdyno.compare.table import difference_rows, shared_settings, to_json
+    from shockdyno.compare.table import difference_rows, differences, shared_settings, to_json
 
     units = units_mod.get(args.units)
     paths = [*args.inputs, *args.fit]
@@ -84,9 +84,17 @@ def run_compare(args: argparse.Namespace) -> int:
         text = json.dumps(to_json(inputs, rows), indent=2, allow_nan=False) + "\n"
         write_output(args.json, text, force=args.force, inputs=paths)
     found = [r for r in rows if r.verdict == "difference"]
-    for r in found[:10]:
-        print(f"compare: {r.b} vs {r.a}, clicks {r.clicks}: {r.text(units)}", file=sys.stderr)
-    if not found:
+    if found:
+        lines = differences(rows, units)
+        print(
+            f"compare: {len(found)} of {len(rows)} values differ beyond the scatter, in "
+            f"{len(lines)} setting{'s' * (len(lines) > 1)} and direction"
+            f"{'s' * (len(lines) > 1)} (largest first):",
+            file=sys.stderr,
+        )
+        for line in lines:
+            print(f"  {line}", file=sys.stderr)
+    else:
         unjudged = sum(r.verdict == "not judged" for r in rows)
         print(
             "compare: no difference beyond the scatter"

@@ -23,6 +23,7 @@ from shockdyno.compare.table import (
     WITHIN,
     Row,
     bleed_rows,
+    differences,
 )
 from shockdyno.report import clickchart, gas, plots, repeatability
 from shockdyno.report.build import shown_path
@@ -221,9 +222,9 @@ def _difference_section(
     found = [r for r in rows if r.verdict == DIFFERENCE]
     if found:
         page.paragraph(
-            f"{len(found)} of {len(rows)} values differ beyond the scatter: "
-            + "; ".join(f"{r.b} vs {r.a}, clicks {r.clicks}: {r.text(units)}" for r in found[:8])
-            + ("; …" if len(found) > 8 else "."),
+            f"{len(found)} of {len(rows)} values differ beyond the scatter (largest first): "
+            + "; ".join(differences(list(rows), units))
+            + ".",
             warn=True,
         )
     else:

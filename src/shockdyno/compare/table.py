@@ -154,6 +154,31 @@ def difference_rows(inputs: list[Input]) -> list[Row]:
     return rows
 
 
+def differences(rows: list[Row], units: Units = SI) -> list[str]:
+    """Every difference, one line per input pair, click setting and direction, the
+    largest first: its largest value in words, and the other speeds where it also differs.
+    The terminal and the page show these lines whole (issue 47.4: the terminal once
+    stopped at ten values without saying so, and missed the largest)."""
+    groups: dict[tuple[str, str, int, int, str], list[Row]] = {}
+    for r in rows:
+        if r.verdict == DIFFERENCE:
+            groups.setdefault((r.b, r.a, r.clicks, r.gas_clicks, r.direction), []).append(r)
+    gas = len({r.gas_clicks for r in rows}) > 1
+    lines = []
+    for (b, a, clicks, gas_clicks, _), found in sorted(
+        groups.items(), key=lambda kv: -max(abs(r.diff_n) for r in kv[1])
+    ):
+        top = max(found, key=lambda r: abs(r.diff_n))
+        others = sorted(abs(r.velocity_m_s) for r in found if r is not top)
+        also = ""
+        if others:
+            speeds = ", ".join(f"{units.velocity(v):.3g}" for v in others)
+            also = f" (also at {speeds} {units.velocity_label})"
+        where = f"clicks {clicks}" + (f", gas {gas_clicks}" if gas else "")
+        lines.append(f"{b} vs {a}, {where}: {top.text(units)}{also}")
+    return lines
+
+
 def bleed_rows(inputs: list[Input]) -> tuple[list[str], list[list[str]], list[dict[str, Any]]]:
     """The fitted bleed areas (mm²) of every fit input per click setting: header, rows, JSON."""
     fits = [i for i in inputs if i.fit is not None]

@@ -20,12 +20,12 @@ from typing import TYPE_CHECKING, Any
 
 from shockdyno import __version__
 from shockdyno.atomic import write_text_atomic
+from shockdyno.batch.table import KINDS as KINDS  # the command's choices
 from shockdyno.errors import ConfigError, ShockdynoError
 
 if TYPE_CHECKING:  # the report package pulls in matplotlib: imported where it is used
     from shockdyno.report.documents import DiagnosisDoc
 
-KINDS = ("fit", "diagnose", "report")
 SUFFIX = {"fit": ".fit.json", "diagnose": ".diag.json", "report": "/index.html"}
 # Test-only: seconds a task waits before its work, so a test can kill a worker while it
 # holds one. Unset in normal use.
@@ -124,6 +124,7 @@ def _fit(job: Job, row: Row) -> None:
     )
     write_text_atomic(job.result_path, result_json(result))
     _from_tests(row, tests)
+    row.damper_id = _damper_id(job.recording)
     e_t = [t.proposed.get("E_t") for t in result.tests]
     row.e_t_after = _mean(e_t)
     row.physics = ";".join(sorted(result.terms))
@@ -154,6 +155,7 @@ def _diagnose(job: Job, row: Row) -> None:
     residual_maps(d, figures / FIGURES["residual_maps"])
     loops(d, figures / FIGURES["loops"])
     _from_tests(row, [p.data for p in d.data.prepared])
+    row.damper_id = _damper_id(job.recording)
     from shockdyno.report.documents import DiagnosisDoc, typed
 
     _from_diag(row, typed(doc, DiagnosisDoc, str(job.result_path)))
@@ -197,12 +199,21 @@ def _fit_for(job: Job) -> str | None:
     return str(p)
 
 
+def _damper_id(recording: str) -> str:
+    """The damper id the recording's metadata holds (`sweep --damper-id`, `import --meta`)."""
+    from shockdyno.record import open_recording
+
+    return open_recording(recording).metadata.get("damper_id", "")
+
+
 def _describe(row: Row, job: Job) -> None:
     """A skipped row still says what the result holds."""
     from shockdyno.report.documents import read_diagnosis
 
     if not job.result_path.exists():
         return
+    with contextlib.suppress(ShockdynoError):  # the row is still a skip without it
+        row.damper_id = _damper_id(job.recording)
     row.result = str(job.result_path)
     if job.kind == "diagnose":
         with contextlib.suppress(ConfigError):  # an unreadable result describes nothing

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from shockdyno.batch.jobs import Job, Row, run_job
-from shockdyno.batch.table import write_table
+from shockdyno.batch.table import earlier_rows, merged, write_table
 from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError
 from shockdyno.record.identity import recording_sha256
@@ -157,7 +157,9 @@ def run_batch(
     progress: Progress | None = None,
     on_cluster: Callable[[str], None] | None = None,
 ) -> list[dict[str, Any]]:
-    """Run every job; returns the rows (also in out_dir/results.parquet and .csv)."""
+    """Run every job; returns this run's rows. out_dir/results.parquet and .csv hold them
+    with the rows of earlier runs whose (name, kind) this run did not touch."""
+    earlier = earlier_rows(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     rows: dict[str, dict[str, Any]] = {}
     last_write = -math.inf
@@ -174,12 +176,12 @@ def run_batch(
             rows[job.name] = row
             now = time.monotonic()
             if now - last_write >= TABLE_EVERY_S:
-                write_table(out_dir, _ordered(rows, jobs))
+                write_table(out_dir, merged(earlier, _ordered(rows, jobs)))
                 last_write = now
             if progress is not None:
                 progress(row, len(rows), len(jobs))
     finally:
-        write_table(out_dir, _ordered(rows, jobs))
+        write_table(out_dir, merged(earlier, _ordered(rows, jobs)))
     return _ordered(rows, jobs)
 
 

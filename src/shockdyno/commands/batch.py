@@ -81,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
     from shockdyno.batch.runner import collect, plan_jobs, run_batch
+    from shockdyno.batch.table import earlier_rows
 
     if args.workers is not None and args.workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {args.workers}")
@@ -88,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {out}: is a file, not a directory")
     options = _options(args)
+    kept = earlier_rows(out)  # a damaged table is refused before any work
     recordings = collect(args.paths)
     jobs = plan_jobs(args.kind, recordings, out.resolve(), options)
     console = Console(stderr=True)
@@ -123,9 +125,12 @@ def run(args: argparse.Namespace) -> int:
             on_cluster=on_cluster,
         )
     failed = [r for r in rows if r["status"] == "failed"]
+    ran = {(r["name"], r["kind"]) for r in rows}
+    others = sum((r.get("name"), r.get("kind")) not in ran for r in kept)
     print(
         f"batch {args.kind}: {counts['done']} done, {counts['skipped']} skipped, "
         f"{len(failed)} failed of {len(jobs)}; table {out / 'results.parquet'} and .csv"
+        + (f" (with {others} rows of earlier runs)" if others else "")
     )
     for r in failed:
         print(f"  failed {r['path']}: {r['error']}")

@@ -20,7 +20,6 @@ from typing import TYPE_CHECKING, Any
 
 from shockdyno import __version__
 from shockdyno.atomic import write_text_atomic
-from shockdyno.batch.table import KINDS as KINDS  # the command's choices
 from shockdyno.errors import ConfigError, ShockdynoError
 
 if TYPE_CHECKING:  # the report package pulls in matplotlib: imported where it is used

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from shockdyno.batch.jobs import KINDS
+from shockdyno.batch.table import KINDS
 from shockdyno.commands.args import add_seed, add_spec
 from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from shockdyno import __version__
-from shockdyno.atomic import write_text_atomic
+from shockdyno.atomic import staged_dir, write_text_atomic
 from shockdyno.errors import ConfigError, ShockdynoError
 
 if TYPE_CHECKING:  # the report package pulls in matplotlib: imported where it is used
@@ -175,8 +175,9 @@ def _report(job: Job, row: Row) -> None:
     out = Path(job.out_dir) / job.name
     title = f"{rec.metadata.get('damper_id') or job.name}: dyno report"
     metadata = {"recording": Path(job.recording).name, **rec.metadata}
-    build_report(tests, out, title=title, metadata=metadata, fit=fit, diagnose=diag,
-                 diagnose_dir=diag_path.parent)  # fmt: skip
+    with staged_dir(out) as folder:  # whole, or not at all: a killed worker leaves none
+        build_report(tests, folder, title=title, metadata=metadata, fit=fit, diagnose=diag,
+                     diagnose_dir=diag_path.parent)  # fmt: skip
     _from_tests(row, tests)
     row.damper_id = rec.metadata.get("damper_id", "")
     if diag is not None:

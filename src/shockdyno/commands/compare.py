@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno import units as units_mod
+from shockdyno.atomic import staged_dir
 from shockdyno.errors import ConfigError
 from shockdyno.outputs import check_output, check_report_dir, write_output
 
@@ -79,7 +80,9 @@ def run_compare(args: argparse.Namespace) -> int:
             f"the inputs share no click setting with {inputs[0].label} (clicks/gas: {have})"
         )
     rows = difference_rows(inputs)
-    index = render(inputs, rows, out, units, args.title)
+    with staged_dir(out) as folder:  # the page appears whole, or not at all
+        render(inputs, rows, folder, units, args.title)
+    index = out / "index.html"
     if args.json:
         text = json.dumps(to_json(inputs, rows), indent=2, allow_nan=False) + "\n"
         write_output(args.json, text, force=args.force, inputs=paths)

@@ -172,10 +172,12 @@ def run_diagnose(args: argparse.Namespace) -> int:
     text = doc["verdict"]["text_imperial" if units.imperial else "text"]
     shown.print(f"[bold]verdict:[/] {text}")
     if args.report:
+        from shockdyno.atomic import staged_dir
         from shockdyno.diagnose.report import write_report
 
-        index = write_report(d, doc, Path(args.report), units)
-        shown.print(f"report: {index}")
+        with staged_dir(Path(args.report)) as folder:  # whole, or not at all
+            write_report(d, doc, folder, units)
+        shown.print(f"report: {Path(args.report) / 'index.html'}")
     if out is not None:
         shown.print(f"wrote {out} in {d.wall_s:.1f} s")
     return 0

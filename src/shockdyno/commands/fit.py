@@ -207,16 +207,20 @@ def run_fit(args: argparse.Namespace) -> int:
     for note in info.get("skipped", []):
         say(f"note: {note}" if note.endswith(FITTED_ANYWAY) else f"skipped {note}")
     if args.report:
-        from shockdyno.atomic import write_text_atomic
+        from shockdyno.atomic import staged_dir, write_text_atomic
         from shockdyno.fit.validate import table4_rows
         from shockdyno.report.build import build_report
 
         report = Path(args.report)
         rec = open_recording(args.recording)
-        with console.status("fit: writing the report") as status:
-            index = build_report(
+        header, rows = table4_rows(result)
+        buf = io.StringIO()
+        csv.writer(buf, lineterminator="\n").writerows([header, *rows])
+        # The page, its figures and table4.csv appear whole, or not at all.
+        with console.status("fit: writing the report") as status, staged_dir(report) as folder:
+            build_report(
                 tests,
-                report,
+                folder,
                 title=f"{rec.metadata.get('damper_id') or Path(args.recording).stem}: fit report",
                 metadata={"recording": str(args.recording), **rec.metadata},
                 fit=result,
@@ -225,11 +229,7 @@ def run_fit(args: argparse.Namespace) -> int:
                 units=units_mod.get(args.units),
                 raw_force=args.raw_force,
             )
-        say(f"report: {index}")
-        header, rows = table4_rows(result)
-        buf = io.StringIO()
-        csv.writer(buf, lineterminator="\n").writerows([header, *rows])
-        table = report / "table4.csv"
-        write_text_atomic(table, buf.getvalue())
-        say(f"table: Table 4 analogue: {table}")
+            write_text_atomic(folder / "table4.csv", buf.getvalue())
+        say(f"report: {report / 'index.html'}")
+        say(f"table: Table 4 analogue: {report / 'table4.csv'}")
     return 0

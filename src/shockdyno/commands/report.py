@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from shockdyno.atomic import staged_dir
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.outputs import check_report_dir
 from shockdyno.report import temperature
@@ -135,23 +136,24 @@ def run_report(args: argparse.Namespace) -> int:
         def progress(stage: str) -> None:
             status.update(f"report: {stage}")
 
-        index = build_report(
-            tests,
-            out,
-            title=title,
-            metadata=metadata,
-            fit=fit,
-            diagnose=diagnose,
-            ride=ride,
-            gas_force_n=gas,
-            progress=progress,
-            warn=lambda text: console.print(
-                f"report: warning: {text}", markup=False, highlight=False, soft_wrap=True
-            ),
-            reference_temperature_c=reference_c,
-            diagnose_dir=Path(args.diagnose).parent if args.diagnose else None,
-            units=get_units(args.units),
-            raw_force=args.raw_force,
-        )
-    print(f"report: {index}")
+        with staged_dir(out) as folder:  # the page appears whole, or not at all
+            build_report(
+                tests,
+                folder,
+                title=title,
+                metadata=metadata,
+                fit=fit,
+                diagnose=diagnose,
+                ride=ride,
+                gas_force_n=gas,
+                progress=progress,
+                warn=lambda text: console.print(
+                    f"report: warning: {text}", markup=False, highlight=False, soft_wrap=True
+                ),
+                reference_temperature_c=reference_c,
+                diagnose_dir=Path(args.diagnose).parent if args.diagnose else None,
+                units=get_units(args.units),
+                raw_force=args.raw_force,
+            )
+    print(f"report: {out / 'index.html'}")
     return 0

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno import units as units_mod
-from shockdyno.commands.args import add_seed, add_spec, add_term_list
+from shockdyno.commands.args import add_seed, add_spec, add_term_list, require_recording
 from shockdyno.diagnose.file import diagnose_file, parse_candidates
 from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError
@@ -99,6 +99,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     from shockdyno.progress import StageProgress, table_console
     from shockdyno.record.layout import set_paths
 
+    require_recording(args.recording)
     inputs = [
         *set_paths(Path(args.recording)),
         *([args.fit] if args.fit else []),

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shockdyno import __version__
-from shockdyno.commands.args import add_force
+from shockdyno.commands.args import add_force, require_recording
 from shockdyno.errors import ConfigError
 from shockdyno.fit.result import FitResult
 from shockdyno.lists import parse_floats, parse_ints
@@ -72,6 +72,7 @@ def _export(args: argparse.Namespace) -> int:
             raise ConfigError(
                 "--csv writes SI units (time_s, force_N, ...); --units goes with --damper-table"
             )
+        require_recording(args.source, "a fit goes with --damper-table")
         files = export_csv(args.source, args.csv, force=args.force, velocity=_velocity)
         print(
             f"exported {len(files) - 1} tests to {args.csv} ({files[0].name} lists them), "

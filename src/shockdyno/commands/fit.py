@@ -12,7 +12,13 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno import units as units_mod
-from shockdyno.commands.args import add_force, add_seed, add_spec, add_term_list
+from shockdyno.commands.args import (
+    add_force,
+    add_seed,
+    add_spec,
+    add_term_list,
+    require_recording,
+)
 from shockdyno.fit.display import Shown, bound_hit, bound_text, globals_rows, shown
 from shockdyno.fit.file import fit_file, result_json
 from shockdyno.fit.prepare import FITTED_ANYWAY
@@ -163,6 +169,7 @@ def run_fit(args: argparse.Namespace) -> int:
     from shockdyno.record.layout import set_paths
     from shockdyno.report.temperature import reference_c
 
+    require_recording(args.recording)
     reference = reference_c(args.reference_temperature_c)
     inputs = [*set_paths(Path(args.recording)), *([args.spec] if args.spec else [])]
     out = check_output(args.json, force=args.force, inputs=inputs)

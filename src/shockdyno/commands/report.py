@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno.atomic import staged_dir
+from shockdyno.commands.args import require_recording
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.outputs import check_report_dir
 from shockdyno.report import temperature
@@ -107,6 +108,7 @@ def run_report(args: argparse.Namespace) -> int:
     from shockdyno.record import open_recording
     from shockdyno.report.build import build_report
 
+    require_recording(args.recording, "a result goes with --fit, --diagnose or --ride")
     reference_c = temperature.reference_c(args.reference_temperature_c)
     out = Path(args.output)
     inputs = [Path(p) for p in (args.recording, args.fit, args.diagnose, args.ride) if p]

@@ -12,7 +12,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from shockdyno.commands.args import add_force, add_rig
+from shockdyno.commands.args import add_force, add_rig, hint_unreachable
 from shockdyno.errors import ConfigError, RigFault
 from shockdyno.outputs import check_output, write_output
 from shockdyno.run.signals import stop_on_signals
@@ -103,6 +103,7 @@ def register(sub: Any) -> None:
     t.set_defaults(func=cmd_tare)
 
 
+@hint_unreachable
 def cmd_check(args: argparse.Namespace) -> int:
     from shockdyno.rig.check import check_rig
     from shockdyno.rig.config import load_rig
@@ -138,6 +139,7 @@ def _stderr(text: str) -> None:
     print(text, file=sys.stderr)
 
 
+@hint_unreachable
 def cmd_jog(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -186,6 +188,7 @@ def cmd_jog(args: argparse.Namespace) -> int:
     return 0
 
 
+@hint_unreachable
 def cmd_tare(args: argparse.Namespace) -> int:
     from shockdyno.rig.config import load_rig
     from shockdyno.rig.tare import KEY, measure_tare, with_offset

@@ -7,6 +7,7 @@ exports), so neither package imports the other for it.
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,15 @@ from shockdyno.model.kinematics import differentiate
 from shockdyno.outputs import check_output
 from shockdyno.record.csv_export import export_csv
 from shockdyno.result_files import starts_as_mcap
-from shockdyno.ride.damper_table import IMPERIAL_SPEEDS_M_S, UNITS, click_tables, write_tables
+from shockdyno.ride.damper_table import (
+    IMPERIAL_SPEEDS_M_S,
+    UNITS,
+    click_tables,
+    notes,
+    write_tables,
+)
+
+MAX_BAND_MM_S = 100.0  # wider would smooth away the bleed's own low-speed damping
 
 
 def register(subparsers: Any) -> None:
@@ -53,6 +62,19 @@ def register(subparsers: Any) -> None:
         "with --units imperial 0.1 to 40 in/s in round steps)",
     )
     p.add_argument(
+        "--within-measured",
+        action="store_true",
+        help="--damper-table: stop each table at the velocities its recording reached "
+        "(default: the whole grid, rows beyond marked measured = 0 in the CSV)",
+    )
+    p.add_argument(
+        "--friction-band-mm-s",
+        type=float,
+        metavar="W",
+        help="--damper-table: smooth the friction's step over ±W mm/s (e.g. 25), for "
+        "vehicle-simulation solvers (default: the fitted model's own, 35 N within 2.5 mm/s)",
+    )
+    p.add_argument(
         "--units",
         choices=tuple(UNITS),
         default="si",
@@ -65,9 +87,11 @@ def register(subparsers: Any) -> None:
 
 def _export(args: argparse.Namespace) -> int:
     if args.csv is not None:
-        for flag in ("clicks", "velocities_mm_s"):
+        for flag in ("clicks", "velocities_mm_s", "friction_band_mm_s"):
             if getattr(args, flag) is not None:
                 raise ConfigError(f"--{flag.replace('_', '-')} goes with --damper-table")
+        if args.within_measured:
+            raise ConfigError("--within-measured goes with --damper-table")
         if args.units != "si":  # the exchange format import reads: its columns name SI units
             raise ConfigError(
                 "--csv writes SI units (time_s, force_N, ...); --units goes with --damper-table"
@@ -116,7 +140,18 @@ def _damper_table(args: argparse.Namespace) -> int:
             raise ConfigError("--velocities-mm-s: speeds must be non-zero and at most 20000")
     elif args.units == "imperial":
         speeds = list(IMPERIAL_SPEEDS_M_S)
-    tables = click_tables(fit, clicks, speeds)
+    band = args.friction_band_mm_s
+    if band is not None and not (math.isfinite(band) and 0 < band <= MAX_BAND_MM_S):
+        raise ConfigError(
+            f"--friction-band-mm-s must be > 0 and at most {MAX_BAND_MM_S:g}, got {band:g}"
+        )
+    tables = click_tables(
+        fit,
+        clicks,
+        speeds,
+        within_measured=args.within_measured,
+        friction_band_m_s=None if band is None else band * 1e-3,
+    )
     if out.is_dir():  # every target refused before anything is written
         for t in tables:
             for suffix in (".csv", ".dpr"):
@@ -138,4 +173,11 @@ def _damper_table(args: argparse.Namespace) -> int:
         f"wrote {len(files)} files to {out}: force-velocity tables (CSV) and damper property "
         f"files (.dpr) for {len(tables)} click settings{note}, in {args.units} units"
     )
+    units = UNITS[args.units]
+    for t in tables:
+        beyond = t.measured
+        extra = "" if beyond is None else f": {int(np.count_nonzero(~beyond))} rows beyond it"
+        print(f"  clicks {t.clicks}: {'; '.join(notes(t, units))}{extra}")
+    if any(t.measured is not None and not t.measured.all() for t in tables):
+        print("  (rows beyond are marked measured = 0 in the CSV; --within-measured stops there)")
     return 0

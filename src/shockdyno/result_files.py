@@ -10,6 +10,7 @@ No I/O beyond reading the one file; no project imports, so any layer may use it.
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -98,15 +99,17 @@ def not_a_recording(path: Path) -> str | None:
             head = fh.read(64)
     except OSError:
         return None
-    if not head or head.startswith(MCAP_MAGIC) or special_file(path):
+    if len(head) < len(MCAP_MAGIC) or head.startswith(MCAP_MAGIC) or special_file(path):
         return None
     if head.lstrip()[:1] in (b"{", b"["):
         try:
             kind = kind_of(json.loads(path.read_bytes().decode("utf-8")))
         except (OSError, UnicodeDecodeError, json.JSONDecodeError):
-            return "not JSON, nor MCAP"
+            return None
         return KINDS[kind][0] if kind is not None else "a JSON file"
-    first = head.split(b"\n")[0]
-    if b"\x00" not in head and b"," in first:
+    if head.startswith(b"PAR1"):
+        return "a Parquet table"
+    first = head.split(b"\n")[0].strip().decode("utf-8", errors="replace")
+    if re.fullmatch(r'[\w."\-]+(,[\w."\-]*)+', first):  # a header: file,clicks,...
         return "a CSV file (a manifest CSV becomes a recording with shockdyno import)"
-    return what_bytes_are(head)
+    return None

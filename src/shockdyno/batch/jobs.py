@@ -165,6 +165,7 @@ def _report(job: Job, row: Row) -> None:
     from shockdyno.record import open_recording
     from shockdyno.report.build import build_report
     from shockdyno.report.documents import read_diagnosis
+    from shockdyno.report.gas import limit_for
 
     rec = open_recording(job.recording).require_recording()
     tests = rec.load_all()
@@ -175,9 +176,10 @@ def _report(job: Job, row: Row) -> None:
     out = Path(job.out_dir) / job.name
     title = f"{rec.metadata.get('damper_id') or job.name}: dyno report"
     metadata = {"recording": Path(job.recording).name, **rec.metadata}
+    limit = limit_for(tests, job.options.get("spec"), rec.metadata, fit.spec() if fit else None)
     with staged_dir(out) as folder:  # whole, or not at all: a killed worker leaves none
         build_report(tests, folder, title=title, metadata=metadata, fit=fit, diagnose=diag,
-                     diagnose_dir=diag_path.parent)  # fmt: skip
+                     diagnose_dir=diag_path.parent, gas_limit=limit)  # fmt: skip
     _from_tests(row, tests)
     row.damper_id = rec.metadata.get("damper_id", "")
     if diag is not None:

@@ -92,3 +92,15 @@ def hint_unreachable(command: Command) -> Command:
             raise RigFault(text + unreachable_hint(args.rig)) from None
 
     return run
+
+
+def add_gas_arguments(p: argparse._ActionsContainer) -> None:
+    """--gas-force-n and --spec of the commands that remove the gas force (report, compare)."""
+    p.add_argument(
+        "--gas-force-n",
+        metavar="N|GAS:N,...",
+        help="the damper's static gas force at mid-stroke, N: for every gas setting (231) or "
+        "per gas clicks (0:231,5:260); replaces the measured or estimated one "
+        "(default: measured, else estimated from the sine's reversals)",
+    )
+    add_spec(p, "its gas charge bounds an estimated gas force; a fit's damper when given")

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno.atomic import staged_dir
-from shockdyno.commands.args import require_recording
+from shockdyno.commands.args import add_gas_arguments, require_recording
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.outputs import check_report_dir
 from shockdyno.report import temperature
@@ -18,6 +18,7 @@ from shockdyno.report.documents import (
     read_diagnosis,
     read_ride,
 )
+from shockdyno.report.gas import limit_for, parse_given
 from shockdyno.units import add_argument as add_units_argument
 from shockdyno.units import get as get_units
 
@@ -46,6 +47,7 @@ def register(sub: Any) -> None:
         "(default: damping force, the gas force measured at mid-stroke, or estimated from "
         "the reversals, removed)",
     )
+    add_gas_arguments(p)
     p.add_argument(
         "--force",
         action="store_true",
@@ -109,6 +111,7 @@ def run_report(args: argparse.Namespace) -> int:
     from shockdyno.report.build import build_report
 
     require_recording(args.recording, "a result goes with --fit, --diagnose or --ride")
+    given = parse_given(args.gas_force_n) if args.gas_force_n else None
     reference_c = temperature.reference_c(args.reference_temperature_c)
     out = Path(args.output)
     inputs = [Path(p) for p in (args.recording, args.fit, args.diagnose, args.ride) if p]
@@ -134,6 +137,7 @@ def run_report(args: argparse.Namespace) -> int:
             f"{rec.metadata.get('damper_id') or Path(args.recording).stem}: dyno report"
         )
         gas = None if fit is not None else _gas_force(rec.metadata)
+        limit = limit_for(tests, args.spec, rec.metadata, fit.spec() if fit else None)
 
         def progress(stage: str) -> None:
             status.update(f"report: {stage}")
@@ -156,6 +160,8 @@ def run_report(args: argparse.Namespace) -> int:
                 diagnose_dir=Path(args.diagnose).parent if args.diagnose else None,
                 units=get_units(args.units),
                 raw_force=args.raw_force,
+                gas_given=given,
+                gas_limit=limit,
             )
     print(f"report: {out / 'index.html'}")
     return 0

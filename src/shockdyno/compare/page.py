@@ -99,6 +99,9 @@ def render(
     )  # fmt: skip
 
     page.paragraph(force_note(inputs, units))
+    for i in inputs:
+        for text in gas.warnings(i.gas, units):
+            page.paragraph(f"{i.label}: {text}.", warn=True)
     _difference_section(page, inputs, rows, units)
 
     page.section(
@@ -197,7 +200,7 @@ def force_note(inputs: Sequence[Input], units: Units) -> str:
     parts = [
         f"{i.label}: "
         + (
-            gas.describe(i.tests, units).removeprefix("gas force removed: ")
+            gas.describe_forces(i.gas, units).removeprefix("gas force removed: ")
             if i.kind == "recording"
             else "the model's own force at rest removed"
         )

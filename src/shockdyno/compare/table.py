@@ -12,7 +12,9 @@ of its chart value (report/repeatability.py: cycle-to-cycle and test-to-test sca
   a few cycles give an SD of about 1 N on a simulated rig, and 3 N at 1300 N is no
   change a shop would act on;
 - **not judged** when either value is extrapolated or has no known scatter, or both
-  are models (no scatter on either side: the difference is stated, not judged).
+  are models (no scatter on either side: the difference is stated, not judged), or one
+  side's gas force is not known (its estimate refused: report/gas.py), so that side holds
+  the force with the gas force in and the other without.
 
 Softer or stiffer is read in the direction of travel: the force that resists the stroke
 (+F in compression, −F in rebound) is smaller (softer) or larger (stiffer).
@@ -148,6 +150,10 @@ def difference_rows(inputs: list[Input]) -> list[Row]:
                 verdict, sd, why = judge(va.force_n, va.sd_n, vb.force_n, vb.sd_n, both_models)
                 if va.extrapolated or vb.extrapolated:
                     verdict, why = NOT_JUDGED, "extrapolated on one side"
+                unknown = [i.label for i in (a, b) if not i.gas_removed(key[1])]
+                if unknown:  # damping force against force with its gas force in: no judgement
+                    verdict = NOT_JUDGED
+                    why = f"the gas force of {', '.join(unknown)} is not known (--gas-force-n)"
                 rows.append(
                     Row(a.label, b.label, *key, t, va.force_n, vb.force_n, sd, verdict, why)
                 )

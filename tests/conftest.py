@@ -109,3 +109,15 @@ def pytest_runtest_setup(item: pytest.Item) -> None:
     # installed): without one they skip from this one line, so the summary says it once.
     if "browser" in item.keywords and _browser().find_chromium() is None:
         pytest.skip(_browser().HOW_TO_ENABLE)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    # `fit`, `diagnose` and `batch` add to a history database (recordings/history.sqlite
+    # by default, or $SHOCKDYNO_HISTORY): every test process gets its own, never the
+    # checkout's nor the developer's.
+    import shutil
+    import tempfile
+
+    folder = tempfile.mkdtemp(prefix="shockdyno-history-")
+    os.environ["SHOCKDYNO_HISTORY"] = str(Path(folder) / "history.sqlite")
+    config.add_cleanup(lambda: shutil.rmtree(folder, ignore_errors=True))

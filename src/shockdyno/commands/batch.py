@@ -9,6 +9,7 @@ from typing import Any
 
 from shockdyno.batch.table import KINDS
 from shockdyno.commands.args import add_seed, add_spec
+from shockdyno.commands.history import add_history_argument, database
 from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError
 
@@ -49,6 +50,7 @@ def register(sub: Any) -> None:
         metavar="FILE|DIR",
         help="diagnose/report: a fit JSON for all, or a folder of NAME.fit.json (a batch fit's)",
     )
+    add_history_argument(p)
     p.set_defaults(func=run)
 
 
@@ -116,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
             where = args.scheduler or f"local cluster, {args.workers or usable_cores()} workers"
             console.print(f"batch: {len(jobs)} recordings on {where}; dashboard {link}")
 
+        history = None if args.no_history or args.kind == "report" else database(args)
         rows = run_batch(
             jobs,
             out,
@@ -123,6 +126,8 @@ def run(args: argparse.Namespace) -> int:
             workers=args.workers,
             progress=progress,
             on_cluster=on_cluster,
+            history=history,
+            warn=lambda text: print(f"batch: warning: {text}", file=sys.stderr),
         )
     failed = [r for r in rows if r["status"] == "failed"]
     ran = {(r["name"], r["kind"]) for r in rows}
@@ -132,6 +137,9 @@ def run(args: argparse.Namespace) -> int:
         f"{len(failed)} failed of {len(jobs)}; table {out / 'results.parquet'} and .csv"
         + (f" (with {others} rows of earlier runs)" if others else "")
     )
+    if history is not None:
+        added = sum(r["status"] in ("done", "skipped") for r in rows)
+        print(f"history: {added} results kept in {history}")
     for r in failed:
         print(f"  failed {r['path']}: {r['error']}")
     return 3 if failed else 0

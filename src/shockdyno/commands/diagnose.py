@@ -63,6 +63,9 @@ def register(sub: Any) -> None:
         "another recording (DIAG.json says so)",
     )
     units_mod.add_argument(p, "the terminal text, table and --report page")
+    from shockdyno.commands.history import add_history_argument
+
+    add_history_argument(p)
     p.set_defaults(func=run_diagnose)
 
 
@@ -137,6 +140,16 @@ def run_diagnose(args: argparse.Namespace) -> int:
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
     # Written before the figures are drawn: a plotting failure must not lose the diagnosis.
     write_output(args.json, text, force=args.force, inputs=inputs)
+    from shockdyno.commands.history import keep
+    from shockdyno.history import record_diagnosis
+
+    keep(
+        args,
+        lambda db: record_diagnosis(
+            db, Path(args.recording), doc, args.json, args.alpha, args.seed, args.terms
+        ),
+        "the diagnosis",
+    )
     shown = table_console(stderr=out is None)
     from shockdyno.model.spec import spec_line
 

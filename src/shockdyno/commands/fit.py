@@ -19,6 +19,7 @@ from shockdyno.commands.args import (
     add_term_list,
     require_recording,
 )
+from shockdyno.commands.history import add_history_argument
 from shockdyno.fit.display import Shown, bound_hit, bound_text, globals_rows, shown
 from shockdyno.fit.file import fit_file, result_json
 from shockdyno.fit.prepare import FITTED_ANYWAY
@@ -77,6 +78,7 @@ def register(sub: Any) -> None:
         ),
     )
     units_mod.add_argument(p, "the terminal tables and the --report page")
+    add_history_argument(p)
     add_term_list(p)
     p.set_defaults(func=run_fit)
 
@@ -202,6 +204,10 @@ def run_fit(args: argparse.Namespace) -> int:
     human.print(_clicks_table(result, units))
     human.print(table4_table(result))
     write_output(args.json, text, force=args.force, inputs=inputs)
+    from shockdyno.commands.history import keep
+    from shockdyno.history import record_fit
+
+    keep(args, lambda db: record_fit(db, Path(args.recording), result, args.json, tests), "the fit")
     info = result.info
     ident = sum(c.identifiable_bc + c.identifiable_bt for c in result.clicks)
     say = functools.partial(print, file=sys.stderr if out is None else sys.stdout)

@@ -161,7 +161,9 @@ def test_rows_beyond_the_measured_velocities_are_marked(
     out = tmp_path / "tables"
     assert main(["export", str(fitted_example), "--damper-table", str(out)]) == 0
     said = capsys.readouterr().out
-    assert "clicks 21: measured to 188" in said and "16 rows beyond it" in said
+    assert (
+        "clicks 21: measured to 188.5 / 188.6 mm/s (rebound / compression); 16 rows beyond" in said
+    )
     header, rows = _csv_rows(out / "clicks_21.csv")
     assert header[-1] == "measured"
     inside = np.abs(rows[:, 0]) <= PEAK_M_S * 1e3
@@ -193,7 +195,7 @@ def test_a_fit_without_the_span_marks_nothing_and_says_so(
 ) -> None:
     out = tmp_path / "tables"
     assert main(["export", str(fit_json), "--damper-table", str(out), "--clicks", "0"]) == 0
-    assert "does not record the velocities" in capsys.readouterr().out
+    assert "clicks 0: the fit does not record the velocities" in capsys.readouterr().out
     assert main(["export", str(fit_json), "--damper-table", str(tmp_path / "w"),
                  "--within-measured"]) == 2  # fmt: skip
     err = capsys.readouterr().err

@@ -175,9 +175,18 @@ def _damper_table(args: argparse.Namespace) -> int:
     )
     units = UNITS[args.units]
     for t in tables:
-        beyond = t.measured
-        extra = "" if beyond is None else f": {int(np.count_nonzero(~beyond))} rows beyond it"
-        print(f"  clicks {t.clicks}: {'; '.join(notes(t, units))}{extra}")
+        if t.measured_m_s is None:
+            print(f"  clicks {t.clicks}: {notes(t, units)[0]}")
+            continue
+        rebound, compression = (x / units.m_s_per_unit for x in t.measured_m_s)
+        beyond = int(np.count_nonzero(~t.measured)) if t.measured is not None else 0
+        print(
+            f"  clicks {t.clicks}: measured to {rebound:.4g} / {compression:.4g} {units.velocity} "
+            f"(rebound / compression){' from the fitted clicks either side' * (t.source != 'fit')}"
+            f"; {beyond} rows beyond, the model extrapolated"
+        )
     if any(t.measured is not None and not t.measured.all() for t in tables):
-        print("  (rows beyond are marked measured = 0 in the CSV; --within-measured stops there)")
+        print("  rows beyond are marked measured = 0 in the CSV; --within-measured stops there")
+    if band is not None:
+        print(f"  the friction smoothed over {band:g} mm/s in every table (--friction-band-mm-s)")
     return 0

@@ -88,17 +88,17 @@ def run_history(args: argparse.Namespace) -> int:
     if args.list or not args.damper:
         rows = store.dampers(db)
         if not args.list:
+            named = [damper for damper, *_ in rows if damper] or ["S46-0421"]
             raise ConfigError(
-                "give a damper id, e.g. shockdyno history "
-                f"{(rows[0][0] or 'S46-0421') if rows else 'S46-0421'} (--list lists them)"
+                f"give a damper id, e.g. shockdyno history {named[0]} (--list lists them)"
             )
         print(f"{len(rows)} dampers in {db}:")
         for damper, n, first, last in rows:
             print(f"  {damper or '(no damper id)'}: {n} recordings, {first[:10]} to {last[:10]}")
         return 0
-    for out in (args.plot, args.json):
+    for flag, out in (("--plot", args.plot), ("--json", args.json)):
         if out is not None:
-            check_output(out, force=args.force, inputs=[db], flag="--plot/--json")
+            check_output(out, force=args.force, inputs=[db], flag=flag)
     visits = store.visits(db, args.damper)
     if not visits:
         known = [d for d, *_ in store.dampers(db)]

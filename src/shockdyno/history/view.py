@@ -7,7 +7,10 @@ fitted at ±0.03 % moves by more than its σ from sweep to sweep of the same dam
 sim-rig's runs differ), so the share is what keeps a re-test from reading as a rebuild.
 A quantity that moved by the share but has no σ on one side (a parameter a fit could not
 identify, E_t) is listed apart, **not judged**: the compression valve's preload is no
-longer seen once a wider bleed carries the flow, and its fitted value wanders.
+longer seen once a wider bleed carries the flow, and its fitted value wanders. A change
+under ``FLOORS`` of its unit is no change a shop would act on, whatever its share (a
+closed needle's area going from 0 to 0.0004 mm², a channel delay from +0.013 to
+-0.007 ms), as compare has its practical floor.
 """
 
 from __future__ import annotations
@@ -23,6 +26,9 @@ K_SIGMA = 3.0
 MIN_SHARE = 0.05
 AREA_UNIT = ("mm²", 1e6)
 CHANGED, STEADY, UNJUDGED = "changed", "steady", "no σ to judge"
+# The smallest change worth a line, by SI unit: 0.01 mm² of bleed, 1 µm, 0.1 ms, 1 N,
+# 0.1 bar.
+FLOORS = {"m²": 1e-8, "m": 1e-6, "s": 1e-4, "N": 1.0, "Pa": 1e4}
 # SI units shown as a dyno engineer reads them: (scale, unit).
 SHOWN = {"Pa": (1e-5, "bar"), "m": (1e3, "mm"), "m²": (1e6, "mm²"), "s": (1e3, "ms")}
 
@@ -36,6 +42,7 @@ class Series:
     scale: float  # SI value x scale = shown value
     values: tuple[float | None, ...]
     sds: tuple[float | None, ...]
+    floor: float = 0.0  # SI: a smaller change is none (FLOORS)
 
     @property
     def present(self) -> list[int]:
@@ -53,7 +60,7 @@ class Series:
         assert a is not None and b is not None
         sa, sb = self.sds[i], self.sds[j]
         d = abs(b - a)
-        if d < MIN_SHARE * abs(a) or d == 0:
+        if d < MIN_SHARE * abs(a) or d <= self.floor:
             return a, b, STEADY
         if sa is None or sb is None or not math.isfinite(sa + sb):
             return a, b, UNJUDGED
@@ -97,22 +104,23 @@ def series(visits: Sequence[Visit]) -> list[Series]:
                 vals.append(getattr(found[0], f"a_{side}_m2") if found else None)
                 sds.append(getattr(found[0], f"a_{side}_sd_m2") if found else None)
             where = f"{c} clicks" + (f", gas {g}" if gas_shown else "")
-            out.append(Series(f"A_{side} at {where}", *AREA_UNIT, tuple(vals), tuple(sds)))
+            name = f"A_{side} at {where}"
+            out.append(Series(name, *AREA_UNIT, tuple(vals), tuple(sds), FLOORS["m²"]))
     names = sorted({p.name for f in fits if f for p in f.parameters})
     for name in names:
         got = [next((p for p in f.parameters if p.name == name), None) if f else None for f in fits]
         unit = next((p.unit for p in got if p is not None), "")
         scale, shown = SHOWN.get(unit, (1.0, unit))
-        out.append(Series(name, shown, scale, tuple(p.value if p else None for p in got),
-                          tuple(p.sd if p else None for p in got)))  # fmt: skip
+        fitted = tuple(p.value if p else None for p in got)
+        spread = tuple(p.sd if p else None for p in got)
+        out.append(Series(name, shown, scale, fitted, spread, FLOORS.get(unit, 0.0)))
     gas_settings = sorted({g.gas_clicks for v in visits for g in v.recording.gas})
     for g in gas_settings:
         entries = [next((e for e in v.recording.gas if e.gas_clicks == g), None) for v in visits]
-        out.append(Series(
-            "gas force" + (f" at gas {g}" if len(gas_settings) > 1 else ""), "N", 1.0,
-            tuple(e.gas_force_n if e else None for e in entries),
-            tuple(e.sd_n if e else None for e in entries),
-        ))  # fmt: skip
+        name = "gas force" + (f" at gas {g}" if len(gas_settings) > 1 else "")
+        forces = tuple(e.gas_force_n if e else None for e in entries)
+        spread = tuple(e.sd_n if e else None for e in entries)
+        out.append(Series(name, "N", 1.0, forces, spread, FLOORS["N"]))
     out.append(Series("E_t (fit)", "", 1.0, tuple(f.e_t if f else None for f in fits),
                       (None,) * len(fits)))  # fmt: skip
     if any(d is not None for d in diags):

@@ -119,3 +119,19 @@ def test_a_new_database_is_built_by_every_step(tmp_path: Path) -> None:
         return rows
 
     assert layout(fresh) == layout(old)
+
+
+def test_a_recording_that_grew_by_a_resume_is_shown_once(tmp_path: Path) -> None:
+    # A sweep stopped after one test, fitted, resumed and fitted again: one file and
+    # date, two SHA-256s. Both are kept; `history` shows the grown one.
+    path = tmp_path / "history.sqlite"
+    fit = store.ResultEntry("fit", {}, "2026-03-01T10:00:00Z")
+    for sha, n in (("partial", 1), ("whole", 20)):
+        rec = store.RecordingEntry(sha, "r.mcap", "S46", "jd", "2026-03-01T09:00:00Z", n_tests=n)
+        store.add(path, rec, fit)
+    other = store.RecordingEntry("later", "r.mcap", "S46", "jd", "2026-04-01T09:00:00Z", n_tests=3)
+    store.add(path, other, fit)  # the same path swept again another day: its own recording
+    everything = store.visits(path, "S46")
+    shown, left_out = store.grown(everything)
+    assert [v.recording.sha256 for v in everything] == ["partial", "whole", "later"]
+    assert [v.recording.sha256 for v in shown] == ["whole", "later"] and left_out == 1

@@ -99,12 +99,18 @@ def run_history(args: argparse.Namespace) -> int:
     for flag, out in (("--plot", args.plot), ("--json", args.json)):
         if out is not None:
             check_output(out, force=args.force, inputs=[db], flag=flag)
-    visits = store.visits(db, args.damper)
+    visits, left_out = store.grown(store.visits(db, args.damper))
     if not visits:
         known = [d for d, *_ in store.dampers(db)]
         near = ", ".join(d or "(no damper id)" for d in known[:8]) or "none"
         raise ConfigError(f"no recording of damper {args.damper!r} in {db} (known: {near})")
     _print(args.damper, visits, db, args.json == "-")
+    if left_out:
+        print(
+            f"({left_out} earlier reading{'s' * (left_out > 1)} of a recording that grew "
+            "when its sweep was resumed not shown)",
+            file=sys.stderr if args.json == "-" else sys.stdout,
+        )
     if args.json is not None:
         doc = {"damper": args.damper, "database": str(db), "visits": [asdict(v) for v in visits]}
         write_output(args.json, json.dumps(doc, indent=2, allow_nan=False) + "\n",

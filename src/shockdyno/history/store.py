@@ -234,5 +234,19 @@ def visits(path: Path, damper_id: str) -> list[Visit]:
     return out
 
 
+def grown(visits: list[Visit]) -> tuple[list[Visit], int]:
+    """The visits without the earlier readings of a recording that grew: a sweep stopped
+    and resumed is one file (its first part's path and date) whose bytes, and so SHA-256,
+    changed; a fit of it before the resume is kept in the database but not shown as a
+    recording of its own. Returns the visits shown and how many were left out."""
+    latest: dict[tuple[str, str], Visit] = {}
+    for v in visits:
+        key = (v.recording.file, v.recording.recorded_utc)
+        if key not in latest or v.recording.n_tests >= latest[key].recording.n_tests:
+            latest[key] = v
+    kept = [v for v in visits if latest[(v.recording.file, v.recording.recorded_utc)] is v]
+    return kept, len(visits) - len(kept)
+
+
 def known(values: Sequence[float | None]) -> list[float]:
     return [float(v) for v in values if v is not None and math.isfinite(v)]

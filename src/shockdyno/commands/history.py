@@ -142,7 +142,9 @@ def _print(damper: str, visits: list[Any], db: Path, to_stderr: bool) -> None:
     table = Table(title="Recordings, oldest first")
     for name in ("#", "recorded (UTC)", "operator", "file", "clicks", "gas force", "E_t fit",
                  "terms", "diagnosed"):  # fmt: skip
-        table.add_column(name, justify="right" if name in ("#", "E_t fit") else "left")
+        # a narrow terminal wraps a file name rather than cutting it to "s46-0421-rec…"
+        right = name in ("#", "E_t fit")
+        table.add_column(name, justify="right" if right else "left", overflow="fold")
     for k, v in enumerate(visits, 1):
         fit = v.latest("fit")
         table.add_row(

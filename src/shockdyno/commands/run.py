@@ -231,11 +231,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     # No file the sweep reads may become its recording, --force or not.
     read = [args.rig, default_spec_path(), *([args.scenario] if args.scenario else [])]
     refuse_inputs(Path(args.output), read, flag="-o")
-    if args.start_sim and Path(args.output).exists() and not (args.force or args.resume):
-        # refused before the simulated rig starts, as the recording would refuse it after
-        raise RecordingError(
-            f"{args.output} exists: use --force to overwrite or --resume to continue"
-        )
+    if args.start_sim:  # refused before the simulated rig starts, as the recording would
+        from shockdyno.record.lock import recording_lock
+
+        with recording_lock(Path(args.output)):  # another writer is named first
+            if Path(args.output).exists() and not (args.force or args.resume):
+                raise RecordingError(
+                    f"{args.output} exists: use --force to overwrite or --resume to continue"
+                )
     rig = load_rig(args.rig)
     plan = _plan(args, *_click_ranges(load_spec()), rig)
     with contextlib.ExitStack() as stack:

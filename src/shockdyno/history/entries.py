@@ -77,6 +77,11 @@ def _mean(values: list[float | None]) -> float | None:
     return statistics.fmean(ok) if ok else None
 
 
+def _made(kind: str, options: dict[str, Any], result_file: str, **fields: Any) -> ResultEntry:
+    """A result made now, by this version."""
+    return ResultEntry(kind, options, now_utc(), result_file, __version__, **fields)
+
+
 def fit_entry(result: Any, options: dict[str, Any], result_file: str) -> ResultEntry:
     """A FitResult: its areas per click, globals and term parameters with their σ, E_t."""
     sd = result.info.get("calibration", {}).get("globals_sd", {}) or {}
@@ -94,12 +99,10 @@ def fit_entry(result: Any, options: dict[str, Any], result_file: str) -> ResultE
                   _finite(c.a_bc_sd_m2), _finite(c.a_bt_sd_m2))
         for c in result.clicks
     ]  # fmt: skip
-    return ResultEntry(
-        kind="fit",
-        options=options,
-        made_utc=now_utc(),
-        result_file=result_file,
-        version=__version__,
+    return _made(
+        "fit",
+        options,
+        result_file,
         e_t=_mean([t.proposed.get("E_t") for t in result.tests]),
         physics=",".join(sorted(result.terms)),
         areas=tuple(areas),
@@ -114,12 +117,10 @@ def diagnosis_entry(doc: Any, options: dict[str, Any], result_file: str) -> Resu
         ParameterEntry(c.parameter, _finite(c.fitted), _finite(c.sd), c.unit)
         for c in doc.verdict.calibration
     ]
-    return ResultEntry(
-        kind="diagnose",
-        options=options,
-        made_utc=now_utc(),
-        result_file=result_file,
-        version=__version__,
+    return _made(
+        "diagnose",
+        options,
+        result_file,
         e_t=_mean([t.E_t_after for t in doc.tests]),
         e_t_before=_mean([t.E_t_before for t in doc.tests]),
         physics=",".join(doc.verdict.physics),

@@ -27,6 +27,20 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     )
 
 
+def _browser() -> Any:
+    """tests/report/browser.py: where the browser tests find a Chromium already here."""
+    import importlib.util
+    import sys
+
+    name = "shockdyno_tests_browser"
+    if name not in sys.modules:
+        spec = importlib.util.spec_from_file_location(name, REPO / "tests/report/browser.py")
+        assert spec is not None and spec.loader is not None
+        sys.modules[name] = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(sys.modules[name])
+    return sys.modules[name]
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     if config.getoption("--rig"):
         return
@@ -95,3 +109,22 @@ def leak_check() -> Iterator[None]:
     assert not extra_threads, f"threads left behind: {extra_threads}"
     extra_fds = open_fds() - fds
     assert not extra_fds, f"descriptors left behind: {sorted(extra_fds)}"
+
+
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    # The browser tests need a Chromium that is already on the machine (nothing is
+    # installed): without one they skip from this one line, so the summary says it once.
+    if "browser" in item.keywords and _browser().find_chromium() is None:
+        pytest.skip(_browser().HOW_TO_ENABLE)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    # `fit`, `diagnose` and `batch` add to a history database (recordings/history.sqlite
+    # by default, or $SHOCKDYNO_HISTORY): every test process gets its own, never the
+    # checkout's nor the developer's.
+    import shutil
+    import tempfile
+
+    folder = tempfile.mkdtemp(prefix="shockdyno-history-")
+    os.environ["SHOCKDYNO_HISTORY"] = str(Path(folder) / "history.sqlite")
+    config.add_cleanup(lambda: shutil.rmtree(folder, ignore_errors=True))

@@ -37,10 +37,11 @@ LAYERS: dict[str, set[str]] = {
     "ride": {"model", "record", "fit", "report"},
     "run": {"model", "rig", "record", "report"},
     "compare": {"record", "fit", "report"},
-    "batch": {"record", "fit", "report", "diagnose"},
+    "history": {"record", "fit", "report"},
+    "batch": {"record", "fit", "report", "diagnose", "history"},
     "commands": {
         "model", "rig", "record", "simrig", "fit", "report", "diagnose", "ride", "run",
-        "compare", "batch",
+        "compare", "batch", "history",
     },
     "cli": set(),
 }  # fmt: skip

@@ -31,6 +31,7 @@ COMMAND_MODULES = [
     "shockdyno.commands.report",  # report
     "shockdyno.commands.compare",  # compare
     "shockdyno.commands.batch",  # batch
+    "shockdyno.commands.history",  # history
 ]
 
 

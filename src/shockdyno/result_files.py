@@ -10,6 +10,7 @@ No I/O beyond reading the one file; no project imports, so any layer may use it.
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -92,3 +93,28 @@ def read_result(path: str | Path, flag: str, expected: str) -> dict[str, Any]:
         raise ConfigError(f"{flag}: {p} is {what}; expected {want}")
     assert isinstance(doc, dict)  # kind_of said so
     return doc
+
+
+def not_a_recording(path: Path) -> str | None:
+    """What a file given where a recording belongs is, when it starts as something else:
+    "a fit result (FIT.json, from shockdyno fit)", "a CSV file", ...; None for a file that
+    starts as MCAP or cannot be read (the recording's reader says what is wrong)."""
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(64)
+    except OSError:
+        return None
+    if len(head) < len(MCAP_MAGIC) or head.startswith(MCAP_MAGIC) or special_file(path):
+        return None
+    if head.lstrip()[:1] in (b"{", b"["):
+        try:
+            kind = kind_of(json.loads(path.read_bytes().decode("utf-8")))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+            return None
+        return KINDS[kind][0] if kind is not None else "a JSON file"
+    if head.startswith(b"PAR1"):
+        return "a Parquet table"
+    first = head.split(b"\n")[0].strip().decode("utf-8", errors="replace")
+    if re.fullmatch(r'[\w."\-]+(,[\w."\-]*)+', first):  # a header: file,clicks,...
+        return "a CSV file (a manifest CSV becomes a recording with shockdyno import)"
+    return None

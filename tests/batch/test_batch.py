@@ -74,17 +74,50 @@ def test_a_local_cluster_batch_is_the_single_command_and_resumes(
     assert "not an MCAP file" in rows["bad"]["error"]
     csv = (out / "results.csv").read_text().splitlines()
     assert len(csv) == 7 and csv[0].startswith('"path","name","sha256"')
+    assert [rows[f"r{i}"]["damper_id"] for i in range(4)] == ["D0", "D1", "D2", "D3"]
     # A re-run skips every result made from the same bytes, options and version.
     mtimes = {p.name: p.stat().st_mtime_ns for p in out.glob("*.fit.json")}
     again = _cli("batch", "fit", str(recordings), "--out", str(out), "--workers", "2")
     assert again.returncode == 3
-    rows = {r["name"]: r["status"] for r in read_table(out)}
-    assert [rows[f"r{i}"] for i in range(4)] == ["skipped"] * 4
+    rows = {r["name"]: r for r in read_table(out)}
+    assert [rows[f"r{i}"]["status"] for i in range(4)] == ["skipped"] * 4
+    assert [rows[f"r{i}"]["damper_id"] for i in range(4)] == ["D0", "D1", "D2", "D3"]
     assert {p.name: p.stat().st_mtime_ns for p in out.glob("*.fit.json")} == mtimes
     # Other options are another result: not skipped.
     other = _cli("batch", "fit", str(recordings / "r0.mcap"), "--out", str(out), "--workers",
                  "1", "--terms", "none")  # fmt: skip
-    assert other.returncode == 0 and read_table(out)[0]["status"] == "done"
+    assert other.returncode == 0
+    rows = {r["name"]: r["status"] for r in read_table(out)}
+    assert rows["r0"] == "done" and rows["r1"] == "skipped"  # the others' rows are kept
+    # The README's second command into the same folder (issue 47.2: it rewrote the table
+    # with its own rows): the fit rows stay, the diagnose row joins them, both with the
+    # recording's damper id (issue 47.3: empty in fit and diagnose rows).
+    diag = _cli("batch", "diagnose", str(recordings / "r1.mcap"), "--out", str(out), "--fit",
+                str(out), "--workers", "1")  # fmt: skip
+    assert diag.returncode == 0, diag.stderr
+    assert "(with 6 rows of earlier runs)" in diag.stdout
+    rows = read_table(out)
+    assert [(r["name"], r["kind"]) for r in rows] == [
+        ("bad", "fit"), ("cut", "fit"), ("r0", "fit"), ("r1", "fit"), ("r1", "diagnose"),
+        ("r2", "fit"), ("r3", "fit"),
+    ]  # fmt: skip
+    assert [r["damper_id"] for r in rows if r["name"] == "r1"] == ["D1", "D1"]
+    assert rows[4]["status"] == "done" and rows[4]["e_t_before"] is not None
+    csv = (out / "results.csv").read_text().splitlines()
+    assert len(csv) == 8 and '"r1","' in csv[5] and '"diagnose"' in csv[5]
+
+
+def test_a_damaged_results_table_is_refused_before_any_work(
+    recordings: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "results"
+    out.mkdir()
+    (out / "results.parquet").write_bytes(b"PAR1 torn")
+    done = _cli("batch", "fit", str(recordings / "r0.mcap"), "--out", str(out))
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1 and "results.parquet cannot be read" in done.stderr
+    assert (out / "results.parquet").read_bytes() == b"PAR1 torn"
+    assert sorted(p.name for p in out.iterdir()) == ["results.parquet"]
 
 
 def _start(cmd: list[str], env: dict[str, str]) -> subprocess.Popen[bytes]:

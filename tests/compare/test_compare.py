@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from shockdyno.cli import main
+from shockdyno.compare.table import DIFFERENCE, WITHIN, Row, differences
 from shockdyno.fit.result import FitResult
 from shockdyno.model.spec import default_spec_path
 from shockdyno.record import RecordingWriter
@@ -98,6 +99,43 @@ def test_a_bigger_bleed_at_one_click_is_found_there_softer_and_nothing_else(
         if r["clicks"] == CHANGED:
             v = r["velocity_m_s"]
             assert r["diff_n"] == pytest.approx(truth_b[v] - truth_a[v], rel=0.1, abs=3.0), v
+
+
+def test_the_terminal_names_every_difference_largest_first(
+    sims: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    doc = _compare(tmp_path, str(sims["a"]), str(sims["b"]))
+    err = capsys.readouterr().err
+    found = [r for r in doc["rows"] if r["verdict"] == "difference"]
+    assert f"compare: {len(found)} of {len(doc['rows'])} values differ" in err
+    lines = [line.strip() for line in err.splitlines() if line.startswith("  after vs before")]
+    assert len(lines) == 1  # one setting and direction: 8 clicks, compression
+    top = max(found, key=lambda r: abs(r["diff_n"]))
+    assert lines[0].startswith(f"after vs before, clicks {CHANGED}: {top['text']}")
+    for r in found:  # every speed that differs is on the line
+        assert f"{r['velocity_m_s'] * 1e3:.3g}" in lines[0]
+
+
+def test_more_than_ten_differences_are_all_said(tmp_path: Path) -> None:
+    # 16 differences over 6 settings and directions (the sweep: the terminal
+    # stopped at 10 and missed the six largest): every one is on a line, the largest first.
+    rows = []
+    for clicks, direction, forces in (
+        (3, 1, [10, 20]), (8, 1, [30, 40, 50]), (8, -1, [60]),
+        (15, 1, [70, 80]), (21, 1, [100, 150, 200, 255, 250, 240]), (21, -1, [90, 95]),
+    ):  # fmt: skip
+        for k, d in enumerate(forces):
+            v = direction * (0.025, 0.05, 0.1, 0.15, 0.2, 0.3)[k]
+            rows.append(Row("A", "B", clicks, 0, v, 1000.0 * direction,
+                            1000.0 * direction - d, 2.0, DIFFERENCE))  # fmt: skip
+    rows.append(Row("A", "B", 0, 0, 0.1, 500.0, 501.0, 2.0, WITHIN))
+    lines = differences(rows)
+    assert len(lines) == 6
+    assert lines[0].startswith("B vs A, clicks 21: compression at 150 mm/s is 255 N")
+    assert lines[0].endswith("(also at 25, 50, 100, 200, 300 mm/s)")
+    tops = [int(re.search(r"is (\d+) N", line).group(1)) for line in lines]  # type: ignore[union-attr]
+    assert tops == sorted(tops, reverse=True) == [255, 95, 80, 60, 50, 20]
+    assert not any("clicks 0" in line for line in lines)
 
 
 def test_the_same_damper_twice_is_within_the_scatter(sims: dict[str, Path], tmp_path: Path) -> None:

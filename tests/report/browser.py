@@ -2,7 +2,10 @@
 
 Talks the Chrome DevTools Protocol over ``--remote-debugging-pipe`` (NUL-terminated JSON
 on file descriptors 3 and 4), so it needs no websocket library and no driver: only a
-Chromium binary (``apt-get install chromium``). ``find_chromium()`` is None without one.
+Chromium binary. ``find_chromium()`` looks for one that is already there (``$SHOCKDYNO_CHROMIUM``,
+the PATH, Playwright's browser cache) and is None without one: nothing is ever installed
+(``make test`` must not change the system). ``python3 tests/report/browser.py`` prints the
+one line ``make test`` shows: the browser found, or how to enable the browser tests.
 """
 
 from __future__ import annotations
@@ -20,7 +23,26 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-NAMES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
+NAMES = (
+    "chromium",
+    "chromium-browser",
+    "google-chrome",
+    "google-chrome-stable",
+    "chrome",
+    "chrome-headless-shell",
+    "headless_shell",
+)
+ENV = "SHOCKDYNO_CHROMIUM"  # a browser binary to use, named by the user
+# Playwright's own downloads (`playwright install chromium`), where a machine may have one.
+PLAYWRIGHT = (
+    "chromium-*/chrome-linux*/chrome",
+    "chromium_headless_shell-*/chrome-linux*/headless_shell",
+    "chromium_headless_shell-*/chrome-headless-shell-linux*/chrome-headless-shell",
+)
+HOW_TO_ENABLE = (
+    f"browser tests skipped: no Chromium found (set {ENV}=/path/to/chrome, or put chromium "
+    "or google-chrome on the PATH; make test installs nothing)"
+)
 
 # Open every collapsed block and load every image now (lazy images in closed <details>
 # would otherwise never load), then report each image's state.
@@ -59,10 +81,23 @@ PRINT_STYLES = """
 
 
 def find_chromium() -> str | None:
+    """A Chromium already on this machine: ``$SHOCKDYNO_CHROMIUM`` (only it, when set),
+    else the first of NAMES on the PATH, else Playwright's cache; None without one."""
+    given = os.environ.get(ENV, "").strip()
+    if given:
+        path = shutil.which(given)
+        return path if path else None
     for name in NAMES:
         path = shutil.which(name)
         if path:
             return path
+    cache = Path(
+        os.environ.get("PLAYWRIGHT_BROWSERS_PATH") or Path.home() / ".cache" / "ms-playwright"
+    )
+    for pattern in PLAYWRIGHT:
+        for found in sorted(cache.glob(pattern), reverse=True):  # the newest build first
+            if os.access(found, os.X_OK):
+                return str(found)
     return None
 
 
@@ -279,3 +314,8 @@ def _inspect(
         elif method == "Network.loadingFailed":
             report.failed_loads.append(str(params.get("errorText")))
     return report
+
+
+if __name__ == "__main__":  # `make test` prints this line before the tests run
+    found = find_chromium()
+    print(f"browser tests: {found}" if found else HOW_TO_ENABLE)

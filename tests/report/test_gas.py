@@ -99,7 +99,7 @@ def test_click_chart_without_the_gas_force_is_the_models_damping() -> None:
     raw = click_chart(tests, fit, raw_force=True)
     gas = with_gas_force(tests)[0].meta.gas_force_n
     assert gas is not None
-    assert damping.gas_note.startswith("gas force removed: 232 N estimated")
+    assert damping.gas_note.startswith("gas force removed: 232 ± 4 N estimated")
     for key in ((0, 0), (12, 0), (21, 0)):
         # Raw and damping differ by the gas force, measured and model alike.
         for v in damping.velocities_m_s:

@@ -1,5 +1,5 @@
 """The report in a real browser: every image loads, no script errors, no sideways scroll
-at 800 px. Skipped without Chromium (README: `apt-get install chromium`)."""
+at 800 px. Skipped without Chromium (tests/report/browser.py says how to enable them)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from browser import find_chromium, open_page
 from shockdyno.report.html import PRINT_CSS, PRINT_SCRIPT
 
 CHROMIUM = find_chromium()
-pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="no chromium: apt-get install chromium")
+pytestmark = pytest.mark.browser  # skipped without Chromium (tests/conftest.py)
 
 
 def test_the_probe_sees_a_broken_image_and_a_script_error(tmp_path: Path) -> None:

@@ -12,7 +12,7 @@ import pytest
 from browser import find_chromium, open_page
 
 CHROMIUM = find_chromium()
-pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="no chromium: apt-get install chromium")
+pytestmark = pytest.mark.browser  # skipped without Chromium (tests/conftest.py)
 
 LBF = 4.4482216152605  # N per lbf
 INCH = 0.0254

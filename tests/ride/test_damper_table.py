@@ -134,3 +134,102 @@ def test_trend_clicks_and_refusals(
     # --clicks belongs to the damper table, not to the CSV exchange.
     assert main(["export", str(rec), "--csv", str(tmp_path / "z"), "--clicks", "0"]) == 2
     assert "goes with --damper-table" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def fitted_example(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """`shockdyno fit` of the shipped example: 1 Hz sines of 30 mm at clicks 0 and 21, so
+    the recording reached 2π · 1 Hz · 30 mm = 188.5 mm/s each way."""
+    out = tmp_path_factory.mktemp("fit") / "fit.json"
+    rec = REPO / "recordings" / "examples" / "example.mcap"
+    assert main(["fit", str(rec), "--json", str(out), "--terms", "none"]) == 0
+    return out
+
+
+PEAK_M_S = 2 * np.pi * 1.0 * 0.03
+
+
+def test_rows_beyond_the_measured_velocities_are_marked(
+    fitted_example: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Issue 47.5: the default grid runs to 1000 mm/s; the recording reached 188.5.
+    spans = FitResult.load(fitted_example).info["velocity_range"]
+    assert [(e["clicks"], e["gas_clicks"]) for e in spans] == [(0, 0), (21, 0)]
+    for e in spans:  # the sine's own peak velocity, from its samples
+        assert e["compression_m_s"] == pytest.approx(PEAK_M_S, rel=2e-3)
+        assert -e["rebound_m_s"] == pytest.approx(PEAK_M_S, rel=2e-3)
+    out = tmp_path / "tables"
+    assert main(["export", str(fitted_example), "--damper-table", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert (
+        "clicks 21: measured to 188.5 / 188.6 mm/s (rebound / compression); 16 rows beyond" in said
+    )
+    header, rows = _csv_rows(out / "clicks_21.csv")
+    assert header[-1] == "measured"
+    inside = np.abs(rows[:, 0]) <= PEAK_M_S * 1e3
+    assert np.array_equal(rows[:, 3] == 1, inside) and rows[:, 0].max() == 1000
+    assert "beyond, the model extrapolated" in (out / "clicks_21.dpr").read_text()
+    # A click from the trend takes the span of the fitted clicks either side.
+    assert main(["export", str(fitted_example), "--damper-table", str(tmp_path / "t"),
+                 "--clicks", "10"]) == 0  # fmt: skip
+    assert "(the fitted clicks either side)" in (tmp_path / "t" / "clicks_10.csv").read_text()
+
+
+def test_within_measured_stops_at_the_measured_velocities(
+    fitted_example: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "tables"
+    args = ["export", str(fitted_example), "--damper-table", str(out), "--within-measured"]
+    assert main(args) == 0
+    _, rows = _csv_rows(out / "clicks_00.csv")
+    assert np.all(rows[:, 3] == 1)
+    assert rows[0, 0] == pytest.approx(-PEAK_M_S * 1e3, rel=2e-3)  # the edges are rows
+    assert rows[-1, 0] == pytest.approx(PEAK_M_S * 1e3, rel=2e-3)
+    assert 0.0 in rows[:, 0] and 100.0 in rows[:, 0]
+    curve = read_teimorbit((out / "clicks_00.dpr").read_text())
+    assert np.max(np.abs(curve.velocity)) == pytest.approx(PEAK_M_S * 1e3, rel=2e-3)
+
+
+def test_a_fit_without_the_span_marks_nothing_and_says_so(
+    fit_json: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "tables"
+    assert main(["export", str(fit_json), "--damper-table", str(out), "--clicks", "0"]) == 0
+    assert "clicks 0: the fit does not record the velocities" in capsys.readouterr().out
+    assert main(["export", str(fit_json), "--damper-table", str(tmp_path / "w"),
+                 "--within-measured"]) == 2  # fmt: skip
+    err = capsys.readouterr().err
+    assert "--within-measured" in err and "fit the recording again" in err
+    assert err.count("\n") == 1 and not (tmp_path / "w").exists()
+
+
+def test_the_friction_band_smooths_the_step_through_zero_and_nothing_else(
+    tmp_path: Path,
+) -> None:
+    # The spec's own damper (35 N of friction, its sign smoothed over 1 mm/s): at 21 clicks
+    # the .dpr steps to 35 N within 2.5 mm/s. With a 25 mm/s band the curve differs from
+    # the plain one by exactly F_f (tanh(v / 25 mm/s) - tanh(v / 1 mm/s)).
+    fit = tmp_path / "fit.json"
+    FitResult.from_spec(SPEC, [21]).save(fit)
+    plain, banded = tmp_path / "plain", tmp_path / "band"
+    assert main(["export", str(fit), "--damper-table", str(plain)]) == 0
+    args = ["export", str(fit), "--damper-table", str(banded), "--friction-band-mm-s", "25"]
+    assert main(args) == 0
+    a = read_teimorbit((plain / "clicks_21.dpr").read_text())
+    b = read_teimorbit((banded / "clicks_21.dpr").read_text())
+    assert np.array_equal(a.velocity, b.velocity)
+    first = np.flatnonzero(a.velocity == 2.5)[0]
+    assert a.force[first] > 34.0  # the step: friction alone is 34.5 N there
+    assert b.force[first] < 6.0  # now a slope: 3.5 N of friction and the bleed's 1.6 N
+    v = a.velocity * 1e-3
+    friction = 35.0 * (np.tanh(v / 0.025) - np.tanh(v / 0.001))
+    assert np.allclose(b.force - a.force, friction, atol=0.02)  # six significant digits
+    fast = np.abs(a.velocity) >= 100
+    assert np.allclose(b.force[fast], a.force[fast], atol=0.05)  # away from the band: the same
+    assert "friction smoothed over 25 mm/s" in (banded / "clicks_21.dpr").read_text()
+    for k, bad in enumerate(("0", "-5", "500", "nan")):
+        out = tmp_path / f"refused{k}"
+        assert (
+            main(["export", str(fit), "--damper-table", str(out), "--friction-band-mm-s", bad]) == 2
+        )
+        assert not out.exists()

@@ -17,6 +17,7 @@ import pytest
 
 from shockdyno.cli import main
 from shockdyno.model.composite import DamperModel, ModelInputs
+from shockdyno.model.spec import default_spec_path
 from shockdyno.rig.config import RigConfig, load_rig
 from shockdyno.rig.daq import SerialDaq
 from shockdyno.rig.types import SampleBlock
@@ -181,6 +182,16 @@ def test_jog_beyond_travel_is_refused_before_moving(
     assert writes == []  # --by-mm reads where the ram is; nothing is written
 
 
+def uncharged_spec(folder: Path) -> Path:
+    """The shipped damper with its gas at atmospheric pressure: no force at rest, as a load
+    cell with nothing mounted carries none."""
+    text = default_spec_path().read_text()
+    assert text.count("gas_pressure_pa = 1.6e6 ") == 1
+    path = folder / "uncharged.toml"
+    path.write_text(text.replace("gas_pressure_pa = 1.6e6 ", "gas_pressure_pa = 101325.0 "))
+    return path
+
+
 def _tare(sim: Any, tmp_path: Path, name: str, capsys: Any) -> tuple[float, float, Path]:
     rig = rig_file(sim, tmp_path, name=f"{name}.toml")
     copy = tmp_path / f"{name}-tared.toml"
@@ -195,22 +206,23 @@ def _tare(sim: Any, tmp_path: Path, name: str, capsys: Any) -> tuple[float, floa
 def test_tare_measures_a_known_offset(
     sim_rig_factory: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """Two simulated rigs, same seed and parked position, one load cell 37.5 N off zero: the
-    tares differ by 37.5 N within their own standard errors (the damper's gas force, the
-    same on both, cancels)."""
-    offset = 37.5
+    """Two simulated rigs, same seed and parked position, nothing on the load cell (a damper
+    without gas charge: no force at rest), one load cell 17.5 N off zero: the tares differ
+    by 17.5 N within their own standard errors (a zero error: under the 30 N of a load)."""
+    offset = 17.5
     text = SIM_RIG.read_text().replace(
         "[simulation]\n", f"[simulation]\nload_cell_offset_n = {offset}\n"
     )
     (tmp_path / "offset.toml").write_text(text)
-    plain = sim_rig_factory(speed=20.0, seed=4)
-    shifted = sim_rig_factory(rig=tmp_path / "offset.toml", speed=20.0, seed=4)
+    spec = uncharged_spec(tmp_path)
+    plain = sim_rig_factory(speed=20.0, seed=4, spec_path=spec)
+    shifted = sim_rig_factory(rig=tmp_path / "offset.toml", speed=20.0, seed=4, spec_path=spec)
     writes = log_writes(shifted)
     m0, se0, _ = _tare(plain, tmp_path, "plain", capsys)
     m1, se1, copy = _tare(shifted, tmp_path, "shifted", capsys)
     assert m1 - m0 == pytest.approx(offset, abs=4 * np.hypot(se0, se1) + 0.05)
     # And the true load cell reads what the damper's model says it carries at rest there:
-    # the gas force on the rod at the parked position (the sim's damper is always mounted).
+    # the gas force on the rod at the parked position, none without a charge.
     at_rest = np.full(50, PARKED_M)
     still = np.zeros(50)
     model = DamperModel(plain.spec, (), {})
@@ -229,6 +241,36 @@ def test_tare_measures_a_known_offset(
         assert main(["rig", "tare", "--rig", str(rig), "--write", str(target), *force]) == 2
         assert capsys.readouterr().err.count("\n") == 1
     assert rig.read_text() == before
+
+
+def test_tare_refuses_the_gas_force_of_a_mounted_damper(
+    sim_rig_factory: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The simulated rig's damper is mounted, its gas pushing the rod out: a load, not a
+    zero (issue 47.7: the tare proposed force_offset_n = -230.9, cancelling it). Refused
+    in one line saying how to tare; nothing written; --unloaded tares it anyway, warned."""
+    sim = sim_rig_factory(speed=20.0, seed=5)
+    rig = rig_file(sim, tmp_path)
+    copy = tmp_path / "tared.toml"
+    args = ["rig", "tare", "--rig", str(rig), "--seconds", "0.5", "--write", str(copy)]
+    assert main(args) == 3
+    captured = capsys.readouterr()
+    (line,) = captured.err.splitlines()
+    reading = float(line.split("load cell reads ")[1].split()[0])
+    # the gas force at the parked position, from the model the sim's damper runs
+    still = np.zeros(50)
+    at_rest = ModelInputs.single(np.full(50, PARKED_M), still, still, 1e-3)
+    gas = float(
+        DamperModel(sim.spec, (), {}).evaluate(at_rest, *sim.true_bleed_areas(10)).force[-1]
+    )
+    assert 200 < gas < 240 and reading == pytest.approx(gas, abs=1.0)
+    assert "unbolt the damper's upper eye (or tare before mounting it)" in line
+    assert "gas force" in line and "--unloaded" in line
+    assert captured.out == "" and not copy.exists()
+    assert main([*args, "--unloaded"]) == 0
+    out = capsys.readouterr().out
+    assert "warning:" in out and "--unloaded" in out
+    assert load_rig(copy).daq.calibration.force_offset_n == pytest.approx(-reading, abs=1.0)
 
 
 def test_check_over_modbus_rtu(

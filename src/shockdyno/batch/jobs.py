@@ -19,13 +19,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from shockdyno import __version__
-from shockdyno.atomic import write_text_atomic
+from shockdyno.atomic import staged_dir, write_text_atomic
 from shockdyno.errors import ConfigError, ShockdynoError
 
 if TYPE_CHECKING:  # the report package pulls in matplotlib: imported where it is used
     from shockdyno.report.documents import DiagnosisDoc
 
-KINDS = ("fit", "diagnose", "report")
 SUFFIX = {"fit": ".fit.json", "diagnose": ".diag.json", "report": "/index.html"}
 # Test-only: seconds a task waits before its work, so a test can kill a worker while it
 # holds one. Unset in normal use.
@@ -124,6 +123,7 @@ def _fit(job: Job, row: Row) -> None:
     )
     write_text_atomic(job.result_path, result_json(result))
     _from_tests(row, tests)
+    row.damper_id = _damper_id(job.recording)
     e_t = [t.proposed.get("E_t") for t in result.tests]
     row.e_t_after = _mean(e_t)
     row.physics = ";".join(sorted(result.terms))
@@ -155,6 +155,7 @@ def _diagnose(job: Job, row: Row) -> None:
     residual_maps(d, figures / FIGURES["residual_maps"])
     loops(d, figures / FIGURES["loops"])
     _from_tests(row, [p.data for p in d.data.prepared])
+    row.damper_id = _damper_id(job.recording)
     from shockdyno.report.documents import DiagnosisDoc, typed
 
     _from_diag(row, typed(doc, DiagnosisDoc, str(job.result_path)))
@@ -165,6 +166,7 @@ def _report(job: Job, row: Row) -> None:
     from shockdyno.record import open_recording
     from shockdyno.report.build import build_report
     from shockdyno.report.documents import read_diagnosis
+    from shockdyno.report.gas import limit_for
 
     rec = open_recording(job.recording).require_recording()
     tests = rec.load_all()
@@ -175,14 +177,16 @@ def _report(job: Job, row: Row) -> None:
     out = Path(job.out_dir) / job.name
     title = f"{rec.metadata.get('damper_id') or job.name}: dyno report"
     metadata = {"recording": Path(job.recording).name, **rec.metadata}
+    limit = limit_for(tests, job.options.get("spec"), rec.metadata, fit.spec() if fit else None)
     if fit is not None:  # a fit of another recording is refused, as by `report` (issue 46.7)
         from shockdyno.record.identity import provenance, stored_sha256
 
         stored = stored_sha256(fit.info, "recording", "sha256")
         allow = bool(job.options.get("allow_other_recording", False))
         metadata["fit"] = provenance(stored, job.sha256, "the fit", "--fit", allow)
-    build_report(tests, out, title=title, metadata=metadata, fit=fit, diagnose=diag,
-                 diagnose_dir=diag_path.parent)  # fmt: skip
+    with staged_dir(out) as folder:  # whole, or not at all: a killed worker leaves none
+        build_report(tests, folder, title=title, metadata=metadata, fit=fit, diagnose=diag,
+                     diagnose_dir=diag_path.parent, gas_limit=limit)  # fmt: skip
     _from_tests(row, tests)
     row.damper_id = rec.metadata.get("damper_id", "")
     if diag is not None:
@@ -204,12 +208,21 @@ def _fit_for(job: Job) -> str | None:
     return str(p)
 
 
+def _damper_id(recording: str) -> str:
+    """The damper id the recording's metadata holds (`sweep --damper-id`, `import --meta`)."""
+    from shockdyno.record import open_recording
+
+    return open_recording(recording).metadata.get("damper_id", "")
+
+
 def _describe(row: Row, job: Job) -> None:
     """A skipped row still says what the result holds."""
     from shockdyno.report.documents import read_diagnosis
 
     if not job.result_path.exists():
         return
+    with contextlib.suppress(ShockdynoError):  # the row is still a skip without it
+        row.damper_id = _damper_id(job.recording)
     row.result = str(job.result_path)
     if job.kind == "diagnose":
         with contextlib.suppress(ConfigError):  # an unreadable result describes nothing

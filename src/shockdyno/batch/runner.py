@@ -20,9 +20,9 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from shockdyno.batch.jobs import Job, Row, run_job
-from shockdyno.batch.table import write_table
+from shockdyno.batch.table import earlier_rows, merged, write_table
 from shockdyno.diagnose.workers import usable_cores
-from shockdyno.errors import ConfigError
+from shockdyno.errors import ConfigError, ShockdynoError
 from shockdyno.record.identity import recording_sha256
 
 Progress = Callable[[dict[str, Any], int, int], None]
@@ -156,8 +156,15 @@ def run_batch(
     workers: int | None = None,
     progress: Progress | None = None,
     on_cluster: Callable[[str], None] | None = None,
+    history: Path | None = None,
+    warn: Callable[[str], None] | None = None,
 ) -> list[dict[str, Any]]:
-    """Run every job; returns the rows (also in out_dir/results.parquet and .csv)."""
+    """Run every job; returns this run's rows. out_dir/results.parquet and .csv hold them
+    with the rows of earlier runs whose (name, kind) this run did not touch. With
+    `history`, each fit and diagnosis (done, or skipped as done before) is added to that
+    database here, in this one process, as its task finishes: the workers never write it
+    (one writer; an SQLite file on a cluster's shared storage is no place for many)."""
+    earlier = earlier_rows(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     rows: dict[str, dict[str, Any]] = {}
     last_write = -math.inf
@@ -171,16 +178,28 @@ def run_batch(
                 row = lost.as_dict()
             else:
                 row = got
+                if history is not None and row["status"] in ("done", "skipped"):
+                    _keep(history, job, row, warn)
             rows[job.name] = row
             now = time.monotonic()
             if now - last_write >= TABLE_EVERY_S:
-                write_table(out_dir, _ordered(rows, jobs))
+                write_table(out_dir, merged(earlier, _ordered(rows, jobs)))
                 last_write = now
             if progress is not None:
                 progress(row, len(rows), len(jobs))
     finally:
-        write_table(out_dir, _ordered(rows, jobs))
+        write_table(out_dir, merged(earlier, _ordered(rows, jobs)))
     return _ordered(rows, jobs)
+
+
+def _keep(history: Path, job: Job, row: dict[str, Any], warn: Callable[[str], None] | None) -> None:
+    from shockdyno.history import record_result_file
+
+    try:
+        record_result_file(history, Path(job.recording), job.kind, job.result_path, job.options)
+    except (ShockdynoError, OSError) as exc:  # the result stands; the history says why not
+        if warn is not None:
+            warn(f"history not updated for {row['name']}: {exc}")
 
 
 def _ordered(rows: dict[str, dict[str, Any]], jobs: list[Job]) -> list[dict[str, Any]]:

@@ -1,4 +1,11 @@
-"""The batch's results table: DIR/results.parquet and DIR/results.csv, a row a recording.
+"""The batch's results table: DIR/results.parquet and DIR/results.csv, a row a recording
+and command.
+
+The table accumulates: a row is keyed by (name, kind), the recording's result name in DIR
+and the command (`fit`, `diagnose`, `report`). A batch replaces the rows of the keys it
+runs and keeps every other row, so `batch fit` then `batch diagnose --fit DIR` into the
+same DIR leave both (issue 47.2: the second used to rewrite the table with its own rows
+only). Rows are sorted by name, then kind in the order of KINDS.
 
 Parquet by pyarrow: it is the reference implementation the rest of the ecosystem (pandas,
 polars, DuckDB, Spark) reads and writes, it writes a typed schema without pandas, and one
@@ -12,6 +19,10 @@ import os
 import tempfile
 from pathlib import Path
 from typing import Any
+
+from shockdyno.errors import ConfigError
+
+KINDS = ("fit", "diagnose", "report")  # the commands, in the order a row's name lists them
 
 COLUMNS: list[tuple[str, str]] = [
     ("path", "string"),
@@ -68,3 +79,27 @@ def read_table(out_dir: Path) -> list[dict[str, Any]]:
 
     rows: list[dict[str, Any]] = pq.read_table(out_dir / "results.parquet").to_pylist()
     return rows
+
+
+def earlier_rows(out_dir: Path) -> list[dict[str, Any]]:
+    """The rows a DIR already holds (none without a table); a table that cannot be read
+    is refused in one line before any work, never overwritten."""
+    if not (out_dir / "results.parquet").exists():
+        return []
+    try:
+        return read_table(out_dir)
+    except Exception as exc:  # pyarrow raises its own kinds for a damaged file
+        raise ConfigError(
+            f"--out {out_dir}: results.parquet cannot be read ({type(exc).__name__}); move it "
+            "away (the results beside it are kept) and run again"
+        ) from None
+
+
+def merged(earlier: list[dict[str, Any]], rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The earlier rows with this run's rows in place of those of the same (name, kind)."""
+    by_key = {(r.get("name"), r.get("kind")): r for r in earlier}
+    by_key.update({(r["name"], r["kind"]): r for r in rows})
+    order = {kind: i for i, kind in enumerate(KINDS)}
+    return sorted(
+        by_key.values(), key=lambda r: (str(r.get("name")), order.get(str(r.get("kind")), 99))
+    )

@@ -4,9 +4,13 @@
 from __future__ import annotations
 
 import argparse
+import functools
+from collections.abc import Callable
 from pathlib import Path
 
+from shockdyno.errors import ConfigError, RigFault
 from shockdyno.lists import seed_arg
+from shockdyno.result_files import not_a_recording
 
 
 def add_rig(p: argparse._ActionsContainer) -> None:
@@ -19,7 +23,8 @@ def add_force(p: argparse._ActionsContainer, what: str) -> None:
 
 
 def add_seed(p: argparse._ActionsContainer, of: str) -> None:
-    p.add_argument("--seed", type=seed_arg, default=0, help=f"seed of {of} (default 0)")
+    # The help formatter adds "(default 0)" itself (cli.DefaultsHelpFormatter).
+    p.add_argument("--seed", type=seed_arg, default=0, help=f"seed of {of}")
 
 
 def add_term_list(p: argparse.ArgumentParser) -> None:
@@ -35,3 +40,67 @@ def add_spec(p: argparse._ActionsContainer, note: str = "") -> None:
     p.add_argument(
         "--spec", metavar="PATH", help=f"base damper spec TOML{extra}; default sim/ohlins-s46.toml"
     )
+
+
+def require_recording(path: str | Path, instead: str = "") -> None:
+    """Refuse, in one line naming what it is, a file given as a recording that is another
+    kind (`fit FIT.json` said only "not an MCAP file"); `instead` says where that kind
+    goes. A file that starts as MCAP, or cannot be read, is left to the recording's reader."""
+    found = not_a_recording(Path(path))
+    if found is not None:
+        raise ConfigError(
+            f"{path}: not an MCAP file, but {found}; expected a recording (.mcap)"
+            + (f" ({instead})" if instead else "")
+        )
+
+
+def unreachable_hint(rig_path: Path) -> str:
+    """What to try when the rig file's drive or DAQ cannot be reached: the simulated rig
+    (a rig file with a [simulation] table) may simply not be running."""
+    from shockdyno.rig.config import load_rig
+
+    try:
+        simulated = bool(load_rig(rig_path).simulation)
+    except ConfigError:
+        simulated = False
+    if simulated:
+        return (
+            f"; is the simulated rig running? start it in another terminal with "
+            f"`shockdyno sim-rig --rig {rig_path}` (sweep can also start it: --start-sim)"
+        )
+    return (
+        f"; is the drive powered and on this network (or its serial cable in), and are the "
+        f"[actuator] and [daq] addresses in {rig_path} its own?"
+    )
+
+
+Command = Callable[[argparse.Namespace], int]
+
+
+def hint_unreachable(command: Command) -> Command:
+    """A rig command whose drive or DAQ cannot be reached says what to try (issue 47.8:
+    "cannot connect" said nothing of the simulated rig not running)."""
+
+    @functools.wraps(command)
+    def run(args: argparse.Namespace) -> int:
+        try:
+            return command(args)
+        except RigFault as exc:
+            text = str(exc)
+            if "cannot connect" not in text and "cannot open" not in text:
+                raise
+            raise RigFault(text + unreachable_hint(args.rig)) from None
+
+    return run
+
+
+def add_gas_arguments(p: argparse._ActionsContainer) -> None:
+    """--gas-force-n and --spec of the commands that remove the gas force (report, compare)."""
+    p.add_argument(
+        "--gas-force-n",
+        metavar="N|GAS:N,...",
+        help="the damper's static gas force at mid-stroke, N: for every gas setting (231) or "
+        "per gas clicks (0:231,5:260); replaces the measured or estimated one "
+        "(default: measured, else estimated from the sine's reversals)",
+    )
+    add_spec(p, "its gas charge bounds an estimated gas force; a fit's damper when given")

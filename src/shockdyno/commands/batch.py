@@ -7,8 +7,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from shockdyno.batch.jobs import KINDS
+from shockdyno.batch.table import KINDS
 from shockdyno.commands.args import add_seed, add_spec
+from shockdyno.commands.history import add_history_argument, database
 from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError
 from shockdyno.record.identity import add_allow_argument
@@ -51,6 +52,7 @@ def register(sub: Any) -> None:
         help="diagnose/report: a fit JSON for all, or a folder of NAME.fit.json (a batch fit's)",
     )
     add_allow_argument(g, "a --fit (diagnose/report)")
+    add_history_argument(p)
     p.set_defaults(func=run)
 
 
@@ -85,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
     from shockdyno.batch.runner import collect, plan_jobs, run_batch
+    from shockdyno.batch.table import earlier_rows
 
     if args.workers is not None and args.workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {args.workers}")
@@ -98,6 +101,7 @@ def run(args: argparse.Namespace) -> int:
             "(each result says so)",
             file=sys.stderr,
         )
+    kept = earlier_rows(out)  # a damaged table is refused before any work
     recordings = collect(args.paths)
     jobs = plan_jobs(args.kind, recordings, out.resolve(), options)
     console = Console(stderr=True)
@@ -124,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
             where = args.scheduler or f"local cluster, {args.workers or usable_cores()} workers"
             console.print(f"batch: {len(jobs)} recordings on {where}; dashboard {link}")
 
+        history = None if args.no_history or args.kind == "report" else database(args)
         rows = run_batch(
             jobs,
             out,
@@ -131,12 +136,20 @@ def run(args: argparse.Namespace) -> int:
             workers=args.workers,
             progress=progress,
             on_cluster=on_cluster,
+            history=history,
+            warn=lambda text: print(f"batch: warning: {text}", file=sys.stderr),
         )
     failed = [r for r in rows if r["status"] == "failed"]
+    ran = {(r["name"], r["kind"]) for r in rows}
+    others = sum((r.get("name"), r.get("kind")) not in ran for r in kept)
     print(
         f"batch {args.kind}: {counts['done']} done, {counts['skipped']} skipped, "
         f"{len(failed)} failed of {len(jobs)}; table {out / 'results.parquet'} and .csv"
+        + (f" (with {others} rows of earlier runs)" if others else "")
     )
+    if history is not None:
+        added = sum(r["status"] in ("done", "skipped") for r in rows)
+        print(f"history: {added} results kept in {history}")
     for r in failed:
         print(f"  failed {r['path']}: {r['error']}")
     return 3 if failed else 0

@@ -9,6 +9,8 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno import units as units_mod
+from shockdyno.atomic import staged_dir
+from shockdyno.commands.args import add_gas_arguments
 from shockdyno.errors import ConfigError
 from shockdyno.outputs import check_output, check_report_dir, write_output
 
@@ -43,6 +45,7 @@ def register(sub: Any) -> None:
         action="store_true",
         help="compare the force as measured (default: damping force, the gas force removed)",
     )
+    add_gas_arguments(p)
     p.add_argument("--force", action="store_true", help="replace an existing page or --json file")
     p.set_defaults(func=run_compare)
 
@@ -50,7 +53,8 @@ def register(sub: Any) -> None:
 def run_compare(args: argparse.Namespace) -> int:
     from shockdyno.compare.inputs import default_labels, load_input
     from shockdyno.compare.page import render
-    from shockdyno.compare.table import difference_rows, shared_settings, to_json
+    from shockdyno.compare.table import difference_rows, differences, shared_settings, to_json
+    from shockdyno.report.gas import parse_given, warnings
 
     units = units_mod.get(args.units)
     paths = [*args.inputs, *args.fit]
@@ -67,10 +71,16 @@ def run_compare(args: argparse.Namespace) -> int:
         check_output(args.json, force=args.force, inputs=paths)
     labels = default_labels(paths, args.label)
     flags = ["input"] * len(args.inputs) + ["--fit"] * len(args.fit)
+    given = parse_given(args.gas_force_n) if args.gas_force_n else None
     inputs = [
-        load_input(Path(p), label, units.standard_velocities_m_s, flag, args.raw_force)
+        load_input(
+            Path(p), label, units.standard_velocities_m_s, flag, args.raw_force, given, args.spec
+        )
         for p, label, flag in zip(paths, labels, flags, strict=True)
     ]
+    for i in inputs:  # a refused or rate-dependent gas force is said before the numbers
+        for text in warnings(i.gas, units):
+            print(f"compare: warning: {i.label}: {text}", file=sys.stderr)
     if not shared_settings(inputs):
         have = "; ".join(
             f"{i.label}: {', '.join(f'{c}/{g}' for c, g in i.settings) or 'none'}" for i in inputs
@@ -79,14 +89,24 @@ def run_compare(args: argparse.Namespace) -> int:
             f"the inputs share no click setting with {inputs[0].label} (clicks/gas: {have})"
         )
     rows = difference_rows(inputs)
-    index = render(inputs, rows, out, units, args.title)
+    with staged_dir(out) as folder:  # the page appears whole, or not at all
+        render(inputs, rows, folder, units, args.title)
+    index = out / "index.html"
     if args.json:
         text = json.dumps(to_json(inputs, rows), indent=2, allow_nan=False) + "\n"
         write_output(args.json, text, force=args.force, inputs=paths)
     found = [r for r in rows if r.verdict == "difference"]
-    for r in found[:10]:
-        print(f"compare: {r.b} vs {r.a}, clicks {r.clicks}: {r.text(units)}", file=sys.stderr)
-    if not found:
+    if found:
+        lines = differences(rows, units)
+        print(
+            f"compare: {len(found)} of {len(rows)} values differ beyond the scatter, in "
+            f"{len(lines)} setting{'s' * (len(lines) > 1)} and direction"
+            f"{'s' * (len(lines) > 1)} (largest first):",
+            file=sys.stderr,
+        )
+        for line in lines:
+            print(f"  {line}", file=sys.stderr)
+    else:
         unjudged = sum(r.verdict == "not judged" for r in rows)
         print(
             "compare: no difference beyond the scatter"

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno import units as units_mod
-from shockdyno.commands.args import add_seed, add_spec, add_term_list
+from shockdyno.commands.args import add_seed, add_spec, add_term_list, require_recording
 from shockdyno.diagnose.file import diagnose_file, parse_candidates
 from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError
@@ -64,6 +64,9 @@ def register(sub: Any) -> None:
     )
     add_allow_argument(p, "a --fit")
     units_mod.add_argument(p, "the terminal text, table and --report page")
+    from shockdyno.commands.history import add_history_argument
+
+    add_history_argument(p)
     p.set_defaults(func=run_diagnose)
 
 
@@ -100,6 +103,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     from shockdyno.progress import StageProgress, table_console
     from shockdyno.record.layout import set_paths
 
+    require_recording(args.recording)
     inputs = [
         *set_paths(Path(args.recording)),
         *([args.fit] if args.fit else []),
@@ -137,6 +141,16 @@ def run_diagnose(args: argparse.Namespace) -> int:
     text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
     # Written before the figures are drawn: a plotting failure must not lose the diagnosis.
     write_output(args.json, text, force=args.force, inputs=inputs)
+    from shockdyno.commands.history import keep
+    from shockdyno.history import record_diagnosis
+
+    keep(
+        args,
+        lambda db: record_diagnosis(
+            db, Path(args.recording), doc, args.json, args.alpha, args.seed, args.terms
+        ),
+        "the diagnosis",
+    )
     shown = table_console(stderr=out is None)
     from shockdyno.model.spec import spec_line
 
@@ -173,10 +187,12 @@ def run_diagnose(args: argparse.Namespace) -> int:
     text = doc["verdict"]["text_imperial" if units.imperial else "text"]
     shown.print(f"[bold]verdict:[/] {text}")
     if args.report:
+        from shockdyno.atomic import staged_dir
         from shockdyno.diagnose.report import write_report
 
-        index = write_report(d, doc, Path(args.report), units)
-        shown.print(f"report: {index}")
+        with staged_dir(Path(args.report)) as folder:  # whole, or not at all
+            write_report(d, doc, folder, units)
+        shown.print(f"report: {Path(args.report) / 'index.html'}")
     if out is not None:
         shown.print(f"wrote {out} in {d.wall_s:.1f} s")
     return 0

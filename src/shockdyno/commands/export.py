@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shockdyno import __version__
-from shockdyno.commands.args import add_force
+from shockdyno.commands.args import add_force, require_recording
 from shockdyno.errors import ConfigError
 from shockdyno.fit.file import MAX_FORCE_N
 from shockdyno.fit.result import FitResult
@@ -26,7 +26,15 @@ from shockdyno.outputs import check_output
 from shockdyno.record.csv_export import export_csv
 from shockdyno.record.reader import open_recording
 from shockdyno.result_files import starts_as_mcap
-from shockdyno.ride.damper_table import IMPERIAL_SPEEDS_M_S, UNITS, click_tables, write_tables
+from shockdyno.ride.damper_table import (
+    IMPERIAL_SPEEDS_M_S,
+    UNITS,
+    click_tables,
+    notes,
+    write_tables,
+)
+
+MAX_BAND_MM_S = 100.0  # wider would smooth away the bleed's own low-speed damping
 
 
 def register(subparsers: Any) -> None:
@@ -57,6 +65,19 @@ def register(subparsers: Any) -> None:
         "with --units imperial 0.1 to 40 in/s in round steps)",
     )
     p.add_argument(
+        "--within-measured",
+        action="store_true",
+        help="--damper-table: stop each table at the velocities its recording reached "
+        "(default: the whole grid, rows beyond marked measured = 0 in the CSV)",
+    )
+    p.add_argument(
+        "--friction-band-mm-s",
+        type=float,
+        metavar="W",
+        help="--damper-table: smooth the friction's step over ±W mm/s (e.g. 25), for "
+        "vehicle-simulation solvers (default: the fitted model's own, 35 N within 2.5 mm/s)",
+    )
+    p.add_argument(
         "--units",
         choices=tuple(UNITS),
         default="si",
@@ -69,13 +90,16 @@ def register(subparsers: Any) -> None:
 
 def _export(args: argparse.Namespace) -> int:
     if args.csv is not None:
-        for flag in ("clicks", "velocities_mm_s"):
+        for flag in ("clicks", "velocities_mm_s", "friction_band_mm_s"):
             if getattr(args, flag) is not None:
                 raise ConfigError(f"--{flag.replace('_', '-')} goes with --damper-table")
+        if args.within_measured:
+            raise ConfigError("--within-measured goes with --damper-table")
         if args.units != "si":  # the exchange format import reads: its columns name SI units
             raise ConfigError(
                 "--csv writes SI units (time_s, force_N, ...); --units goes with --damper-table"
             )
+        require_recording(args.source, "a fit goes with --damper-table")
         rec = open_recording(args.source).require_recording()
         loss = rec.loss_note()
         if loss:  # a cut-off or damaged recording: what the export leaves out, said
@@ -138,7 +162,18 @@ def _damper_table(args: argparse.Namespace) -> int:
             raise ConfigError("--velocities-mm-s: speeds must be non-zero and at most 20000")
     elif args.units == "imperial":
         speeds = list(IMPERIAL_SPEEDS_M_S)
-    tables = click_tables(fit, clicks, speeds)
+    band = args.friction_band_mm_s
+    if band is not None and not (math.isfinite(band) and 0 < band <= MAX_BAND_MM_S):
+        raise ConfigError(
+            f"--friction-band-mm-s must be > 0 and at most {MAX_BAND_MM_S:g}, got {band:g}"
+        )
+    tables = click_tables(
+        fit,
+        clicks,
+        speeds,
+        within_measured=args.within_measured,
+        friction_band_m_s=None if band is None else band * 1e-3,
+    )
     _check_tables(tables, args.source)
     if out.is_dir():  # every target refused before anything is written
         for t in tables:
@@ -161,4 +196,20 @@ def _damper_table(args: argparse.Namespace) -> int:
         f"wrote {len(files)} files to {out}: force-velocity tables (CSV) and damper property "
         f"files (.dpr) for {len(tables)} click settings{note}, in {args.units} units"
     )
+    units = UNITS[args.units]
+    for t in tables:
+        if t.measured_m_s is None:
+            print(f"  clicks {t.clicks}: {notes(t, units)[0]}")
+            continue
+        rebound, compression = (x / units.m_s_per_unit for x in t.measured_m_s)
+        beyond = int(np.count_nonzero(~t.measured)) if t.measured is not None else 0
+        print(
+            f"  clicks {t.clicks}: measured to {rebound:.4g} / {compression:.4g} {units.velocity} "
+            f"(rebound / compression){' from the fitted clicks either side' * (t.source != 'fit')}"
+            f"; {beyond} rows beyond, the model extrapolated"
+        )
+    if any(t.measured is not None and not t.measured.all() for t in tables):
+        print("  rows beyond are marked measured = 0 in the CSV; --within-measured stops there")
+    if band is not None:
+        print(f"  the friction smoothed over {band:g} mm/s in every table (--friction-band-mm-s)")
     return 0

@@ -12,7 +12,14 @@ from pathlib import Path
 from typing import Any
 
 from shockdyno import units as units_mod
-from shockdyno.commands.args import add_force, add_seed, add_spec, add_term_list
+from shockdyno.commands.args import (
+    add_force,
+    add_seed,
+    add_spec,
+    add_term_list,
+    require_recording,
+)
+from shockdyno.commands.history import add_history_argument
 from shockdyno.fit.display import Shown, bound_hit, bound_text, globals_rows, shown
 from shockdyno.fit.file import fit_file, result_json
 from shockdyno.fit.prepare import FITTED_ANYWAY
@@ -71,6 +78,7 @@ def register(sub: Any) -> None:
         ),
     )
     units_mod.add_argument(p, "the terminal tables and the --report page")
+    add_history_argument(p)
     add_term_list(p)
     p.set_defaults(func=run_fit)
 
@@ -163,6 +171,7 @@ def run_fit(args: argparse.Namespace) -> int:
     from shockdyno.record.layout import set_paths
     from shockdyno.report.temperature import reference_c
 
+    require_recording(args.recording)
     reference = reference_c(args.reference_temperature_c)
     inputs = [*set_paths(Path(args.recording)), *([args.spec] if args.spec else [])]
     out = check_output(args.json, force=args.force, inputs=inputs)
@@ -195,6 +204,10 @@ def run_fit(args: argparse.Namespace) -> int:
     human.print(_clicks_table(result, units))
     human.print(table4_table(result))
     write_output(args.json, text, force=args.force, inputs=inputs)
+    from shockdyno.commands.history import keep
+    from shockdyno.history import record_fit
+
+    keep(args, lambda db: record_fit(db, Path(args.recording), result, args.json, tests), "the fit")
     info = result.info
     ident = sum(c.identifiable_bc + c.identifiable_bt for c in result.clicks)
     say = functools.partial(print, file=sys.stderr if out is None else sys.stdout)
@@ -207,16 +220,20 @@ def run_fit(args: argparse.Namespace) -> int:
     for note in info.get("skipped", []):
         say(f"note: {note}" if note.endswith(FITTED_ANYWAY) else f"skipped {note}")
     if args.report:
-        from shockdyno.atomic import write_text_atomic
+        from shockdyno.atomic import staged_dir, write_text_atomic
         from shockdyno.fit.validate import table4_rows
         from shockdyno.report.build import build_report
 
         report = Path(args.report)
         rec = open_recording(args.recording)
-        with console.status("fit: writing the report") as status:
-            index = build_report(
+        header, rows = table4_rows(result)
+        buf = io.StringIO()
+        csv.writer(buf, lineterminator="\n").writerows([header, *rows])
+        # The page, its figures and table4.csv appear whole, or not at all.
+        with console.status("fit: writing the report") as status, staged_dir(report) as folder:
+            build_report(
                 tests,
-                report,
+                folder,
                 title=f"{rec.metadata.get('damper_id') or Path(args.recording).stem}: fit report",
                 metadata={"recording": str(args.recording), **rec.metadata},
                 fit=result,
@@ -225,11 +242,7 @@ def run_fit(args: argparse.Namespace) -> int:
                 units=units_mod.get(args.units),
                 raw_force=args.raw_force,
             )
-        say(f"report: {index}")
-        header, rows = table4_rows(result)
-        buf = io.StringIO()
-        csv.writer(buf, lineterminator="\n").writerows([header, *rows])
-        table = report / "table4.csv"
-        write_text_atomic(table, buf.getvalue())
-        say(f"table: Table 4 analogue: {table}")
+            write_text_atomic(folder / "table4.csv", buf.getvalue())
+        say(f"report: {report / 'index.html'}")
+        say(f"table: Table 4 analogue: {report / 'table4.csv'}")
     return 0

@@ -7,8 +7,8 @@ import json
 from pathlib import Path
 from typing import Any
 
-from shockdyno.commands.args import add_force
-from shockdyno.errors import RecordingError
+from shockdyno.commands.args import add_force, require_recording
+from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.outputs import check_output, is_stdout, write_output
 from shockdyno.progress import StageProgress
 from shockdyno.record.csv_import import import_csv
@@ -23,6 +23,7 @@ from shockdyno.record.csv_table import (
 from shockdyno.record.info import format_text, summarise
 from shockdyno.record.layout import set_paths
 from shockdyno.record.reader import open_recording
+from shockdyno.result_files import starts_as_mcap
 
 
 def register(subparsers: Any) -> None:
@@ -110,6 +111,7 @@ def _info(args: argparse.Namespace) -> int:
     inputs = set_paths(args.recording)
     if args.json is not None:
         check_output(args.json, force=args.force, inputs=inputs)
+    require_recording(args.recording)
     doc = summarise(open_recording(args.recording).require_recording())
     if not is_stdout(args.json):
         print(format_text(doc))
@@ -146,6 +148,11 @@ def _import(args: argparse.Namespace) -> int:
         allow_outside=args.allow_outside_files,
         max_file_bytes=int(args.max_file_mb * 1e6),
     )
+    if args.manifest.is_file() and starts_as_mcap(args.manifest):
+        raise ConfigError(
+            f"{args.manifest} is an MCAP recording; import reads a manifest CSV "
+            "(shockdyno export REC.mcap --csv DIR writes one from a recording)"
+        )
     if args.manifest.exists() and args.output.exists() and args.output.samefile(args.manifest):
         raise RecordingError(f"-o {args.output} is the manifest; refusing to overwrite it")
     with StageProgress("import", plain_after_s=2.0) as progress:

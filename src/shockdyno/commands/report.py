@@ -7,6 +7,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from shockdyno.atomic import staged_dir
+from shockdyno.commands.args import add_gas_arguments, require_recording
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.outputs import check_report_dir
 from shockdyno.record.identity import add_allow_argument
@@ -18,6 +20,7 @@ from shockdyno.report.documents import (
     read_diagnosis,
     read_ride,
 )
+from shockdyno.report.gas import limit_for, parse_given
 from shockdyno.units import add_argument as add_units_argument
 from shockdyno.units import get as get_units
 
@@ -46,6 +49,7 @@ def register(sub: Any) -> None:
         "(default: damping force, the gas force measured at mid-stroke, or estimated from "
         "the reversals, removed)",
     )
+    add_gas_arguments(p)
     p.add_argument("--force", action="store_true", help="replace an existing DIR/index.html")
     add_allow_argument(p, "a --fit, --diagnose or --ride result")
     add_units_argument(p, "the page's numbers, tables and plots")
@@ -110,6 +114,8 @@ def run_report(args: argparse.Namespace) -> int:
     from shockdyno.record import open_recording
     from shockdyno.report.build import build_report
 
+    require_recording(args.recording, "a result goes with --fit, --diagnose or --ride")
+    given = parse_given(args.gas_force_n) if args.gas_force_n else None
     reference_c = temperature.reference_c(args.reference_temperature_c)
     out = Path(args.output)
     inputs = [Path(p) for p in (args.recording, args.fit, args.diagnose, args.ride) if p]
@@ -135,27 +141,31 @@ def run_report(args: argparse.Namespace) -> int:
             f"{rec.metadata.get('damper_id') or Path(args.recording).stem}: dyno report"
         )
         gas = None if fit is not None else _gas_force(rec.metadata)
+        limit = limit_for(tests, args.spec, rec.metadata, fit.spec() if fit else None)
 
         def progress(stage: str) -> None:
             status.update(f"report: {stage}")
 
-        index = build_report(
-            tests,
-            out,
-            title=title,
-            metadata=metadata,
-            fit=fit,
-            diagnose=diagnose,
-            ride=ride,
-            gas_force_n=gas,
-            progress=progress,
-            warn=lambda text: console.print(
-                f"report: warning: {text}", markup=False, highlight=False, soft_wrap=True
-            ),
-            reference_temperature_c=reference_c,
-            diagnose_dir=Path(args.diagnose).parent if args.diagnose else None,
-            units=get_units(args.units),
-            raw_force=args.raw_force,
-        )
-    print(f"report: {index}")
+        with staged_dir(out) as folder:  # the page appears whole, or not at all
+            build_report(
+                tests,
+                folder,
+                title=title,
+                metadata=metadata,
+                fit=fit,
+                diagnose=diagnose,
+                ride=ride,
+                gas_force_n=gas,
+                progress=progress,
+                warn=lambda text: console.print(
+                    f"report: warning: {text}", markup=False, highlight=False, soft_wrap=True
+                ),
+                reference_temperature_c=reference_c,
+                diagnose_dir=Path(args.diagnose).parent if args.diagnose else None,
+                units=get_units(args.units),
+                raw_force=args.raw_force,
+                gas_given=given,
+                gas_limit=limit,
+            )
+    print(f"report: {out / 'index.html'}")
     return 0

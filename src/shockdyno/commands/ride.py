@@ -200,8 +200,10 @@ def handle(args: argparse.Namespace) -> int:
         print(line, file=human)
     print(f"wrote {'stdout' if out is None else out}", file=human)
     if args.report:
+        from shockdyno.atomic import staged_dir
         from shockdyno.ride.plots import write_report
 
-        files = write_report(result, args.report)
+        with staged_dir(Path(args.report)) as folder:  # whole, or not at all
+            files = write_report(result, folder)
         print(f"report: {Path(args.report) / 'index.html'} ({len(files)} files)", file=human)
     return 0

@@ -12,7 +12,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from shockdyno.commands.args import add_force, add_rig
+from shockdyno.commands.args import add_force, add_rig, hint_unreachable
 from shockdyno.errors import ConfigError, RigFault
 from shockdyno.outputs import check_output, write_output
 from shockdyno.run.signals import stop_on_signals
@@ -93,10 +93,17 @@ def register(sub: Any) -> None:
     add_rig(t)
     t.add_argument("--seconds", type=_seconds, default=2.0, help="how long to average")
     t.add_argument("--write", metavar="PATH", type=Path, help="a copy of the rig file, tared")
+    t.add_argument(
+        "--unloaded",
+        action="store_true",
+        help="nothing is mounted: tare even a reading that looks like a load (by default one "
+        "beyond max(25 N, 0.5 %% of limits.force_n) is refused as a mounted damper's force)",
+    )
     add_force(t, "an existing --write file")
     t.set_defaults(func=cmd_tare)
 
 
+@hint_unreachable
 def cmd_check(args: argparse.Namespace) -> int:
     from shockdyno.rig.check import check_rig
     from shockdyno.rig.config import load_rig
@@ -132,6 +139,7 @@ def _stderr(text: str) -> None:
     print(text, file=sys.stderr)
 
 
+@hint_unreachable
 def cmd_jog(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -180,6 +188,7 @@ def cmd_jog(args: argparse.Namespace) -> int:
     return 0
 
 
+@hint_unreachable
 def cmd_tare(args: argparse.Namespace) -> int:
     from shockdyno.rig.config import load_rig
     from shockdyno.rig.tare import KEY, measure_tare, with_offset
@@ -188,10 +197,18 @@ def cmd_tare(args: argparse.Namespace) -> int:
         check_output(args.write, force=args.force, inputs=[args.rig], flag="--write")
     rig = load_rig(args.rig)
     tare = measure_tare(rig, seconds=args.seconds)
+    if tare.loaded and not args.unloaded:
+        raise RigFault(f"refused: {tare.load_text()}")
     print(
-        f"rig tare: {rig.name} ({args.rig}), drive disabled, load cell unloaded: nothing was "
+        f"rig tare: {rig.name} ({args.rig}), drive disabled, ram at rest: nothing was "
         "written to the drive"
     )
+    if tare.loaded:
+        print(
+            f"  warning: {tare.mean_n:+.1f} N is more than a zero error usually is "
+            f"({tare.loaded_above_n:.0f} N); tared as asked (--unloaded). Were a damper "
+            "mounted, this offset would cancel its gas force in every force measured after"
+        )
     print(
         f"  load cell reads {tare.mean_n:+.2f} N ± {tare.standard_error_n:.2f} N "
         f"(noise sd {tare.sd_n:.2f} N, {tare.samples} samples; current "

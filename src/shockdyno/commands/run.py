@@ -14,8 +14,8 @@ from rich.console import Console
 
 from shockdyno import __version__
 from shockdyno import units as units_mod
-from shockdyno.commands.args import add_force, add_rig, add_seed
-from shockdyno.errors import ConfigError, RigFault
+from shockdyno.commands.args import add_force, add_rig, add_seed, hint_unreachable
+from shockdyno.errors import ConfigError, RecordingError, RigFault
 from shockdyno.lists import parse_clicks, parse_frequencies
 from shockdyno.model.spec import default_spec_path, load_spec
 from shockdyno.outputs import refuse_inputs
@@ -225,6 +225,7 @@ def _metadata(args: argparse.Namespace, rig: RigConfig, spec: str) -> dict[str, 
     }
 
 
+@hint_unreachable
 def cmd_sweep(args: argparse.Namespace) -> int:
     from shockdyno.rig.config import load_rig
 
@@ -232,6 +233,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     # No file the sweep reads may become its recording, --force or not.
     read = [args.rig, default_spec_path(), *([args.scenario] if args.scenario else [])]
     refuse_inputs(Path(args.output), read, flag="-o")
+    if args.start_sim:  # refused before the simulated rig starts, as the recording would
+        from shockdyno.record.lock import recording_lock
+
+        with recording_lock(Path(args.output)):  # another writer is named first
+            if Path(args.output).exists() and not (args.force or args.resume):
+                raise RecordingError(
+                    f"{args.output} exists: use --force to overwrite or --resume to continue"
+                )
     rig = load_rig(args.rig)
     plan = _plan(args, *_click_ranges(load_spec()), rig)
     with contextlib.ExitStack() as stack:

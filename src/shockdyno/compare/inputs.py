@@ -9,7 +9,7 @@ no scatter, and its bleed areas.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,7 +17,8 @@ from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.fit.result import FitResult
 from shockdyno.record import open_recording
 from shockdyno.record.types import TestData
-from shockdyno.report import clickchart, gas, repeatability
+from shockdyno.report import clickchart, repeatability
+from shockdyno.report import gas as gas_mod
 from shockdyno.report.summary import TestSummary, summarise
 from shockdyno.result_files import starts_as_mcap
 
@@ -46,6 +47,15 @@ class Input:
     cycles: list[repeatability.TestCycles] = field(default_factory=list)
     fit: FitResult | None = None
     raw_force: bool = False  # True: force as measured; else damping force, gas removed
+    gas: gas_mod.GasForces = field(default_factory=dict)  # a recording's, by gas clicks
+
+    def gas_removed(self, gas_clicks: int) -> bool:
+        """Whether this input's values at that gas setting are damping force (a fit's
+        always are; a recording's unless its gas force was refused or is unknown)."""
+        if self.raw_force or self.kind == "fit":
+            return True
+        found = self.gas.get(gas_clicks)
+        return found is not None and found.removed
 
     @property
     def settings(self) -> list[Setting]:
@@ -90,10 +100,13 @@ def load_input(
     speeds_m_s: Sequence[float],
     flag: str = "input",
     raw_force: bool = False,
+    gas_given: Mapping[int, float] | None = None,
+    spec: str | None = None,
 ) -> Input:
-    """Read one input; a one-line error for anything that is neither kind."""
+    """Read one input; a one-line error for anything that is neither kind. A recording's
+    gas force: `gas_given`, else measured, else estimated within `spec`'s charge."""
     if flag == "input" and _is_mcap(path):
-        return _recording(path, label, speeds_m_s, raw_force)
+        return _recording(path, label, speeds_m_s, raw_force, gas_given, spec)
     try:
         fit = FitResult.load(path, flag=flag).require_usable(f"{flag} {path}")
     except ConfigError as exc:
@@ -103,14 +116,24 @@ def load_input(
     return _fit(path, label, fit, speeds_m_s, raw_force)
 
 
-def _recording(path: Path, label: str, speeds_m_s: Sequence[float], raw_force: bool) -> Input:
+def _recording(
+    path: Path,
+    label: str,
+    speeds_m_s: Sequence[float],
+    raw_force: bool,
+    gas_given: Mapping[int, float] | None,
+    spec: str | None,
+) -> Input:
     rec = open_recording(path).require_recording()
     tests = [t for t in rec.load_all() if t.meta.status == "complete"]
     if not tests:
         raise RecordingError(f"{path}: no complete test to compare")
-    if not raw_force:  # each test's gas force: measured, else estimated from its reversals
-        tests = gas.with_gas_force(tests)
-    chart = clickchart.click_chart(tests, None, speeds_m_s, raw_force=raw_force)
+    forces: gas_mod.GasForces = {}
+    if not raw_force:  # each setting's gas force: given, measured, else estimated, bounded
+        limit = gas_mod.limit_for(tests, spec, rec.metadata)
+        forces = gas_mod.gas_forces(tests, gas_given, limit)
+        tests = gas_mod.apply(tests, forces)
+    chart = clickchart.click_chart(tests, None, speeds_m_s, raw_force=raw_force, gas=forces)
     # the scatter is of single cycles about their mean: the gas force, a constant, drops out
     cycles = repeatability.sweep_cycles(tests, speeds_m_s)
     scatter = repeatability.chart_scatter(cycles, chart.velocities_m_s)
@@ -122,7 +145,9 @@ def _recording(path: Path, label: str, speeds_m_s: Sequence[float], raw_force: b
             sd = s.sd_of_mean_n if s is not None and not r.extrapolated else math.nan
             values[key][t] = Value(r.force_n, sd, r.extrapolated)
     summaries = [summarise(t, gas_force_n=None if raw_force else t.meta.gas_force_n) for t in tests]
-    return Input(label, path, "recording", chart, values, tests, summaries, cycles, None, raw_force)
+    return Input(
+        label, path, "recording", chart, values, tests, summaries, cycles, None, raw_force, forces
+    )
 
 
 def _fit(

@@ -23,6 +23,7 @@ from shockdyno.compare.table import (
     WITHIN,
     Row,
     bleed_rows,
+    differences,
 )
 from shockdyno.report import clickchart, gas, plots, repeatability
 from shockdyno.report.build import shown_path
@@ -98,6 +99,9 @@ def render(
     )  # fmt: skip
 
     page.paragraph(force_note(inputs, units))
+    for i in inputs:
+        for text in gas.warnings(i.gas, units):
+            page.paragraph(f"{i.label}: {text}.", warn=True)
     _difference_section(page, inputs, rows, units)
 
     page.section(
@@ -196,7 +200,7 @@ def force_note(inputs: Sequence[Input], units: Units) -> str:
     parts = [
         f"{i.label}: "
         + (
-            gas.describe(i.tests, units).removeprefix("gas force removed: ")
+            gas.describe_forces(i.gas, units).removeprefix("gas force removed: ")
             if i.kind == "recording"
             else "the model's own force at rest removed"
         )
@@ -221,9 +225,9 @@ def _difference_section(
     found = [r for r in rows if r.verdict == DIFFERENCE]
     if found:
         page.paragraph(
-            f"{len(found)} of {len(rows)} values differ beyond the scatter: "
-            + "; ".join(f"{r.b} vs {r.a}, clicks {r.clicks}: {r.text(units)}" for r in found[:8])
-            + ("; …" if len(found) > 8 else "."),
+            f"{len(found)} of {len(rows)} values differ beyond the scatter (largest first): "
+            + "; ".join(differences(list(rows), units))
+            + ".",
             warn=True,
         )
     else:

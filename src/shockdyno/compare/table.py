@@ -12,7 +12,9 @@ of its chart value (report/repeatability.py: cycle-to-cycle and test-to-test sca
   a few cycles give an SD of about 1 N on a simulated rig, and 3 N at 1300 N is no
   change a shop would act on;
 - **not judged** when either value is extrapolated or has no known scatter, or both
-  are models (no scatter on either side: the difference is stated, not judged).
+  are models (no scatter on either side: the difference is stated, not judged), or one
+  side's gas force is not known (its estimate refused: report/gas.py), so that side holds
+  the force with the gas force in and the other without.
 
 Softer or stiffer is read in the direction of travel: the force that resists the stroke
 (+F in compression, −F in rebound) is smaller (softer) or larger (stiffer).
@@ -148,10 +150,39 @@ def difference_rows(inputs: list[Input]) -> list[Row]:
                 verdict, sd, why = judge(va.force_n, va.sd_n, vb.force_n, vb.sd_n, both_models)
                 if va.extrapolated or vb.extrapolated:
                     verdict, why = NOT_JUDGED, "extrapolated on one side"
+                unknown = [i.label for i in (a, b) if not i.gas_removed(key[1])]
+                if unknown:  # damping force against force with its gas force in: no judgement
+                    verdict = NOT_JUDGED
+                    why = f"the gas force of {', '.join(unknown)} is not known (--gas-force-n)"
                 rows.append(
                     Row(a.label, b.label, *key, t, va.force_n, vb.force_n, sd, verdict, why)
                 )
     return rows
+
+
+def differences(rows: list[Row], units: Units = SI) -> list[str]:
+    """Every difference, one line per input pair, click setting and direction, the
+    largest first: its largest value in words, and the other speeds where it also differs.
+    The terminal and the page show these lines whole (issue 47.4: the terminal once
+    stopped at ten values without saying so, and missed the largest)."""
+    groups: dict[tuple[str, str, int, int, str], list[Row]] = {}
+    for r in rows:
+        if r.verdict == DIFFERENCE:
+            groups.setdefault((r.b, r.a, r.clicks, r.gas_clicks, r.direction), []).append(r)
+    gas = len({r.gas_clicks for r in rows}) > 1
+    lines = []
+    for (b, a, clicks, gas_clicks, _), found in sorted(
+        groups.items(), key=lambda kv: -max(abs(r.diff_n) for r in kv[1])
+    ):
+        top = max(found, key=lambda r: abs(r.diff_n))
+        others = sorted(abs(r.velocity_m_s) for r in found if r is not top)
+        also = ""
+        if others:
+            speeds = ", ".join(f"{units.velocity(v):.3g}" for v in others)
+            also = f" (also at {speeds} {units.velocity_label})"
+        where = f"clicks {clicks}" + (f", gas {gas_clicks}" if gas else "")
+        lines.append(f"{b} vs {a}, {where}: {top.text(units)}{also}")
+    return lines
 
 
 def bleed_rows(inputs: list[Input]) -> tuple[list[str], list[list[str]], list[dict[str, Any]]]:

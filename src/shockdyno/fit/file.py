@@ -39,6 +39,33 @@ def _peak(values: Any) -> float:
     return float(np.max(np.abs(values))) if values.size else 0.0
 
 
+def velocity_range(tests: list[Any]) -> list[dict[str, float | int]]:
+    """The fastest compression and rebound velocity (m/s, signed) each click setting's
+    tests reached over their measured cycles: the fit JSON's `info.velocity_range`, the
+    span a damper table may call measured (ride/damper_table.py)."""
+    from shockdyno.errors import ConfigError
+    from shockdyno.model.kinematics import differentiate
+
+    reached: dict[tuple[int, int], tuple[float, float]] = {}
+    for test in tests:
+        m = test.measured()
+        if m.t.size < 8:
+            continue
+        try:
+            v = differentiate(m.t, m.x)[0]
+        except ConfigError:  # a time base the fit refuses too: it reached nothing measured
+            continue
+        if not np.any(np.isfinite(v)):
+            continue
+        key = (test.meta.clicks, test.meta.gas_clicks)
+        lo, hi = reached.get(key, (0.0, 0.0))
+        reached[key] = (min(lo, float(np.nanmin(v))), max(hi, float(np.nanmax(v))))
+    return [
+        {"clicks": c, "gas_clicks": g, "compression_m_s": hi, "rebound_m_s": lo}
+        for (c, g), (lo, hi) in sorted(reached.items())
+    ]
+
+
 def result_json(result: Any) -> str:
     try:
         return json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"
@@ -80,6 +107,7 @@ def fit_file(
         terms=parse_terms(terms),
     )
     result.info["recording"] = recording_info(recording)
+    result.info["velocity_range"] = velocity_range(tests)
     if loss:
         result.info["recording_loss"] = loss
     return result, tests

@@ -104,6 +104,11 @@ def _write_data(path: Path, data: TestData, velocity: Differentiate | None) -> N
         out.writelines(",".join(row) + "\n" for row in zip(*text, strict=True))
 
 
+def _abort_reason(m: TestMeta) -> str:
+    """Why a test stopped early: only a test that did not complete has one."""
+    return (m.abort_reason or "") if m.status != "complete" else ""
+
+
 def _write_manifest(path: Path, tests: list[TestMeta], names: list[str]) -> None:
     extras = sorted({k for m in tests for k in m.extra if k not in (SOURCE_KEY, DECIMALS_KEY)})
     window = any(m.measured_start_s is not None for m in tests)
@@ -112,7 +117,8 @@ def _write_manifest(path: Path, tests: list[TestMeta], names: list[str]) -> None
     if window:
         header += ["measured_start_s", "measured_end_s"]
     gas = any(m.gas_pressure_pa is not None for m in tests)
-    reasons = any(m.abort_reason for m in tests)
+    # A sweep stores its motion check's note there on complete tests too: not a reason.
+    reasons = any(_abort_reason(m) for m in tests)
     header += ["gas_pressure_pa"] * gas + ["abort_reason"] * reasons
     # only when a test has one, so an imported recording without it exports as it came
     gas_force = any(m.gas_force_n is not None for m in tests)
@@ -130,7 +136,7 @@ def _write_manifest(path: Path, tests: list[TestMeta], names: list[str]) -> None
             if gas:
                 row.append(_num(m.gas_pressure_pa))
             if reasons:
-                row.append(m.abort_reason or "")
+                row.append(_abort_reason(m))
             if gas_force:
                 known = m.gas_force_n is not None
                 row += [_num(m.gas_force_n) if known else "", (m.gas_force_source or "") * known]

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 import shutil
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -119,6 +119,8 @@ def build_report(
     diagnose_dir: Path | None = None,
     units: Units = SI,
     raw_force: bool = False,
+    gas_given: Mapping[int, float] | None = None,
+    gas_limit: gas_force.Charge | None = None,
 ) -> Path:
     """Write the report into ``out_dir``; returns the path of index.html.
 
@@ -128,9 +130,11 @@ def build_report(
     its file would be).
     ``gas_force_n``: the static gas force to mark on loops (taken from the fit if given,
     else the recording's). The click chart, the summary table and the peak-force plot show
-    damping force, the gas force removed (report/gas.py), unless ``raw_force``; the loops
-    show the force as measured.
-    ``warn``: called with each drift warning (one line), e.g. to print it on the terminal.
+    damping force, the gas force removed (report/gas.py: ``gas_given`` by gas clicks,
+    else measured, else estimated and checked against ``gas_limit``), unless ``raw_force``;
+    the loops show the force as measured.
+    ``warn``: called with each warning (one line: a drift, a gas force refused or depending
+    on the sample rate), e.g. to print it on the terminal.
     ``reference_temperature_c``: oil temperature of the corrected click chart
     (report/temperature.py). ``diagnose_dir``: the folder of the diagnose JSON, whose
     ``info.figures`` (residual maps, loops) are relative to it and copied into ``out_dir``.
@@ -147,7 +151,8 @@ def build_report(
     out_dir.mkdir(parents=True, exist_ok=True)
 
     say("summaries")
-    tests = gas_force.with_gas_force(tests)  # measured, else estimated from the reversals
+    forces = gas_force.gas_forces(tests, gas_given, gas_limit)  # given, measured, estimated
+    tests = gas_force.apply(tests, forces)
     summaries = [summarise(t, gas_force_n=None if raw_force else t.meta.gas_force_n) for t in tests]
     drawable = [
         plots.prepare(t, s)
@@ -160,20 +165,26 @@ def build_report(
     known = [t.meta.gas_force_n for t in tests if t.meta.gas_force_n is not None]
     if gas_force_n is None and known:
         gas_force_n = float(np.median(known))
-    force_note = "raw force (gas force included)" if raw_force else gas_force.describe(tests, units)
+    force_note = (
+        "raw force (gas force included)" if raw_force else gas_force.describe_forces(forces, units)
+    )
 
     page = Page(title)
     live = Interactive(units)  # the interactive twins of the figures, and their script
     if metadata:
         page.section("Recording")
         page.table(["key", "value"], [[k, shown_path(str(v))] for k, v in metadata.items()])
+    for text in [] if raw_force else gas_force.warnings(forces, units):
+        page.paragraph(f"Gas force: {text}.", warn=True)
+        if warn is not None:
+            warn(text)
 
     # Per-cycle peaks and chart readings, once: the chart's bands, drift, the peak bands.
     cycles = repeatability.sweep_cycles([c.test for c in complete], units.standard_velocities_m_s)
     if complete:
         say("click chart")
         _click_chart_section(
-            page, [c.test for c in complete], fit, out_dir, live, raw_force, cycles
+            page, [c.test for c in complete], fit, out_dir, live, raw_force, cycles, forces
         )
         temperature.render(
             page,
@@ -234,17 +245,22 @@ def _click_chart_section(
     live: Interactive,
     raw_force: bool,
     cycles: list[repeatability.TestCycles],
+    forces: gas_force.GasForces,
 ) -> None:
     units = live.units
-    chart = clickchart.click_chart(tests, fit, units.standard_velocities_m_s, raw_force=raw_force)
+    chart = clickchart.click_chart(
+        tests, fit, units.standard_velocities_m_s, raw_force=raw_force, gas=forces
+    )
     u = f"{units.force_label}; velocity in {units.velocity_label}"
     scatter = repeatability.chart_scatter(cycles, chart.velocities_m_s)
     band = repeatability.chart_band(scatter)
     widest = repeatability.widest(band)
+    removed = any(f.removed for f in forces.values())
     what = (
         "Force (raw, gas force included: --raw-force)"
         if raw_force
-        else f"Damping force ({gas_force.describe(tests, units)}"
+        else ("Damping force (" if removed else "Force (")
+        + gas_force.describe_forces(forces, units)
         + ("; the model's own force at rest removed from its values alike" if fit else "")
         + "; --raw-force shows the force as measured)"
     )

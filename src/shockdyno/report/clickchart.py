@@ -180,21 +180,25 @@ def click_chart(
     speeds_m_s: Sequence[float] = STANDARD_VELOCITIES_M_S,
     *,
     raw_force: bool = False,
+    gas: gas_force.GasForces | None = None,
 ) -> ClickChart:
-    """The chart, gas force removed from measured and model values unless `raw_force`."""
+    """The chart, gas force removed from measured and model values unless `raw_force`:
+    each gas setting's of `gas` (as the caller found it: given, measured, estimated), else
+    as report/gas.py finds it in the tests."""
     targets = signed_velocities(speeds_m_s)
-    gas: dict[Setting, float] = {}
+    removed: dict[Setting, float] = {}
     model_gas: dict[Setting, float] = {}
     note = ""
     if not raw_force:
-        tests = gas_force.with_gas_force(tests)
-        note = gas_force.describe(tests)
+        forces = gas if gas is not None else gas_force.gas_forces(tests)
+        tests = gas_force.apply(tests, forces)
+        note = gas_force.describe_forces(forces)
         per_setting: dict[Setting, list[float]] = {}
         for t in tests:
             if t.meta.gas_force_n is not None:
                 key = (t.meta.clicks, t.meta.gas_clicks)
                 per_setting.setdefault(key, []).append(t.meta.gas_force_n)
-        gas = {k: float(np.mean(v)) for k, v in per_setting.items()}
+        removed = {k: float(np.mean(v)) for k, v in per_setting.items()}
         tests = gas_force.remove_gas(tests)
     measured = measured_chart(tests, targets)
     model: dict[Setting, dict[float, float]] = {}
@@ -216,7 +220,9 @@ def click_chart(
             except FitError:  # no trend to interpolate between fitted clicks
                 continue
     settings = sorted(set(measured) | set(model))
-    return ClickChart(targets, settings, measured, model, curve, gas, model_gas, raw_force, note)
+    return ClickChart(
+        targets, settings, measured, model, curve, removed, model_gas, raw_force, note
+    )
 
 
 def velocity_label(v_m_s: float, units: Units = SI) -> str:

@@ -14,6 +14,21 @@ Two files per click setting:
   `[CURVE]` with `{ velocity force }` rows), the block layout of Adams Car's damper
   property files. Its curve is the damping force with rebound (extension) positive,
   the convention those files use; the static gas force is stated in its comments.
+
+**Measured or extrapolated.** A fit made by `shockdyno fit` records the fastest velocity
+each click setting's tests reached (`info.velocity_range`, fit/file.py). Rows beyond it
+are the model extrapolated, not a measurement: the CSV marks each row (`measured` 1 or 0)
+and the property file's comments give the span; `within_measured` stops the table at it
+(its edges added as rows). A click from the trend takes the narrower span of the fitted
+clicks either side. A fit that does not record it (older, or the demo's) marks nothing
+and says so (issue 47.5: a table to 1000 mm/s from a sweep that reached 330 said nothing).
+
+**Friction band.** The fitted Coulomb friction steps from 0 to ±F_f within the model's
+`friction_velocity_m_s` (1 mm/s): 35 N within the first 2.5 mm/s row, a slope vehicle-
+simulation solvers take badly. `friction_band_m_s` evaluates the table with the friction's
+sign smoothed over that wider velocity instead (the same tanh, F_f tanh(v / band)): the
+curve then passes through zero with a finite slope, and away from the band (|v| ≥ 4 bands)
+it is the fitted one to within 0.07 % of F_f.
 """
 
 from __future__ import annotations
@@ -81,6 +96,9 @@ IMPERIAL = Units("imperial", "in/s", "lbf", M_PER_IN, N_PER_LBF, "inch", "pound_
 UNITS = {"si": SI, "imperial": IMPERIAL}
 
 
+Span = tuple[float, float]  # (rebound, compression) speeds a recording reached, m/s, > 0
+
+
 @dataclass(frozen=True)
 class ClickTable:
     clicks: int
@@ -90,10 +108,22 @@ class ClickTable:
     velocity_m_s: FloatArray  # ascending, rebound (negative) to compression (positive)
     force_n: FloatArray  # total quasi-static force, compression positive
     gas_force_n: float  # the force at rest at mid-stroke
+    measured_m_s: Span | None = None  # what the recording reached (None: not recorded)
+    friction_band_m_s: float | None = None  # the friction's smoothing, if widened
 
     @property
     def damping_force_n(self) -> FloatArray:
         return self.force_n - self.gas_force_n
+
+    @property
+    def measured(self) -> NDArray[np.bool_] | None:
+        """Which rows lie within the measured span (None when it is not known)."""
+        if self.measured_m_s is None:
+            return None
+        rebound, compression = self.measured_m_s
+        v = self.velocity_m_s
+        slack = 1e-9
+        return np.asarray((v <= compression + slack) & (v >= -rebound - slack))
 
 
 # The imperial default: round in/s values over the same span (0.1 to 40 in/s, 2.5 to
@@ -111,18 +141,70 @@ def velocity_grid(speeds_m_s: Sequence[float] = DEFAULT_SPEEDS_M_S) -> FloatArra
     return np.concatenate([-s[::-1], [0.0], s])
 
 
+def measured_spans(fit: FitResult) -> dict[int, Span]:
+    """The span each fitted click of the main gas setting reached, from the fit's
+    `info.velocity_range` (empty when the fit does not record it)."""
+    gas = fit.main_gas_clicks()
+    spans: dict[int, Span] = {}
+    entries = fit.info.get("velocity_range")
+    for e in entries if isinstance(entries, list) else []:
+        try:
+            if int(e["gas_clicks"]) != gas:
+                continue
+            span = (-float(e["rebound_m_s"]), float(e["compression_m_s"]))
+        except (KeyError, TypeError, ValueError):
+            continue  # info is free-form: an entry this code cannot read marks nothing
+        if all(math.isfinite(x) and x >= 0 for x in span):
+            spans[int(e["clicks"])] = span
+    return spans
+
+
+def _span(spans: dict[int, Span], n: int) -> Span | None:
+    """A click's own span, or for a click between fitted ones the narrower of theirs."""
+    if n in spans:
+        return spans[n]
+    below = [c for c in spans if c < n]
+    above = [c for c in spans if c > n]
+    if not (below and above):
+        return None
+    a, b = spans[max(below)], spans[min(above)]
+    return (min(a[0], b[0]), min(a[1], b[1]))
+
+
+def within(v: FloatArray, span: Span) -> FloatArray:
+    """The grid cut at the measured span, its two edges added as rows."""
+    rebound, compression = span
+    kept = v[(v > -rebound) & (v < compression)]
+    return np.unique(np.concatenate([kept, [-rebound, 0.0, compression]]))
+
+
 def click_tables(
-    fit: FitResult, clicks: Sequence[int] | None = None, speeds_m_s: Sequence[float] = ()
+    fit: FitResult,
+    clicks: Sequence[int] | None = None,
+    speeds_m_s: Sequence[float] = (),
+    *,
+    within_measured: bool = False,
+    friction_band_m_s: float | None = None,
 ) -> list[ClickTable]:
     """A table per click setting: the fitted ones by default, any within their range by
-    the fit's trend when `clicks` names them."""
+    the fit's trend when `clicks` names them. `within_measured`: each table stops at the
+    velocities its recording reached; `friction_band_m_s`: the friction's sign smoothed
+    over that velocity (module docstring)."""
     settings = [c.clicks for c in fit.clicks] if clicks is None else list(clicks)
     if not settings:
         raise ConfigError("the fit has no click settings to export")
     fitted = {c.clicks for c in fit.clicks}
     model = fit.model().vehicle()
-    v = velocity_grid(speeds_m_s or DEFAULT_SPEEDS_M_S)
-    zeros = np.zeros_like(v)
+    if friction_band_m_s is not None:
+        model = model.with_spec(model.spec.with_changes(friction_velocity_m_s=friction_band_m_s))
+    spans = measured_spans(fit)
+    if within_measured and not spans:
+        raise ConfigError(
+            "--within-measured: the fit does not record the velocities its recording reached "
+            "(a fit made before they were recorded, or the demo's); fit the recording again "
+            "with shockdyno fit"
+        )
+    grid = velocity_grid(speeds_m_s or DEFAULT_SPEEDS_M_S)
     out = []
     for n in dict.fromkeys(settings):
         try:
@@ -131,11 +213,17 @@ def click_tables(
             raise ConfigError(f"--clicks {n}: {exc}") from None
         if not (math.isfinite(a_bc + a_bt) and a_bc >= 0 and a_bt >= 0):
             raise ConfigError(f"the fit's bleed areas at {n} clicks are not usable: {a_bc}, {a_bt}")
+        span = _span(spans, n)
+        if within_measured and span is None:
+            raise ConfigError(f"--within-measured: no measured span for {n} clicks in the fit")
+        v = within(grid, span) if within_measured and span is not None else grid
+        zeros = np.zeros_like(v)
         force = np.asarray(quasi_static_force(model, zeros, v, zeros, a_bc, a_bt), dtype=float)
         if not np.all(np.isfinite(force)):
             raise ConfigError(f"the fitted model gives a non-finite force at {n} clicks")
-        gas = float(force[v.size // 2])  # v == 0 at the centre of the grid
-        out.append(ClickTable(n, "fit" if n in fitted else "trend", a_bc, a_bt, v, force, gas))
+        gas = float(force[int(np.flatnonzero(v == 0.0)[0])])
+        source = "fit" if n in fitted else "trend"
+        out.append(ClickTable(n, source, a_bc, a_bt, v, force, gas, span, friction_band_m_s))
     return out
 
 
@@ -146,20 +234,56 @@ def _g(x: float) -> str:
     return "0" if text in ("-0", "0") else text
 
 
+def notes(t: ClickTable, units: Units) -> list[str]:
+    """What the rows are, beyond the curve itself: the measured span, the friction band.
+    No apostrophe: the property file quotes each line in single quotes."""
+
+    def speed(x: float) -> str:
+        return f"{_g(x / units.m_s_per_unit)} {units.velocity}"
+
+    out = []
+    if t.measured_m_s is None:
+        out.append(
+            "the fit does not record the velocities its recording reached: rows are not "
+            "marked measured or extrapolated"
+        )
+    else:
+        rebound, compression = t.measured_m_s
+        where = "this setting" if t.source == "fit" else "the fitted clicks either side"
+        out.append(
+            f"measured to {speed(rebound)} in rebound and {speed(compression)} in compression "
+            f"({where}); beyond, the model extrapolated"
+        )
+    if t.friction_band_m_s is not None:
+        out.append(
+            f"friction smoothed over {speed(t.friction_band_m_s)} (F_f tanh(v / band), in "
+            "place of the sharper step of the fitted model)"
+        )
+    return out
+
+
 def table_csv(t: ClickTable, units: Units, spec_name: str) -> str:
     v = t.velocity_m_s / units.m_s_per_unit
     f = t.force_n / units.n_per_unit
     d = t.damping_force_n / units.n_per_unit
     u_v, u_f = units.velocity.replace("/", "_"), units.force
+    measured = t.measured
     lines = [
         f"# shockdyno damper table: {spec_name}, {t.clicks} clicks ({t.source}); "
         "quasi-static force at mid-stroke, no rod acceleration",
         "# sign: velocity > 0 compression (bump), force > 0 resists compression; "
         f"damping force = force less the static gas force {_g(t.gas_force_n / units.n_per_unit)}"
         f" {units.force}",
-        f"velocity_{u_v},force_{u_f},damping_force_{u_f}",
+        *(
+            f"# {line}" + (" (measured = 0)" if "extrapolated" in line else "")
+            for line in notes(t, units)
+        ),
+        f"velocity_{u_v},force_{u_f},damping_force_{u_f}"
+        + (",measured" if measured is not None else ""),
     ]
-    lines += [f"{_g(a)},{_g(b)},{_g(c)}" for a, b, c in zip(v, f, d, strict=True)]
+    for k, (a, b, c) in enumerate(zip(v, f, d, strict=True)):
+        mark = "" if measured is None else f",{int(measured[k])}"
+        lines.append(f"{_g(a)},{_g(b)},{_g(c)}{mark}")
     return "\n".join(lines) + "\n"
 
 
@@ -169,6 +293,7 @@ def table_teimorbit(t: ClickTable, units: Units, spec_name: str, version: str) -
     f = -t.damping_force_n[::-1] / units.n_per_unit
     rows = "\n".join(f" {_g(a):>14} {_g(b):>14}" for a, b in zip(v, f, strict=True))
     gas = _g(t.gas_force_n / units.n_per_unit)
+    comments = "".join(f"'{line}'\n" for line in notes(t, units))
     return f"""$--------------------------------------------------------------------MDI_HEADER
 [MDI_HEADER]
  FILE_TYPE     =  'dpr'
@@ -180,7 +305,7 @@ def table_teimorbit(t: ClickTable, units: Units, spec_name: str, version: str) -
 'quasi-static damping force at mid-stroke; velocity > 0 extension (rebound)'
 'static gas force {gas} {units.force_word} pushing the rod out, not in this curve'
 'bleed areas A_bc {_g(t.a_bc_m2)} m^2, A_bt {_g(t.a_bt_m2)} m^2'
-$-------------------------------------------------------------------------UNITS
+{comments}$-------------------------------------------------------------------------UNITS
 [UNITS]
  LENGTH  =  '{units.length_word}'
  FORCE   =  '{units.force_word}'

@@ -6,6 +6,13 @@ never enables the drive can be the first thing done on a new rig. The load cell 
 carry nothing: a mounted damper pushes with its gas force, which is a force the sweep
 measures, not an offset (unbolt the upper eye, or tare before mounting).
 
+A load is told from a zero by its size: a zero error left after commissioning is a few
+newtons, a mounted damper's gas force 100-2000 N (231 N on the simulated S46). A reading
+beyond `LOADED_MIN_N`, or `LOADED_SHARE` of the rig's force limit if more, is refused as a
+load, with how to tare (unbolt the upper eye, or tare before mounting); an operator whose
+load cell really is free and this far off zero says so with `--unloaded` (issue 47.7: the
+simulated rig's tare proposed cancelling its mounted damper's gas force, -230.9 N).
+
 The zero goes where the DAQ's calibration already reads it, `[daq.calibration]
 force_offset_n` (force = counts × force_n_per_count + force_offset_n): the new offset is
 the old one minus the mean the load cell reads now.
@@ -25,6 +32,8 @@ from shockdyno.rig.config import RigConfig, parse_rig
 
 AT_REST_SD_M = 1e-4  # LVDT sd beyond which the ram is not at rest (as rig check)
 KEY = "force_offset_n"
+LOADED_MIN_N = 25.0  # a reading beyond this (or LOADED_SHARE of the force limit) is a load
+LOADED_SHARE = 0.005
 
 
 @dataclass(frozen=True)
@@ -34,6 +43,26 @@ class Tare:
     samples: int
     old_offset_n: float
     ram_sd_m: float
+    loaded_above_n: float = math.inf  # a reading beyond this is a load, not a zero
+
+    @property
+    def loaded(self) -> bool:
+        return abs(self.mean_n) > self.loaded_above_n
+
+    def load_text(self) -> str:
+        """Why a loaded reading is no zero, and how to tare."""
+        pushed = (
+            "pushing like a mounted damper's gas force (the rod pushed out against the load cell)"
+            if self.mean_n > 0
+            else "pulling on it: something hangs from or is clamped to the load cell"
+        )
+        return (
+            f"the load cell reads {self.mean_n:+.1f} N with the drive disabled and the ram at "
+            f"rest, over the {self.loaded_above_n:.0f} N a zero error can be: a load {pushed}. "
+            "A tare needs the load cell free: unbolt the damper's upper eye (or tare before "
+            "mounting it), run rig tare again, then mount the damper; if nothing is mounted "
+            "and the zero really is this far off, run again with --unloaded"
+        )
 
     @property
     def standard_error_n(self) -> float:
@@ -78,6 +107,7 @@ def measure_tare(rig: RigConfig, seconds: float = 2.0) -> Tare:
         samples=len(s),
         old_offset_n=rig.daq.calibration.force_offset_n,
         ram_sd_m=ram_sd,
+        loaded_above_n=max(LOADED_MIN_N, LOADED_SHARE * rig.limits.force_n),
     )
 
 

@@ -13,9 +13,14 @@ TABLE_VELOCITIES_M_S = (-0.3, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.3)
 def click_table(spec: DamperSpec, gas_clicks: int = 0) -> Table:
     v = np.array(TABLE_VELOCITIES_M_S)
     zero = np.zeros_like(v)
+    # Raw force, as a load cell reads it: the sweep's lines and the reports show damping
+    # force, this less the gas force, so the title says which (issue 47.8).
+    rest = damper_force(spec, np.zeros(1), np.zeros(1), np.zeros(1), *spec.bleed_areas(0, 0))
+    gas = float(np.asarray(rest).reshape(-1)[0])
     table = Table(
-        title=f"{spec.name}: model force (N) vs velocity (m/s) at mid-stroke, gas clicks "
-        f"{gas_clicks} (rebound < 0 < compression)"
+        title=f"{spec.name}: model force (N), raw: the {gas:.0f} N gas force included "
+        f"(damping force = this − {gas:.0f} N, as sweeps and reports show it), vs velocity "
+        f"(m/s) at mid-stroke, gas clicks {gas_clicks} (rebound < 0 < compression)"
     )
     table.add_column("clicks", justify="right")
     table.add_column("A_bc mm²", justify="right")

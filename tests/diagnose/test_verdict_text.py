@@ -172,6 +172,7 @@ def test_the_verdict_judges_significance_at_the_search_s_alpha() -> None:
             remaining=stat,
             calibration=[],
             sensor=[],
+            described=[],
             testable=True,
             short_tests=[],
             final=SimpleNamespace(

@@ -26,14 +26,17 @@ def test_a_long_sine_is_judged_in_bounded_memory(sim_rig_factory, monkeypatch) -
         try:
             before = tracemalloc.get_traced_memory()[0]
             out = session.run_sine(0.01, 5.0, 2, 1500, count)  # 300 s: 300 000 samples
-            peak = tracemalloc.get_traced_memory()[1] - before
+            held, peak = (m - before for m in tracemalloc.get_traced_memory())
         finally:
             tracemalloc.stop()
     assert out.status == "complete", out.reason
     assert "measured 5 Hz" in out.reason
     assert seen[0] > 300_000
     kept_all = seen[0] * 42  # bytes of SampleBlocks, had every sample been kept
-    assert peak < kept_all / 3, (peak, kept_all)
+    # What the run still holds is its kept tail; the peak also counts what the host's
+    # threads had in flight (frames read, blocks queued), more of it on a loaded machine.
+    assert held < kept_all / 4, (held, kept_all)
+    assert peak < kept_all / 2, (peak, kept_all)
 
 
 def test_the_kept_tail_is_judged_like_the_whole_run() -> None:

@@ -13,6 +13,7 @@ are checked against the scatter of many recordings by benchmarks/bench_recovery.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -28,8 +29,9 @@ from shockdyno.fit.synthetic import synthetic_sweep
 from shockdyno.model import load_spec
 from shockdyno.model.spec import default_spec_path
 from shockdyno.record import open_recording
-from shockdyno.record.types import TestData
+from shockdyno.record.types import TestData, TestMeta
 from shockdyno.ride.study import RideConfig, run_study
+from shockdyno.run.liveview import LiveView
 from shockdyno.run.plan import SweepPlan
 from shockdyno.run.recording import record_sweep
 from shockdyno.simrig import start_sim_rig
@@ -311,13 +313,27 @@ def test_compressibility_is_recovered(
 
 
 def test_a_recording_made_in_two_parts_gives_the_same_terms(
-    tmp: Path, aerated: tuple[list[TestData], FitResult]
+    tmp: Path, aerated: tuple[list[TestData], FitResult], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The first click, then (a new sim-rig, as after a restart) `--resume` for the rest:
-    the part file is read as one set, and the stateful term fits as in one go."""
+    """The first click, a Ctrl-C as the second begins, then (a new sim-rig, as after a
+    restart) `--resume` for the rest: the part file is read as one set, and the stateful
+    term fits as in one go."""
     out = tmp / "aerated-parts.mcap"
-    _record(out, "aerated-oil", plan=replace(PLAN, clicks=CLICKS[:1]))
+    start_test = LiveView.start_test
+
+    def interrupted(view: LiveView, meta: TestMeta) -> None:
+        if meta.clicks != CLICKS[0]:
+            raise KeyboardInterrupt
+        start_test(view, meta)
+
+    monkeypatch.setattr(LiveView, "start_test", interrupted)
+    with contextlib.suppress(KeyboardInterrupt):
+        _record(out, "aerated-oil")
+    monkeypatch.undo()
+    done = [t for t in open_recording(out).load_all() if t.meta.status == "complete"]
+    assert {t.meta.clicks for t in done} == {CLICKS[0]}  # and the second click's aborted
     tests = _record(out, "aerated-oil", resume=True, seed=8)
+    tests = [t for t in tests if t.meta.status == "complete"]
     assert [(t.meta.clicks, t.meta.frequency_hz) for t in tests] == [
         (c, f) for c in CLICKS for f in PLAN.frequencies_hz
     ]

@@ -139,11 +139,17 @@ def calibrate(
         # A chamber's columns are one Newton step a chamber step from its trajectory at p
         # (model/chamber.linearised: 1 balance a step where a solve takes 2.3), within the
         # columns' own finite-difference error. So p is evaluated first, in the block.
-        with linearised():
-            return differenced(p)
+        with linearised() as guides:
+            base = evaluated(p)  # solved in full: the guide of every column
+            if guides:
+                # The columns' base is p's own guided evaluation, not the solve: a
+                # parameter nothing depends on (a release pressure never reached) then
+                # has a column of exact zeros, not the solve's leftover over h, which
+                # was a gradient that walked it into the data and a σ from noise.
+                base = evaluated(p)
+            return differenced(p, base)
 
-    def differenced(p: FloatArray) -> FloatArray:
-        r0 = evaluated(p)
+    def differenced(p: FloatArray, r0: FloatArray) -> FloatArray:
         jac = np.zeros((r0.size, p.size))
         h = 1e-6 * np.maximum(np.abs(p), 0.1)
         h = np.where(p + h > ub, -h, h)

@@ -198,7 +198,7 @@ _GUIDES: ContextVar[dict[Any, tuple[FloatArray, FloatArray, NDArray[np.int64]]] 
 
 
 @contextmanager
-def linearised() -> Iterator[None]:
+def linearised() -> Iterator[dict[Any, Any]]:
     """Within this block, the first integration of a set of samples is solved as always
     and the later ones of the same samples (a Jacobian's columns: the model a small step
     away in one parameter) take one Newton step per chamber step from its trajectory:
@@ -209,9 +209,10 @@ def linearised() -> Iterator[None]:
     so is a segment the first integration needed more than its usual passes for. One
     balance a step instead of 2.3. The guide is the first integration's, whatever the
     cache held, so the results are a function of the inputs alone."""
-    token = _GUIDES.set({})
+    guides: dict[Any, Any] = {}
+    token = _GUIDES.set(guides)
     try:
-        yield
+        yield guides  # empty after the block when no chamber integration was guided
     finally:
         _GUIDES.reset(token)
 

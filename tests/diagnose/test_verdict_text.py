@@ -223,3 +223,28 @@ def test_a_floor_below_vacuum_is_not_called_a_release_pressure() -> None:
     assert "holds at -60 kPa" not in below and "at least 60 kPa low" in below
     off = describe(_finding("cavitation", {"release_pressure_pa": (-math.inf, None)}), 1.6e6)
     assert off == "cavitation: no floor (off)"
+
+
+def test_a_calibration_beyond_the_spec_s_tolerance_is_a_finding() -> None:
+    """Issue 44.3: a Coulomb friction 2.7x the spec's is not a spec's error (a damper
+    departs from its drawing by half to twice), a gas charge 0.62x of it is; a friction
+    fitted at nothing reads as none, not as a ratio of 1e20."""
+    from types import SimpleNamespace
+
+    from shockdyno.diagnose.verdict import calibration_text
+    from shockdyno.fit.parameters import spec_global
+
+    def row(key: str, spec: float, fitted: float) -> CalibrationRow:
+        g = spec_global(key)
+        return CalibrationRow(key, spec, fitted, 0.01 * spec, g.unit, 0.1, g.fallback, g.tolerance)
+
+    gas = row("gas_pressure_pa", 1.6e6, 1.0e6)
+    stuck = row("friction_n", 35.0, 2.7 * 35.0)
+    gone = row("friction_n", 35.0, 6.98e-21 * 35.0)
+    assert not gas.beyond and stuck.beyond and gone.beyond
+    text = calibration_text(SimpleNamespace(calibration=[gas, stuck]))  # type: ignore[arg-type]
+    calibrated, finding = text.split("A finding, not a calibration:")
+    assert "gas charge is 1.6× too large" in calibrated and "friction" not in calibrated
+    assert "Coulomb friction is 2.7× too small" in finding and "0.5-2×" in finding
+    text = calibration_text(SimpleNamespace(calibration=[gone]))  # type: ignore[arg-type]
+    assert "shows none of the spec's 35 N of Coulomb friction" in text and "e+" not in text

@@ -110,6 +110,16 @@ class CalibrationRow:
     unit: str
     share: float = Settings.calibration_share
     scale: float = 0.0  # what `share` is of where the spec says 0 (SpecGlobal.fallback)
+    tolerance: tuple[float, float] | None = None  # SpecGlobal.tolerance
+
+    @property
+    def beyond(self) -> bool:
+        """Moved further from the spec's value than a real damper departs from its
+        drawing (SpecGlobal.tolerance): a finding, not a calibration."""
+        if self.tolerance is None or self.spec_value <= 0 or not self.moved:
+            return False
+        ratio = self.fitted / self.spec_value
+        return not self.tolerance[0] <= ratio <= self.tolerance[1]
 
     @property
     def moved(self) -> bool:
@@ -483,6 +493,7 @@ def calibration_rows(
             spec_global(key).unit,
             share,
             spec_global(key).fallback,
+            spec_global(key).tolerance,
         )
         for key in fitted.globals
     ]

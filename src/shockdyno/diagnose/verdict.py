@@ -115,18 +115,30 @@ def describe_calibration(r: CalibrationRow) -> str:
             )
         return f"the spec's {what} is 0, the recording's {r.fitted:.3g} {r.unit}"
     ratio = r.fitted / r.spec_value
-    if ratio <= 0:
-        return f"the spec's {what} fits as {r.fitted:.3g} {r.unit}"
+    if ratio < 1e-3:  # fitted at (or next to) nothing: a ratio of 1e20 says nothing more
+        return f"the recording shows none of the spec's {r.spec_value:.3g} {r.unit} of {what}"
     sd = f" ± {r.sd / abs(r.spec_value):.2g}" if math.isfinite(r.sd) else ""
     word, times = ("small", ratio) if ratio > 1 else ("large", 1 / ratio)
     return f"the spec's {what} is {times:.2g}× too {word} (fitted {ratio:.3g}{sd} × the spec's)"
 
 
 def calibration_text(d: Diagnosis) -> str:
-    moved = [r for r in d.calibration if r.moved]
-    if not moved:
-        return ""
-    return "Calibrated, not physics: " + "; ".join(describe_calibration(r) for r in moved) + "."
+    moved = [r for r in d.calibration if r.moved and not r.beyond]
+    beyond = [r for r in d.calibration if r.beyond]
+    text = []
+    if moved:
+        text.append(
+            "Calibrated, not physics: " + "; ".join(describe_calibration(r) for r in moved) + "."
+        )
+    for r in beyond:
+        assert r.tolerance is not None
+        lo, hi = r.tolerance
+        text.append(
+            f"A finding, not a calibration: {describe_calibration(r)}, beyond the "
+            f"{lo:.2g}-{hi:.2g}× a damper departs from its drawing by; physics the library "
+            "did not name takes that place, or the spec is not this damper's."
+        )
+    return " ".join(text)
 
 
 def short_text(d: Diagnosis) -> str:
@@ -264,6 +276,8 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
                     "sd": _num(r.sd),
                     "unit": r.unit,
                     "moved": r.moved,
+                    # beyond the spec's tolerance: a finding, not a calibration
+                    "beyond_tolerance": r.beyond,
                 }
                 for r in d.calibration
             ],

@@ -50,6 +50,11 @@ class SpecGlobal:
     hi_factor: float
     fallback: float
     starts: tuple[float, ...] = ()
+    # How far a real damper may depart from its drawing (factors of the spec's value):
+    # a calibration within it is a spec's error; beyond it, a finding (diagnose's verdict
+    # says so instead of "calibrated"). None: no such range (the spec gives 0, or the
+    # value is a shape the drawing does not fix).
+    tolerance: tuple[float, float] | None = None
 
     def scale(self, nominal: float) -> float:
         return nominal if nominal > 0 else self.fallback
@@ -71,12 +76,17 @@ class SpecGlobal:
 SPEC_GLOBALS: dict[str, SpecGlobal] = {
     g.name: g
     for g in (
-        SpecGlobal("gas_pressure_pa", "Pa", 0.2, 5.0, 1.0e6),
-        SpecGlobal("friction_n", "N", 0.0, 6.0, 20.0),
-        SpecGlobal("compression_valve.preload_m", "m", 0.0, 5.0, 1.0e-4),
-        SpecGlobal("compression_valve.face_area_m2", "m²", 0.2, 5.0, 1.0e-4),
-        SpecGlobal("rebound_valve.preload_m", "m", 0.0, 5.0, 1.0e-4),
-        SpecGlobal("rebound_valve.face_area_m2", "m²", 0.2, 5.0, 1.0e-4),
+        # Charged with a gauge to a few %, but a season's leak or a shop's over-charge
+        # moves it by up to half or twice.
+        SpecGlobal("gas_pressure_pa", "Pa", 0.2, 5.0, 1.0e6, tolerance=(0.5, 2.0)),
+        # A new seal against a bedded one, a guide's fit: within a factor of two.
+        SpecGlobal("friction_n", "N", 0.0, 6.0, 20.0, tolerance=(0.5, 2.0)),
+        # A shim stack's preload and its face: a drawing's stack built to a few tenths of a
+        # mm of preload and a port face that seats within a third of its area.
+        SpecGlobal("compression_valve.preload_m", "m", 0.0, 5.0, 1.0e-4, tolerance=(0.5, 2.0)),
+        SpecGlobal("compression_valve.face_area_m2", "m²", 0.2, 5.0, 1.0e-4, tolerance=(0.67, 1.5)),
+        SpecGlobal("rebound_valve.preload_m", "m", 0.0, 5.0, 1.0e-4, tolerance=(0.5, 2.0)),
+        SpecGlobal("rebound_valve.face_area_m2", "m²", 0.2, 5.0, 1.0e-4, tolerance=(0.67, 1.5)),
         # A sharp orifice (0) up to a 0.2 m laminar passage: a needle's land is mm to cm.
         SpecGlobal("bleed_land_m", "m", 0.0, 40.0, 5.0e-3),
         # A rod seal deflects µm (a hard band) to a few tenths of a mm (a soft lip). Its

@@ -1,0 +1,229 @@
+"""`sweep --live` end to end: a real sweep process on the simulated rig, watched by a real
+Foxglove WebSocket client; the same sweep without --live beside it."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from foxglove_client import FoxgloveClient, Received
+from mcap.reader import make_reader
+
+from shockdyno.record import open_recording
+from shockdyno.record import schemas as s
+from shockdyno.rig.config import load_rig
+from shockdyno.rig.types import SampleBlock
+
+REPO = Path(__file__).resolve().parents[2]
+CLI = [sys.executable, "-m", "shockdyno.cli"]
+AMPLITUDE_M = 0.02
+FREQUENCY_HZ = 2.0
+WARMUP, MEASURED = 1, 2
+# One click, one frequency, a few cycles, at 4x real time.
+TINY = ["--rig", str(REPO / "rigs" / "sim.toml"), "--start-sim", "--speed", "4", "--seed", "3",
+        "--clicks", "5", "--freq", str(FREQUENCY_HZ), "--amplitude-mm", str(AMPLITUDE_M * 1e3),
+        "--warmup-cycles", str(WARMUP), "--cycles", str(MEASURED)]  # fmt: skip
+
+
+def _sweep(out: Path, *extra: str) -> subprocess.Popen[str]:
+    env = {**os.environ, "PYTHONUNBUFFERED": "1", "COLUMNS": "200"}
+    return subprocess.Popen(
+        [*CLI, "sweep", *TINY, "-o", str(out), *extra],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        stdin=subprocess.DEVNULL,
+        text=True,
+        env=env,
+    )
+
+
+def _url(proc: subprocess.Popen[str], said: list[str]) -> str:
+    """The ws:// URL the sweep says to open, read from its first lines."""
+    assert proc.stdout is not None
+    for line in proc.stdout:
+        said.append(line)
+        found = re.search(r"(ws://127\.0\.0\.1:\d+)", line)
+        if found:
+            return found.group(1)
+    raise AssertionError("the sweep never said its live URL:\n" + "".join(said))
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    folder = tmp_path_factory.mktemp("live")
+    live_out, plain_out = folder / "live.mcap", folder / "plain.mcap"
+    live = _sweep(live_out, "--live", "--live-port", "0")
+    plain = _sweep(plain_out)  # at the same time: the same load on both
+    try:
+        said: list[str] = []
+        client = FoxgloveClient(_url(live, said))
+        rest, _ = live.communicate(timeout=110)
+        said.append(rest)
+        plain_said, _ = plain.communicate(timeout=110)
+        got = client.join(timeout_s=10)
+    finally:
+        for p in (live, plain):
+            if p.poll() is None:
+                p.kill()
+                p.communicate()
+    assert live.returncode == 0, "".join(said)
+    assert plain.returncode == 0, plain_said
+    return {"got": got, "live": live_out, "plain": plain_out, "said": "".join(said)}
+
+
+def _mcap_channels(path: Path) -> dict[str, tuple[str, str, str, str]]:
+    with path.open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    return {
+        ch.topic: (
+            summary.schemas[ch.schema_id].name,
+            summary.schemas[ch.schema_id].encoding,
+            summary.schemas[ch.schema_id].data.decode(),
+            ch.message_encoding,
+        )
+        for ch in summary.channels.values()
+    }
+
+
+def test_the_live_server_advertises_the_recordings_channels_and_schemas(runs):
+    got: Received = runs["got"]
+    assert got.subprotocol == "foxglove.sdk.v1"
+    assert got.server_info["name"] == "shockdyno"
+    advertised = {
+        ch["topic"]: (ch["schemaName"], ch["schemaEncoding"], ch["schema"], ch["encoding"])
+        for ch in got.channels.values()
+    }
+    recorded = _mcap_channels(runs["live"])
+    assert set(recorded) == {s.TOPIC_SAMPLES, s.TOPIC_TEST, s.TOPIC_ACTUATOR, s.TOPIC_EVENTS}
+    for topic, schema in recorded.items():
+        assert advertised[topic] == schema, topic
+    assert set(advertised) - set(recorded) == {"/live/position", "/live/cycle"}
+    assert "ws://127.0.0.1:" in runs["said"] and "live view closed" in runs["said"]
+
+
+def _live_blocks(got: Received) -> list[tuple[int, SampleBlock]]:
+    out = []
+    for data in got.of(s.TOPIC_SAMPLES):
+        test, _, version = s.samples_header(data)
+        assert version == 2
+        out.append((test, s.decode_samples([data])))
+    return out
+
+
+def test_the_live_samples_are_the_recordings_and_plausible(runs):
+    got: Received = runs["got"]
+    blocks = _live_blocks(got)
+    in_test = SampleBlock.concat([b for test, b in blocks if test == 0])
+    rec = open_recording(runs["live"])
+    assert [m.status for m in rec.tests] == ["complete"]
+    recorded = rec.samples(0)
+    # Every sample of the test reached the viewer, and is the one recorded.
+    np.testing.assert_array_equal(in_test.seq, recorded.seq)
+    np.testing.assert_array_equal(in_test.displacement_m, recorded.displacement_m)
+    np.testing.assert_array_equal(in_test.force_n, recorded.force_n)
+    # Positions stay within the sweep's amplitude (a little overshoot and noise aside) and
+    # reach it: the drive ran the planned sine.
+    x = in_test.displacement_m
+    assert np.abs(x).max() <= AMPLITUDE_M * 1.05 + 0.5e-3
+    assert np.abs(x).max() >= AMPLITUDE_M * 0.95
+    # Timeline as the recording's: log time = wall-clock origin + t_s, one origin.
+    log_times = [lt for t, lt, _ in got.messages if t == s.TOPIC_SAMPLES]
+    origins = [
+        lt - round(float(b.t_s[0]) * 1e9) for lt, (_, b) in zip(log_times, blocks, strict=True)
+    ]
+    assert max(origins) == min(origins)
+    assert abs(origins[0] / 1e9 - time.time()) < 600
+
+
+def test_test_records_and_events_arrive_as_they_happen(runs):
+    got: Received = runs["got"]
+    records = got.json(s.TOPIC_TEST)
+    assert [(r["phase"], r["test"], r["status"]) for r in records] == [
+        ("begin", 0, "running"),
+        ("end", 0, "complete"),
+    ]
+    assert records[1]["sample_count"] == len(open_recording(runs["live"]).samples(0))
+    kinds = [e["kind"] for e in got.json(s.TOPIC_EVENTS)]
+    for kind in ("enable", "start", "complete", "disable"):
+        assert kind in kinds
+    assert kinds.index("enable") < kinds.index("start") < kinds.index("complete")
+    # Each as it happened, in the stream with the samples: the test's start before most of
+    # its samples, its completion before its end record.
+    seen = [(t, json.loads(d)["kind"] if t == s.TOPIC_EVENTS else None, d)
+            for t, _, d in got.messages]  # fmt: skip
+    start = next(i for i, (_, kind, _) in enumerate(seen) if kind == "start")
+    complete = next(i for i, (_, kind, _) in enumerate(seen) if kind == "complete")
+    samples = [i for i, (t, _, d) in enumerate(seen)
+               if t == s.TOPIC_SAMPLES and s.samples_header(d)[0] == 0]  # fmt: skip
+    begin, end = (i for i, (t, _, _) in enumerate(seen) if t == s.TOPIC_TEST)
+    assert begin < start < samples[len(samples) // 2] < complete < end
+
+
+def _lag_s(t: np.ndarray, x: np.ndarray, plan: np.ndarray) -> tuple[float, float, float]:
+    """(delay, gain, rms residual) of x against the planned sine: x = c1 plan + c2 plan'/ω."""
+    w = 2 * np.pi * FREQUENCY_HZ
+    basis = np.column_stack((plan, np.gradient(plan, t) / w))
+    (c1, c2), *_ = np.linalg.lstsq(basis, x, rcond=None)
+    rms = float(np.sqrt(np.mean((x - basis @ (c1, c2)) ** 2)))
+    return float(np.arctan2(-c2, c1) / w), float(np.hypot(c1, c2)), rms
+
+
+def test_cycles_build_up_with_the_plan_beside_the_measurement(runs):
+    got: Received = runs["got"]
+    cycles = got.json("/live/cycle")
+    rig = load_rig(REPO / "rigs" / "sim.toml")
+    ramp = rig.ramp.sine_ramp_cycles
+    parts = ["ramp-in"] * ramp + ["warm-up"] * WARMUP + ["measured"] * MEASURED
+    assert [c["part"] for c in cycles] == [*parts, *["ramp-out"] * ramp]
+    assert [c["cycle"] for c in cycles] == list(range(len(parts) + ramp))
+    # The simulated servo is 2nd order (rigs/sim.toml [simulation]): the ram follows its
+    # command with a phase lag of atan(2ζr / (1 - r²)), r = f / f_n: 4.25 ms at 2 Hz.
+    f_n, zeta = rig.simulation["servo_bandwidth_hz"], rig.simulation["servo_damping"]
+    r = FREQUENCY_HZ / f_n
+    servo_lag_s = np.arctan2(2 * zeta * r, 1 - r * r) / (2 * np.pi * FREQUENCY_HZ)
+    for c in cycles:
+        t, x, f, plan = (np.array(c[k], dtype=float)
+                         for k in ("t_s", "displacement_m", "force_n", "commanded_m"))  # fmt: skip
+        assert abs(len(x) - rig.sample_rate_hz / FREQUENCY_HZ) <= 1
+        assert len(plan) == len(x) == len(f)
+        if c["part"] in ("warm-up", "measured"):
+            # The plan is the sine asked for, timed from the drive's motion bit: the
+            # measured sine is it, delayed by the servo's lag and nothing else (a plan
+            # off by one sample would be 1 ms off).
+            assert plan.max() == pytest.approx(AMPLITUDE_M, rel=1e-4)
+            lag, gain, rms = _lag_s(t, x, plan)
+            assert lag == pytest.approx(servo_lag_s, abs=0.2e-3)
+            assert gain == pytest.approx(1.0, abs=0.01)
+            assert rms < 0.02e-3  # the LVDT's noise is 1 µm
+            v_peak = 2 * np.pi * FREQUENCY_HZ * AMPLITUDE_M
+            assert c["peak_velocity_m_s"] == pytest.approx(v_peak, rel=0.05)
+            assert c["peak_compression_force_n"] > 0 > c["peak_rebound_force_n"]
+    positions = [p for p in got.json("/live/position") if "commanded_m" in p]
+    assert positions and all(len(p["commanded_m"]) == len(p["t_s"]) for p in positions)
+
+
+def test_the_recording_is_the_same_without_live(runs):
+    live, plain = open_recording(runs["live"]), open_recording(runs["plain"])
+    assert _mcap_channels(runs["live"]) == _mcap_channels(runs["plain"])
+    assert set(live.metadata) == set(plain.metadata)
+    assert live.identity == plain.identity
+    keep = ("clicks", "gas_clicks", "frequency_hz", "amplitude_m", "warmup_cycles",
+            "measured_cycles", "status", "dropped_frames")  # fmt: skip
+    assert [[getattr(m, k) for k in keep] for m in live.tests] == [
+        [getattr(m, k) for k in keep] for m in plain.tests
+    ]
+    a, b = live.load(0), plain.load(0)
+    assert len(a.t) == pytest.approx(len(b.t), rel=0.03)
+    assert a.force.max() == pytest.approx(b.force.max(), rel=0.03)
+    assert a.force.min() == pytest.approx(b.force.min(), rel=0.03)
+    assert {k for _, k, _ in live.events} == {k for _, k, _ in plain.events}

@@ -41,6 +41,7 @@ class LiveCounts:
     (refused: the queue was full, or the view had failed) or the live view's (lost)."""
 
     messages: int = 0  # messages handed to the server
+    samples: int = 0  # samples the thread took from the queue and sent on
     refused_samples: int = 0
     refused_calls: int = 0  # test records, actuator records, events
     lost_samples: int = 0
@@ -216,6 +217,7 @@ class LivePublisher:
     def _on_samples(self, block: SampleBlock) -> None:
         n = len(block)
         self._sent_samples += n
+        self.counts.samples += n
         if self._open is not None:
             self._count += n
         self._last_t = float(block.t_s[-1])

@@ -289,6 +289,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
         LiveView(len(rec.tests), console=console, units=units_mod.get(args.units)) as view,
     ):
         records = _ReplayRecords(rec, live)
+        if live is not None:
+            console.print("waiting for a viewer to connect (Ctrl-C to stop)")
+            live.server.wait_for_viewer()
         for i, meta in enumerate(rec.tests):
             samples = rec.samples(i)  # as the DAQ delivered them: the motion bit too
             view.start_test(meta)
@@ -303,6 +306,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
                     time.sleep(float(block.t_s[-1] - block.t_s[0]) / args.speed)
             view.end_test(meta)
             records.end(meta)
+        if live is not None:
+            records.until(math.inf)  # the session's end: stop, centre, disable
     return 0
 
 

@@ -29,6 +29,7 @@ from shockdyno.rig.types import SampleBlock
 FloatArray = NDArray[np.float64]
 
 PARTS = ("ramp-in", "warm-up", "measured", "ramp-out")
+CONTEXT = 2  # samples each side of a display velocity's central difference (schemas.py)
 
 
 @dataclass(frozen=True)
@@ -75,6 +76,7 @@ class CycleCutter:
         self._t0: float | None = None
         self._tail: tuple[FloatArray, FloatArray] | None = None  # velocity context
         self._held: list[tuple[FloatArray, ...]] = []  # samples of the cycle in progress
+        self._recent: tuple[FloatArray, FloatArray, FloatArray] | None = None  # last block's end
         self._next = 0  # the next cycle to complete
 
     def begin(self, meta: TestMeta) -> None:
@@ -82,6 +84,7 @@ class CycleCutter:
         self._t0 = None
         self._tail = None
         self._held = []
+        self._recent = None
         self._next = 0
 
     def end(self) -> None:
@@ -137,12 +140,18 @@ class CycleCutter:
                 t, self._t0, m.amplitude_m, m.frequency_hz, n, self.ramp_cycles
             )
         stretch = Stretch(t, x, v, force, planned)
+        recent, self._recent = self._recent, (t[-CONTEXT:], x[-CONTEXT:], force[-CONTEXT:])
         if t0 is None:
             return stretch, []
+        if not self._held and recent is not None:  # the samples just before, as context
+            self._held.append((*recent, np.full(recent[0].size, np.nan)))
         period = 1.0 / m.frequency_hz
-        self._held.append((t, x, v, force, np.full(t.size, np.nan) if planned is None else planned))
+        self._held.append((t, x, force, np.full(t.size, np.nan) if planned is None else planned))
         done: list[Cycle] = []
-        while self._next < self._total and t[-1] >= t0 + (self._next + 1) * period:
+        # A cycle is cut once CONTEXT samples past its end are in, so its velocity is a
+        # central difference to its last sample whatever the blocks' sizes.
+        after = CONTEXT / m.sample_rate_hz if m.sample_rate_hz > 0 else 0.0
+        while self._next < self._total and t[-1] >= t0 + (self._next + 1) * period + after:
             done.append(self._cut(t0 + self._next * period, t0 + (self._next + 1) * period))
             self._next += 1
         return stretch, done
@@ -154,10 +163,16 @@ class CycleCutter:
         return PARTS[int(np.searchsorted(ends, k, side="right"))]
 
     def _cut(self, lo: float, hi: float) -> Cycle:
-        t, x, v, force, plan = (np.concatenate([h[i] for h in self._held]) for i in range(5))
-        inside = (t >= lo) & (t < hi)
-        later = t >= hi
-        self._held = [(t[later], x[later], v[later], force[later], plan[later])]
+        t, x, force, plan = (np.concatenate([h[i] for h in self._held]) for i in range(4))
+        v = display_velocity(t, x, CONTEXT).astype(np.float64)
+        m = self.meta
+        assert m is not None
+        # Half a sample early: a boundary on a sample (t0 is one) is not split by rounding.
+        half = 0.5 / m.sample_rate_hz if m.sample_rate_hz > 0 else 0.0
+        inside = (t >= lo - half) & (t < hi - half)
+        # The next cycle keeps CONTEXT samples before its start for its own velocity.
+        first = max(0, int(np.searchsorted(t, hi - half)) - CONTEXT)
+        self._held = [(t[first:], x[first:], force[first:], plan[first:])]
         planned = plan[inside]
         return Cycle(
             index=self._next,

@@ -141,10 +141,13 @@ class LivePublisher:
 
     def summary(self) -> str:
         c = self.counts
-        lost = ""
+        said = f"live view closed: {c.messages} messages sent"
         if c.dropped_samples or c.dropped_calls:
-            lost = f"; dropped {c.dropped_samples} samples and {c.dropped_calls} records"
-        return f"live view closed: {c.messages} messages sent{lost} (the recording has them all)"
+            said += (
+                f", {c.dropped_samples} samples and {c.dropped_calls} records dropped "
+                "(the viewer fell behind; the recording has them all)"
+            )
+        return said
 
     # -- the thread ----------------------------------------------------------------------
     def _drop(self, op: str, args: tuple[Any, ...]) -> None:

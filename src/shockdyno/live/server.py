@@ -14,6 +14,8 @@ ConfigError (one line) raised here, before any rig is touched.
 from __future__ import annotations
 
 import json
+import threading
+import time
 from typing import Any
 
 from shockdyno.errors import ConfigError
@@ -98,9 +100,14 @@ class LiveServer:
         if not 0 <= port <= 65535:
             raise ConfigError(f"--live-port must be 0-65535 (0: any free port), got {port}")
         self._context = foxglove.Context()
+        listener, self._subscribed = _subscriptions()
         try:
             self._server = foxglove.start_server(
-                name="shockdyno", host=host, port=port, context=self._context
+                name="shockdyno",
+                host=host,
+                port=port,
+                context=self._context,
+                server_listener=listener,
             )
         except RuntimeError as exc:
             raise ConfigError(_bind_error(host, port, str(exc))) from None
@@ -123,6 +130,13 @@ class LiveServer:
         """Someone is subscribed to the topic (nothing is encoded for no one)."""
         return bool(self._channels[topic].has_sinks())
 
+    def wait_for_viewer(self, settle_s: float = 0.5) -> None:
+        """Until a viewer subscribes (then `settle_s` more, for the rest of its panels'
+        subscriptions). Only for a caller that drives no rig (`replay --live`)."""
+        while not self._subscribed.wait(0.1):
+            pass
+        time.sleep(settle_s)
+
     def send(self, topic: str, log_time_ns: int, payload: bytes) -> None:
         self._channels[topic].log(payload, log_time=max(0, log_time_ns))
 
@@ -133,6 +147,21 @@ class LiveServer:
         for channel in self._channels.values():
             channel.close()
         self._server.stop()
+
+
+def _subscriptions() -> tuple[Any, threading.Event]:
+    """A ServerListener noting the first subscription (the SDK itself sends a channel
+    only to its subscribers; every other callback is the protocol's own no-op), and the
+    event it sets. foxglove is imported here, not by every command's start."""
+    from foxglove.websocket import ChannelView, Client, ServerListener
+
+    first = threading.Event()
+
+    class Subscriptions(ServerListener):
+        def on_subscribe(self, client: Client, channel: ChannelView) -> None:
+            first.set()
+
+    return Subscriptions(), first
 
 
 def _bind_error(host: str, port: int, text: str) -> str:

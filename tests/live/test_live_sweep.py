@@ -3,6 +3,7 @@ Foxglove WebSocket client; the same sweep without --live beside it."""
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import re
@@ -261,3 +262,25 @@ def test_replay_live_sends_what_the_sweep_sent(runs):
     assert [r["phase"] for r in replayed.json(s.TOPIC_TEST)] == ["begin", "end"]
     kinds = [e["kind"] for e in replayed.json(s.TOPIC_EVENTS)]
     assert kinds == [e["kind"] for e in swept.json(s.TOPIC_EVENTS)]
+
+
+def test_the_live_layout_plots_what_the_server_advertises(runs, monkeypatch):
+    """recordings/foxglove-live-layout.json: every path names a topic the live server
+    advertised and a field of its schema (the recording layout's own check)."""
+    monkeypatch.syspath_prepend(str(REPO / "tests" / "record"))
+    check = importlib.import_module("test_record_foxglove_layout")
+    fields = {}
+    for ch in runs["got"].channels.values():
+        if ch["schemaEncoding"] == "ros2msg":
+            fields[ch["topic"]] = check.ros2msg_fields(ch["schema"])
+        else:
+            props = json.loads(ch["schema"])["properties"]
+            fields[ch["topic"]] = {k: v.get("type") == "array" for k, v in props.items()}
+    layout = json.loads((REPO / "recordings" / "foxglove-live-layout.json").read_text())
+    plotted = check.check_layout(layout, fields)
+    assert {"force_n", "displacement_m", "velocity_m_s", "commanded_m"} <= plotted
+    latest = [c for c in layout["configById"].values() if c.get("timeRange") == "latest"]
+    assert {c["xAxisPath"]["value"] for c in latest} == {
+        "/live/cycle.displacement_m[:]",
+        "/live/cycle.velocity_m_s[:]",
+    }

@@ -14,7 +14,6 @@ warning and the end of the live view; the sweep goes on.
 
 from __future__ import annotations
 
-import json
 import threading
 import time
 from collections import deque
@@ -22,6 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+import msgspec
 import numpy as np
 
 from shockdyno.live.cycles import Cycle, CycleCutter, Stretch
@@ -183,7 +183,7 @@ class LivePublisher:
 
     def _send_json(self, topic: str, t_s: float, obj: dict[str, Any]) -> None:
         if self.server.watched(topic):
-            data = json.dumps(obj, allow_nan=False, default=_plain).encode()
+            data = _JSON.encode(obj)
             self.server.send(topic, self._log_time(t_s), data)
             self.counts.messages += 1
 
@@ -260,13 +260,9 @@ class LivePublisher:
         }
 
 
-def _list(a: np.ndarray[Any, Any]) -> list[float | None]:
-    """JSON numbers; NaN (no plan, a velocity that cannot be had) as null."""
-    values = np.asarray(a, dtype=float)
-    out: list[float | None] = list(values.tolist())
-    for i in np.flatnonzero(~np.isfinite(values)):
-        out[i] = None
-    return out
+def _list(a: np.ndarray[Any, Any]) -> list[float]:
+    """JSON numbers (msgspec writes NaN, a velocity that cannot be had, as null)."""
+    return list(np.asarray(a, dtype=float).tolist())
 
 
 def _peak(a: np.ndarray[Any, Any], pick: Callable[[Any], Any]) -> float | None:
@@ -290,4 +286,9 @@ def _position(test: int | None, st: Stretch) -> dict[str, Any]:
 def _plain(v: Any) -> Any:
     if isinstance(v, np.generic):
         return v.item()
-    raise TypeError(f"{type(v).__name__} is not JSON")
+    raise NotImplementedError(f"{type(v).__name__} is not JSON")
+
+
+# C speed: the thread holds the interpreter's lock, which the control loop also needs,
+# for as short a time as it can.
+_JSON = msgspec.json.Encoder(enc_hook=_plain)

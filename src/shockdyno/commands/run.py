@@ -6,6 +6,7 @@ import argparse
 import contextlib
 import math
 import time
+from collections import deque
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -317,8 +318,8 @@ class _ReplayRecords:
 
     def __init__(self, rec: Any, live: Any) -> None:
         self.live = live
-        self.actuator = sorted(rec.actuator, key=lambda r: r[0])
-        self.events = sorted(rec.events, key=lambda r: r[0])
+        self.actuator = deque(sorted(rec.actuator, key=lambda r: r[0]))
+        self.events = deque(sorted(rec.events, key=lambda r: r[0]))
 
     def begin(self, meta: Any, t_s: float) -> None:
         if self.live is not None:
@@ -327,11 +328,11 @@ class _ReplayRecords:
 
     def until(self, t_s: float) -> None:
         while self.actuator and self.actuator[0][0] <= t_s:
-            t, fields = self.actuator.pop(0)
+            t, fields = self.actuator.popleft()
             kept = {k: v for k, v in fields.items() if k not in ("t_s", "test")}
             self.live.write_actuator(t, kept)
         while self.events and self.events[0][0] <= t_s:
-            self.live.write_event(*self.events.pop(0))
+            self.live.write_event(*self.events.popleft())
 
     def end(self, meta: Any) -> None:
         if self.live is not None:

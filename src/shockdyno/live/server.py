@@ -29,56 +29,59 @@ TOPIC_CYCLE = "/live/cycle"
 
 _NUMS = {"type": "array", "items": {"type": ["number", "null"]}}
 
-POSITION_SCHEMA_NAME = "shockdyno.LivePosition"
-POSITION_SCHEMA = json.dumps(
-    {
+
+def _schema(title: str, description: str, properties: dict[str, Any], required: list[str]) -> bytes:
+    doc = {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
-        "title": POSITION_SCHEMA_NAME,
-        "description": "One DAQ block: the measured displacement beside the planned one.",
+        "title": title,
+        "description": description,
         "type": "object",
-        "properties": {
-            "test": {"type": ["integer", "null"], "description": "test serial (/dyno/test)"},
-            "t_s": {**_NUMS, "description": "DAQ time, s"},
-            "displacement_m": {**_NUMS, "description": "measured, m from the stroke centre"},
-            "commanded_m": {**_NUMS, "description": "planned sine, m; null: no plan"},
-            "error_m": {**_NUMS, "description": "measured - planned, m"},
-            "force_n": _NUMS,
-        },
-        "required": ["t_s", "displacement_m"],
+        "properties": properties,
+        "required": required,
+    }
+    return json.dumps(doc, indent=1).encode()
+
+
+POSITION_SCHEMA_NAME = "shockdyno.LivePosition"
+POSITION_SCHEMA = _schema(
+    POSITION_SCHEMA_NAME,
+    "One DAQ block: the measured displacement beside the planned one.",
+    {
+        "test": {"type": ["integer", "null"], "description": "test serial (/dyno/test)"},
+        "t_s": {**_NUMS, "description": "DAQ time, s"},
+        "displacement_m": {**_NUMS, "description": "measured, m from the stroke centre"},
+        "commanded_m": {**_NUMS, "description": "planned sine, m; null: no plan"},
+        "error_m": {**_NUMS, "description": "measured - planned, m"},
+        "force_n": _NUMS,
     },
-    indent=1,
-).encode()
+    ["t_s", "displacement_m"],
+)
 
 CYCLE_SCHEMA_NAME = "shockdyno.LiveCycle"
-CYCLE_SCHEMA = json.dumps(
+CYCLE_SCHEMA = _schema(
+    CYCLE_SCHEMA_NAME,
+    "One whole cycle of a test, when it completes: F-x and F-v loops.",
     {
-        "$schema": "https://json-schema.org/draft/2020-12/schema",
-        "title": CYCLE_SCHEMA_NAME,
-        "description": "One whole cycle of a test, when it completes: F-x and F-v loops.",
-        "type": "object",
-        "properties": {
-            "test": {"type": "integer", "description": "test serial (/dyno/test)"},
-            "index": {"type": "integer", "description": "the sweep's test index"},
-            "clicks": {"type": "integer"},
-            "gas_clicks": {"type": "integer"},
-            "frequency_hz": {"type": "number"},
-            "amplitude_m": {"type": "number"},
-            "cycle": {"type": "integer", "description": "cycle of the test, from 0"},
-            "part": {"enum": ["ramp-in", "warm-up", "measured", "ramp-out"]},
-            "t_start_s": {"type": "number"},
-            "t_s": _NUMS,
-            "displacement_m": _NUMS,
-            "velocity_m_s": _NUMS,
-            "force_n": _NUMS,
-            "commanded_m": _NUMS,
-            "peak_compression_force_n": {"type": ["number", "null"]},
-            "peak_rebound_force_n": {"type": ["number", "null"]},
-            "peak_velocity_m_s": {"type": ["number", "null"]},
-        },
-        "required": ["test", "cycle", "part", "displacement_m", "force_n"],
+        "test": {"type": "integer", "description": "test serial (/dyno/test)"},
+        "index": {"type": "integer", "description": "the sweep's test index"},
+        "clicks": {"type": "integer"},
+        "gas_clicks": {"type": "integer"},
+        "frequency_hz": {"type": "number"},
+        "amplitude_m": {"type": "number"},
+        "cycle": {"type": "integer", "description": "cycle of the test, from 0"},
+        "part": {"enum": ["ramp-in", "warm-up", "measured", "ramp-out"]},
+        "t_start_s": {"type": "number"},
+        "t_s": _NUMS,
+        "displacement_m": _NUMS,
+        "velocity_m_s": _NUMS,
+        "force_n": _NUMS,
+        "commanded_m": _NUMS,
+        "peak_compression_force_n": {"type": ["number", "null"]},
+        "peak_rebound_force_n": {"type": ["number", "null"]},
+        "peak_velocity_m_s": {"type": ["number", "null"]},
     },
-    indent=1,
-).encode()
+    ["test", "cycle", "part", "displacement_m", "force_n"],
+)
 
 # topic: (schema name, schema encoding, schema text, message encoding)
 CHANNELS: dict[str, tuple[str, str, bytes, str]] = {

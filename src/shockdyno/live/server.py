@@ -143,10 +143,14 @@ class LiveServer:
     def send(self, topic: str, log_time_ns: int, payload: bytes) -> None:
         self._channels[topic].log(payload, log_time=max(0, log_time_ns))
 
-    def stop(self) -> None:
+    def stop(self, flush_s: float = 0.5) -> None:
+        """Close the server. A viewer gets `flush_s` first: the server sends from queues
+        of its own, and stopping drops what they still hold (the test's end record)."""
         if self._stopped:
             return
         self._stopped = True
+        if self._subscribed.is_set():
+            time.sleep(flush_s)
         for channel in self._channels.values():
             channel.close()
         self._server.stop()

@@ -162,3 +162,14 @@ def test_a_port_out_of_range_is_refused(port):
 
     with pytest.raises(ConfigError, match="--live-port"):
         LiveServer("127.0.0.1", port)
+
+
+def test_live_port_without_live_is_refused(tmp_path):
+    proc = subprocess.run(
+        [*CLI, "sweep", "--rig", str(SIM_RIG), "--start-sim", "--clicks", "0", "--freq", "1",
+         "-o", str(tmp_path / "x.mcap"), "--live-port", "9000"],
+        cwd=REPO, capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert proc.returncode == 2
+    assert proc.stderr.strip().endswith("error: --live-port is for the live view: add --live")
+    assert "modbus" not in proc.stdout and not (tmp_path / "x.mcap").exists()

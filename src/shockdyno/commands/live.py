@@ -5,12 +5,17 @@ from __future__ import annotations
 import argparse
 import contextlib
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 from rich.console import Console
 from rich.markup import escape
 
+from shockdyno.errors import ConfigError
 from shockdyno.live.server import DEFAULT_HOST, DEFAULT_PORT
+
+REPO = Path(__file__).resolve().parents[3]
+LAYOUT = REPO / "recordings" / "foxglove-live-layout.json"  # docs/live.md
 
 
 def add_live_arguments(p: argparse.ArgumentParser, what: str) -> None:
@@ -37,6 +42,12 @@ def live_view(
     """The live view's publisher while the block runs (None without --live), the server
     closed after it. A server that cannot start is a ConfigError before anything else."""
     if not getattr(args, "live", False):
+        for flag, value, default in (
+            ("--live-host", args.live_host, DEFAULT_HOST),
+            ("--live-port", args.live_port, DEFAULT_PORT),
+        ):
+            if value != default:
+                raise ConfigError(f"{flag} is for the live view: add --live")
         yield None
         return
     from shockdyno.live.publisher import LivePublisher
@@ -50,7 +61,7 @@ def live_view(
     publisher = LivePublisher(server, warn, blocking=blocking)
     console.print(
         f"live view: open {server.url} in Foxglove (Open connection → Foxglove WebSocket); "
-        "layout: recordings/foxglove-live-layout.json",
+        f"layout: {LAYOUT if LAYOUT.exists() else LAYOUT.relative_to(REPO)}",
         soft_wrap=True,
     )
     try:

@@ -92,9 +92,15 @@ class _StuckServer:
     def __init__(self) -> None:
         self.release = threading.Event()
         self.stopped = False
+        self.warnings = []
+
+    warnings: list[str]
 
     def watched(self, topic: str) -> bool:
         return True
+
+    def warn(self, text: str) -> None:
+        self.warnings.append(text)
 
     def send(self, topic: str, log_time_ns: int, payload: bytes) -> None:
         self.release.wait()
@@ -116,6 +122,8 @@ def test_a_stuck_viewer_never_holds_the_caller_and_drops_are_counted():
     live.close(drain_s=5.0)
     c = live.counts
     assert c.samples + c.dropped_samples == 10_000  # every sample accounted for
+    # The viewers were told (Foxglove's problems list), with the count at the time.
+    assert server.warnings and "samples dropped so far" in server.warnings[-1]
     assert "dropped" in live.summary() and server.stopped
 
 

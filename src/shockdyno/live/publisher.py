@@ -14,6 +14,7 @@ warning and the end of the live view; the sweep goes on.
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections import deque
@@ -86,6 +87,8 @@ class LivePublisher:
         self._count = 0
         self._last_t = 0.0
         self._cutter = CycleCutter()
+        self._said_dropped = 0  # dropped samples the viewers were told of
+        self._said_at = -math.inf
         self._thread = threading.Thread(target=self._run, name="live-view", daemon=True)
         self._thread.start()
 
@@ -157,8 +160,25 @@ class LivePublisher:
         else:
             self.counts.lost_calls += 1
 
+    def _say_drops(self) -> None:
+        """Tell the viewers when samples were dropped since the last time (at most once a
+        second): what they see has gaps the recording does not."""
+        now = time.monotonic()
+        dropped = self.counts.dropped_samples
+        if dropped > self._said_dropped and now - self._said_at >= 1.0:
+            self._said_dropped, self._said_at = dropped, now
+            self.server.warn(
+                f"live view: {dropped} samples dropped so far (the live view fell behind; "
+                "the recording has them all)"
+            )
+
     def _run(self) -> None:
         while True:
+            if not self._failed:
+                try:
+                    self._say_drops()
+                except Exception:  # a warning that cannot be sent is not worth another
+                    self._said_at = math.inf
             try:
                 op, args = self._queue.popleft()
             except IndexError:

@@ -140,6 +140,13 @@ class LiveServer:
             pass
         time.sleep(settle_s)
 
+    def warn(self, text: str) -> None:
+        """A warning every connected viewer shows (Foxglove's problems list); one id, so
+        a newer one replaces the last."""
+        import foxglove
+
+        self._server.publish_status(text, foxglove.StatusLevel.Warning, id="shockdyno-live")
+
     def send(self, topic: str, log_time_ns: int, payload: bytes) -> None:
         self._channels[topic].log(payload, log_time=max(0, log_time_ns))
 

@@ -181,3 +181,15 @@ def test_live_port_without_live_is_refused(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.strip().endswith("error: --live-port is for the live view: add --live")
     assert "modbus" not in proc.stdout and not (tmp_path / "x.mcap").exists()
+
+
+def test_an_existing_recording_is_refused_before_the_live_view_starts(tmp_path):
+    out = tmp_path / "x.mcap"
+    out.write_bytes(b"")
+    proc = subprocess.run(
+        [*CLI, "sweep", "--rig", str(SIM_RIG), "--clicks", "0", "--freq", "1", "-o", str(out),
+         "--live"],
+        cwd=REPO, capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert proc.returncode == 2 and "exists: use --force" in proc.stderr
+    assert "live view" not in proc.stdout  # no URL to open for a sweep that never runs

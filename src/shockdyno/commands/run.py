@@ -237,7 +237,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     # No file the sweep reads may become its recording, --force or not.
     read = [args.rig, default_spec_path(), *([args.scenario] if args.scenario else [])]
     refuse_inputs(Path(args.output), read, flag="-o")
-    if args.start_sim:  # refused before the simulated rig starts, as the recording would
+    if args.start_sim or args.live:  # refused before the sim or the live view starts
         from shockdyno.record.lock import recording_lock
 
         with recording_lock(Path(args.output)):  # another writer is named first

@@ -36,12 +36,13 @@ LAYERS: dict[str, set[str]] = {
     "diagnose": {"model", "record", "fit", "report"},
     "ride": {"model", "record", "fit", "report"},
     "run": {"model", "rig", "record", "report"},
+    "live": {"rig", "record"},
     "compare": {"record", "fit", "report"},
     "history": {"record", "fit", "report"},
     "batch": {"record", "fit", "report", "diagnose", "history"},
     "commands": {
         "model", "rig", "record", "simrig", "fit", "report", "diagnose", "ride", "run",
-        "compare", "batch", "history",
+        "compare", "batch", "history", "live",
     },
     "cli": set(),
 }  # fmt: skip

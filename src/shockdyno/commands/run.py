@@ -6,15 +6,17 @@ import argparse
 import contextlib
 import math
 import time
+from collections import deque
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
 from rich.console import Console
 
 from shockdyno import __version__
 from shockdyno import units as units_mod
 from shockdyno.commands.args import add_force, add_rig, add_seed, hint_unreachable
+from shockdyno.commands.live import add_live_arguments, live_view
 from shockdyno.errors import ConfigError, RecordingError, RigFault
 from shockdyno.lists import parse_clicks, parse_frequencies
 from shockdyno.model.spec import default_spec_path, load_spec
@@ -129,6 +131,7 @@ def register(sub: Any) -> None:
     s.add_argument("--scenario", type=Path, help="with --start-sim: extra physics, sim/scenarios/")
     add_seed(s, "the simulated rig's noise, with --start-sim")
     units_mod.add_argument(s, "the end-of-test lines")
+    add_live_arguments(s, "the sweep")
     s.set_defaults(func=cmd_sweep)
 
     r = sub.add_parser("replay", help="play a recording through the live view")
@@ -137,6 +140,7 @@ def register(sub: Any) -> None:
                    "wall-clock second")  # fmt: skip
     r.add_argument("--fast", action="store_true", help="play as fast as it can (no waiting)")
     units_mod.add_argument(r, "the end-of-test lines")
+    add_live_arguments(r, "the recording")
     r.set_defaults(func=cmd_replay)
 
 
@@ -233,7 +237,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     # No file the sweep reads may become its recording, --force or not.
     read = [args.rig, default_spec_path(), *([args.scenario] if args.scenario else [])]
     refuse_inputs(Path(args.output), read, flag="-o")
-    if args.start_sim:  # refused before the simulated rig starts, as the recording would
+    if args.start_sim or args.live:  # refused before the sim or the live view starts
         from shockdyno.record.lock import recording_lock
 
         with recording_lock(Path(args.output)):  # another writer is named first
@@ -245,6 +249,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     plan = _plan(args, *_click_ranges(load_spec()), rig)
     with contextlib.ExitStack() as stack:
         stack.enter_context(stop_on_signals())  # SIGTERM and SIGHUP stop like Ctrl-C
+        live = stack.enter_context(live_view(args, console))  # before any rig: a busy port
         spec_used = ""  # a real rig's damper is whatever is mounted
         if args.start_sim:
             from shockdyno.simrig import start_sim_rig
@@ -258,7 +263,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         meta = _metadata(args, rig, spec_used)
         result = record_sweep(rig, plan, args.output, metadata=meta, overwrite=args.force,
                               resume=args.resume, console=console,
-                              units=units_mod.get(args.units))  # fmt: skip
+                              units=units_mod.get(args.units), live=live)  # fmt: skip
     console.print(f"recording: {args.output}", soft_wrap=True)
     if result is not None and result.degraded:
         listed = ", ".join(str(m.index) for m in result.degraded)
@@ -271,7 +276,6 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 def cmd_replay(args: argparse.Namespace) -> int:
     from shockdyno.record import open_recording
-    from shockdyno.rig.types import SampleBlock
     from shockdyno.run.liveview import LiveView
 
     if not args.speed > 0:
@@ -281,27 +285,58 @@ def cmd_replay(args: argparse.Namespace) -> int:
     if rec.truncated:
         console.print("[yellow]recording was cut off; replaying every complete test[/]")
     chunk = 100
-    with LiveView(len(rec.tests), console=console, units=units_mod.get(args.units)) as view:
+    with (
+        live_view(args, console, blocking=True) as live,
+        LiveView(len(rec.tests), console=console, units=units_mod.get(args.units)) as view,
+    ):
+        records = _ReplayRecords(rec, live)
+        if live is not None:
+            console.print("waiting for a viewer to connect (Ctrl-C to stop)")
+            live.server.wait_for_viewer()
         for i, meta in enumerate(rec.tests):
-            test = rec.load(i)
+            samples = rec.samples(i)  # as the DAQ delivered them: the motion bit too
             view.start_test(meta)
-            for lo in range(0, test.t.size, chunk):
-                sl = slice(lo, lo + chunk)
-                n = test.t[sl].size
-                temp = test.temperature[sl] if test.temperature is not None else np.full(n, np.nan)
-                block = SampleBlock(
-                    seq=np.arange(lo, lo + n, dtype=np.int64),
-                    t_s=test.t[sl],
-                    displacement_m=test.x[sl],
-                    force_n=test.force[sl],
-                    temperature_c=temp,
-                    status=np.zeros(n, dtype=np.uint16),
-                )
+            records.begin(meta, float(samples.t_s[0]) if len(samples) else 0.0)
+            for lo in range(0, len(samples), chunk):
+                block = samples.slice(lo, lo + chunk)
                 view.update(block)
-                if not args.fast and n > 1:
-                    time.sleep(float(test.t[sl][-1] - test.t[sl][0]) / args.speed)
+                if live is not None:
+                    records.until(float(block.t_s[-1]))
+                    live.write_samples(block)
+                if not args.fast and len(block) > 1:
+                    time.sleep(float(block.t_s[-1] - block.t_s[0]) / args.speed)
             view.end_test(meta)
+            records.end(meta)
+        if live is not None:
+            records.until(math.inf)  # the session's end: stop, centre, disable
     return 0
+
+
+class _ReplayRecords:
+    """The recording's test records, actuator records and events, sent to the live view
+    in step with the samples (replay --live)."""
+
+    def __init__(self, rec: Any, live: Any) -> None:
+        self.live = live
+        self.actuator = deque(sorted(rec.actuator, key=lambda r: r[0]))
+        self.events = deque(sorted(rec.events, key=lambda r: r[0]))
+
+    def begin(self, meta: Any, t_s: float) -> None:
+        if self.live is not None:
+            self.until(t_s)
+            self.live.begin_test(replace(meta, status="running"))
+
+    def until(self, t_s: float) -> None:
+        while self.actuator and self.actuator[0][0] <= t_s:
+            t, fields = self.actuator.popleft()
+            kept = {k: v for k, v in fields.items() if k not in ("t_s", "test")}
+            self.live.write_actuator(t, kept)
+        while self.events and self.events[0][0] <= t_s:
+            self.live.write_event(*self.events.popleft())
+
+    def end(self, meta: Any) -> None:
+        if self.live is not None:
+            self.live.end_test(meta)
 
 
 def cmd_demo(args: argparse.Namespace) -> int:

@@ -25,6 +25,7 @@ NEW_SUFFIX = ".new.mcap"  # a forced sweep's recording, until its first test com
 if TYPE_CHECKING:
     from shockdyno.record.queued import QueuedWriter
     from shockdyno.rig.config import RigConfig
+    from shockdyno.run.sweep import Writer
 
 
 def record_sweep(rig: RigConfig, plan: SweepPlan, output: Path, **options: Any) -> Any:
@@ -51,9 +52,12 @@ def _record_sweep(
     resume: bool = False,
     console: Console | None = None,
     units: Units = SI,
+    live: Writer | None = None,
 ) -> Any:
-    """Run the plan on the rig into the recording; returns the SweepResult."""
+    """Run the plan on the rig into the recording; returns the SweepResult. `live` (a
+    viewer, `sweep --live`) gets every call the recording gets, after it."""
     from shockdyno.record import open_recording
+    from shockdyno.run.fanout import Fanout
     from shockdyno.run.liveview import LiveView
     from shockdyno.run.refusals import check_band, check_sine
     from shockdyno.run.session import RigSession, exit_reason
@@ -105,18 +109,19 @@ def _record_sweep(
             console.input(f"[bold yellow]{message}[/] - press Enter when done ")
 
     writer = _open_writer(rig, output, metadata, ident, overwrite=overwrite, resume=resume)
+    sink: Writer = writer if live is None else Fanout(writer, live)
     started = False
     try:
         # The recording is open and writable before the rig is enabled; a rig that does not
         # answer (or refuses to start) leaves no empty recording behind.
         with view, RigSession(rig, prompt=prompt) as session:
             started = True
-            session.record_events(writer.write_event)
+            session.record_events(sink.write_event)
             try:
                 return run_sweep(
                     session,
                     plan,
-                    writer,
+                    sink,
                     view,
                     first_index=first_index,
                     done=done,

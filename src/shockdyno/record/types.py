@@ -44,6 +44,11 @@ class TestMeta:
     # the sine's reversals); None when unknown. Older recordings have neither.
     gas_force_n: float | None = None
     gas_force_source: str | None = None
+    # A constant-velocity test (motion "triangle" or "trapezoid", model/stroke.py): the
+    # speed planned between reversals and a trapezoid's reversal acceleration. None for a
+    # sine; older recordings have neither (and every test of theirs is a sine).
+    target_velocity_m_s: float | None = None
+    reversal_accel_m_s2: float | None = None
 
 
 @dataclass(frozen=True)

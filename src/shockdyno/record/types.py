@@ -7,6 +7,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
+# The motions whose measured cycles follow warm-up cycles of the same motion (a sine, or a
+# constant-velocity stroke: model/stroke.py), unlike an imported test's arbitrary motion.
+PERIODIC_MOTIONS = ("sine", "triangle", "trapezoid")
+
 
 @dataclass(frozen=True)
 class TestMeta:

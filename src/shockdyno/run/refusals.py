@@ -102,10 +102,10 @@ def check_stroke(rig: RigConfig, stroke: Stroke, drive_accel_m_s2: float | None)
             )
         if stroke.constant_share < MIN_CONSTANT_SHARE:
             raise ConfigError(
-                f"{v * 1e3:g} mm/s with reversals at {acc:g} m/s² spends "
-                f"{2 * stroke.rounding_m * 1e3:.3g} mm of a {a * 1e3:g} mm amplitude "
-                f"reversing: under {MIN_CONSTANT_SHARE:.0%} of the stroke at constant "
-                "velocity; use a larger amplitude or acceleration"
+                f"{v * 1e3:g} mm/s with reversals at {acc:g} m/s² reverses over "
+                f"{stroke.rounding_m * 1e3:.3g} mm at each end of a ±{a * 1e3:g} mm stroke: "
+                f"under {MIN_CONSTANT_SHARE:.0%} of it at constant velocity; use a larger "
+                "amplitude or acceleration"
             )
     else:
         # A triangle's reversal is a velocity step: the ram, at v, needs v²/(2a) beyond

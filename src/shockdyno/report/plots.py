@@ -262,17 +262,6 @@ def frequency_overlay(
     return _save(fig, path)
 
 
-def _point(s: TestSummary, direction: int) -> tuple[float, float]:
-    """(velocity, force) of a test in a direction (0 compression, 1 rebound): its peaks, or
-    a constant-velocity test's mean force at its speed."""
-    if s.cv is not None:
-        p = s.cv[direction]
-        return p.velocity_m_s, p.force_n
-    if direction == 0:
-        return s.peak_compression_velocity_m_s, s.peak_compression_force_n
-    return s.peak_rebound_velocity_m_s, s.peak_rebound_force_n
-
-
 def peak_curves(
     summaries: Sequence[TestSummary],
     path: Path,
@@ -304,8 +293,8 @@ def peak_curves(
         colour = cmap(norm(clicks))
         marker = markers[gas_values.index(gas) % len(markers)]
         branches = (
-            ([_point(s, 0)[0] for s in group], [_point(s, 0)[1] for s in group]),
-            ([_point(s, 1)[0] for s in group], [_point(s, 1)[1] for s in group]),
+            ([s.point(0)[0] for s in group], [s.point(0)[1] for s in group]),
+            ([s.point(1)[0] for s in group], [s.point(1)[1] for s in group]),
         )
         for branch, (vel, force) in enumerate(branches):
             ax.plot(
@@ -319,7 +308,7 @@ def peak_curves(
                 # One legend entry per click: its compression branch.
                 label=None if branch else click_label(clicks, gas, len(gas_values) > 1),
             )
-        fast = _point(group[-1], 0)
+        fast = group[-1].point(0)
         ends.append((units.velocity(fast[0]), units.force(fast[1]), str(clicks), colour))
         for s in group:
             for p in s.cv or ():

@@ -91,6 +91,16 @@ class TestSummary:
             f" T={temp} dropped={dropped} {self.status}"
         )
 
+    def point(self, direction: int) -> tuple[float, float]:
+        """(velocity, force) on the peak-velocity chart in a direction (0 compression, 1
+        rebound): the peaks, or a constant-velocity test's mean force at its speed."""
+        if self.cv is not None:
+            p = self.cv[direction]
+            return p.velocity_m_s, p.force_n
+        if direction == 0:
+            return self.peak_compression_velocity_m_s, self.peak_compression_force_n
+        return self.peak_rebound_velocity_m_s, self.peak_rebound_force_n
+
     def _cv_text(self, units: Units) -> str:
         """A constant-velocity test's speed and mean forces: ' triangle v=100mm/s
         Fcv=+150/-1325N' (in/s and lbf in imperial); empty for a sine."""

@@ -157,26 +157,18 @@ def run_sweep(
                 last_t[0] = float(block.t_s[-1])
 
         stroke = plan.stroke(point.frequency_hz)
+        # A sine is asked for as it always was (a Session without waveforms runs it).
+        shape = {} if stroke is None else {"waveform": stroke}
         try:
-            if stroke is None:
-                outcome = session.run_sine(
-                    plan.amplitude_m,
-                    point.frequency_hz,
-                    plan.warmup_cycles,
-                    plan.measured_cycles,
-                    on_block,
-                    writer.write_actuator,  # type: ignore[arg-type]
-                )
-            else:
-                outcome = session.run_sine(
-                    plan.amplitude_m,
-                    point.frequency_hz,
-                    plan.warmup_cycles,
-                    plan.measured_cycles,
-                    on_block,
-                    writer.write_actuator,  # type: ignore[arg-type]
-                    waveform=stroke,
-                )
+            outcome = session.run_sine(
+                plan.amplitude_m,
+                point.frequency_hz,
+                plan.warmup_cycles,
+                plan.measured_cycles,
+                on_block,
+                writer.write_actuator,  # type: ignore[arg-type]
+                **shape,
+            )
         except BaseException as exc:  # Ctrl-C or a rig fault mid-test: keep what was recorded
             final = replace(meta, status="aborted", abort_reason=_why(exc))
             writer.write_event(last_t[0], "abort", f"test {meta.index} stopped: {_why(exc)}")

@@ -108,11 +108,12 @@ def register(sub: Any) -> None:
         default="sine",
         help="sine, or a constant-velocity stroke planned by --velocities-mm-s: triangle "
         "(constant velocity between reversals) or trapezoid (reversals at "
-        "--reversal-accel-m-s2); docs/rig.md",
+        "--reversal-accel-m-s2); docs/report.md",
     )
     s.add_argument(
         "--reversal-accel-m-s2",
         type=_positive_float,
+        metavar="A",
         help="trapezoid: the reversals' acceleration, m/s² (default: each speed's, so that "
         "a reversal takes the outer 10 %% of the amplitude)",
     )

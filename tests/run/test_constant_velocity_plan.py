@@ -10,6 +10,7 @@ import pytest
 from shockdyno.cli import main
 from shockdyno.errors import ConfigError
 from shockdyno.model.stroke import Stroke
+from shockdyno.record import open_recording
 from shockdyno.record.schemas import meta_from_json, meta_to_json
 from shockdyno.record.types import TestMeta
 from shockdyno.rig.config import load_rig
@@ -96,3 +97,25 @@ def test_a_reversal_beyond_the_drive_is_refused_before_enabling(
     err = capsys.readouterr().err
     assert "exceeds the drive's acceleration_limit of 50 m/s²" in err and err.count("\n") == 1
     assert not out.exists()
+
+
+def test_an_imported_triangle_needs_its_speed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    data = tmp_path / "t.csv"
+    data.write_text("time_s,displacement_m,force_N\n" + "".join(
+        f"{i / 1000},{0.0001 * (i % 50)},{i % 7}\n" for i in range(200)))  # fmt: skip
+    manifest = tmp_path / "manifest.csv"
+    manifest.write_text("file,clicks,frequency_hz,amplitude_m,motion\nt.csv,3,1.0,0.03,triangle\n")
+    out = tmp_path / "r.mcap"
+    assert main(["import", str(manifest), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "a triangle test needs its target_velocity_m_s column" in err
+    assert err.count("\n") == 1 and not out.exists()
+    manifest.write_text(
+        "file,clicks,frequency_hz,amplitude_m,motion,target_velocity_m_s\n"
+        "t.csv,3,1.0,0.03,triangle,0.12\n"
+    )
+    assert main(["import", str(manifest), "-o", str(out)]) == 0
+    (test,) = open_recording(out).load_all()
+    assert (test.meta.motion, test.meta.target_velocity_m_s) == ("triangle", 0.12)

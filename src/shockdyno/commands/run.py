@@ -20,8 +20,15 @@ from shockdyno.commands.live import add_live_arguments, live_view
 from shockdyno.errors import ConfigError, RecordingError, RigFault
 from shockdyno.lists import parse_clicks, parse_frequencies
 from shockdyno.model.spec import default_spec_path, load_spec
+from shockdyno.model.stroke import CONSTANT_VELOCITY, WAVEFORMS, Stroke
 from shockdyno.outputs import refuse_inputs
-from shockdyno.run.plan import SweepPlan, frequencies_for_velocities, parse_velocities_mm_s
+from shockdyno.run.plan import (
+    SweepPlan,
+    constant_velocity_strokes,
+    frequencies_for_velocities,
+    parse_velocities_mm_s,
+    stroke_frequency_hz,
+)
 from shockdyno.run.recording import record_sweep
 from shockdyno.run.refusals import MIN_FREQUENCY_HZ
 from shockdyno.run.signals import stop_on_signals
@@ -96,6 +103,21 @@ def register(sub: Any) -> None:
         metavar="V,...",
         help="plan by target peak velocity instead of --freq, e.g. 25,50,100,200,300: each "
         "frequency is v / (2π A) at --amplitude-mm, refused beyond the rig file's limits",
+    )
+    s.add_argument(
+        "--waveform",
+        choices=WAVEFORMS,
+        default="sine",
+        help="sine, or a constant-velocity stroke planned by --velocities-mm-s: triangle "
+        "(constant velocity between reversals) or trapezoid (reversals at "
+        "--reversal-accel-m-s2); docs/report.md",
+    )
+    s.add_argument(
+        "--reversal-accel-m-s2",
+        type=_positive_float,
+        metavar="A",
+        help="trapezoid: the reversals' acceleration, m/s² (default: each speed's, so that "
+        "a reversal takes the outer 10 %% of the amplitude)",
     )
     s.add_argument("--amplitude-mm", type=_positive_float, default=30.0, help="sine amplitude")
     s.add_argument("--gas-clicks", type=int, default=0, help="gas-bottle click setting")
@@ -192,15 +214,64 @@ def _frequencies(args: argparse.Namespace, rig: RigConfig | None) -> list[float]
     return frequencies_for_velocities(velocities, amplitude_m, cap)
 
 
+def _strokes(args: argparse.Namespace, rig: RigConfig | None) -> list[Stroke]:
+    """--waveform triangle | trapezoid: one stroke per --velocities-mm-s (none for a sine),
+    each refused here in one line when the rig file's limits or the DAQ forbid it."""
+    waveform = getattr(args, "waveform", "sine")
+    accel = getattr(args, "reversal_accel_m_s2", None)
+    if accel is not None and waveform != "trapezoid":
+        raise ConfigError("--reversal-accel-m-s2 applies to --waveform trapezoid only")
+    if waveform not in CONSTANT_VELOCITY:
+        return []
+    text = getattr(args, "velocities_mm_s", None)
+    if text is None:
+        raise ConfigError(
+            f"--waveform {waveform} is planned by speed: give --velocities-mm-s "
+            "(e.g. 25,50,100), not --freq"
+        )
+    amplitude_m = getattr(args, "amplitude_mm", 30.0) / 1e3
+    strokes = constant_velocity_strokes(waveform, parse_velocities_mm_s(text), amplitude_m, accel)
+    for s in strokes:
+        f = stroke_frequency_hz(s)
+        if f < MIN_FREQUENCY_HZ:
+            raise ConfigError(
+                f"--velocities-mm-s: {s.velocity_m_s * 1e3:g} mm/s over ±{amplitude_m * 1e3:g} "
+                f"mm is a cycle of {1 / f / 60:.3g} min; the slowest planned is one cycle in "
+                "10 min (use a smaller --amplitude-mm)"
+            )
+        if rig is None:
+            continue
+        limit = SAFETY_SHARE * rig.limits.velocity_m_s
+        if s.velocity_m_s > limit:
+            raise ConfigError(
+                f"--velocities-mm-s: {s.velocity_m_s * 1e3:g} mm/s exceeds {limit * 1e3:g} "
+                f"mm/s, 95 % of the rig's limit of {rig.limits.velocity_m_s * 1e3:g} mm/s "
+                f"({rig.source} limits.velocity_m_s)"
+            )
+        if f > rig.daq.sample_rate_hz / 20:
+            raise ConfigError(
+                f"--velocities-mm-s: {s.velocity_m_s * 1e3:g} mm/s over ±{amplitude_m * 1e3:g} "
+                f"mm is {f:g} Hz, above the {rig.daq.sample_rate_hz / 20:g} Hz the DAQ allows "
+                "(20 samples per cycle); use a larger --amplitude-mm"
+            )
+    return strokes
+
+
 def _plan(
     args: argparse.Namespace, max_clicks: int, max_gas_clicks: int, rig: RigConfig | None = None
 ) -> SweepPlan:
     gas = getattr(args, "gas_clicks", 0)
     if not 0 <= gas <= max_gas_clicks:
         raise ConfigError(f"gas-bottle clicks must be 0-{max_gas_clicks}, got {gas}")
+    strokes = _strokes(args, rig)
     return SweepPlan(
         clicks=tuple(parse_clicks(args.clicks, max_clicks)),
-        frequencies_hz=tuple(_frequencies(args, rig)),
+        frequencies_hz=(
+            tuple(stroke_frequency_hz(s) for s in strokes)
+            if strokes
+            else tuple(_frequencies(args, rig))
+        ),
+        strokes=tuple(strokes),
         amplitude_m=getattr(args, "amplitude_mm", 30.0) / 1e3,
         gas_clicks=gas,
         warmup_cycles=getattr(args, "warmup_cycles", 2),

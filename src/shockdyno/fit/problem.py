@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 from shockdyno.fit.prepare import PreparedTest
 from shockdyno.model.composite import DamperModel, ModelInputs
 from shockdyno.model.spec import DamperSpec
+from shockdyno.record.types import PERIODIC_MOTIONS
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -63,8 +64,9 @@ def prepared_inputs(
                 dt_s=np.array([dt]),
                 temperature_c=temp,
                 gas_pressure_pa=gas,
-                # A sine test's measured cycles follow warm-up cycles: periodic.
-                periodic=d.meta.motion == "sine",
+                # A sine's or a constant-velocity test's measured cycles follow warm-up
+                # cycles: periodic.
+                periodic=d.meta.motion in PERIODIC_MOTIONS,
             )
         )
     return ModelInputs.stack(parts)

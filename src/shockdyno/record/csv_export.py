@@ -123,6 +123,9 @@ def _write_manifest(path: Path, tests: list[TestMeta], names: list[str]) -> None
     # only when a test has one, so an imported recording without it exports as it came
     gas_force = any(m.gas_force_n is not None for m in tests)
     header += ["gas_force_n", "gas_force_source"] * gas_force
+    # a constant-velocity test's speed and reversal acceleration, only when a test has one
+    stroke = any(m.target_velocity_m_s is not None for m in tests)
+    header += ["target_velocity_m_s", "reversal_accel_m_s2"] * stroke
     header += extras
     with open(path, "w", encoding="utf-8", newline="") as out:
         w = csv.writer(out, lineterminator="\n")
@@ -140,6 +143,8 @@ def _write_manifest(path: Path, tests: list[TestMeta], names: list[str]) -> None
             if gas_force:
                 known = m.gas_force_n is not None
                 row += [_num(m.gas_force_n) if known else "", (m.gas_force_source or "") * known]
+            if stroke:
+                row += [_num(m.target_velocity_m_s), _num(m.reversal_accel_m_s2)]
             row += [m.extra.get(k, "") for k in extras]
             w.writerow(row)
 

@@ -30,7 +30,7 @@ LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "in": M_PER_IN}
 FORCE_UNITS = {"N": 1.0, "kN": 1e3, "lbf": LBF_N}
 TIME_UNITS = ("auto", "s", "ms", "iso")
 TEMPERATURE_UNITS = ("C", "F")
-MOTIONS = ("sine", "imported")
+MOTIONS = ("sine", "triangle", "trapezoid", "imported")
 VELOCITY_COLUMN = "velocity_m_s"  # written by export; read only for its decimal places
 DECIMALS_KEY = "csv_decimals"  # TestMeta.extra key: "time_s=3,force_N=2": fixed decimal places
 

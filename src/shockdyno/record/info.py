@@ -35,6 +35,9 @@ def _test_row(rec: Recording, meta: TestMeta) -> dict[str, Any]:
         "corrupt_frames": meta.corrupt_frames,
         "gas_force_n": meta.gas_force_n,  # as stored (None: not measured)
         "gas_force_source": meta.gas_force_source,
+        # A constant-velocity test's (motion triangle | trapezoid); None for a sine.
+        "target_velocity_m_s": meta.target_velocity_m_s,
+        "reversal_accel_m_s2": meta.reversal_accel_m_s2,
     }
 
 

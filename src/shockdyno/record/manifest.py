@@ -37,6 +37,8 @@ MANIFEST_KNOWN = (
     "gas_clicks",
     "sample_rate_hz",
     "motion",
+    "target_velocity_m_s",
+    "reversal_accel_m_s2",
     "warmup_cycles",
     "measured_cycles",
     "measured_start_s",
@@ -185,9 +187,24 @@ def read_manifest(
             ),
             abort_reason=cell("abort_reason") or None,
             **_gas_force(table, i, cols, cell),
+            **_stroke(table, i, cols, cell, motion),
         )
         tests.append(ImportedTest(meta, block))
     return tests
+
+
+def _stroke(
+    table: CsvTable, i: int, cols: dict[str, int], cell: Callable[[str], str], motion: str
+) -> dict[str, Any]:
+    """A constant-velocity test's speed and reversal acceleration (export writes them)."""
+    out: dict[str, Any] = {}
+    for name in ("target_velocity_m_s", "reversal_accel_m_s2"):
+        if cell(name):
+            out[name] = _float_cell(table, i, cols[name], positive=True)
+    if motion in ("triangle", "trapezoid") and "target_velocity_m_s" not in out:
+        where = table.where(i, cols["motion"] if "motion" in cols else cols["file"])
+        raise RecordingError(f"{where}: a {motion} test needs its target_velocity_m_s column")
+    return out
 
 
 def _gas_force(

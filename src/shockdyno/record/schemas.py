@@ -208,6 +208,11 @@ TEST_SCHEMA = _json_schema(
         "start_temperature_c": _OPT_NUM,
         "gas_force_n": {**_OPT_NUM, "description": "static gas force at mid-stroke, N"},
         "gas_force_source": {"enum": ["measured", "estimated", None]},
+        "target_velocity_m_s": {
+            **_NUM,
+            "description": "constant-velocity test (motion triangle | trapezoid): v, m/s",
+        },
+        "reversal_accel_m_s2": {**_NUM, "description": "trapezoid: reversal acceleration"},
     },
     required=["phase", "test", "index", "clicks", "gas_clicks", "frequency_hz", "amplitude_m"],
 )
@@ -230,9 +235,16 @@ EVENT_SCHEMA = _json_schema(
 )
 
 
+# Written only when set: a sine's record keeps the keys it always had.
+_ONLY_WHEN_SET = ("target_velocity_m_s", "reversal_accel_m_s2")
+
+
 def meta_to_json(meta: TestMeta) -> dict[str, Any]:
     d = asdict(meta)
     d["cycle_start_s"] = [float(v) for v in meta.cycle_start_s]
+    for key in _ONLY_WHEN_SET:
+        if d[key] is None:
+            del d[key]
     return d
 
 
@@ -248,6 +260,8 @@ _OPTIONAL_NUMBERS = (
     "gas_pressure_pa",
     "start_temperature_c",
     "gas_force_n",
+    "target_velocity_m_s",
+    "reversal_accel_m_s2",
 )
 _TEXTS = ("motion", "status")
 _OPTIONAL_TEXTS = ("abort_reason", "gas_force_source")

@@ -7,6 +7,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
+# The motions whose measured cycles follow warm-up cycles of the same motion (a sine, or a
+# constant-velocity stroke: model/stroke.py), unlike an imported test's arbitrary motion.
+PERIODIC_MOTIONS = ("sine", "triangle", "trapezoid")
+
 
 @dataclass(frozen=True)
 class TestMeta:
@@ -44,6 +48,11 @@ class TestMeta:
     # the sine's reversals); None when unknown. Older recordings have neither.
     gas_force_n: float | None = None
     gas_force_source: str | None = None
+    # A constant-velocity test (motion "triangle" or "trapezoid", model/stroke.py): the
+    # speed planned between reversals and a trapezoid's reversal acceleration. None for a
+    # sine; older recordings have neither (and every test of theirs is a sine).
+    target_velocity_m_s: float | None = None
+    reversal_accel_m_s2: float | None = None
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,14 @@ peak. A click's value averages the tests (frequencies) whose branch reaches the 
 When none does, the value is extrapolated from the test that gets closest, by a straight
 line through the top 30 % of its branch, and flagged ``extrapolated``.
 
+**Constant-velocity tests** (triangle, trapezoid: report/constant_velocity.py) give one
+point per direction at their speed: the mean force over the constant-velocity part of
+their strokes. At a standard velocity within ``CV_MATCH`` of a test's speed that mean is
+the value (the averaged points' count in ``n_tests``); between two tests' speeds of one
+setting the value is read on the straight line between their points (before a sine's
+extrapolation, after a sine's crossing); beyond them, extrapolated through the two nearest
+and flagged. A constant-velocity test's reversals are not read as a sine's branch.
+
 **Model.** The fitted model (``FitResult.model()``, as a car carries it: its damper
 terms, no sensor terms, lags at their steady state) with the click's areas
 (``FitResult.areas``) at mid-stroke (x = 0) and zero acceleration: the damper's steady
@@ -40,6 +48,7 @@ from shockdyno.model import DamperSpec, damper_force
 from shockdyno.model.quarter_car import quasi_static_force
 from shockdyno.record.types import TestData
 from shockdyno.report import gas as gas_force
+from shockdyno.report.constant_velocity import cv_points, is_constant_velocity
 from shockdyno.report.summary import velocity
 from shockdyno.units import SI, Units
 
@@ -117,11 +126,67 @@ def _test_readings(test: TestData, targets: Sequence[float]) -> tuple[dict[float
     return {t: branch_force(v, m.force, t) for t in targets}, top
 
 
+CV_MATCH = 0.02  # a constant-velocity test within 2 % of a standard velocity reads it
+
+
 def measured_chart(
     tests: Sequence[TestData], targets: Sequence[float]
 ) -> dict[Setting, dict[float, Reading]]:
     """Per click setting and signed velocity: the mean over tests that reach it, else the
-    extrapolation of the test closest to it. Complete tests only."""
+    extrapolation of the test closest to it (constant-velocity tests: the module's
+    docstring). Complete tests only."""
+    complete = [t for t in tests if t.meta.status == "complete"]
+    cv = [t for t in complete if is_constant_velocity(t)]
+    sines = _branch_chart([t for t in complete if not is_constant_velocity(t)], targets)
+    if not cv:
+        return sines
+    points: dict[Setting, list[tuple[float, float]]] = {}
+    for test in cv:
+        pair = cv_points(test)
+        if pair is not None:
+            key = (test.meta.clicks, test.meta.gas_clicks)
+            points.setdefault(key, []).extend((p.velocity_m_s, p.force_n) for p in pair)
+    out: dict[Setting, dict[float, Reading]] = {}
+    for key in sorted(set(sines) | set(points)):
+        sine_row = sines.get(key, {})
+        row: dict[float, Reading] = {}
+        for t in targets:
+            exact, between, beyond = _cv_reading(points.get(key, []), t)
+            s = sine_row.get(t, Reading(math.nan))
+            inside = math.isfinite(s.force_n) and not s.extrapolated
+            order = [exact, s if inside else None, between, s, beyond]
+            row[t] = next((r for r in order if r is not None and math.isfinite(r.force_n)),
+                          Reading(math.nan))  # fmt: skip
+        out[key] = row
+    return out
+
+
+def _cv_reading(
+    points: list[tuple[float, float]], target: float
+) -> tuple[Reading | None, Reading | None, Reading | None]:
+    """(the mean of the points at the target's speed, the line between the two around it,
+    the line through the two nearest beyond them) in the target's direction."""
+    side = sorted((abs(v), f) for v, f in points if v * target > 0)
+    speed = abs(target)
+    at = [f for v, f in side if abs(v / speed - 1) <= CV_MATCH]
+    if at:
+        return Reading(float(np.mean(at)), False, len(at)), None, None
+    below = [p for p in side if p[0] < speed]
+    above = [p for p in side if p[0] > speed]
+    if below and above:
+        (v0, f0), (v1, f1) = below[-1], above[0]
+        return None, Reading(f0 + (f1 - f0) * (speed - v0) / (v1 - v0), False, 2), None
+    near = below[-2:] if below else above[:2]
+    if len(near) < 2 or near[0][0] == near[1][0]:
+        return None, None, None
+    (v0, f0), (v1, f1) = near
+    return None, None, Reading(f0 + (f1 - f0) * (speed - v0) / (v1 - v0), True, 0)
+
+
+def _branch_chart(
+    tests: Sequence[TestData], targets: Sequence[float]
+) -> dict[Setting, dict[float, Reading]]:
+    """measured_chart of tests read on their branches (sines, imported motion)."""
     per_setting: dict[Setting, list[tuple[dict[float, Reading], float]]] = {}
     for test in tests:
         if test.meta.status != "complete" or test.t.size < 3 * MIN_BRANCH_SAMPLES:

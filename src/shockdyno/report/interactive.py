@@ -387,6 +387,10 @@ class Interactive:
         u = self.units
 
         def spread(c: Curves, branch: int) -> str:
+            cv = c.summary.cv
+            if cv is not None:  # a constant-velocity test: its mean force's sd
+                sd = u.force(cv[branch].force_sd_n)
+                return f", ±{sd:.1f} {u.force_label} (1 SD, constant velocity)"
             h = (band or {}).get(c.summary.index, (math.nan, math.nan))[branch]
             return f", ±{u.force(h):.1f} {u.force_label} (2 SD, cycles)" if math.isfinite(h) else ""
 
@@ -405,12 +409,12 @@ class Interactive:
             for branch, (vel, force) in enumerate(
                 (
                     (
-                        [c.summary.peak_compression_velocity_m_s for c in group],
-                        [c.summary.peak_compression_force_n for c in group],
+                        [c.summary.point(0)[0] for c in group],
+                        [c.summary.point(0)[1] for c in group],
                     ),
                     (
-                        [c.summary.peak_rebound_velocity_m_s for c in group],
-                        [c.summary.peak_rebound_force_n for c in group],
+                        [c.summary.point(1)[0] for c in group],
+                        [c.summary.point(1)[1] for c in group],
                     ),
                 )
             ):

@@ -274,6 +274,9 @@ def peak_curves(
     each click is named in the legend and at the fast end of its compression curve.
     ``band``: per test index, the half-width (N) of the cycle-to-cycle band of its peak
     compression and rebound force, drawn as error bars (report/repeatability.py).
+    A constant-velocity test is drawn at its own point in each direction: the mean force
+    over the constant-velocity part of its strokes at their mean velocity, its error bar
+    the force's standard deviation there (report/constant_velocity.py).
     """
     norm = _click_norm([s.clicks for s in summaries])
     cmap = CMAP
@@ -290,11 +293,8 @@ def peak_curves(
         colour = cmap(norm(clicks))
         marker = markers[gas_values.index(gas) % len(markers)]
         branches = (
-            (
-                [s.peak_compression_velocity_m_s for s in group],
-                [s.peak_compression_force_n for s in group],
-            ),
-            ([s.peak_rebound_velocity_m_s for s in group], [s.peak_rebound_force_n for s in group]),
+            ([s.point(0)[0] for s in group], [s.point(0)[1] for s in group]),
+            ([s.point(1)[0] for s in group], [s.point(1)[1] for s in group]),
         )
         for branch, (vel, force) in enumerate(branches):
             ax.plot(
@@ -308,17 +308,20 @@ def peak_curves(
                 # One legend entry per click: its compression branch.
                 label=None if branch else click_label(clicks, gas, len(gas_values) > 1),
             )
-        fast = group[-1]
-        ends.append(
-            (
-                units.velocity(fast.peak_compression_velocity_m_s),
-                units.force(fast.peak_compression_force_n),
-                str(clicks),
-                colour,
-            )
-        )
+        fast = group[-1].point(0)
+        ends.append((units.velocity(fast[0]), units.force(fast[1]), str(clicks), colour))
+        for s in group:
+            for p in s.cv or ():
+                ax.errorbar(
+                    units.velocity(p.velocity_m_s),
+                    units.force(p.force_n),
+                    yerr=units.force(p.force_sd_n),
+                    color=colour,
+                    capsize=3,
+                    lw=1.0,
+                )
         for s in group if band else ():
-            half = band.get(s.index) if band else None
+            half = band.get(s.index) if band and s.cv is None else None
             if half is None:
                 continue
             for vel1, f1, h in (
@@ -339,13 +342,19 @@ def peak_curves(
     ax.grid(True, alpha=0.3)
     _ticks(ax)
     _direct_labels(ax, ends)
-    ax.set_xlabel(f"peak velocity ({units.velocity_label}, + compression, − rebound)")
+    cv = any(s.cv is not None for s in summaries)
+    what = "velocity (sines: peak; constant-velocity tests: their speed)" if cv else "peak velocity"
+    ax.set_xlabel(f"{what} ({units.velocity_label}, + compression, − rebound)")
     removed = bool(summaries) and all(s.gas_force_n is not None for s in summaries)
     fl = units.force_label
+    peak = "force (sines: peak; constant velocity: mean ± sd)" if cv else "peak force"
     ax.set_ylabel(
-        f"peak damping force ({fl}, gas force removed)" if removed else f"peak force ({fl})"
+        f"{peak.replace('force', 'damping force', 1) if removed else peak} ({fl}"
+        f"{', gas force removed' if removed else ''})"
     )
     title = f"peak {'damping ' if removed else ''}force vs peak velocity per click"
+    if cv:
+        title = f"{'damping ' if removed else ''}force vs velocity per click"
     if len(gas_values) > 1:
         title += (
             " (marker: gas clicks "

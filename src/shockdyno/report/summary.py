@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,6 +27,9 @@ from shockdyno.errors import ConfigError
 from shockdyno.model import differentiate
 from shockdyno.record.types import TestData
 from shockdyno.units import SI, Units
+
+if TYPE_CHECKING:
+    from shockdyno.report.constant_velocity import CvPoint
 
 FloatArray = NDArray[np.float64]
 
@@ -50,6 +54,11 @@ class TestSummary:
     temperature_c: float | None
     dropped_frames: int | None
     gas_force_n: float | None = None  # removed from the peak forces (None: raw force)
+    # A constant-velocity test (report/constant_velocity.py): its motion, planned speed
+    # and (compression, rebound) points; None for a sine.
+    motion: str = "sine"
+    target_velocity_m_s: float | None = None
+    cv: tuple[CvPoint, CvPoint] | None = None
 
     def line(self, done: int | None = None, total: int | None = None, units: Units = SI) -> str:
         """One plain ASCII line (no control codes) for logs, pipes and CI; imperial units
@@ -76,10 +85,38 @@ class TestSummary:
                 if self.gas_force_n is None
                 else f" gas_removed={units.force(self.gas_force_n):.0f}{f_unit}"
             )
+            + self._cv_text(units)
             + f" vc={_fmt(self.peak_compression_velocity_m_s * v_scale, v_spec)}{v_unit}"
             f" vr={_fmt(self.peak_rebound_velocity_m_s * v_scale, v_spec)}{v_unit}"
             f" T={temp} dropped={dropped} {self.status}"
         )
+
+    def point(self, direction: int) -> tuple[float, float]:
+        """(velocity, force) on the peak-velocity chart in a direction (0 compression, 1
+        rebound): the peaks, or a constant-velocity test's mean force at its speed."""
+        if self.cv is not None:
+            p = self.cv[direction]
+            return p.velocity_m_s, p.force_n
+        if direction == 0:
+            return self.peak_compression_velocity_m_s, self.peak_compression_force_n
+        return self.peak_rebound_velocity_m_s, self.peak_rebound_force_n
+
+    def _cv_text(self, units: Units) -> str:
+        """A constant-velocity test's speed and mean forces: ' triangle v=100mm/s
+        Fcv=+150/-1325N' (in/s and lbf in imperial); empty for a sine."""
+        if self.target_velocity_m_s is None:
+            return ""
+        imp = units.imperial
+        speed = (
+            f"{self.target_velocity_m_s * units.velocity_per_m_s:.2f}in/s"
+            if imp
+            else f"{self.target_velocity_m_s * 1e3:.0f}mm/s"
+        )
+        forces = "-"
+        if self.cv is not None:
+            c, r = (units.force(p.force_n) for p in self.cv)
+            forces = f"{c:+.0f}/{r:+.0f}{'lbf' if imp else 'N'}"
+        return f" {self.motion} v={speed} Fcv={forces}"
 
 
 def _fmt(value: float, spec: str) -> str:
@@ -149,6 +186,8 @@ def summarise(
     temp: float | None = None
     if m.temperature is not None and np.any(np.isfinite(m.temperature)):
         temp = float(np.nanmean(m.temperature))
+    from shockdyno.report.constant_velocity import cv_points  # it reads `velocity` here
+
     return TestSummary(
         index=meta.index,
         clicks=meta.clicks,
@@ -164,4 +203,7 @@ def summarise(
         temperature_c=temp,
         dropped_frames=dropped,
         gas_force_n=gas_force_n,
+        motion=meta.motion,
+        target_velocity_m_s=meta.target_velocity_m_s,
+        cv=cv_points(test, gas_force_n),
     )

@@ -59,6 +59,11 @@ OPTIONAL_REGISTERS = (
     "travel_limit",
     "velocity_limit",
     "force_limit",
+    # Constant-velocity strokes (model/stroke.py): the drive's function generator's shape
+    # (WAVEFORM_CODES), a trapezoid's reversal acceleration, and the most the drive can do.
+    "waveform",
+    "waveform_acceleration",
+    "acceleration_limit",
 )
 
 DEFAULT_CONTROL_BITS = {"enable": 0, "start": 1, "stop": 2, "quick_stop": 3, "fault_reset": 7}
@@ -71,6 +76,7 @@ DEFAULT_STATUS_BITS = {
     "warning": 5,
 }
 DEFAULT_MODES = {"hold": 0, "sine": 1, "stream": 2}
+WAVEFORM_CODES = {"sine": 0, "triangle": 1, "trapezoid": 2}  # the `waveform` register
 Bit = Annotated[int, Meta(ge=0, le=15)]
 Word = Annotated[int, Meta(ge=0, le=65535)]
 DEFAULT_FAULT_CODES = {

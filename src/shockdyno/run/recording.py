@@ -87,7 +87,9 @@ def _record_sweep(
         return None
     # Everything that can be refused is refused here, before the rig is touched.
     for frequency in plan.frequencies_hz:
-        check_sine(rig, plan.amplitude_m, frequency, plan.warmup_cycles, plan.measured_cycles)
+        stroke = plan.stroke(frequency)
+        check_sine(rig, plan.amplitude_m, frequency, plan.warmup_cycles, plan.measured_cycles,
+                   None if stroke is None else stroke.velocity_m_s)  # fmt: skip
     if plan.temperature_band_c is not None:
         check_band(rig, plan.temperature_band_c)
     if rig.adjuster == "operator" and not sys.stdin.isatty():
@@ -114,7 +116,7 @@ def _record_sweep(
     try:
         # The recording is open and writable before the rig is enabled; a rig that does not
         # answer (or refuses to start) leaves no empty recording behind.
-        with view, RigSession(rig, prompt=prompt) as session:
+        with view, RigSession(rig, prompt=prompt, strokes=plan.strokes) as session:
             started = True
             session.record_events(sink.write_event)
             try:
@@ -212,6 +214,10 @@ def identity(rig: RigConfig, plan: SweepPlan) -> dict[str, str]:
         "measured_cycles": plan.measured_cycles,
         "gas_pressure_pa": plan.gas_pressure_pa,
     }
+    if plan.strokes:  # a sine plan's identity as it always was
+        plan_doc["waveform"] = plan.waveform
+        plan_doc["velocities_m_s"] = [s.velocity_m_s for s in plan.strokes]
+        plan_doc["reversal_accel_m_s2"] = [s.accel_m_s2 for s in plan.strokes]
     return {
         "rig_identity": json.dumps(rig_doc, sort_keys=True),
         "plan": json.dumps(plan_doc, sort_keys=True),

@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from shockdyno.errors import ConfigError
+from shockdyno.model.stroke import MIN_CONSTANT_SHARE, Stroke
 from shockdyno.rig.config import RigConfig
 
 MIN_FREQUENCY_HZ = 1 / 600  # one cycle in 10 min: slower is a typo, and a test without end
@@ -18,8 +19,17 @@ MIN_FREQUENCY_HZ = 1 / 600  # one cycle in 10 min: slower is a typo, and a test 
 MIN_AMPLITUDE_COUNTS = 100
 
 
-def check_sine(rig: RigConfig, a: float, f: float, warmup: int, measured: int) -> None:
-    """Refuse a sine the rig must not run (ConfigError), before anything moves."""
+def check_sine(
+    rig: RigConfig,
+    a: float,
+    f: float,
+    warmup: int,
+    measured: int,
+    peak_velocity_m_s: float | None = None,
+) -> None:
+    """Refuse a sine the rig must not run (ConfigError), before anything moves.
+    `peak_velocity_m_s`: another periodic waveform's (a constant-velocity stroke's v);
+    None: the sine's 2πfA."""
     lim = rig.limits
     if not (isinstance(a, int | float) and math.isfinite(a) and a > 0):
         raise ConfigError(f"amplitude must be > 0 m, got {a!r}")
@@ -46,14 +56,68 @@ def check_sine(rig: RigConfig, a: float, f: float, warmup: int, measured: int) -
             f"amplitude {a * 1e3:g} mm exceeds the rig's travel of ±{lim.travel_m * 1e3:g} mm "
             f"({rig.source} limits.travel_m); refused before moving"
         )
-    v = 2 * math.pi * f * a
+    v = 2 * math.pi * f * a if peak_velocity_m_s is None else peak_velocity_m_s
     if v > lim.velocity_m_s:
+        what = "2πfA = " if peak_velocity_m_s is None else ""
         raise ConfigError(
-            f"peak velocity 2πfA = {v:.3g} m/s exceeds the limit of {lim.velocity_m_s:g} m/s "
+            f"peak velocity {what}{v:.3g} m/s exceeds the limit of {lim.velocity_m_s:g} m/s "
             f"({rig.source} limits.velocity_m_s); refused before moving"
         )
     if f > rig.daq.sample_rate_hz / 20:
         raise ConfigError(f"frequency {f:g} Hz leaves fewer than 20 DAQ samples per cycle; refused")
+
+
+def check_stroke(rig: RigConfig, stroke: Stroke, drive_accel_m_s2: float | None) -> None:
+    """Refuse a constant-velocity stroke (model/stroke.py) the rig cannot run (ConfigError),
+    before anything moves: a drive without the waveform registers, a reversal beyond the
+    acceleration the drive can do (`drive_accel_m_s2`: its acceleration_limit register,
+    read before enabling), a triangle whose reversal, made at that acceleration, would
+    carry the ram beyond the travel, or a trapezoid mostly reversal. The speed, amplitude
+    and frequency are check_sine's, with v as the peak velocity."""
+    regs = rig.registers
+    need = ["waveform", "acceleration_limit"]
+    if stroke.waveform == "trapezoid":
+        need.append("waveform_acceleration")
+    missing = [n for n in need if n not in regs]
+    if missing:
+        raise ConfigError(
+            f"{stroke.waveform} strokes need the drive's {', '.join(missing)} register"
+            f"{'s' if len(missing) > 1 else ''} ({rig.source} [actuator.registers]; "
+            "docs/rig.md): this drive runs sines only"
+        )
+    a, v = stroke.amplitude_m, stroke.velocity_m_s
+    if not (math.isfinite(v) and v > 0):
+        raise ConfigError(f"constant velocity must be > 0 m/s, got {v!r}")
+    if drive_accel_m_s2 is None or not drive_accel_m_s2 > 0:
+        raise ConfigError(
+            f"the drive's acceleration_limit reads {drive_accel_m_s2!r}: a reversal cannot "
+            "be checked against it; refused before moving"
+        )
+    if stroke.accel_m_s2 is not None:
+        acc = stroke.accel_m_s2
+        if not (math.isfinite(acc) and 0 < acc <= drive_accel_m_s2):
+            raise ConfigError(
+                f"reversal acceleration {acc:g} m/s² exceeds the drive's acceleration_limit "
+                f"of {drive_accel_m_s2:g} m/s² (or is not > 0); refused before moving"
+            )
+        if stroke.constant_share < MIN_CONSTANT_SHARE:
+            raise ConfigError(
+                f"{v * 1e3:g} mm/s with reversals at {acc:g} m/s² reverses over "
+                f"{stroke.rounding_m * 1e3:.3g} mm at each end of a ±{a * 1e3:g} mm stroke: "
+                f"under {MIN_CONSTANT_SHARE:.0%} of it at constant velocity; use a larger "
+                "amplitude or acceleration"
+            )
+    else:
+        # A triangle's reversal is a velocity step: the ram, at v, needs v²/(2a) beyond
+        # the amplitude to stop even at the drive's best.
+        over = v**2 / (2 * drive_accel_m_s2)
+        if a + over > rig.limits.travel_m:
+            raise ConfigError(
+                f"a triangle at {v * 1e3:g} mm/s reverses {over * 1e3:.3g} mm beyond its "
+                f"{a * 1e3:g} mm amplitude at the drive's {drive_accel_m_s2:g} m/s², past "
+                f"the rig's travel of ±{rig.limits.travel_m * 1e3:g} mm ({rig.source} "
+                "limits.travel_m); refused before moving"
+            )
 
 
 def check_hold(

@@ -30,7 +30,7 @@ from __future__ import annotations
 import functools
 import math
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from types import TracebackType
@@ -40,8 +40,9 @@ import numpy as np
 
 from shockdyno import priority
 from shockdyno.errors import ConfigError, RigFault
+from shockdyno.model.stroke import Stroke
 from shockdyno.rig.actuator import ActuatorStatus, ModbusActuator
-from shockdyno.rig.config import DaqConfig, RigConfig
+from shockdyno.rig.config import WAVEFORM_CODES, DaqConfig, RigConfig
 from shockdyno.rig.daq import READ_SIZE, SerialDaq
 from shockdyno.rig.frames import FRAME_LEN, STATUS_MOTION
 from shockdyno.rig.types import Daq, SampleBlock
@@ -49,7 +50,7 @@ from shockdyno.run import signals
 from shockdyno.run.daq_stream import BlockSink, DaqStream
 from shockdyno.run.events import EventLog, EventSink
 from shockdyno.run.heartbeat import LoopHeartbeat
-from shockdyno.run.refusals import check_hold, check_sine
+from shockdyno.run.refusals import check_hold, check_sine, check_stroke
 from shockdyno.run.safety import SafetyEvent, SafetyTrip
 from shockdyno.run.verify import RunKeeper, judge_run
 from shockdyno.run.watch import DriveWatch
@@ -153,6 +154,16 @@ def _console_prompt(message: str) -> None:
     input(f"{message} [Enter when done] ")
 
 
+def _describe_start(amplitude_m: float, frequency_hz: float, waveform: Stroke | None) -> str:
+    if waveform is None:
+        return f"sine {amplitude_m * 1e3:g} mm at {frequency_hz:g} Hz"
+    accel = "" if waveform.accel_m_s2 is None else f", reversals at {waveform.accel_m_s2:g} m/s²"
+    return (
+        f"{waveform.waveform} {amplitude_m * 1e3:g} mm at {waveform.velocity_m_s * 1e3:g} mm/s "
+        f"({frequency_hz:g} Hz{accel})"
+    )
+
+
 def exit_reason(exc: BaseException | None) -> str:
     """Why a session ends, for its teardown event."""
     if exc is None:
@@ -168,8 +179,13 @@ class RigSession:
         prompt: Callable[[str], None] | None = None,
         clock: Callable[[], float] = time.monotonic,
         open_daq: Callable[[DaqConfig, float], Daq] = SerialDaq,
+        strokes: Sequence[Stroke] = (),
     ) -> None:
         self.rig = rig
+        # Constant-velocity strokes the session will be asked for: checked against the
+        # drive's acceleration_limit before enabling (`_check_strokes`).
+        self._strokes = tuple(strokes)
+        self.drive_accel_m_s2: float | None = None
         self.prompt = prompt or _console_prompt
         self.clock = clock
         self._open_daq = open_daq  # any `Daq`: the session reads only what the protocol has
@@ -223,6 +239,7 @@ class RigSession:
             self.daq = self._open_daq(self.rig.daq, self.rig.stroke_centre_m)
             self._first_samples()
             limits = self._check_drive_limits()
+            self._check_strokes()
             rate = self._check_daq_rate()
             self._event(
                 "connect",
@@ -349,8 +366,12 @@ class RigSession:
         measured_cycles: int,
         on_block: BlockSink,
         on_actuator: ActuatorSink | None = None,
+        waveform: Stroke | None = None,
     ) -> SineOutcome:
-        self._check_sine(amplitude_m, frequency_hz, warmup_cycles, measured_cycles)
+        """A sine, or with `waveform` a constant-velocity stroke (model/stroke.py) run by
+        the drive's function generator at `frequency_hz` (its period's): the same ramps,
+        limits, watchdog, verification and stop."""
+        self._check_sine(amplitude_m, frequency_hz, warmup_cycles, measured_cycles, waveform)
         if not self._armed:
             raise RigFault(f"actuator is not enabled (disarmed by: {self._disarm_reason})")
         daq = self._daq()
@@ -383,21 +404,24 @@ class RigSession:
                     "sine_cycles": float(cycles),
                     "sine_ramp_cycles": float(ramp),
                 }
+                sine.update(self._waveform_setpoints(waveform))
                 act.write(sine)
                 self._watch.expect(sine)
                 self._watch.check_setpoints(act.read(sine), "before the start", self._stream.t)
-                self._emit_actuator(
-                    {
-                        "cmd_amplitude_m": amplitude_m,
-                        "cmd_frequency_hz": frequency_hz,
-                        "cmd_cycles": cycles,
-                        "cmd_ramp_cycles": ramp,
-                    }
-                )
+                command: dict[str, float | int | bool] = {
+                    "cmd_amplitude_m": amplitude_m,
+                    "cmd_frequency_hz": frequency_hz,
+                    "cmd_cycles": cycles,
+                    "cmd_ramp_cycles": ramp,
+                }
+                if waveform is not None:
+                    command["cmd_waveform"] = WAVEFORM_CODES[waveform.waveform]
+                    command["cmd_velocity_m_s"] = waveform.velocity_m_s
+                self._emit_actuator(command)
                 self._stream.motion = False
                 self._stop_sent = False
                 act.control("start")
-                self._event("start", f"sine {amplitude_m * 1e3:g} mm at {frequency_hz:g} Hz")
+                self._event("start", _describe_start(amplitude_m, frequency_hz, waveform))
                 t0 = self._wait_motion_start(budget_s=1.0)
                 m_start = t0 + (ramp + warmup_cycles) / frequency_hz
                 m_end = m_start + measured_cycles / frequency_hz
@@ -507,8 +531,26 @@ class RigSession:
         message = self._event(j.event, j.reason).message if j.event else j.reason
         return j.status, message, j.stop_sweep
 
-    def _check_sine(self, a: float, f: float, warmup: int, measured: int) -> None:
-        check_sine(self.rig, a, f, warmup, measured)
+    def _check_sine(
+        self, a: float, f: float, warmup: int, measured: int, waveform: Stroke | None = None
+    ) -> None:
+        if waveform is None:
+            check_sine(self.rig, a, f, warmup, measured)
+            return
+        check_sine(self.rig, a, f, warmup, measured, peak_velocity_m_s=waveform.velocity_m_s)
+        check_stroke(self.rig, waveform, self.drive_accel_m_s2)
+
+    def _waveform_setpoints(self, waveform: Stroke | None) -> dict[str, float]:
+        """The function generator's shape: every test writes it where the drive has the
+        register (a sine after a triangle must not run a triangle)."""
+        regs = self.rig.registers
+        if "waveform" not in regs:
+            return {}
+        name = "sine" if waveform is None else waveform.waveform
+        out = {"waveform": float(WAVEFORM_CODES[name])}
+        if waveform is not None and waveform.accel_m_s2 is not None:
+            out["waveform_acceleration"] = waveform.accel_m_s2
+        return out
 
     # -- plumbing ------------------------------------------------------------------------
     def _act(self) -> ModbusActuator:
@@ -825,6 +867,15 @@ class RigSession:
                     "lower the limit (refused before enabling)"
                 )
         return "; the drive's own " + ", ".join(f"{reg} {got[reg]:g}" for reg in names)
+
+    def _check_strokes(self) -> None:
+        """The drive's acceleration_limit read (where its map has it) and every planned
+        constant-velocity stroke checked against it and the rig file, before enabling."""
+        if "acceleration_limit" in self.rig.registers:
+            got = self._act().read(["acceleration_limit"])["acceleration_limit"]
+            self.drive_accel_m_s2 = float(got)
+        for stroke in self._strokes:
+            check_stroke(self.rig, stroke, self.drive_accel_m_s2)
 
     def _check_daq_rate(self) -> str:
         """The frames per host second against daq.sample_rate_hz × daq.time_scale, before

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 from shockdyno.errors import RigFault
+from shockdyno.model.stroke import Stroke
 from shockdyno.record.types import TestMeta
 from shockdyno.rig.types import Adjuster, SampleBlock
 from shockdyno.run import signals
@@ -48,6 +49,7 @@ class Session(Holder, Adjuster, Protocol):  # Holder: hold_at, for the gas-force
         measured_cycles: int,
         on_block: Callable[[SampleBlock], None],
         on_actuator: Callable[[float, dict[str, float | int | bool]], None] | None = None,
+        waveform: Stroke | None = None,  # a constant-velocity stroke instead of the sine
     ) -> _Outcome: ...
 
 
@@ -154,6 +156,9 @@ def run_sweep(
             if len(block):
                 last_t[0] = float(block.t_s[-1])
 
+        stroke = plan.stroke(point.frequency_hz)
+        # A sine is asked for as it always was (a Session without waveforms runs it).
+        shape = {} if stroke is None else {"waveform": stroke}
         try:
             outcome = session.run_sine(
                 plan.amplitude_m,
@@ -162,6 +167,7 @@ def run_sweep(
                 plan.measured_cycles,
                 on_block,
                 writer.write_actuator,  # type: ignore[arg-type]
+                **shape,
             )
         except BaseException as exc:  # Ctrl-C or a rig fault mid-test: keep what was recorded
             final = replace(meta, status="aborted", abort_reason=_why(exc))
@@ -194,6 +200,21 @@ def run_sweep(
 
 
 def _meta(
+    index: int, point: SweepPoint, plan: SweepPlan, sample_rate_hz: float, temp_c: float
+) -> TestMeta:
+    meta = _sine_meta(index, point, plan, sample_rate_hz, temp_c)
+    stroke = plan.stroke(point.frequency_hz)
+    if stroke is None:
+        return meta
+    return replace(
+        meta,
+        motion=stroke.waveform,
+        target_velocity_m_s=stroke.velocity_m_s,
+        reversal_accel_m_s2=stroke.accel_m_s2,
+    )
+
+
+def _sine_meta(
     index: int, point: SweepPoint, plan: SweepPlan, sample_rate_hz: float, temp_c: float
 ) -> TestMeta:
     return TestMeta(

@@ -9,6 +9,14 @@ at once:
 base at the move velocity; a sine ramps its envelope in over the ramp cycles, holds,
 and ramps out; a stop ramps the envelope to zero from wherever it is. Nothing steps.
 Commands take effect at the time of the next sample the engine produces.
+
+A constant-velocity waveform (the `waveform` register: 1 triangle, 2 trapezoid whose
+reversals take `waveform_acceleration`; model/stroke.py) runs at full amplitude and ramps
+its *rate* instead: the phase's rate rises from 0 to f over the ramp cycles and falls back
+at the end, so the speed never exceeds the planned v, a reversal never exceeds its
+acceleration, and the travel never exceeds A (an amplitude ramp would add A·env' to the
+speed: a quarter of v over one ramp cycle). A stop ramps the rate to zero where the ram
+is, and holds there until it is moved.
 """
 
 from __future__ import annotations
@@ -18,6 +26,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
+
+from shockdyno.model.stroke import quarter_constant, unit_shape
 
 FloatArray = NDArray[np.float64]
 
@@ -48,6 +58,19 @@ class Knots:
     def end(self) -> float:
         return self.t[-1]
 
+    def integral(self, t: FloatArray) -> FloatArray:
+        """The integral from the first knot (the value held beyond the last)."""
+        kt, ky = np.asarray(self.t), np.asarray(self.y)
+        t = np.maximum(np.asarray(t, np.float64), kt[0])
+        widths = np.diff(kt)
+        cum = np.concatenate(([0.0], np.cumsum(widths * (ky[1:] + ky[:-1]) / 2)))
+        i = np.clip(np.searchsorted(kt, t, side="right") - 1, 0, len(kt) - 1)
+        dt = t - kt[i]
+        slope = np.zeros_like(ky)
+        slope[:-1] = np.diff(ky) / np.where(widths > 0, widths, 1.0)
+        inside = i < len(kt) - 1
+        return np.asarray(cum[i] + ky[i] * dt + np.where(inside, slope[i] * dt**2 / 2, 0.0))
+
     @staticmethod
     def const(t: float, y: float) -> Knots:
         return Knots([t], [y])
@@ -69,6 +92,7 @@ class DriveParams:
     velocity_limit_m_s: float
     stop_time_s: float = 0.3
     quick_stop_time_s: float = 0.1
+    accel_limit_m_s2: float = 50.0  # the most a reversal may ask (a trapezoid's acceleration)
 
 
 @dataclass
@@ -96,7 +120,14 @@ class SimDrive:
     sine_cycles: int = 0
     sine_ramp_cycles: int = 1
     heartbeat_timeout_ms: int = 500
+    waveform: int = 0  # 0 sine, 1 triangle, 2 trapezoid
+    waveform_accel_m_s2: float = 0.0  # a trapezoid's reversal acceleration
     last_force_n: float = 0.0
+    # A constant-velocity profile under way: its quarters' constant share (None: none),
+    # the phase's rate (cycles/s) and the phase at the rate's first knot.
+    cv_constant: float | None = None
+    rate: Knots = field(default_factory=lambda: Knots.const(0.0, 0.0))
+    phase0: float = 0.0
 
     def __post_init__(self) -> None:
         self.base = Knots.const(0.0, self.position_m)
@@ -105,6 +136,9 @@ class SimDrive:
     # -- the profile -------------------------------------------------------------------
     def command(self, t: FloatArray) -> FloatArray:
         x = self.base.at(t)
+        if self.cv_constant is not None:
+            phase = self.phase0 + self.rate.integral(t)
+            return x + self.amplitude_m * unit_shape(phase, self.cv_constant)
         if self.amplitude_m > 0 and t[-1] >= self.t0:
             phase = 2 * math.pi * self.frequency_hz * (t - self.t0)
             x = x + self.amplitude_m * self.env.at(t) * np.sin(phase)
@@ -126,6 +160,9 @@ class SimDrive:
 
     # -- events ------------------------------------------------------------------------
     def _stop_motion(self, t: float, ramp_s: float, cycles: float = 1.0) -> None:
+        if self.cv_constant is not None:
+            self._stop_cv(t, ramp_s)
+            return
         # Ramping the envelope adds A·|env'| to the speed; over at least half a cycle the
         # peak speed stays within ~5 % of the sine's own (A ω √(1 + 1/π²)).
         ramp_s = max(ramp_s, cycles / self.frequency_hz)
@@ -135,6 +172,26 @@ class SimDrive:
             self.sine_end = t + ramp_s
         self.base = Knots.const(t, self.base.value(t))
         self.target_m = self.base.value(t)
+
+    def _stop_cv(self, t: float, ramp_s: float) -> None:
+        """The rate ramps to zero over `ramp_s` (no cycle minimum: nothing adds to the
+        speed here); the ram then holds where the phase stopped."""
+        if t < self.sine_end:
+            phase = float(self.phase0 + self.rate.integral(np.array([t]))[0])
+            self.rate = Knots([t, t + ramp_s], [self.rate.value(t), 0.0])
+            self.phase0 = phase
+            self.sine_end = t + ramp_s
+        self.target_m = float(self.command(np.array([self.sine_end]))[0])
+
+    def _settle(self, t: float) -> None:
+        """A constant-velocity profile that has ended leaves the ram where it stopped: that
+        becomes the base, and the profile is gone."""
+        if self.cv_constant is not None and t >= self.sine_end:
+            x = float(self.command(np.array([t]))[0])
+            self.cv_constant = None
+            self.amplitude_m = 0.0
+            self.base = Knots.const(t, x)
+            self.target_m = x
 
     def trip(self, code: int, t: float, *, disable: bool = False) -> None:
         if self.fault_code:
@@ -146,6 +203,7 @@ class SimDrive:
 
     def tick(self, t: float) -> None:
         """Time-driven state changes (called at the start of every batch)."""
+        self._settle(t)
         if self.disable_at is not None and t >= self.disable_at:
             self.disable(t)
 
@@ -160,6 +218,7 @@ class SimDrive:
         # A real drive locks the ram where it is: the host must stop and centre first.
         self.enabled = False
         self.disable_at = None
+        self.cv_constant = None
         self.base = Knots.const(t, self.position_m)
         self.env = Knots.const(t, 0.0)
         self.sine_end = min(self.sine_end, t)
@@ -168,6 +227,7 @@ class SimDrive:
     def move(self, t: float, target: float, velocity: float) -> None:
         if not self.enabled or self.fault_code or t < self.sine_end:
             return
+        self._settle(t)
         self.target_m = target
         self.base = self.base.ramp_to(t, target, velocity)
 
@@ -186,12 +246,39 @@ class SimDrive:
         if abs(c - p.centre_m) + a > p.travel_m:
             self.fault_code = START_BAD_PARAMS
             return
+        self._settle(t)
         if abs(self.position_m - c) > START_TOLERANCE_M or abs(self.base.value(t) - c) > 1e-9:
             self.fault_code = START_OFF_CENTRE
+            return
+        if self.waveform != 0:
+            self._start_cv(t)
             return
         self.amplitude_m, self.frequency_hz, self.t0 = a, f, t
         self.total_cycles = n + 2 * r
         self.env = Knots([t, t + r / f, t + (r + n) / f, t + (2 * r + n) / f], [0.0, 1.0, 1.0, 0.0])
+        self.sine_end = t + self.total_cycles / f
+        self.base = Knots.const(t, c)
+        self.target_m = c
+
+    def _start_cv(self, t: float) -> None:
+        a, f, c = self.sine_amplitude_m, self.sine_frequency_hz, self.sine_centre_m
+        n, r = self.sine_cycles, self.sine_ramp_cycles
+        accel = self.waveform_accel_m_s2
+        if self.waveform == 1:
+            constant = 1.0
+        elif self.waveform == 2 and 0 < accel <= self.params.accel_limit_m_s2:
+            constant = quarter_constant(f, a, accel)
+        else:
+            constant = math.nan
+        if not math.isfinite(constant):
+            self.fault_code = START_BAD_PARAMS
+            return
+        self.cv_constant = constant
+        self.amplitude_m, self.frequency_hz, self.t0 = a, f, t
+        self.total_cycles = n + 2 * r
+        self.rate = Knots([t, t + r / f, t + (r + n) / f, t + (2 * r + n) / f], [0.0, f, f, 0.0])
+        self.phase0 = 0.0
+        self.env = Knots.const(t, 0.0)
         self.sine_end = t + self.total_cycles / f
         self.base = Knots.const(t, c)
         self.target_m = c

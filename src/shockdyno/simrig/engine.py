@@ -54,6 +54,7 @@ class SimParams:
     drive_force_capacity_n: Positive = 12000.0
     drive_velocity_limit_m_s: Positive = 0.8
     drive_travel_m: Positive = 0.05
+    drive_acceleration_limit_m_s2: Positive = 50.0  # the most a reversal may ask of the drive
     force_noise_n: NonNegative = 2.0
     position_noise_m: NonNegative = 1e-6
     temperature_noise_c: NonNegative = 0.02
@@ -146,6 +147,7 @@ class SimEngine:
                 travel_m=p.drive_travel_m,
                 force_capacity_n=p.drive_force_capacity_n,
                 velocity_limit_m_s=p.drive_velocity_limit_m_s,
+                accel_limit_m_s2=p.drive_acceleration_limit_m_s2,
             ),
             position_m=x0,
         )

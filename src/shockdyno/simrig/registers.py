@@ -61,6 +61,9 @@ class DriveRegisters:
             "travel_limit": d.params.travel_m,
             "velocity_limit": d.params.velocity_limit_m_s,
             "force_limit": d.params.force_capacity_n,
+            "waveform": d.waveform,
+            "waveform_acceleration": d.waveform_accel_m_s2,
+            "acceleration_limit": d.params.accel_limit_m_s2,
         }
         return float(values.get(name, 0.0))
 
@@ -135,6 +138,8 @@ class DriveRegisters:
                 "sine_centre": "sine_centre_m",
                 "sine_cycles": "sine_cycles",
                 "sine_ramp_cycles": "sine_ramp_cycles",
+                "waveform": "waveform",
+                "waveform_acceleration": "waveform_accel_m_s2",
             }.get(name)
             if attr is None:
                 return ExcCodes.ILLEGAL_ADDRESS

@@ -81,12 +81,14 @@ SPEC_GLOBALS: dict[str, SpecGlobal] = {
         SpecGlobal("gas_pressure_pa", "Pa", 0.2, 5.0, 1.0e6, tolerance=(0.5, 2.0)),
         # A new seal against a bedded one, a guide's fit: within a factor of two.
         SpecGlobal("friction_n", "N", 0.0, 6.0, 20.0, tolerance=(0.5, 2.0)),
-        # A shim stack's preload and its face: a drawing's stack built to a few tenths of a
-        # mm of preload and a port face that seats within a third of its area.
+        # A shim stack's preload and its face: the stack a drawing gives is built to tenths
+        # of a mm, and a model's plate stands in for a real stack's beam (a wedge beam's
+        # stiffness is 0.74 of the plate's, so its calibrated face moved 1.4-1.5x on a
+        # plant with that stack): half to twice.
         SpecGlobal("compression_valve.preload_m", "m", 0.0, 5.0, 1.0e-4, tolerance=(0.5, 2.0)),
-        SpecGlobal("compression_valve.face_area_m2", "m²", 0.2, 5.0, 1.0e-4, tolerance=(0.67, 1.5)),
+        SpecGlobal("compression_valve.face_area_m2", "m²", 0.2, 5.0, 1.0e-4, tolerance=(0.5, 2.0)),
         SpecGlobal("rebound_valve.preload_m", "m", 0.0, 5.0, 1.0e-4, tolerance=(0.5, 2.0)),
-        SpecGlobal("rebound_valve.face_area_m2", "m²", 0.2, 5.0, 1.0e-4, tolerance=(0.67, 1.5)),
+        SpecGlobal("rebound_valve.face_area_m2", "m²", 0.2, 5.0, 1.0e-4, tolerance=(0.5, 2.0)),
         # A sharp orifice (0) up to a 0.2 m laminar passage: a needle's land is mm to cm.
         SpecGlobal("bleed_land_m", "m", 0.0, 40.0, 5.0e-3),
         # A rod seal deflects µm (a hard band) to a few tenths of a mm (a soft lip). Its

@@ -47,4 +47,7 @@ def test_user_mistakes_are_one_line(capsys) -> None:
     assert main(["sim-rig", "--fault", "meteor@3"]) == 2
     assert "unknown fault 'meteor'" in capsys.readouterr().err
     assert main(["sim-rig", "--speed", "-1"]) == 2
-    assert capsys.readouterr().err == "shockdyno sim-rig: error: speed must be > 0, got -1.0\n"
+    assert (
+        capsys.readouterr().err
+        == "shockdyno sim-rig: error: --speed must be a number > 0, got -1\n"
+    )

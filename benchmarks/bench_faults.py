@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import os
 import re
 import shutil
@@ -28,6 +29,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -36,6 +38,8 @@ from typing import Any
 import numpy as np
 
 from shockdyno.errors import RecordingError, RigFault
+from shockdyno.fit.result import FitResult
+from shockdyno.model.spec import default_spec_path
 from shockdyno.record import open_recording
 from shockdyno.rig.actuator import ModbusActuator
 from shockdyno.rig.config import load_rig
@@ -299,6 +303,7 @@ def case(
             wait_running_test(watch, proc, complete)
             time.sleep(0.3)
             t0 = time.monotonic()
+            ended = watch_exit(proc)
             note = action(sim, proc)
             stopped, disabled = probe.times(t0, internal)
             code = proc.wait(timeout=30)
@@ -308,11 +313,25 @@ def case(
                 proc.wait()
             probe.close()
         wire = f"{stop_on_wire(sim, t0) * 1e3:.0f}" if stops else "-"
-        print(f"{name:<30} {wire:>6} {stopped:>7.2f} {disabled:>8.2f} {code:>5}  {describe(watch)}")
+        gone = ended[0] - t0 if ended else float("nan")
+        print(f"{name:<30} {wire:>6} {stopped:>7.2f} {disabled:>8.2f} {gone:>5.2f} {code:>5}  "
+              f"{describe(watch)}")  # fmt: skip
         if check is not None:
             note = f"{check(folder)}; {note}" if note else check(folder)
         if note:
             print(f"{'':<30} {note}")
+
+
+def watch_exit(proc: subprocess.Popen[bytes]) -> list[float]:
+    """The monotonic time the process ends, appended by a thread that waits for it."""
+    ended: list[float] = []
+
+    def wait() -> None:
+        proc.wait()
+        ended.append(time.monotonic())
+
+    threading.Thread(target=wait, daemon=True).start()
+    return ended
 
 
 def refused(name: str, run: Callable[[Any, Path], tuple[list[str], str]]) -> None:
@@ -330,7 +349,7 @@ def refused(name: str, run: Callable[[Any, Path], tuple[list[str], str]]) -> Non
         tb = " TRACEBACK" if "Traceback" in done.stderr else ""
         check = after(folder) if callable(after) else after
         print(
-            f"{name:<30} {'-':>6} {took:>7.2f} {'-':>8} {done.returncode:>5}  "
+            f"{name:<30} {'-':>6} {'-':>7} {'-':>8} {took:>5.2f} {done.returncode:>5}  "
             f"enabled: {'yes' if enabled else 'no '} {check}{tb}"
         )
         print(f"{'':<30} {said[:160]}")
@@ -415,9 +434,10 @@ def table_sessions(quick: bool, load: str = "idle") -> None:
     print(
         f"\n2. sessions ({load}): `shockdyno sweep` child process, sim rig at {SPEED:g}x, "
         "3 tests of 1 Hz x 3 cycles; stop: ms from the cause to the stop command on the "
-        "wire; at rest, disabled: s from the cause (probe client)"
+        "wire; at rest, disabled: s from the cause (probe client); ended: s from the cause "
+        "to the sweep process's exit"
     )
-    print(f"{'event':<30} {'stop':>6} {'at rest':>7} {'disabled':>8} {'exit':>5}  "
+    print(f"{'event':<30} {'stop':>6} {'at rest':>7} {'disabled':>8} {'ended':>5} {'exit':>5}  "
           f"{'tests':<5} {'events':>6} {'gap':>4} {'teardown':<19} {'file':<6} reason")  # fmt: skip
     cases: list[tuple[str, Action, dict[str, Any]]] = [
         ("fault over_force", inject(Fault("over_force", duration_s=2.0)), {}),
@@ -469,7 +489,7 @@ def table_sessions(quick: bool, load: str = "idle") -> None:
         "(heartbeat.timeout_s = 1.0 s in rigs/sim.toml, host time); the DAQ's freeze is seen after "
         "daq.frozen_timeout_s (1.0 s). Ramps run on DAQ time, 4x faster than at 1x; "
         "garble is counted, not a stop: its times are the sweep's normal end. Hostile "
-        "inputs (issue 46): the command's time to its answer, whether the drive was ever "
+        "inputs (issue 46): ended, the command's time to its answer; whether the drive was ever "
         "enabled, what was checked after, and its last line"
     )
 
@@ -534,6 +554,16 @@ def old_recording(folder: Path) -> Check:
     return check
 
 
+def _spec_fifo(sim: Any, folder: Path) -> tuple[list[str], str]:
+    """A fit JSON whose spec_path names a FIFO (with a .toml name), given to export."""
+    os.mkfifo(folder / "spec.toml")
+    fit = folder / "fit.json"
+    FitResult.from_spec(default_spec_path(), [0, 10]).save(fit)
+    doc = json.loads(fit.read_text())
+    fit.write_text(json.dumps({**doc, "spec_path": str(folder / "spec.toml")}))
+    return ["export", str(fit), "--damper-table", str(folder / "table")], "-"
+
+
 HOSTILE: list[tuple[str, Callable[[Any, Path], Any]]] = [
     ("46.1b -o out.fifo --force", _fifo),
     ("46.9 -o /dev/null --force", lambda s, f: (_sweep(s, f, "/dev/null", "--force"), "-")),
@@ -543,6 +573,7 @@ HOSTILE: list[tuple[str, Callable[[Any, Path], Any]]] = [
     ("46.9 --amplitude-mm 1e-6", _tiny),
     ("46.9 --freq 1e-9", _slowest),
     ("46.10 rig TOML 100k deep", _deep),
+    ("46.11 fit's spec_path a FIFO", _spec_fifo),
 ]
 
 

@@ -16,7 +16,7 @@ from shockdyno.cli import main
 from shockdyno.compare.table import DIFFERENCE, WITHIN, Row, differences
 from shockdyno.fit.result import FitResult
 from shockdyno.model.spec import default_spec_path
-from shockdyno.record import RecordingWriter
+from shockdyno.record import RecordingWriter, open_recording
 from shockdyno.report import clickchart
 from shockdyno.run.liveview import LiveView
 from shockdyno.run.plan import SweepPlan
@@ -165,6 +165,34 @@ def test_json_and_page_contents(sims: dict[str, Path], tmp_path: Path) -> None:
     assert "lbf" in html and "in/s" in html
     for png in ("peaks.png", "loops_c00_g00_2Hz.png", "loops_c08_g00_2Hz.png", "chart_2.png"):
         assert (tmp_path / "page" / png).stat().st_size > 1000
+
+
+def test_a_cut_off_recording_is_said_on_the_terminal_and_the_page(
+    sims: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A recording cut off in its second test (a crash mid-write: the file ends there, no
+    footer, the second test's chunk lost) compares on the test it holds, and says so, as
+    fit and export do."""
+    cut = tmp_path / "cut.mcap"
+    data = sims["a2"].read_bytes()
+    cut.write_bytes(data[: int(len(data) * 0.75)])
+    rec = open_recording(cut)
+    assert rec.truncated and [m.clicks for m in rec.tests] == [0]
+    capsys.readouterr()
+    doc = _compare(tmp_path, str(sims["a"]), str(cut))
+    err = capsys.readouterr().err
+    said = [line for line in err.splitlines() if line.startswith("compare: warning: cut:")]
+    assert len(said) == 1 and "cut off" in said[0] and "1 tests read" in said[0], err
+    assert "any test after the cut was never written" in said[0]
+    assert [i["loss"] is None for i in doc["inputs"]] == [True, False]
+    assert "cut off" in doc["inputs"][1]["loss"]
+    assert {r["clicks"] for r in doc["rows"]} == {0}  # the lost test's click is not compared
+    html = (tmp_path / "page" / "index.html").read_text(encoding="utf-8")
+    assert "cut: the recording is cut off" in html and "compared on what was read" in html
+    # a whole recording: nothing said
+    (tmp_path / "whole").mkdir()
+    _compare(tmp_path / "whole", str(sims["a"]), str(sims["a2"]))
+    assert "warning" not in capsys.readouterr().err
 
 
 def test_a_recording_against_a_fit(sims: dict[str, Path], tmp_path: Path) -> None:

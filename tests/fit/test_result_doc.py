@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 from pathlib import Path
 
@@ -106,3 +107,64 @@ def test_a_fit_that_reads_but_describes_no_damper_is_not_usable(
     path.write_text(json.dumps(doc))
     with pytest.raises(ConfigError, match="not a usable fit: .*" + re.escape(problem)):
         FitResult.load(path).require_usable(f"--fit {path}")
+
+
+def _with_spec(tmp_path: Path, spec_path: str) -> Path:
+    """The saved fit with its spec_path replaced (a fit JSON is user input)."""
+    path, _ = _saved(tmp_path)
+    doc = json.loads(path.read_text())
+    doc["spec_path"] = spec_path
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_a_spec_path_is_followed_only_to_a_damper_spec(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from shockdyno.cli import main
+
+    repo = Path(__file__).resolve().parents[2]
+    os.mkfifo(tmp_path / "pipe.toml")  # read, it would block for ever
+    (tmp_path / "zero.toml").symlink_to("/dev/zero")  # read, it would never end
+    (tmp_path / "folder.toml").mkdir()
+    (tmp_path / "big.toml").write_text("# x\n" * 300_000)  # 1.2 MB, no spec
+    cases = {
+        "/etc/passwd": "is not a damper spec (a .toml file); not read",
+        "": "is not a damper spec (a .toml file)",
+        str(repo / "rigs/sim.toml"): "is not a damper spec: ",  # another kind of TOML
+        str(tmp_path / "pipe.toml"): "is not a regular file; not read",
+        str(tmp_path / "zero.toml"): "is not a regular file; not read",
+        str(tmp_path / "folder.toml"): "is not a regular file; not read",
+        str(tmp_path / "big.toml"): "bytes, no damper spec",
+        "nowhere/s.toml": "damper spec not found: nowhere/s.toml or ",
+    }
+    for spec_path, said in cases.items():
+        fit = _with_spec(tmp_path, spec_path)
+        with pytest.raises(ConfigError, match=re.escape(said)) as err:
+            FitResult.load(fit).spec()
+        assert "\n" not in str(err.value)
+        # a command that takes the fit: one line, exit 2, nothing written
+        out = tmp_path / f"table{len(spec_path)}"
+        assert main(["export", str(fit), "--damper-table", str(out)]) == 2
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert len(lines) == 1 and said in lines[0] and "Traceback" not in lines[0]
+        assert not out.exists()
+
+
+def test_a_relative_spec_path_is_found_from_here_or_beside_the_fit(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    text = default_spec_path().read_text()
+    (tmp_path / "specs").mkdir()
+    (tmp_path / "specs/mine.toml").write_text(text)
+    fit = _with_spec(tmp_path, "specs/mine.toml")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    loaded = FitResult.load(fit)
+    assert loaded.spec_file() == tmp_path / "specs/mine.toml"  # beside the fit
+    assert loaded.spec().friction_n == 31.5  # the fit's global on the spec found
+    # from the working folder first: the path as `fit --spec` was given it
+    (elsewhere / "specs").mkdir()
+    (elsewhere / "specs/mine.toml").write_text(text)
+    assert FitResult.load(fit).spec_file() == Path("specs/mine.toml")

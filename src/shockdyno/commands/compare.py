@@ -78,7 +78,9 @@ def run_compare(args: argparse.Namespace) -> int:
         )
         for p, label, flag in zip(paths, labels, flags, strict=True)
     ]
-    for i in inputs:  # a refused or rate-dependent gas force is said before the numbers
+    for i in inputs:  # a cut-off recording, a refused or rate-dependent gas force: said first
+        if i.loss:
+            print(f"compare: warning: {i.label}: {i.path}: {i.loss}", file=sys.stderr)
         for text in warnings(i.gas, units):
             print(f"compare: warning: {i.label}: {text}", file=sys.stderr)
     if not shared_settings(inputs):

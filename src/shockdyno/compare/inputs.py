@@ -48,6 +48,8 @@ class Input:
     fit: FitResult | None = None
     raw_force: bool = False  # True: force as measured; else damping force, gas removed
     gas: gas_mod.GasForces = field(default_factory=dict)  # a recording's, by gas clicks
+    # What a cut-off or damaged recording lost (Recording.loss_note), None when whole
+    loss: str | None = None
 
     def gas_removed(self, gas_clicks: int) -> bool:
         """Whether this input's values at that gas setting are damping force (a fit's
@@ -146,8 +148,9 @@ def _recording(
             values[key][t] = Value(r.force_n, sd, r.extrapolated)
     summaries = [summarise(t, gas_force_n=None if raw_force else t.meta.gas_force_n) for t in tests]
     return Input(
-        label, path, "recording", chart, values, tests, summaries, cycles, None, raw_force, forces
-    )
+        label, path, "recording", chart, values, tests, summaries, cycles, None, raw_force, forces,
+        rec.loss_note(),
+    )  # fmt: skip
 
 
 def _fit(

@@ -100,6 +100,8 @@ def render(
 
     page.paragraph(force_note(inputs, units))
     for i in inputs:
+        if i.loss:
+            page.paragraph(f"{i.label}: {i.loss}; compared on what was read.", warn=True)
         for text in gas.warnings(i.gas, units):
             page.paragraph(f"{i.label}: {text}.", warn=True)
     _difference_section(page, inputs, rows, units)

@@ -225,7 +225,9 @@ def to_json(inputs: list[Input], rows: list[Row]) -> dict[str, Any]:
     return {
         "schema": "shockdyno.compare/1",
         "reference": inputs[0].label,
-        "inputs": [{"label": i.label, "path": str(i.path), "kind": i.kind} for i in inputs],
+        "inputs": [
+            {"label": i.label, "path": str(i.path), "kind": i.kind, "loss": i.loss} for i in inputs
+        ],
         # "damping": forces with the static gas force removed (each recording's measured or
         # estimated one, each fit's model force at rest); "raw": as measured (--raw-force)
         "force": "raw" if any(i.raw_force for i in inputs) else "damping",

@@ -895,7 +895,7 @@ def _diagnose(
         wall_s=time.perf_counter() - wall0,
         single_frequency=len(freqs) == 1,
         calibration=calibration_rows(
-            load_spec(fit.spec_path) if fit else spec, base, gas_calibrated, s.calibration_share
+            load_spec(fit.spec_file()) if fit else spec, base, gas_calibrated, s.calibration_share
         ),
         settings=s,
         sensor=sensor,

@@ -74,7 +74,7 @@ def diagnose_file(
     doc = to_json(d)
     doc["info"]["recording"] = info
     # Which damper spec the model started from: --spec, the fit's base spec, or the default.
-    doc["info"]["spec"] = spec_used(fit.spec_path if fit is not None else spec)
+    doc["info"]["spec"] = spec_used(fit.spec_file() if fit is not None else spec)
     if fit is not None:
         doc["info"]["spec"]["from_fit"] = str(fit_path)
     if loss:

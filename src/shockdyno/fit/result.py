@@ -4,6 +4,9 @@
 DamperSpec field names (`friction_n`, `gas_pressure_pa`, ...) or dotted valve fields
 (`compression_valve.preload_m`, `rebound_valve.face_area_m2`, ...). `spec_path` names the
 base spec. Together they rebuild the fitted damper with `FitResult.spec()`.
+
+A fit JSON is user input, and `spec_path` a path in it: it is followed only to a damper
+spec (`spec_file`), never to any file it names.
 """
 
 from __future__ import annotations
@@ -25,7 +28,11 @@ from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, load_spec
 from shockdyno.model.terms import LIBRARY, make_term
+from shockdyno.result_files import special_file
 from shockdyno.schema import check
+
+# A damper spec is a few kB of TOML; a "spec" far larger is no spec (and is not read).
+MAX_SPEC_BYTES = 1 << 20
 
 
 @dataclass(frozen=True)
@@ -106,6 +113,9 @@ class FitResult:
     info: dict[str, Any] = field(default_factory=dict)
     # Fitted physics terms: {term: {local parameter: Estimate}} (docs/fit.md).
     terms: dict[str, dict[str, Estimate]] = field(default_factory=dict)
+    # The folder of the fit JSON this was read from (None: made here): a relative
+    # spec_path not found from the working folder is looked for beside the fit.
+    origin: Path | None = field(default=None, compare=False, repr=False)
 
     @staticmethod
     def from_spec(spec_path: str | Path, clicks: Sequence[int]) -> FitResult:
@@ -122,7 +132,43 @@ class FitResult:
         return FitResult(spec_path=str(spec_path), globals={}, clicks=fits)
 
     def spec(self) -> DamperSpec:
-        return load_spec(self.spec_path).with_values(self.globals)
+        return self._base()[1].with_values(self.globals)
+
+    def spec_file(self) -> Path:
+        """The base spec `spec_path` names, checked to be a damper spec TOML before it is
+        read: a .toml regular file of at most MAX_SPEC_BYTES (not a folder, FIFO or
+        device). A relative path is the one the fit was given, from the working folder
+        (as `fit --spec` wrote it), else beside the fit JSON. Anything else, and a file
+        `load_spec` refuses, is one ConfigError line."""
+        return self._base()[0]
+
+    def _base(self) -> tuple[Path, DamperSpec]:
+        named = Path(self.spec_path)
+        said = f"the fit's spec_path {self.spec_path!r}"
+        if named.suffix.lower() != ".toml":
+            raise ConfigError(f"{said} is not a damper spec (a .toml file); not read")
+        tried = [named]
+        if not named.is_absolute() and self.origin is not None:
+            tried.append(self.origin / named)
+        path = next((p for p in tried if p.exists()), None)
+        if path is None:
+            where = " or ".join(str(p) for p in tried)
+            raise ConfigError(f"{said}: damper spec not found: {where}")
+        if path.is_dir() or special_file(path):
+            raise ConfigError(f"{said}: {path} is not a regular file; not read")
+        try:
+            size = path.stat().st_size
+        except OSError as exc:
+            raise ConfigError(f"{said}: cannot read {path} ({exc.strerror or exc})") from None
+        if size > MAX_SPEC_BYTES:
+            raise ConfigError(
+                f"{said}: {path} is {size} bytes, no damper spec (at most {MAX_SPEC_BYTES}); "
+                "not read"
+            )
+        try:
+            return path, load_spec(path)
+        except ConfigError as exc:
+            raise ConfigError(f"{said} is not a damper spec: {exc}") from None
 
     def model(self) -> DamperModel:
         """The fitted damper: spec with the globals, and the fitted terms at their values.
@@ -255,6 +301,7 @@ class FitResult:
     def load(path: str | Path, flag: str = "--fit") -> FitResult:
         d = read_fit_doc(Path(path), flag)
         return FitResult(
+            origin=Path(path).parent,
             spec_path=d.spec_path,
             globals=dict(d.globals),
             clicks=[

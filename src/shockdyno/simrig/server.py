@@ -17,7 +17,6 @@ import threading
 import time
 import tty
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -37,6 +36,7 @@ from shockdyno.simrig.faults import Fault
 from shockdyno.simrig.registers import DriveRegisters
 from shockdyno.simrig.scenario import Scenario, load_scenario
 from shockdyno.simrig.single_master import SingleMasterTcpServer
+from shockdyno.simrig.stepper import Stepper
 
 # The server reports its own failures as one-line RigFaults; without a handler of its own,
 # pymodbus's error log would reach stderr through logging's last-resort handler as well.
@@ -48,6 +48,7 @@ MAX_BATCH = 5000  # samples per engine step: keeps Modbus answers prompt when be
 BEHIND_PAUSE_S = 0.002  # between batches when behind: the loop answers Modbus meanwhile
 WATCHDOG_PERIOD_S = 0.01  # the simulated drive's watchdog cycle (host time)
 LATE_S = 0.005  # a watchdog turn this much late: the loop was starved, not idle (_watchdog)
+STEP_WAIT_S = 2.0  # at close, the longest wait for the plant's step under way
 
 
 @dataclass
@@ -150,7 +151,7 @@ class SimRig:
         # so the loop answers Modbus meanwhile: a 30-sample step once took 1.0 s on a
         # loaded machine, twice the host's timeout. The term-library engine, fast and
         # deterministic, steps on the loop as before.
-        self._stepper: ThreadPoolExecutor | None = None
+        self._stepper: Stepper | None = None
         self._stepping: asyncio.Future[bytes] | None = None
         self._nice_before: int | None = None  # the plant's steps run at the host's priority
 
@@ -247,12 +248,7 @@ class SimRig:
             self.pty_path = self._pty.path
             self.endpoints.append(f"serial {self.pty_path}")
         if self.engine.plant is not None:
-            self._stepper = ThreadPoolExecutor(
-                1,
-                thread_name_prefix="sim-plant",
-                initializer=priority.restore,
-                initargs=(self._nice_before,),
-            )
+            self._stepper = Stepper(self._nice_before)
         ticker = asyncio.create_task(self._tick())
         watchdog = asyncio.create_task(self._watchdog())
         self._ready.set()
@@ -264,7 +260,9 @@ class SimRig:
                 with contextlib.suppress(asyncio.CancelledError, Exception):
                     await task  # one that failed is ended all the same
             if self._stepper is not None:
-                self._stepper.shutdown(wait=True)  # the step under way ends first
+                # The step under way ends first, if it ends: a plant stuck in a step must
+                # not hold the rig's close (and its process's exit) for ever.
+                self._stepper.shutdown(STEP_WAIT_S)
             await server.shutdown()  # type: ignore[no-untyped-call]
             if serial_server is not None:
                 serial_server.close()
@@ -321,7 +319,7 @@ class SimRig:
                     self._send(self.engine.advance(n))
                 else:
                     loop = asyncio.get_running_loop()
-                    self._stepping = loop.run_in_executor(self._stepper, self.engine.advance, n)
+                    self._stepping = self._stepper.submit(loop, self.engine.advance, n)
                     try:
                         self._send(await self._stepping)
                     finally:

@@ -44,6 +44,14 @@ class TestMeta:
     # the sine's reversals); None when unknown. Older recordings have neither.
     gas_force_n: float | None = None
     gas_force_source: str | None = None
+    # Every adjuster's clicks, by name, for a damper with several (docs/adjusters.md);
+    # empty (and not written) for the one rod adjuster, whose clicks are `clicks`.
+    adjusters: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def setting(self) -> tuple[tuple[str, int], ...]:
+        """The adjusters' clicks sorted by name: () for the one rod adjuster."""
+        return tuple(sorted(self.adjusters.items()))
 
 
 @dataclass(frozen=True)

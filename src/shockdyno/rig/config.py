@@ -54,6 +54,9 @@ REQUIRED_REGISTERS = (
 OPTIONAL_REGISTERS = (
     "rod_clicks",
     "gas_clicks",
+    # A damper's own adjusters, motorised (`NAME_clicks` for the spec's [adjuster.NAME]):
+    "compression_clicks",
+    "rebound_clicks",
     "force_actual",
     "cycle_count",
     "travel_limit",

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import itertools
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from shockdyno.errors import ConfigError
+from shockdyno.lists import parse_ints
 
 DEFAULT_FREQUENCIES_HZ = (0.5, 1.0, 1.5)  # paper, Table 3
 DEFAULT_AMPLITUDE_M = 0.030  # paper, Table 3 (the text's "0.03 mm" is a slip: see reference)
@@ -50,15 +53,62 @@ def frequencies_for_velocities(
     return [float(f"{v / (2 * math.pi * amplitude_m):.5g}") for v in planned]
 
 
+# Every adjuster's clicks at one point of a sweep over several, by name in the spec's
+# order; () for a damper with the one rod adjuster (its clicks are `clicks`).
+Setting = tuple[tuple[str, int], ...]
+# What identifies a test of a plan: (clicks, gas clicks, frequency, setting sorted by name).
+PointKey = tuple[int, int, float, Setting]
+# How a sweep over several adjusters visits their settings (docs/adjusters.md says when
+# to use which): each adjuster through its list with the others at the base, or every
+# combination.
+DESIGNS = ("one-at-a-time", "factorial")
+
+
+def point_key(clicks: int, gas_clicks: int, frequency_hz: float, setting: Setting) -> PointKey:
+    return (clicks, gas_clicks, frequency_hz, tuple(sorted(setting)))
+
+
 @dataclass(frozen=True)
 class SweepPoint:
     clicks: int
     gas_clicks: int
     frequency_hz: float
+    adjusters: Setting = ()
 
     @property
-    def key(self) -> tuple[int, int, float]:
-        return (self.clicks, self.gas_clicks, self.frequency_hz)
+    def key(self) -> PointKey:
+        return point_key(self.clicks, self.gas_clicks, self.frequency_hz, self.adjusters)
+
+
+def parse_adjust(
+    items: Sequence[str], ranges: Mapping[str, int]
+) -> tuple[tuple[str, tuple[int, ...]], ...]:
+    """`--adjust NAME=LIST` (repeated) against the spec's adjusters {name: max clicks}:
+    every adjuster once, in the spec's order, each list within its range."""
+    given: dict[str, tuple[int, ...]] = {}
+    names = ", ".join(ranges) or "none"
+    for item in items:
+        name, eq, text = item.partition("=")
+        name = name.strip()
+        if not eq or not text.strip():
+            raise ConfigError(f"--adjust {item!r}: use NAME=CLICKS, e.g. compression=0-20:5")
+        if name not in ranges:
+            raise ConfigError(f"--adjust {item!r}: the damper has no adjuster {name!r} ({names})")
+        if name in given:
+            raise ConfigError(f"--adjust {name} is given twice")
+        values = parse_ints(text, f"--adjust {name}")
+        top = ranges[name]
+        bad = [v for v in values if not 0 <= v <= top]
+        if bad:
+            raise ConfigError(f"--adjust {name}: clicks must be 0-{top}, got {bad[0]}")
+        given[name] = tuple(values)
+    missing = [n for n in ranges if n not in given]
+    if missing:
+        raise ConfigError(
+            f"--adjust: the damper's adjusters are {names}; give each (a single value holds "
+            f"one, e.g. --adjust {missing[0]}=10)"
+        )
+    return tuple((n, given[n]) for n in ranges)
 
 
 @dataclass(frozen=True)
@@ -72,6 +122,10 @@ class SweepPlan:
     temperature_band_c: tuple[float, float] | None = None
     gas_pressure_pa: float | None = None  # the charge as set on the damper, absolute
     measure_gas: bool = True  # the static gas force at each click change (run/gas_measure.py)
+    # A sweep over several adjusters (`--adjust`): each one's clicks, in the spec's order;
+    # `clicks` is then unused. Empty: the one rod adjuster at `clicks`.
+    adjust: tuple[tuple[str, tuple[int, ...]], ...] = ()
+    design: str = "one-at-a-time"
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.amplitude_m) and self.amplitude_m > 0):
@@ -84,9 +138,40 @@ class SweepPlan:
         if gas is not None and not (math.isfinite(gas) and 1e5 <= gas <= 1e7):
             raise ConfigError(f"gas pressure must be 1-100 bar absolute, got {gas / 1e5:g} bar")
 
+        if self.design not in DESIGNS:
+            raise ConfigError(f"--design must be {' or '.join(DESIGNS)}, got {self.design!r}")
+
+    def base(self) -> Setting:
+        """The setting a one-at-a-time sweep holds the other adjusters at: the middle of
+        each one's list (the lower middle of an even count), as listed."""
+        return tuple((n, sorted(v)[(len(v) - 1) // 2]) for n, v in self.adjust)
+
+    def settings(self) -> list[Setting]:
+        """Every adjuster setting the plan visits, in order (the base first)."""
+        if self.design == "factorial":
+            names = [n for n, _ in self.adjust]
+            combos = itertools.product(*(v for _, v in self.adjust))
+            return [tuple(zip(names, c, strict=True)) for c in combos]
+        base = self.base()
+        out = [base]
+        for name, values in self.adjust:
+            for v in values:
+                s = tuple((n, v if n == name else b) for n, b in base)
+                if s not in out:
+                    out.append(s)
+        return out
+
     def points(self) -> list[SweepPoint]:
         """Clicks outer, frequency inner: the adjuster moves as rarely as possible."""
+        if self.adjust:
+            # `clicks` of a test over several adjusters: the first adjuster's, for a
+            # reader that knows one (recordings/FORMAT.md)
+            return [
+                SweepPoint(s[0][1], self.gas_clicks, f, s)
+                for s in self.settings()
+                for f in self.frequencies_hz
+            ]
         return [SweepPoint(c, self.gas_clicks, f) for c in self.clicks for f in self.frequencies_hz]
 
-    def remaining(self, done: set[tuple[int, int, float]]) -> list[SweepPoint]:
+    def remaining(self, done: set[PointKey]) -> list[SweepPoint]:
         return [p for p in self.points() if p.key not in done]

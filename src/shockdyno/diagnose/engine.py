@@ -414,7 +414,7 @@ def _baseline_fit(
 ) -> Fitted:
     if fit is None:
         return refit(data, model, free, None, max_nfev=60)
-    areas = {(c.clicks, c.gas_clicks): (c.a_bc_m2, c.a_bt_m2) for c in fit.clicks}
+    areas = {(c.clicks, c.gas_clicks, c.setting): (c.a_bc_m2, c.a_bt_m2) for c in fit.clicks}
     start = Fitted(model, (), areas, {}, np.zeros(0), np.zeros(0))
     return refit(data, model, free, start, max_nfev=settings.max_nfev)
 

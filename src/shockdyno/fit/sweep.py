@@ -48,7 +48,7 @@ from shockdyno.fit.trend import AreaTrend, polynomial_trend
 from shockdyno.fit.validate import table4, validate_tests
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Estimate
-from shockdyno.model.spec import default_spec_path, load_spec
+from shockdyno.model.spec import DamperSpec, default_spec_path, load_spec
 from shockdyno.record.types import TestData
 
 FloatArray = NDArray[np.float64]
@@ -178,14 +178,19 @@ def click_fits(
             objective_talbott_n=float(obj_tal[g]),
             bleed_share_bc=float(shares[g]),
             bleed_share_bt=float(shares[n + g]),
+            adjusters=dict(setting),
         )
-        for g, (c, gc) in enumerate(prob.keys)
+        for g, (c, gc, setting) in enumerate(prob.keys)
     ]
     return clicks, obj_tal
 
 
-def area_trends(clicks: Sequence[ClickFit]) -> dict[str, AreaTrend]:
-    """Trend of the identifiable areas vs rod clicks, at the gas setting with most clicks."""
+def area_trends(clicks: Sequence[ClickFit], spec: DamperSpec | None = None) -> dict[str, AreaTrend]:
+    """Trend of the identifiable areas vs rod clicks, at the gas setting with most clicks.
+
+    On a damper with several adjusters each area against the clicks of the adjuster
+    acting on its path (A_bc against the compression adjuster's), over every setting:
+    the other adjusters do not touch that path, so each setting is one more measurement."""
     gas_counts: dict[int, int] = {}
     for cf in clicks:
         gas_counts[cf.gas_clicks] = gas_counts.get(cf.gas_clicks, 0) + 1
@@ -196,9 +201,13 @@ def area_trends(clicks: Sequence[ClickFit]) -> dict[str, AreaTrend]:
         ("A_bt", "a_bt_m2", "identifiable_bt"),
     ):
         used = [cf for cf in clicks if getattr(cf, ok) and cf.gas_clicks == gas]
-        t = polynomial_trend([cf.clicks for cf in used], [getattr(cf, attr) for cf in used])
+        by = spec.adjuster_on("compression" if name == "A_bc" else "rebound") if spec else ""
+        if by:
+            used = [cf for cf in used if by in cf.adjusters]
+        x = [cf.adjusters[by] if by else cf.clicks for cf in used]
+        t = polynomial_trend(x, [getattr(cf, attr) for cf in used])
         if t is not None:
-            trend[name] = replace(t, gas_clicks=gas)
+            trend[name] = replace(t, gas_clicks=gas, adjuster=by)
     return trend
 
 
@@ -343,7 +352,7 @@ def fit_sweep(
     areas = click_areas(pb, model, cal, optimizer, seed, ga_settings, on_gen)
     report("uncertainty and talbott", 0.8)
     clicks, obj_tal = click_fits(pb, model, cal, areas)
-    trend = area_trends(clicks)
+    trend = area_trends(clicks, pb.model.spec)
 
     report("validate", 0.9)
     estimates = term_estimates(model, cal)

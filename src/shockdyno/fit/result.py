@@ -203,13 +203,23 @@ class FitResult:
                     gas_clicks=gas,
                     adjuster=name,
                 )
+        info = dict(self.info)
+        reached = info.get("velocity_range")
+        if isinstance(reached, list):  # each entry of the line, at the adjuster's clicks
+            info["velocity_range"] = [
+                e | {"clicks": e["adjusters"][name]}
+                for e in reached
+                if isinstance(e, dict)
+                and isinstance(e.get("adjusters"), dict)
+                and adjusters.on_line(e["adjusters"], name, at)
+            ]
         return FitResult(
             spec_path=self.spec_path,
             globals=self.globals,
             clicks=line,
             trend=trend,
             tests=tests,
-            info=self.info,
+            info=info,
             terms=self.terms,
         )
 

@@ -35,7 +35,7 @@ def _test_row(rec: Recording, meta: TestMeta) -> dict[str, Any]:
         "corrupt_frames": meta.corrupt_frames,
         "gas_force_n": meta.gas_force_n,  # as stored (None: not measured)
         "gas_force_source": meta.gas_force_source,
-    }
+    } | ({"adjusters": dict(meta.adjusters)} if meta.adjusters else {})
 
 
 def summarise(rec: Recording) -> dict[str, Any]:
@@ -117,6 +117,10 @@ def format_text(doc: dict[str, Any], max_events: int = 20) -> str:
             f"{t['samples']:>8} {dur:>7} {_opt(t['dropped_frames']):>7} "
             f"{_opt(t['corrupt_frames']):>7}"
         )
+        if t.get("adjusters"):  # a damper with several: every adjuster's clicks
+            lines.append(
+                f"{'':>4} adjusters: " + ", ".join(f"{n} {v}" for n, v in t["adjusters"].items())
+            )
         if t["damage"]:
             lines.append(f"{'':>4} DAMAGED: {t['damage']}; left out of fit and diagnose")
     if doc["event_counts"]:

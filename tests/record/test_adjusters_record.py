@@ -44,3 +44,33 @@ def test_lines_hold_the_other_adjusters_at_their_most_frequent_setting() -> None
     assert [t.meta.clicks for t in lines["rebound"]] == [10, 0, 20]
     assert adjusters.held("rebound", {"compression": 10, "rebound": 10}) == "compression at 10"
     assert adjusters.lines([test(1, 1)][:0]) == {}
+
+
+def test_the_csv_exchange_carries_every_adjuster(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from dataclasses import replace
+
+    from report_helpers import make_test, write_recording
+    from shockdyno.cli import main
+    from shockdyno.record import open_recording
+
+    tests = [
+        replace(t, meta=replace(t.meta, adjusters={"compression": c, "rebound": r}))
+        for t, (c, r) in zip(
+            (make_test(0, 4, 1.0, cycles=1), make_test(1, 10, 1.0, cycles=1)),
+            ((4, 10), (10, 0)),
+            strict=True,
+        )
+    ]
+    rec = write_recording(tmp_path / "two.mcap", tests, {"damper_id": "two"})
+    out = tmp_path / "csv"
+    assert main(["export", str(rec), "--csv", str(out)]) == 0
+    header = (out / "manifest.csv").read_text().splitlines()[0].split(",")
+    assert header[-2:] == ["clicks_compression", "clicks_rebound"]
+    back = tmp_path / "back.mcap"
+    assert main(["import", str(out / "manifest.csv"), "-o", str(back)]) == 0
+    got = [m.adjusters for m in open_recording(back).tests]
+    assert got == [{"compression": 4, "rebound": 10}, {"compression": 10, "rebound": 0}]
+    # a recording of one rod adjuster exports no such column
+    one = write_recording(tmp_path / "one.mcap", [make_test(0, 4, 1.0, cycles=1)], {})
+    assert main(["export", str(one), "--csv", str(tmp_path / "one")]) == 0
+    assert "clicks_" not in (tmp_path / "one" / "manifest.csv").read_text().splitlines()[0]

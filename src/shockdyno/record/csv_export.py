@@ -27,8 +27,9 @@ from numpy.typing import NDArray
 
 from shockdyno.atomic import atomic_dir
 from shockdyno.errors import RecordingError
+from shockdyno.record import adjusters
 from shockdyno.record.csv_table import DECIMALS_KEY, VELOCITY_COLUMN
-from shockdyno.record.manifest import SOURCE_KEY
+from shockdyno.record.manifest import ADJUSTER_PREFIX, SOURCE_KEY
 from shockdyno.record.reader import Recording, open_recording
 from shockdyno.record.types import TestData, TestMeta
 
@@ -123,6 +124,9 @@ def _write_manifest(path: Path, tests: list[TestMeta], names: list[str]) -> None
     # only when a test has one, so an imported recording without it exports as it came
     gas_force = any(m.gas_force_n is not None for m in tests)
     header += ["gas_force_n", "gas_force_source"] * gas_force
+    # a damper with several adjusters: a clicks_NAME column each (none for the one rod)
+    named = adjusters.names(m.adjusters for m in tests)
+    header += [f"{ADJUSTER_PREFIX}{n}" for n in named]
     header += extras
     with open(path, "w", encoding="utf-8", newline="") as out:
         w = csv.writer(out, lineterminator="\n")
@@ -140,6 +144,7 @@ def _write_manifest(path: Path, tests: list[TestMeta], names: list[str]) -> None
             if gas_force:
                 known = m.gas_force_n is not None
                 row += [_num(m.gas_force_n) if known else "", (m.gas_force_source or "") * known]
+            row += [str(m.adjusters.get(n, "")) for n in named]
             row += [m.extra.get(k, "") for k in extras]
             w.writerow(row)
 

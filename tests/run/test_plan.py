@@ -14,6 +14,7 @@ from shockdyno.run.plan import (
     SweepPlan,
     frequencies_for_velocities,
     parse_adjust,
+    parse_base,
     parse_velocities_mm_s,
 )
 
@@ -180,3 +181,17 @@ def test_sweep_by_velocity_beyond_the_rig_is_refused_before_anything_runs(
     err = capsys.readouterr().err.strip()
     assert code == 2 and message in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_base_holds_the_others_where_given() -> None:
+    adjust = parse_adjust(["compression=0-20:10", "rebound=0,10,20"], RANGES)
+    held = parse_base(["rebound=20"], RANGES)
+    plan = SweepPlan(clicks=(), frequencies_hz=(1.0,), adjust=adjust, held=held)
+    assert plan.base() == (("compression", 10), ("rebound", 20))
+    assert [dict(s)["rebound"] for s in plan.settings()[:3]] == [20, 20, 20]
+    with pytest.raises(ConfigError, match="--base goes with --design one-at-a-time"):
+        SweepPlan(clicks=(), adjust=adjust, held=held, design="factorial")
+    for bad, message in (("hs=1", "use NAME=CLICKS"), ("rebound=x", "not a whole number"),
+                         ("rebound=21", "clicks must be 0-20")):  # fmt: skip
+        with pytest.raises(ConfigError, match=message):
+            parse_base([bad], RANGES)

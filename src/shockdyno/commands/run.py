@@ -25,6 +25,7 @@ from shockdyno.run.plan import (
     SweepPlan,
     frequencies_for_velocities,
     parse_adjust,
+    parse_base,
     parse_velocities_mm_s,
 )
 from shockdyno.run.recording import record_sweep
@@ -216,6 +217,14 @@ def _add_adjust(s: argparse.ArgumentParser) -> None:
         "settings, repeated for each, e.g. --adjust compression=0-20:5 --adjust rebound=0,10,20",
     )
     s.add_argument(
+        "--base",
+        metavar="NAME=CLICKS",
+        action="append",
+        default=[],
+        help="with --adjust, one-at-a-time: hold this adjuster here while the others move "
+        "(repeatable; default the middle of its --adjust list)",
+    )
+    s.add_argument(
         "--design",
         choices=DESIGNS,
         default=DESIGNS[0],
@@ -234,7 +243,7 @@ def _adjust_plan(args: argparse.Namespace, spec: DamperSpec, plan: SweepPlan) ->
     """The plan over the spec's adjusters (`--adjust`), or the one rod adjuster's as given."""
     items = list(getattr(args, "adjust", []) or [])
     if not spec.adjusters:
-        if items:
+        if items or getattr(args, "base", []):
             raise ConfigError(
                 f"--adjust: the damper {spec.name} has one rod adjuster (no [adjuster.NAME] in "
                 "its spec): use --clicks"
@@ -247,7 +256,10 @@ def _adjust_plan(args: argparse.Namespace, spec: DamperSpec, plan: SweepPlan) ->
             f"(e.g. --adjust {spec.adjuster_names[0]}=0-20:5), not --clicks"
         )
     ranges = {n: spec.adjuster_law(n).max_clicks for n in spec.adjuster_names}
-    return replace(plan, clicks=(), adjust=parse_adjust(items, ranges), design=args.design)
+    held = parse_base(getattr(args, "base", []) or [], ranges)
+    return replace(
+        plan, clicks=(), adjust=parse_adjust(items, ranges), design=args.design, held=held
+    )
 
 
 def _plan(

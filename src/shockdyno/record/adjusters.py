@@ -4,8 +4,9 @@ Each test of a damper with several adjusters carries every adjuster's clicks
 (TestMeta.adjusters). The click chart, the loops, `compare` and the damper tables are
 per click of one adjuster; an adjuster's *line* is the tests whose other adjusters sit at
 the sweep's base, with `clicks` set to that adjuster's. The base is each adjuster's most
-frequent setting (the lowest on a tie): the held value of a one-at-a-time sweep, and
-the lowest value of a factorial sweep's other adjusters.
+frequent setting (on a tie the middle of the tied ones, the lower middle of an even
+count): the held value of a one-at-a-time sweep (run/plan.py's base: the middle of each
+list), and the middle of a factorial sweep's lists.
 """
 
 from __future__ import annotations
@@ -26,11 +27,14 @@ def names(settings: Iterable[Mapping[str, int]]) -> list[str]:
 
 
 def base(settings: Sequence[Mapping[str, int]]) -> dict[str, int]:
-    """Each adjuster's most frequent clicks among these settings, the lowest on a tie."""
+    """Each adjuster's most frequent clicks among these settings; on a tie the middle of
+    the tied values (the lower middle of an even count)."""
     out: dict[str, int] = {}
     for name in names(settings):
         counts = Counter(s[name] for s in settings if name in s)
-        out[name] = min(counts, key=lambda v: (-counts[v], v))
+        top = max(counts.values())
+        tied = sorted(v for v, n in counts.items() if n == top)
+        out[name] = tied[(len(tied) - 1) // 2]
     return out
 
 

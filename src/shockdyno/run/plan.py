@@ -64,6 +64,28 @@ PointKey = tuple[int, int, float, Setting]
 DESIGNS = ("one-at-a-time", "factorial")
 
 
+def parse_base(items: Sequence[str], ranges: Mapping[str, int]) -> Setting:
+    """`--base NAME=N` (repeated): where a one-at-a-time sweep holds each named adjuster."""
+    out: dict[str, int] = {}
+    for item in items:
+        name, eq, text = (s.strip() for s in item.partition("="))
+        if not eq or name not in ranges:
+            known = ", ".join(ranges) or "none"
+            raise ConfigError(
+                f"--base {item!r}: use NAME=CLICKS with an adjuster of the damper ({known})"
+            )
+        try:
+            value = int(text)
+        except ValueError:
+            raise ConfigError(
+                f"--base {item!r}: {text!r} is not a whole number of clicks"
+            ) from None
+        if not 0 <= value <= ranges[name]:
+            raise ConfigError(f"--base {name}: clicks must be 0-{ranges[name]}, got {value}")
+        out[name] = value
+    return tuple(out.items())
+
+
 def point_key(clicks: int, gas_clicks: int, frequency_hz: float, setting: Setting) -> PointKey:
     return (clicks, gas_clicks, frequency_hz, tuple(sorted(setting)))
 
@@ -126,6 +148,7 @@ class SweepPlan:
     # `clicks` is then unused. Empty: the one rod adjuster at `clicks`.
     adjust: tuple[tuple[str, tuple[int, ...]], ...] = ()
     design: str = "one-at-a-time"
+    held: Setting = ()  # `--base`: where one-at-a-time holds these adjusters (else the middle)
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.amplitude_m) and self.amplitude_m > 0):
@@ -140,11 +163,17 @@ class SweepPlan:
 
         if self.design not in DESIGNS:
             raise ConfigError(f"--design must be {' or '.join(DESIGNS)}, got {self.design!r}")
+        if self.held and self.design != "one-at-a-time":
+            raise ConfigError("--base goes with --design one-at-a-time (factorial holds none)")
+        unknown = [n for n, _ in self.held if n not in dict(self.adjust)]
+        if unknown:
+            raise ConfigError(f"--base {unknown[0]}: not an adjuster of --adjust")
 
     def base(self) -> Setting:
-        """The setting a one-at-a-time sweep holds the other adjusters at: the middle of
-        each one's list (the lower middle of an even count), as listed."""
-        return tuple((n, sorted(v)[(len(v) - 1) // 2]) for n, v in self.adjust)
+        """The setting a one-at-a-time sweep holds the other adjusters at: `--base` where
+        given, else the middle of each one's list (the lower middle of an even count)."""
+        given = dict(self.held)
+        return tuple((n, given.get(n, sorted(v)[(len(v) - 1) // 2])) for n, v in self.adjust)
 
     def settings(self) -> list[Setting]:
         """Every adjuster setting the plan visits, in order (the base first)."""

@@ -217,6 +217,8 @@ def identity(rig: RigConfig, plan: SweepPlan) -> dict[str, str]:
     }
     if plan.adjust:  # only a sweep over several adjusters says so (the one rod's as before)
         plan_doc |= {"adjust": {n: list(v) for n, v in plan.adjust}, "design": plan.design}
+        if plan.held:
+            plan_doc["base"] = dict(plan.held)
     return {
         "rig_identity": json.dumps(rig_doc, sort_keys=True),
         "plan": json.dumps(plan_doc, sort_keys=True),

@@ -245,8 +245,8 @@ def _adjust_plan(args: argparse.Namespace, spec: DamperSpec, plan: SweepPlan) ->
     if not spec.adjusters:
         if items or getattr(args, "base", []):
             raise ConfigError(
-                f"--adjust: the damper {spec.name} has one rod adjuster (no [adjuster.NAME] in "
-                "its spec): use --clicks"
+                f"--adjust, --base: the damper {spec.name} has one rod adjuster (no "
+                "[adjuster.NAME] in its spec): use --clicks"
             )
         return plan
     if not items or getattr(args, "clicks", None) is not None:

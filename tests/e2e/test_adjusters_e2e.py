@@ -120,6 +120,9 @@ def test_fit_recovers_each_paths_area_at_its_own_adjusters_clicks(
     page = (out / "index.html").read_text(encoding="utf-8")
     assert "Click chart: compression adjuster (rebound at 10)" in page
     assert "Click chart: rebound adjuster (compression at 10)" in page
+    for name in ("compression", "rebound"):  # and its peaks and overlays per adjuster
+        assert (out / f"peaks_{name}.png").is_file()
+        assert (out / f"overlay_{name}_1.5Hz.png").is_file()
     for name, moved, still in (("compression", 1, -1), ("rebound", -1, 1)):
         rows = [r for r in _csv(out / f"click_chart_{name}.csv") if r["source"] == "measured"]
         by_dir = {

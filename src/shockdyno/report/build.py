@@ -216,7 +216,15 @@ def build_report(
         page.section(heading)
         page.table(header, rows)
 
-    if complete:
+    for name, line in lines.items():  # a damper with several adjusters: one's line each
+        say(f"peak and overlay figures: {name} adjuster")
+        drawn = [
+            plots.prepare(t, summarise(t, gas_force_n=None if raw_force else t.meta.gas_force_n))
+            for t in line
+        ]
+        line_cycles = repeatability.sweep_cycles(line, units.standard_velocities_m_s)
+        _peaks_and_overlays(page, drawn, out_dir, gas_force_n, live, line_cycles, force_note, name)
+    if complete and not lines:
         say("peak and overlay figures")
         _peaks_and_overlays(page, complete, out_dir, gas_force_n, live, cycles, force_note)
 
@@ -374,23 +382,35 @@ def _peaks_and_overlays(
     live: Interactive,
     cycles: list[repeatability.TestCycles],
     force_note: str,
+    adjuster: str = "",
 ) -> None:
+    """`adjuster`: the figures of one adjuster's line, named for it (peaks_NAME.png)."""
     units = live.units
-    page.section("Peak force vs peak velocity")
+    of = f": {adjuster} adjuster" if adjuster else ""
+    tag = f"_{adjuster}" if adjuster else ""
+    page.section(f"Peak force vs peak velocity{of}")
     band = repeatability.peak_band(cycles)
-    peaks = plots.peak_curves([c.summary for c in complete], out_dir / "peaks.png", band, units)
+    peaks = plots.peak_curves(
+        [c.summary for c in complete], out_dir / f"peaks{tag}.png", band, units
+    )
     caption = (
         f"One curve per click through its test frequencies; complete tests only; {force_note}. "
         "Bars: ±2 SD of the test's per-cycle peak force (cycle-to-cycle band)."
     )
     page.raw(live.figure(peaks.name, caption, live.peaks(complete, band)))
-    page.section("Overlays across clicks")
+    page.section(f"Overlays across clicks{of}")
     by_freq: dict[float, list[plots.Curves]] = {}
     for c in complete:
         by_freq.setdefault(round(c.test.meta.frequency_hz, 6), []).append(c)
     for k, (f, group) in enumerate(sorted(by_freq.items())):
         page.details(f"{f:g} Hz: every click", opened=k == 0)
-        png = plots.frequency_overlay(group, f, out_dir / _freq_name(f), gas_force_n, units)
+        png = plots.frequency_overlay(
+            group,
+            f,
+            out_dir / _freq_name(f).replace("overlay", f"overlay{tag}"),
+            gas_force_n,
+            units,
+        )
         caption = f"{f:g} Hz: every click, named in the legend; complete tests."
         page.raw(live.figure(png.name, caption, live.overlay(group, gas_force_n)))
     page.close_details()

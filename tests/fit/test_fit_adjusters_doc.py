@@ -57,3 +57,23 @@ def test_adjusters_round_trip_and_a_line_is_a_one_adjuster_fit(tmp_path: Path) -
     assert line.areas(20) == (pytest.approx(1.1e-5), pytest.approx(2.1e-6))
     with pytest.raises(FitError, match="no adjuster 'hs'"):
         back.for_adjuster("hs")
+
+
+def test_a_recording_of_adjusters_is_refused_with_a_spec_without_them() -> None:
+    from dataclasses import replace
+
+    from shockdyno.fit import fit_sweep
+    from shockdyno.fit.synthetic import synthetic_sweep
+    from shockdyno.model.spec import load_spec
+
+    tests = synthetic_sweep(load_spec(None), [4], cycles=1, seed=1)
+    named = [
+        replace(t, meta=replace(t.meta, adjusters={"compression": 4, "rebound": 9})) for t in tests
+    ]
+    with pytest.raises(
+        FitError, match=r"name adjusters compression, rebound; the spec .* has one rod"
+    ):
+        fit_sweep(named)
+    two = Path(__file__).resolve().parents[2] / "sim" / "two-adjuster.toml"
+    with pytest.raises(FitError, match=r"name adjusters none .* has compression, rebound"):
+        fit_sweep(tests, two)

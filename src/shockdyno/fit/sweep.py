@@ -85,6 +85,7 @@ def prepare_problem(
 ) -> Problem:
     path = Path(spec_path) if spec_path is not None else default_spec_path()
     base = load_spec(path)
+    _check_adjusters(tests, base, path)
     prepared, notes = prepare_tests(tests, objective_rate_hz)
     if not prepared:
         raise FitError(
@@ -108,6 +109,19 @@ def prepare_problem(
         params=global_parameters(base, global_keys),
         a_max=base.bleed_bore_area_m2,
     )
+
+
+def _check_adjusters(tests: Sequence[TestData], spec: DamperSpec, path: Path) -> None:
+    """The recording's adjusters are the spec's: each area's trend follows the adjuster
+    on its path, which only the spec names (a spec without them would trend both areas
+    against the first adjuster's clicks)."""
+    named = sorted({n for t in tests for n in t.meta.adjusters})
+    if named != sorted(spec.adjuster_names):
+        have = ", ".join(spec.adjuster_names) or "one rod adjuster"
+        raise FitError(
+            f"the tests name adjusters {', '.join(named) or 'none (one rod adjuster)'}; "
+            f"the spec {path} has {have}: give the damper's own spec with --spec"
+        )
 
 
 def click_areas(

@@ -57,6 +57,11 @@ def test_adjusters_round_trip_and_a_line_is_a_one_adjuster_fit(tmp_path: Path) -
     assert line.areas(20) == (pytest.approx(1.1e-5), pytest.approx(2.1e-6))
     with pytest.raises(FitError, match="no adjuster 'hs'"):
         back.for_adjuster("hs")
+    # the ride study sweeps one adjuster's clicks: it asks which
+    from shockdyno.cli import main
+
+    assert main(["ride", "--fit", str(path), "--json", str(tmp_path / "r.json")]) == 2
+    assert not (tmp_path / "r.json").exists()
 
 
 def test_a_recording_of_adjusters_is_refused_with_a_spec_without_them() -> None:

@@ -47,7 +47,7 @@ def _complete(path: Path) -> int:
 def swept(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[str]]:
     """The sweep stopped by Ctrl-C after three tests, then resumed to the end."""
     rec = tmp_path_factory.mktemp("adjust") / "two.mcap"
-    cmd = [sys.executable, "-m", "shockdyno.cli", *SWEEP, "--speed", "20", "-o", str(rec)]
+    cmd = [sys.executable, "-m", "shockdyno.cli", *SWEEP, "--speed", "10", "-o", str(rec)]
     log_path = rec.with_suffix(".log")
     with log_path.open("wb") as log:
         proc = subprocess.Popen(cmd, cwd=REPO, stdout=log, stderr=log)

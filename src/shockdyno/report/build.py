@@ -191,6 +191,9 @@ def build_report(
         _click_chart_section(
             page, line, line_fit, out_dir, live, raw_force, line_cycles, forces, (name, held)
         )
+        temperature.render(
+            page, line, line_fit, reference_temperature_c, out_dir, raw_force, units, name
+        )
     if complete and not lines:
         say("click chart")
         _click_chart_section(

@@ -91,7 +91,7 @@ def main() -> None:
     spec = DamperModel(fit.spec())
 
     # 2. decimation
-    order = [(c.clicks, c.gas_clicks) for c in fit.clicks]
+    order = [(c.clicks, c.gas_clicks, c.setting) for c in fit.clicks]
     areas = np.array([[c.a_bc_m2 for c in fit.clicks], [c.a_bt_m2 for c in fit.clicks]]).ravel()
     sds = np.array([[c.a_bc_sd_m2 for c in fit.clicks], [c.a_bt_sd_m2 for c in fit.clicks]]).ravel()
     optima = {}

@@ -180,8 +180,8 @@ def check_library_fits(recordings: Recordings, name: str) -> None:
     spec = load_spec()
     prepared, _ = prepare_tests(open_recording(rec).load_all(), 100.0)
     data = Data.build(spec, prepared, None)
-    bc = np.array([float(spec.bleed_areas(c, g)[0]) for c, g in data.prob.keys])
-    bt = np.array([float(spec.bleed_areas(c, g)[1]) for c, g in data.prob.keys])
+    bc = np.array([float(spec.bleed_areas(c, g)[0]) for c, g, _ in data.prob.keys])
+    bt = np.array([float(spec.bleed_areas(c, g)[1]) for c, g, _ in data.prob.keys])
 
     def structure(model: DamperModel) -> tuple[float, float]:
         prob = data.prob.for_model(model)

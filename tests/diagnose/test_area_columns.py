@@ -107,8 +107,8 @@ def test_only_a_lag_that_carries_state_takes_the_exact_columns(
     model = DamperModel(spec, (make_term("sensor_lag"),)).with_values(values)
     assert model.carries_state(("sensor_lag.delay_s",)) is state
     prob = data.prob.for_model(model, ("sensor_lag.delay_s",))
-    bc = np.array([float(spec.bleed_areas(c, g)[0]) for c, g in data.prob.keys])
-    bt = np.array([float(spec.bleed_areas(c, g)[1]) for c, g in data.prob.keys])
+    bc = np.array([float(spec.bleed_areas(c, g)[0]) for c, g, _ in data.prob.keys])
+    bt = np.array([float(spec.bleed_areas(c, g)[1]) for c, g, _ in data.prob.keys])
     f0 = prob.force(model, bc, bt)
     _, v, _ = model.motion(prob.inputs)  # the split calibrate.py makes
     moved = prob.force(model, bc * 1.01, bt) - f0  # the compression areas only

@@ -10,7 +10,13 @@ import pytest
 from shockdyno.cli import main
 from shockdyno.errors import ConfigError
 from shockdyno.lists import parse_clicks, parse_floats, parse_frequencies, parse_letters
-from shockdyno.run.plan import SweepPlan, frequencies_for_velocities, parse_velocities_mm_s
+from shockdyno.run.plan import (
+    SweepPlan,
+    frequencies_for_velocities,
+    parse_adjust,
+    parse_base,
+    parse_velocities_mm_s,
+)
 
 
 @pytest.mark.parametrize(
@@ -59,9 +65,57 @@ def test_every_list_flag_names_itself_in_its_error():
 def test_plan_orders_clicks_outer_and_skips_done_points():
     plan = SweepPlan(clicks=(0, 5), frequencies_hz=(0.5, 1.5))
     keys = [p.key for p in plan.points()]
-    assert keys == [(0, 0, 0.5), (0, 0, 1.5), (5, 0, 0.5), (5, 0, 1.5)]
-    left = plan.remaining({(0, 0, 0.5), (0, 0, 1.5)})
-    assert [p.key for p in left] == [(5, 0, 0.5), (5, 0, 1.5)]
+    assert keys == [(0, 0, 0.5, ()), (0, 0, 1.5, ()), (5, 0, 0.5, ()), (5, 0, 1.5, ())]
+    left = plan.remaining({(0, 0, 0.5, ()), (0, 0, 1.5, ())})
+    assert [p.key for p in left] == [(5, 0, 0.5, ()), (5, 0, 1.5, ())]
+
+
+RANGES = {"compression": 20, "rebound": 20}
+
+
+def test_one_at_a_time_moves_each_adjuster_from_the_base() -> None:
+    adjust = parse_adjust(["rebound=0,10,20", "compression=0-20:10"], RANGES)
+    assert adjust == (("compression", (0, 10, 20)), ("rebound", (0, 10, 20)))  # spec's order
+    plan = SweepPlan(clicks=(), frequencies_hz=(1.0,), adjust=adjust)
+    assert plan.base() == (("compression", 10), ("rebound", 10))
+    got = [dict(s) for s in plan.settings()]
+    assert got == [
+        {"compression": 10, "rebound": 10},
+        {"compression": 0, "rebound": 10},
+        {"compression": 20, "rebound": 10},
+        {"compression": 10, "rebound": 0},
+        {"compression": 10, "rebound": 20},
+    ]
+    # a test's `clicks` is the first adjuster's, for readers of one
+    assert [p.clicks for p in plan.points()] == [10, 0, 20, 10, 10]
+
+
+def test_factorial_visits_every_combination_and_resume_skips_by_setting() -> None:
+    adjust = parse_adjust(["compression=0,20", "rebound=0,5,20"], RANGES)
+    plan = SweepPlan(clicks=(), frequencies_hz=(0.5, 1.0), adjust=adjust, design="factorial")
+    points = plan.points()
+    assert len(points) == 2 * 3 * 2
+    assert len({p.key for p in points}) == len(points)
+    # done: the first setting at both frequencies, keyed as the reader gives them
+    done = {(0, 0, f, (("compression", 0), ("rebound", 0))) for f in (0.5, 1.0)}
+    left = plan.remaining(done)
+    assert len(left) == 10 and dict(left[0].adjusters) == {"compression": 0, "rebound": 5}
+
+
+@pytest.mark.parametrize(
+    ("items", "message"),
+    [
+        (["compression=0-20"], "give each"),
+        (["compression=0-21", "rebound=0"], "clicks must be 0-20, got 21"),
+        (["hs=1", "rebound=0"], "no adjuster 'hs'"),
+        (["compression", "rebound=0"], "use NAME=CLICKS"),
+        (["compression=1", "compression=2", "rebound=0"], "given twice"),
+        (["compression=1.5", "rebound=0"], "cannot read"),
+    ],
+)
+def test_bad_adjust_is_one_line(items: list[str], message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        parse_adjust(items, RANGES)
 
 
 @pytest.mark.parametrize(
@@ -127,3 +181,17 @@ def test_sweep_by_velocity_beyond_the_rig_is_refused_before_anything_runs(
     err = capsys.readouterr().err.strip()
     assert code == 2 and message in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_base_holds_the_others_where_given() -> None:
+    adjust = parse_adjust(["compression=0-20:10", "rebound=0,10,20"], RANGES)
+    held = parse_base(["rebound=20"], RANGES)
+    plan = SweepPlan(clicks=(), frequencies_hz=(1.0,), adjust=adjust, held=held)
+    assert plan.base() == (("compression", 10), ("rebound", 20))
+    assert [dict(s)["rebound"] for s in plan.settings()[:3]] == [20, 20, 20]
+    with pytest.raises(ConfigError, match="--base goes with --design one-at-a-time"):
+        SweepPlan(clicks=(), adjust=adjust, held=held, design="factorial")
+    for bad, message in (("hs=1", "use NAME=CLICKS"), ("rebound=x", "not a whole number"),
+                         ("rebound=21", "clicks must be 0-20")):  # fmt: skip
+        with pytest.raises(ConfigError, match=message):
+            parse_base([bad], RANGES)

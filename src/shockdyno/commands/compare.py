@@ -46,6 +46,12 @@ def register(sub: Any) -> None:
         help="compare the force as measured (default: damping force, the gas force removed)",
     )
     add_gas_arguments(p)
+    p.add_argument(
+        "--adjuster",
+        metavar="NAME",
+        help="inputs of a damper with several adjusters: compare along this one, the others "
+        "at each sweep's base (docs/adjusters.md)",
+    )
     p.add_argument("--force", action="store_true", help="replace an existing page or --json file")
     p.set_defaults(func=run_compare)
 
@@ -74,7 +80,14 @@ def run_compare(args: argparse.Namespace) -> int:
     given = parse_given(args.gas_force_n) if args.gas_force_n else None
     inputs = [
         load_input(
-            Path(p), label, units.standard_velocities_m_s, flag, args.raw_force, given, args.spec
+            Path(p),
+            label,
+            units.standard_velocities_m_s,
+            flag,
+            args.raw_force,
+            given,
+            args.spec,
+            args.adjuster,
         )
         for p, label, flag in zip(paths, labels, flags, strict=True)
     ]

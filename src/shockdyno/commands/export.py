@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +24,7 @@ from shockdyno.fit.result import FitResult
 from shockdyno.lists import parse_floats, parse_ints
 from shockdyno.model.kinematics import differentiate
 from shockdyno.outputs import check_output
+from shockdyno.record import adjusters
 from shockdyno.record.csv_export import export_csv
 from shockdyno.record.reader import open_recording
 from shockdyno.result_files import starts_as_mcap
@@ -59,6 +61,12 @@ def register(subparsers: Any) -> None:
         help="--damper-table: click settings (default: the fitted ones; others by the trend)",
     )
     p.add_argument(
+        "--adjuster",
+        metavar="NAME",
+        help="--damper-table of a damper with several adjusters: only this one's tables "
+        "(default: every adjuster's, the others held at the sweep's base; docs/adjusters.md)",
+    )
+    p.add_argument(
         "--velocities-mm-s",
         metavar="LIST",
         help="--damper-table: speeds of the grid, both directions (default: 2.5 to 1000 mm/s; "
@@ -90,7 +98,7 @@ def register(subparsers: Any) -> None:
 
 def _export(args: argparse.Namespace) -> int:
     if args.csv is not None:
-        for flag in ("clicks", "velocities_mm_s", "friction_band_mm_s"):
+        for flag in ("clicks", "adjuster", "velocities_mm_s", "friction_band_mm_s"):
             if getattr(args, flag) is not None:
                 raise ConfigError(f"--{flag.replace('_', '-')} goes with --damper-table")
         if args.within_measured:
@@ -149,6 +157,11 @@ def _check_tables(tables: list[Any], source: Path) -> None:
             )
 
 
+def _said(t: Any) -> str:
+    """A table on the terminal: 'clicks 12', or 'compression 12 clicks (rebound at 10)'."""
+    return t.label if t.adjuster else f"clicks {t.clicks}"
+
+
 def _damper_table(args: argparse.Namespace) -> int:
     out: Path = args.damper_table
     if out.exists() and not out.is_dir():
@@ -167,19 +180,34 @@ def _damper_table(args: argparse.Namespace) -> int:
         raise ConfigError(
             f"--friction-band-mm-s must be > 0 and at most {MAX_BAND_MM_S:g}, got {band:g}"
         )
-    tables = click_tables(
-        fit,
-        clicks,
-        speeds,
-        within_measured=args.within_measured,
-        friction_band_m_s=None if band is None else band * 1e-3,
-    )
+    names = fit.adjuster_names()  # a damper with several: a table set per adjuster's line
+    chosen = getattr(args, "adjuster", None)
+    if chosen is not None and chosen not in names:
+        raise ConfigError(
+            f"--adjuster {chosen}: the fit's adjusters are {', '.join(names) or 'none (one rod)'}"
+        )
+    if names and clicks is not None and chosen is None:
+        raise ConfigError(
+            f"--clicks: the fit has adjusters {', '.join(names)}; name one with --adjuster"
+        )
+    tables = []
+    for name in [chosen] if chosen else names or [""]:
+        view = fit.for_adjuster(name) if name else fit
+        made = click_tables(
+            view,
+            clicks,
+            speeds,
+            within_measured=args.within_measured,
+            friction_band_m_s=None if band is None else band * 1e-3,
+        )
+        at = adjusters.base([c.adjusters for c in fit.clicks if c.adjusters]) if name else {}
+        tables += [replace(t, adjuster=name, held=adjusters.held(name, at)) for t in made]
     _check_tables(tables, args.source)
     if out.is_dir():  # every target refused before anything is written
         for t in tables:
             for suffix in (".csv", ".dpr"):
                 check_output(
-                    out / f"clicks_{t.clicks:02d}{suffix}",
+                    out / f"{t.stem}{suffix}",
                     force=args.force,
                     inputs=[args.source],
                     flag="--damper-table",
@@ -199,12 +227,12 @@ def _damper_table(args: argparse.Namespace) -> int:
     units = UNITS[args.units]
     for t in tables:
         if t.measured_m_s is None:
-            print(f"  clicks {t.clicks}: {notes(t, units)[0]}")
+            print(f"  {_said(t)}: {notes(t, units)[0]}")
             continue
         rebound, compression = (x / units.m_s_per_unit for x in t.measured_m_s)
         beyond = int(np.count_nonzero(~t.measured)) if t.measured is not None else 0
         print(
-            f"  clicks {t.clicks}: measured to {rebound:.4g} / {compression:.4g} {units.velocity} "
+            f"  {_said(t)}: measured to {rebound:.4g} / {compression:.4g} {units.velocity} "
             f"(rebound / compression){' from the fitted clicks either side' * (t.source != 'fit')}"
             f"; {beyond} rows beyond, the model extrapolated"
         )

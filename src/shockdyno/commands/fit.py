@@ -133,12 +133,13 @@ def _clicks_table(result: Any, units: Units = SI) -> Any:
 
     show = shown("m²", units)
     table = Table(title=f"Bleed areas per click ({show.label}, ±1σ)")
-    for name in ("clicks", "gas", "A_bc", "A_bt", "A_b Talbott", "identifiable"):
+    names = result.adjuster_names()  # a damper with several: a column each, not "clicks"
+    for name in (*(names or ["clicks"]), "gas", "A_bc", "A_bt", "A_b Talbott", "identifiable"):
         table.add_column(name, justify="right")
     for c in result.clicks:
         ident = {(True, True): "both", (True, False): "A_bc", (False, True): "A_bt"}
         table.add_row(
-            str(c.clicks),
+            *([str(c.adjusters.get(n, "")) for n in names] or [str(c.clicks)]),
             str(c.gas_clicks),
             _area(c.a_bc_m2, c.a_bc_sd_m2, show),
             _area(c.a_bt_m2, c.a_bt_sd_m2, show),

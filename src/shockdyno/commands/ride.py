@@ -34,6 +34,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     p.add_argument("--fit", help="fit result JSON (from `shockdyno fit`)")
     p.add_argument("--clicks", default="5,10,15", help="rod clicks, e.g. 5,10,15 or 0-21:3")
+    p.add_argument(
+        "--adjuster",
+        metavar="NAME",
+        help="a fit of a damper with several adjusters: --clicks are this adjuster's, the "
+        "others at the sweep's base (docs/adjusters.md)",
+    )
     p.add_argument("--roads", default="A,B,C,D,E", help="ISO 8608 classes, e.g. A-E or A,C,E")
     p.add_argument("--speeds-kmh", default="20,60,80,120", help="km/h, e.g. 20,60 or 20-120:20")
     p.add_argument(
@@ -113,6 +119,21 @@ def config_from_args(args: argparse.Namespace) -> RideConfig:
     )
 
 
+def _adjuster_line(fit: FitResult, args: argparse.Namespace) -> FitResult:
+    """The fit along the named adjuster (a damper with several), or as it is."""
+    names = fit.adjuster_names()
+    name = getattr(args, "adjuster", None)
+    if names and name is None:
+        raise ConfigError(
+            f"--fit {args.fit}: a damper with adjusters {', '.join(names)}: name the one whose "
+            f"--clicks the study sweeps with --adjuster (e.g. --adjuster {names[0]})"
+        )
+    if name is not None and name not in names:
+        have = ", ".join(names) or "the one rod adjuster (no --adjuster)"
+        raise ConfigError(f"--adjuster {name}: the fit has {have}")
+    return fit.for_adjuster(name) if name is not None else fit
+
+
 def summary(result: RideResult) -> str:
     """One line per speed and damper: the RMS on each road (m/s²)."""
     cfg = result.config
@@ -183,6 +204,7 @@ def handle(args: argparse.Namespace) -> int:
         if not args.fit:
             raise ConfigError("--fit FIT.json is required (or --linear-damper-ns-m C)")
         fit = FitResult.load(args.fit).require_usable(f"--fit {args.fit}")
+        fit = _adjuster_line(fit, args)
     with StageProgress("ride") as progress:
         result = run_study(config, fit, args.fit, progress=progress)
     doc = result.to_json()

@@ -19,13 +19,16 @@ from shockdyno.commands.args import add_force, add_rig, add_seed, hint_unreachab
 from shockdyno.commands.live import add_live_arguments, live_view
 from shockdyno.errors import ConfigError, RecordingError, RigFault
 from shockdyno.lists import parse_clicks, parse_frequencies
-from shockdyno.model.spec import default_spec_path, load_spec
+from shockdyno.model.spec import DamperSpec, default_spec_path, load_spec
 from shockdyno.model.stroke import CONSTANT_VELOCITY, WAVEFORMS, Stroke
 from shockdyno.outputs import refuse_inputs
 from shockdyno.run.plan import (
+    DESIGNS,
     SweepPlan,
     constant_velocity_strokes,
     frequencies_for_velocities,
+    parse_adjust,
+    parse_base,
     parse_velocities_mm_s,
     stroke_frequency_hz,
 )
@@ -95,7 +98,11 @@ def register(sub: Any) -> None:
         "recorded; --resume continues from the first untested point.",
     )
     add_rig(s)
-    s.add_argument("--clicks", default="0-21", help="click settings, e.g. 0-21:3 or 0,5,10")
+    s.add_argument(
+        "--clicks",
+        help="click settings, e.g. 0-21:3 or 0,5,10; default every click of the spec (0-21)",
+    )
+    _add_adjust(s)
     by = s.add_mutually_exclusive_group()
     by.add_argument("--freq", default="0.5,1,1.5", help="Hz, e.g. 0.5,1,1.5 or 0.5-2:0.5")
     by.add_argument(
@@ -257,6 +264,68 @@ def _strokes(args: argparse.Namespace, rig: RigConfig | None) -> list[Stroke]:
     return strokes
 
 
+def _add_adjust(s: argparse.ArgumentParser) -> None:
+    """A damper with several adjusters (its spec's [adjuster.NAME]): docs/adjusters.md."""
+    s.add_argument(
+        "--spec",
+        metavar="PATH",
+        help="the damper's spec TOML: its adjusters and click ranges (and, with --start-sim, "
+        "the simulated damper); default sim/ohlins-s46.toml",
+    )
+    s.add_argument(
+        "--adjust",
+        metavar="NAME=CLICKS",
+        action="append",
+        default=[],
+        help="for a spec with [adjuster.NAME] tables, instead of --clicks: one adjuster's "
+        "settings, repeated for each, e.g. --adjust compression=0-20:5 --adjust rebound=0,10,20",
+    )
+    s.add_argument(
+        "--base",
+        metavar="NAME=CLICKS",
+        action="append",
+        default=[],
+        help="with --adjust, one-at-a-time: hold this adjuster here while the others move "
+        "(repeatable; default the middle of its --adjust list)",
+    )
+    s.add_argument(
+        "--design",
+        choices=DESIGNS,
+        default=DESIGNS[0],
+        help="with --adjust: each adjuster through its list with the others at the middle of "
+        "theirs (one-at-a-time), or every combination (factorial)",
+    )
+
+
+def _clicks_text(args: argparse.Namespace, max_clicks: int) -> str:
+    """--clicks as given (demo's default), or every click of the damper's one adjuster."""
+    given: str | None = getattr(args, "clicks", None)
+    return given if given is not None else f"0-{max_clicks}"
+
+
+def _adjust_plan(args: argparse.Namespace, spec: DamperSpec, plan: SweepPlan) -> SweepPlan:
+    """The plan over the spec's adjusters (`--adjust`), or the one rod adjuster's as given."""
+    items = list(getattr(args, "adjust", []) or [])
+    if not spec.adjusters:
+        if items or getattr(args, "base", []):
+            raise ConfigError(
+                f"--adjust, --base: the damper {spec.name} has one rod adjuster (no "
+                "[adjuster.NAME] in its spec): use --clicks"
+            )
+        return plan
+    if not items or getattr(args, "clicks", None) is not None:
+        names = ", ".join(spec.adjuster_names)
+        raise ConfigError(
+            f"the damper {spec.name} has adjusters {names}: give each with --adjust NAME=CLICKS "
+            f"(e.g. --adjust {spec.adjuster_names[0]}=0-20:5), not --clicks"
+        )
+    ranges = {n: spec.adjuster_law(n).max_clicks for n in spec.adjuster_names}
+    held = parse_base(getattr(args, "base", []) or [], ranges)
+    return replace(
+        plan, clicks=(), adjust=parse_adjust(items, ranges), design=args.design, held=held
+    )
+
+
 def _plan(
     args: argparse.Namespace, max_clicks: int, max_gas_clicks: int, rig: RigConfig | None = None
 ) -> SweepPlan:
@@ -265,7 +334,7 @@ def _plan(
         raise ConfigError(f"gas-bottle clicks must be 0-{max_gas_clicks}, got {gas}")
     strokes = _strokes(args, rig)
     return SweepPlan(
-        clicks=tuple(parse_clicks(args.clicks, max_clicks)),
+        clicks=tuple(parse_clicks(_clicks_text(args, max_clicks), max_clicks)),
         frequencies_hz=(
             tuple(stroke_frequency_hz(s) for s in strokes)
             if strokes
@@ -306,7 +375,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     console = Console()
     # No file the sweep reads may become its recording, --force or not.
-    read = [args.rig, default_spec_path(), *([args.scenario] if args.scenario else [])]
+    spec_path = Path(args.spec) if args.spec else default_spec_path()
+    read = [args.rig, spec_path, *([args.scenario] if args.scenario else [])]
     refuse_inputs(Path(args.output), read, flag="-o")
     if args.start_sim or args.live:  # refused before the sim or the live view starts
         from shockdyno.record.lock import recording_lock
@@ -317,7 +387,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                     f"{args.output} exists: use --force to overwrite or --resume to continue"
                 )
     rig = load_rig(args.rig)
-    plan = _plan(args, *_click_ranges(load_spec()), rig)
+    spec = load_spec(spec_path)
+    plan = _adjust_plan(args, spec, _plan(args, *_click_ranges(spec), rig))
     with contextlib.ExitStack() as stack:
         stack.enter_context(stop_on_signals())  # SIGTERM and SIGHUP stop like Ctrl-C
         live = stack.enter_context(live_view(args, console))  # before any rig: a busy port
@@ -326,11 +397,17 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             from shockdyno.simrig import start_sim_rig
 
             sim = stack.enter_context(
-                start_sim_rig(rig, scenario=args.scenario, speed=args.speed, seed=args.seed)
+                start_sim_rig(
+                    rig,
+                    spec_path=spec_path,
+                    scenario=args.scenario,
+                    speed=args.speed,
+                    seed=args.seed,
+                )
             )
             for endpoint in sim.endpoints:
                 console.print(endpoint)
-            rig, spec_used = sim.rig_config(), str(default_spec_path())
+            rig, spec_used = sim.rig_config(), str(spec_path)
         meta = _metadata(args, rig, spec_used)
         result = record_sweep(rig, plan, args.output, metadata=meta, overwrite=args.force,
                               resume=args.resume, console=console,

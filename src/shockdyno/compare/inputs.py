@@ -15,7 +15,7 @@ from pathlib import Path
 
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.fit.result import FitResult
-from shockdyno.record import open_recording
+from shockdyno.record import adjusters, open_recording
 from shockdyno.record.types import TestData
 from shockdyno.report import clickchart, repeatability
 from shockdyno.report import gas as gas_mod
@@ -104,18 +104,36 @@ def load_input(
     raw_force: bool = False,
     gas_given: Mapping[int, float] | None = None,
     spec: str | None = None,
+    adjuster: str | None = None,
 ) -> Input:
     """Read one input; a one-line error for anything that is neither kind. A recording's
-    gas force: `gas_given`, else measured, else estimated within `spec`'s charge."""
+    gas force: `gas_given`, else measured, else estimated within `spec`'s charge.
+    `adjuster`: of a damper with several, the line compared (record/adjusters.py)."""
     if flag == "input" and _is_mcap(path):
-        return _recording(path, label, speeds_m_s, raw_force, gas_given, spec)
+        return _recording(path, label, speeds_m_s, raw_force, gas_given, spec, adjuster)
     try:
         fit = FitResult.load(path, flag=flag).require_usable(f"{flag} {path}")
     except ConfigError as exc:
         if flag != "input":
             raise
         raise ConfigError(f"{exc} or a recording (.mcap)") from None
+    _check_adjuster(path, fit.adjuster_names(), adjuster)
+    if adjuster is not None:
+        fit = fit.for_adjuster(adjuster)
     return _fit(path, label, fit, speeds_m_s, raw_force)
+
+
+def _check_adjuster(path: Path, names: Sequence[str], adjuster: str | None) -> None:
+    """An input of a damper with several adjusters is compared along one named adjuster;
+    one of the one rod adjuster is compared as it is."""
+    if names and adjuster is None:
+        raise ConfigError(
+            f"{path}: a damper with adjusters {', '.join(names)}: name the one to compare "
+            f"with --adjuster (e.g. --adjuster {names[0]})"
+        )
+    if adjuster is not None and adjuster not in names:
+        have = f"adjusters {', '.join(names)}" if names else "the one rod adjuster (no --adjuster)"
+        raise ConfigError(f"{path}: --adjuster {adjuster}: it has {have}")
 
 
 def _recording(
@@ -125,11 +143,16 @@ def _recording(
     raw_force: bool,
     gas_given: Mapping[int, float] | None,
     spec: str | None,
+    adjuster: str | None = None,
 ) -> Input:
     rec = open_recording(path).require_recording()
     tests = [t for t in rec.load_all() if t.meta.status == "complete"]
     if not tests:
         raise RecordingError(f"{path}: no complete test to compare")
+    lines = adjusters.lines(tests)
+    _check_adjuster(path, list(lines), adjuster)
+    if adjuster is not None:
+        tests = lines[adjuster]
     forces: gas_mod.GasForces = {}
     if not raw_force:  # each setting's gas force: given, measured, else estimated, bounded
         limit = gas_mod.limit_for(tests, spec, rec.metadata)

@@ -341,7 +341,7 @@ def folds(data: Data, max_click_folds: int = 2) -> list[Fold]:
     single test (or one setting) is split into its first and second halves in time."""
     metas = [p.data.meta for p in data.prepared]
     freqs = sorted({round(m.frequency_hz, 3) for m in metas})
-    clicks = sorted({(m.clicks, m.gas_clicks) for m in metas})
+    clicks = sorted({(m.clicks, m.gas_clicks, m.setting) for m in metas})  # every adjuster's
     out: list[Fold] = []
     if len(freqs) >= 2:
         for f in freqs:
@@ -350,8 +350,9 @@ def folds(data: Data, max_click_folds: int = 2) -> list[Fold]:
     if len(clicks) >= 3:
         pick = [clicks[0], clicks[-1], clicks[len(clicks) // 2]][:max_click_folds]
         for c in dict.fromkeys(pick):
-            held = [i for i, m in enumerate(metas) if (m.clicks, m.gas_clicks) == c]
-            out.append(_leave_out(data, held, f"{c[0]} clicks left out"))
+            held = [i for i, m in enumerate(metas) if (m.clicks, m.gas_clicks, m.setting) == c]
+            named = ", ".join(f"{n} {v}" for n, v in c[2]) or f"{c[0]} clicks"
+            out.append(_leave_out(data, held, f"{named} left out"))
     if not out:
         firsts, seconds = _time_halves(data.prepared)
         if firsts:

@@ -407,15 +407,11 @@ def _without(
 
 def search_subset(data: Data, n_clicks: int) -> Data:
     """The tests of at most n_clicks click settings, evenly spread (all when fewer)."""
-    keys = sorted({(p.data.meta.clicks, p.data.meta.gas_clicks) for p in data.prepared})
+    keys = sorted({p.key for p in data.prepared})  # a setting: every adjuster's clicks
     if len(keys) <= n_clicks:
         return data
     pick = {keys[round(i)] for i in np.linspace(0, len(keys) - 1, n_clicks)}
-    keep = [
-        i
-        for i, p in enumerate(data.prepared)
-        if (p.data.meta.clicks, p.data.meta.gas_clicks) in pick
-    ]
+    keep = [i for i, p in enumerate(data.prepared) if p.key in pick]
     return data.subset(keep)
 
 
@@ -424,7 +420,7 @@ def _baseline_fit(
 ) -> Fitted:
     if fit is None:
         return refit(data, model, free, None, max_nfev=60)
-    areas = {(c.clicks, c.gas_clicks): (c.a_bc_m2, c.a_bt_m2) for c in fit.clicks}
+    areas = {(c.clicks, c.gas_clicks, c.setting): (c.a_bc_m2, c.a_bt_m2) for c in fit.clicks}
     start = Fitted(model, (), areas, {}, np.zeros(0), np.zeros(0))
     return refit(data, model, free, start, max_nfev=settings.max_nfev)
 

@@ -18,7 +18,7 @@ from shockdyno.diagnose.data import Data
 from shockdyno.fit.areas import start_areas
 from shockdyno.fit.calibrate import calibrate
 from shockdyno.fit.parameters import DEFAULT_GLOBALS, DIAGNOSE_ONLY, global_parameters
-from shockdyno.fit.prepare import PreparedTest
+from shockdyno.fit.prepare import ClickKey, PreparedTest
 from shockdyno.fit.problem import prepared_inputs
 from shockdyno.model.composite import DamperModel, Evaluation
 from shockdyno.model.spec import DamperSpec
@@ -63,7 +63,7 @@ COMPANIONS: dict[str, str] = {}
 class Fitted:
     model: DamperModel
     free: tuple[str, ...]  # free term parameters (qualified)
-    areas: dict[tuple[int, int], tuple[float, float]]  # click key -> (A_bc, A_bt)
+    areas: dict[ClickKey, tuple[float, float]]  # click key -> (A_bc, A_bt)
     term_sd: dict[str, float]
     force: FloatArray  # on the data's objective samples
     residual: FloatArray
@@ -76,7 +76,7 @@ class Fitted:
     # rows (`warm` in refit).
     jac: FloatArray | None = None
     jac_rows: dict[tuple[int, int, float], tuple[int, int]] = field(default_factory=dict)
-    jac_keys: tuple[tuple[int, int], ...] = ()
+    jac_keys: tuple[ClickKey, ...] = ()
 
     def area_vectors(self, data: Data) -> tuple[FloatArray, FloatArray]:
         keys = data.prob.keys
@@ -134,7 +134,7 @@ def evaluate(data: Data, fitted: Fitted) -> Evaluation | None:
 def full_rate_force(fitted: Fitted, p: PreparedTest) -> FloatArray:
     """The fitted model's force on one test at the recording's own rate, with the areas
     the fit gave that test's click."""
-    a_bc, a_bt = fitted.areas[(p.data.meta.clicks, p.data.meta.gas_clicks)]
+    a_bc, a_bt = fitted.areas[p.key]
     return fitted.model.force(prepared_inputs([p], full_rate=True), a_bc, a_bt)
 
 

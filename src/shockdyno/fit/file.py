@@ -39,14 +39,14 @@ def _peak(values: Any) -> float:
     return float(np.max(np.abs(values))) if values.size else 0.0
 
 
-def velocity_range(tests: list[Any]) -> list[dict[str, float | int]]:
+def velocity_range(tests: list[Any]) -> list[dict[str, Any]]:
     """The fastest compression and rebound velocity (m/s, signed) each click setting's
     tests reached over their measured cycles: the fit JSON's `info.velocity_range`, the
     span a damper table may call measured (ride/damper_table.py)."""
     from shockdyno.errors import ConfigError
     from shockdyno.model.kinematics import differentiate
 
-    reached: dict[tuple[int, int], tuple[float, float]] = {}
+    reached: dict[tuple[int, int, tuple[tuple[str, int], ...]], tuple[float, float]] = {}
     for test in tests:
         m = test.measured()
         if m.t.size < 8:
@@ -57,12 +57,15 @@ def velocity_range(tests: list[Any]) -> list[dict[str, float | int]]:
             continue
         if not np.any(np.isfinite(v)):
             continue
-        key = (test.meta.clicks, test.meta.gas_clicks)
+        key = (test.meta.clicks, test.meta.gas_clicks, test.meta.setting)
         lo, hi = reached.get(key, (0.0, 0.0))
         reached[key] = (min(lo, float(np.nanmin(v))), max(hi, float(np.nanmax(v))))
+    # a damper with several adjusters: each entry names every adjuster's clicks
     return [
-        {"clicks": c, "gas_clicks": g, "compression_m_s": hi, "rebound_m_s": lo}
-        for (c, g), (lo, hi) in sorted(reached.items())
+        {"clicks": c, "gas_clicks": g}
+        | ({"adjusters": dict(s)} if s else {})
+        | {"compression_m_s": hi, "rebound_m_s": lo}
+        for (c, g, s), (lo, hi) in sorted(reached.items())
     ]
 
 

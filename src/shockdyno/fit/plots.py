@@ -23,6 +23,8 @@ from shockdyno.units import SI, Units
 def _areas_figure(result: FitResult, path: Path) -> None:
     fig = Figure(figsize=(11, 4.2))
     axes = fig.subplots(1, 2)
+    # One adjuster's line of a damper with several (FitResult.for_adjuster): its clicks
+    by = next((t.adjuster for t in result.trend.values() if t.adjuster), "rod")
     panels = (
         ("A_bc", "a_bc_m2", "a_bc_sd_m2", "identifiable_bc", "compression $A_{bc}$"),
         ("A_bt", "a_bt_m2", "a_bt_sd_m2", "identifiable_bt", "rebound $A_{bt}$"),
@@ -66,7 +68,7 @@ def _areas_figure(result: FitResult, path: Path) -> None:
                 color="C1",
                 label=f"trend, degree {trend.degree} (R² {trend.r2:.4f})",
             )
-        ax.set_xlabel("rod clicks")
+        ax.set_xlabel(f"{by} clicks")
         ax.set_ylabel("bleed area (mm²)")
         ax.set_title(label)
         ax.grid(alpha=0.3)
@@ -127,20 +129,26 @@ def representative(forces: Sequence[ModelForces]) -> list[ModelForces]:
 
 
 def fit_figures(
-    result: FitResult, tests: Sequence[TestData], out_dir: str | Path, units: Units = SI
+    result: FitResult,
+    tests: Sequence[TestData],
+    out_dir: str | Path,
+    units: Units = SI,
+    adjuster: str = "",
 ) -> list[tuple[str, Path]]:
     """Write the figures as PNG into out_dir; returns (title, path) of each. ``units``:
-    of the overlays' axes (bleed areas stay mm², as the fit states them)."""
+    of the overlays' axes (bleed areas stay mm², as the fit states them). ``adjuster``:
+    the figures of one adjuster's line (FitResult.for_adjuster), named for it."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     figures: list[tuple[str, Path]] = []
-    path = out / "fit-areas-vs-clicks.png"
+    tag = f"-{adjuster}" if adjuster else ""
+    path = out / f"fit-areas-vs-clicks{tag}.png"
     _areas_figure(result, path)
     figures.append(("Bleed areas against clicks with trend (Fig. 12 analogue)", path))
-    keys = {(c.clicks, c.gas_clicks) for c in result.clicks}
-    usable = [t for t in tests if (t.meta.clicks, t.meta.gas_clicks) in keys]
+    keys = {(c.clicks, c.gas_clicks, c.setting) for c in result.clicks}
+    usable = [t for t in tests if (t.meta.clicks, t.meta.gas_clicks, t.meta.setting) in keys]
     for mf in representative(forces_for_tests(result, usable)):
         m = mf.test.meta
-        path = out / f"fit-overlay-{m.clicks}clicks-{m.frequency_hz:g}hz.png"
+        path = out / f"fit-overlay{tag}-{m.clicks}clicks-{m.frequency_hz:g}hz.png"
         figures.append((_overlay_figure(mf, path, units), path))
     return figures

@@ -53,6 +53,11 @@ def whole_cycles(d: TestData) -> float:
     return float((d.t[-1] - d.t[0] + dt) * d.meta.frequency_hz)
 
 
+# A click setting: rod clicks, gas clicks and every adjuster's clicks of a damper with
+# several, sorted by name (() for the one rod adjuster). One group of bleed areas each.
+ClickKey = tuple[int, int, tuple[tuple[str, int], ...]]
+
+
 @dataclass(frozen=True)
 class PreparedTest:
     data: TestData  # measured cycles, uniform time base
@@ -61,8 +66,11 @@ class PreparedTest:
     obj: NDArray[np.intp]  # indices of the samples the objective uses
 
     @property
-    def key(self) -> tuple[int, int]:
-        return (self.data.meta.clicks, self.data.meta.gas_clicks)
+    def key(self) -> ClickKey:
+        """The click setting: rod and gas clicks, and every adjuster's of a damper with
+        several (() for the one rod adjuster)."""
+        m = self.data.meta
+        return (m.clicks, m.gas_clicks, m.setting)
 
 
 def _uniform(test: TestData) -> TestData | None:

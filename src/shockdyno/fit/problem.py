@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from shockdyno.fit.prepare import PreparedTest
+from shockdyno.fit.prepare import ClickKey, PreparedTest
 from shockdyno.model.composite import DamperModel, ModelInputs
 from shockdyno.model.spec import DamperSpec
 from shockdyno.record.types import PERIODIC_MOTIONS
@@ -103,7 +103,7 @@ class StackedProblem:
         full_rate_hz: float | None = None,
     ) -> None:
         self.base = base
-        self.keys: list[tuple[int, int]] = sorted({p.key for p in tests})
+        self.keys: list[ClickKey] = sorted({p.key for p in tests})
         index = {k: i for i, k in enumerate(self.keys)}
         self.inputs = prepared_inputs(tests)
         # Models with fast lags run on every sample, then give the objective's samples.

@@ -14,7 +14,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +28,7 @@ from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, load_spec
 from shockdyno.model.terms import LIBRARY, make_term
+from shockdyno.record import adjusters
 from shockdyno.result_files import special_file
 from shockdyno.schema import check
 
@@ -53,6 +54,13 @@ class ClickFit:
     objective_talbott_n: float = float("nan")
     bleed_share_bc: float = float("nan")
     bleed_share_bt: float = float("nan")
+    # Every adjuster's clicks of a damper with several ({} for the one rod adjuster,
+    # whose clicks are `clicks`; FIT.json writes the key only when it has some)
+    adjusters: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def setting(self) -> tuple[tuple[str, int], ...]:
+        return tuple(sorted(self.adjusters.items()))
 
 
 @dataclass(frozen=True)
@@ -72,20 +80,24 @@ class TestValidation:
     temperature_mean_c: float | None
     proposed: dict[str, float]
     talbott: dict[str, float]
+    adjusters: dict[str, int] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
-        return {
-            "index": self.index,
-            "clicks": self.clicks,
-            "gas_clicks": self.gas_clicks,
-            "frequency_hz": self.frequency_hz,
-            "motion": self.motion,
-            "n_samples": self.n_samples,
-            "duration_s": self.duration_s,
-            "temperature_mean_C": self.temperature_mean_c,
-            "proposed": {k: _nan_to_none(v) for k, v in self.proposed.items()},
-            "talbott": {k: _nan_to_none(v) for k, v in self.talbott.items()},
-        }
+        return _with_adjusters(
+            self.adjusters,
+            {
+                "index": self.index,
+                "clicks": self.clicks,
+                "gas_clicks": self.gas_clicks,
+                "frequency_hz": self.frequency_hz,
+                "motion": self.motion,
+                "n_samples": self.n_samples,
+                "duration_s": self.duration_s,
+                "temperature_mean_C": self.temperature_mean_c,
+                "proposed": {k: _nan_to_none(v) for k, v in self.proposed.items()},
+                "talbott": {k: _nan_to_none(v) for k, v in self.talbott.items()},
+            },
+        )
 
     @staticmethod
     def from_doc(d: TestDoc) -> TestValidation:
@@ -100,6 +112,7 @@ class TestValidation:
             temperature_mean_c=d.temperature_mean_C,
             proposed={k: nan(v) for k, v in d.proposed.items()},
             talbott={k: nan(v) for k, v in d.talbott.items()},
+            adjusters=dict(d.adjusters),
         )
 
 
@@ -192,6 +205,70 @@ class FitResult:
         }
         return DamperModel(self.spec(), tuple(built), values)
 
+    def adjuster_names(self) -> list[str]:
+        """The adjusters of a fit of a damper with several ([] for the one rod)."""
+        return adjusters.names(c.adjusters for c in self.clicks)
+
+    def for_adjuster(self, name: str) -> FitResult:
+        """The fit along one adjuster's line (record/adjusters.py): the settings with the
+        other adjusters at the base, `clicks` the adjuster's; the trend of the path it
+        acts on against its clicks, and the other path's area held at its mean on the line
+        (a constant: that adjuster did not move). What the click chart, the model's loops
+        and the damper tables read, as of a damper with one adjuster."""
+        known = self.adjuster_names()
+        if name not in known:
+            raise FitError(f"the fit has no adjuster {name!r} (it has {', '.join(known) or 'one'})")
+        at = adjusters.base([c.adjusters for c in self.clicks if c.adjusters])
+        line = [
+            replace(c, clicks=c.adjusters[name])
+            for c in self.clicks
+            if adjusters.on_line(c.adjusters, name, at)
+        ]
+        tests = [
+            replace(t, clicks=t.adjusters[name])
+            for t in self.tests
+            if adjusters.on_line(t.adjusters, name, at)
+        ]
+        gas = self.main_gas_clicks()
+        trend: dict[str, AreaTrend] = {}
+        for key, attr in (("A_bc", "a_bc_m2"), ("A_bt", "a_bt_m2")):
+            t = self.trend.get(key)
+            if t is not None and t.adjuster == name:
+                trend[key] = t
+                continue
+            held = [c for c in line if c.gas_clicks == gas]
+            if held:
+                mean = float(np.mean([getattr(c, attr) for c in held]))
+                trend[key] = AreaTrend(
+                    degree=0,
+                    coefficients=(mean,),
+                    clicks_used=tuple(c.clicks for c in held),
+                    rms_m2=float(np.std([getattr(c, attr) for c in held])),
+                    r2=math.nan,
+                    selection=f"held ({adjusters.held(name, at)})",
+                    gas_clicks=gas,
+                    adjuster=name,
+                )
+        info = dict(self.info)
+        reached = info.get("velocity_range")
+        if isinstance(reached, list):  # each entry of the line, at the adjuster's clicks
+            info["velocity_range"] = [
+                e | {"clicks": e["adjusters"][name]}
+                for e in reached
+                if isinstance(e, dict)
+                and isinstance(e.get("adjusters"), dict)
+                and adjusters.on_line(e["adjusters"], name, at)
+            ]
+        return FitResult(
+            spec_path=self.spec_path,
+            globals=self.globals,
+            clicks=line,
+            trend=trend,
+            tests=tests,
+            info=info,
+            terms=self.terms,
+        )
+
     def main_gas_clicks(self) -> int:
         """The gas setting with the most fitted rod clicks (the trend's; the lowest on a
         tie), 0 for a fit without clicks."""
@@ -266,22 +343,25 @@ class FitResult:
             "spec_path": self.spec_path,
             "globals": self.globals,
             "clicks": [
-                {
-                    "clicks": c.clicks,
-                    "gas_clicks": c.gas_clicks,
-                    "A_bc_m2": c.a_bc_m2,
-                    "A_bt_m2": c.a_bt_m2,
-                    "A_b_talbott_m2": c.a_b_talbott_m2,
-                    "A_bc_sd_m2": _nan_to_none(c.a_bc_sd_m2),
-                    "A_bt_sd_m2": _nan_to_none(c.a_bt_sd_m2),
-                    "A_b_talbott_sd_m2": _nan_to_none(c.a_b_talbott_sd_m2),
-                    "identifiable_bc": c.identifiable_bc,
-                    "identifiable_bt": c.identifiable_bt,
-                    "objective_n": _nan_to_none(c.objective_n),
-                    "objective_talbott_n": _nan_to_none(c.objective_talbott_n),
-                    "bleed_share_bc": _nan_to_none(c.bleed_share_bc),
-                    "bleed_share_bt": _nan_to_none(c.bleed_share_bt),
-                }
+                _with_adjusters(
+                    c.adjusters,
+                    {
+                        "clicks": c.clicks,
+                        "gas_clicks": c.gas_clicks,
+                        "A_bc_m2": c.a_bc_m2,
+                        "A_bt_m2": c.a_bt_m2,
+                        "A_b_talbott_m2": c.a_b_talbott_m2,
+                        "A_bc_sd_m2": _nan_to_none(c.a_bc_sd_m2),
+                        "A_bt_sd_m2": _nan_to_none(c.a_bt_sd_m2),
+                        "A_b_talbott_sd_m2": _nan_to_none(c.a_b_talbott_sd_m2),
+                        "identifiable_bc": c.identifiable_bc,
+                        "identifiable_bt": c.identifiable_bt,
+                        "objective_n": _nan_to_none(c.objective_n),
+                        "objective_talbott_n": _nan_to_none(c.objective_talbott_n),
+                        "bleed_share_bc": _nan_to_none(c.bleed_share_bc),
+                        "bleed_share_bt": _nan_to_none(c.bleed_share_bt),
+                    },
+                )
                 for c in self.clicks
             ],
             "terms": {
@@ -320,6 +400,7 @@ class FitResult:
                     objective_talbott_n=nan(c.objective_talbott_n),
                     bleed_share_bc=nan(c.bleed_share_bc),
                     bleed_share_bt=nan(c.bleed_share_bt),
+                    adjusters=dict(c.adjusters),
                 )
                 for c in d.clicks
             ],
@@ -345,6 +426,19 @@ def _off(term: str, local: str) -> float:
         if p.name == local:
             return p.off
     return math.nan
+
+
+def _with_adjusters(adjusters: dict[str, int], d: dict[str, Any]) -> dict[str, Any]:
+    """A clicks or tests entry with its adjusters after `gas_clicks`, when it has some
+    (an entry of the one rod adjuster is written as it always was)."""
+    if not adjusters:
+        return d
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        out[k] = v
+        if k == "gas_clicks":
+            out["adjusters"] = dict(adjusters)
+    return out
 
 
 def _nan_to_none(v: float) -> float | None:

@@ -38,6 +38,7 @@ class ClickDoc:
     objective_talbott_n: float | None = None
     bleed_share_bc: float | None = None
     bleed_share_bt: float | None = None
+    adjusters: dict[str, Clicks] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -54,6 +55,7 @@ class TestDoc:
     temperature_mean_C: float | None = None
     proposed: dict[str, float | None] = field(default_factory=dict)
     talbott: dict[str, float | None] = field(default_factory=dict)
+    adjusters: dict[str, Clicks] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

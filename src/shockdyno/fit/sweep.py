@@ -48,7 +48,7 @@ from shockdyno.fit.trend import AreaTrend, polynomial_trend
 from shockdyno.fit.validate import table4, validate_tests
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Estimate
-from shockdyno.model.spec import default_spec_path, load_spec
+from shockdyno.model.spec import DamperSpec, default_spec_path, load_spec
 from shockdyno.record.types import TestData
 
 FloatArray = NDArray[np.float64]
@@ -85,6 +85,7 @@ def prepare_problem(
 ) -> Problem:
     path = Path(spec_path) if spec_path is not None else default_spec_path()
     base = load_spec(path)
+    _check_adjusters(tests, base, path)
     prepared, notes = prepare_tests(tests, objective_rate_hz)
     if not prepared:
         raise FitError(
@@ -108,6 +109,19 @@ def prepare_problem(
         params=global_parameters(base, global_keys),
         a_max=base.bleed_bore_area_m2,
     )
+
+
+def _check_adjusters(tests: Sequence[TestData], spec: DamperSpec, path: Path) -> None:
+    """The recording's adjusters are the spec's: each area's trend follows the adjuster
+    on its path, which only the spec names (a spec without them would trend both areas
+    against the first adjuster's clicks)."""
+    named = sorted({n for t in tests for n in t.meta.adjusters})
+    if named != sorted(spec.adjuster_names):
+        have = ", ".join(spec.adjuster_names) or "one rod adjuster"
+        raise FitError(
+            f"the tests name adjusters {', '.join(named) or 'none (one rod adjuster)'}; "
+            f"the spec {path} has {have}: give the damper's own spec with --spec"
+        )
 
 
 def click_areas(
@@ -178,14 +192,19 @@ def click_fits(
             objective_talbott_n=float(obj_tal[g]),
             bleed_share_bc=float(shares[g]),
             bleed_share_bt=float(shares[n + g]),
+            adjusters=dict(setting),
         )
-        for g, (c, gc) in enumerate(prob.keys)
+        for g, (c, gc, setting) in enumerate(prob.keys)
     ]
     return clicks, obj_tal
 
 
-def area_trends(clicks: Sequence[ClickFit]) -> dict[str, AreaTrend]:
-    """Trend of the identifiable areas vs rod clicks, at the gas setting with most clicks."""
+def area_trends(clicks: Sequence[ClickFit], spec: DamperSpec | None = None) -> dict[str, AreaTrend]:
+    """Trend of the identifiable areas vs rod clicks, at the gas setting with most clicks.
+
+    On a damper with several adjusters each area against the clicks of the adjuster
+    acting on its path (A_bc against the compression adjuster's), over every setting:
+    the other adjusters do not touch that path, so each setting is one more measurement."""
     gas_counts: dict[int, int] = {}
     for cf in clicks:
         gas_counts[cf.gas_clicks] = gas_counts.get(cf.gas_clicks, 0) + 1
@@ -196,9 +215,13 @@ def area_trends(clicks: Sequence[ClickFit]) -> dict[str, AreaTrend]:
         ("A_bt", "a_bt_m2", "identifiable_bt"),
     ):
         used = [cf for cf in clicks if getattr(cf, ok) and cf.gas_clicks == gas]
-        t = polynomial_trend([cf.clicks for cf in used], [getattr(cf, attr) for cf in used])
+        by = spec.adjuster_on("compression" if name == "A_bc" else "rebound") if spec else ""
+        if by:
+            used = [cf for cf in used if by in cf.adjusters]
+        x = [cf.adjusters[by] if by else cf.clicks for cf in used]
+        t = polynomial_trend(x, [getattr(cf, attr) for cf in used])
         if t is not None:
-            trend[name] = replace(t, gas_clicks=gas)
+            trend[name] = replace(t, gas_clicks=gas, adjuster=by)
     return trend
 
 
@@ -343,7 +366,7 @@ def fit_sweep(
     areas = click_areas(pb, model, cal, optimizer, seed, ga_settings, on_gen)
     report("uncertainty and talbott", 0.8)
     clicks, obj_tal = click_fits(pb, model, cal, areas)
-    trend = area_trends(clicks)
+    trend = area_trends(clicks, pb.model.spec)
 
     report("validate", 0.9)
     estimates = term_estimates(model, cal)

@@ -59,6 +59,8 @@ class AreaTrend:
     r2: float
     selection: str
     gas_clicks: int = 0
+    # The adjuster whose clicks it is against, on a damper with several ("": the one rod)
+    adjuster: str = ""
 
     def at(self, clicks: float) -> float:
         return float(np.polyval(self.coefficients, clicks))
@@ -72,7 +74,7 @@ class AreaTrend:
             "r2": self.r2,
             "selection": self.selection,
             "gas_clicks": self.gas_clicks,
-        }
+        } | ({"adjuster": self.adjuster} if self.adjuster else {})
 
     @staticmethod
     def from_json(d: dict[str, Any]) -> AreaTrend:
@@ -94,6 +96,7 @@ class TrendDoc:
     r2: float | None = None
     selection: str = ""
     gas_clicks: int = 0
+    adjuster: str = ""
 
     def trend(self) -> AreaTrend:
         coef = tuple(float(c) for c in self.coefficients)
@@ -105,6 +108,7 @@ class TrendDoc:
             r2=nan(self.r2),
             selection=self.selection,
             gas_clicks=self.gas_clicks,
+            adjuster=self.adjuster,
         )
 
 

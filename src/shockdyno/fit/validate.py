@@ -38,12 +38,16 @@ class ModelForces:
     talbott: FloatArray
 
 
-def click_areas(result: FitResult, clicks: int, gas_clicks: int) -> tuple[float, float, float]:
-    """(A_bc, A_bt, A_b Talbott) fitted for this click setting."""
+def click_areas(
+    result: FitResult, clicks: int, gas_clicks: int, setting: tuple[tuple[str, int], ...] = ()
+) -> tuple[float, float, float]:
+    """(A_bc, A_bt, A_b Talbott) fitted for this click setting (`setting`: every
+    adjuster's clicks of a damper with several, sorted by name)."""
     for c in result.clicks:
-        if c.clicks == clicks and c.gas_clicks == gas_clicks:
+        if c.clicks == clicks and c.gas_clicks == gas_clicks and c.setting == setting:
             return c.a_bc_m2, c.a_bt_m2, c.a_b_talbott_m2
-    raise FitError(f"the fit has no result for {clicks} clicks (gas {gas_clicks})")
+    at = ", ".join(f"{n} {v}" for n, v in setting) if setting else f"{clicks} clicks"
+    raise FitError(f"the fit has no result for {at} (gas {gas_clicks})")
 
 
 def model_forces(
@@ -53,7 +57,7 @@ def model_forces(
     out = []
     for p in prepared:
         m = p.data.meta
-        a_bc, a_bt, a_b = click_areas(result, m.clicks, m.gas_clicks)
+        a_bc, a_bt, a_b = click_areas(result, m.clicks, m.gas_clicks, m.setting)
         inputs = prepared_inputs([p], full_rate=True)
         out.append(
             ModelForces(
@@ -95,6 +99,7 @@ def validate_tests(
                 index=m.index,
                 clicks=m.clicks,
                 gas_clicks=m.gas_clicks,
+                adjusters=dict(m.adjusters),
                 frequency_hz=m.frequency_hz,
                 motion=m.motion,
                 n_samples=int(d.t.size),

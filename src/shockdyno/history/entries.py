@@ -94,10 +94,14 @@ def fit_entry(result: Any, options: dict[str, Any], result_file: str) -> ResultE
         for term, values in sorted(result.terms.items())
         for k, est in sorted(values.items())
     ]
+    # A damper with several adjusters: the first adjuster's line (the others at the base),
+    # its clicks as the history's clicks; the rest of its areas are in FIT.json.
+    names = result.adjuster_names()
+    clicks = result.for_adjuster(names[0]).clicks if names else result.clicks
     areas = [
         AreaEntry(c.clicks, c.gas_clicks, _finite(c.a_bc_m2), _finite(c.a_bt_m2),
                   _finite(c.a_bc_sd_m2), _finite(c.a_bt_sd_m2))
-        for c in result.clicks
+        for c in clicks
     ]  # fmt: skip
     return _made(
         "fit",

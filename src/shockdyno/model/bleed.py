@@ -15,7 +15,7 @@ the gas-bottle selector).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Annotated
+from typing import Annotated, Literal
 
 import numpy as np
 from msgspec import Meta
@@ -39,3 +39,18 @@ class BleedLaw:
         frac = -np.expm1(-n / tau) / -np.expm1(-self.max_clicks / tau)
         base = self.area_closed_m2 + (self.area_open_m2 - self.area_closed_m2) * frac
         return np.asarray(base + self.area_per_gas_click_m2 * g, dtype=float)
+
+
+PATHS = ("compression", "rebound")  # the flow paths an adjuster may act on
+
+
+@dataclass(frozen=True)
+class Adjuster:
+    """One adjuster of a damper with several ([adjuster.NAME] in the spec): the bleed path
+    it acts on. Its area law is that path's (DamperSpec.compression_bleed or
+    rebound_bleed), written in the adjuster's own table, so a fitted or changed law stays
+    in one place. A damper whose spec declares none has the paper's one rod needle,
+    acting on both bleeds ([bleed.*])."""
+
+    name: str
+    acts_on: Literal["compression", "rebound"]

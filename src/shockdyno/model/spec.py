@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -14,7 +15,7 @@ from msgspec import Meta
 from numpy.typing import ArrayLike, NDArray
 
 from shockdyno.errors import ConfigError
-from shockdyno.model.bleed import BleedLaw
+from shockdyno.model.bleed import PATHS, Adjuster, BleedLaw
 from shockdyno.model.shims import ShimStack
 from shockdyno.schema import NonEmpty, NonNegative, Positive, convert, fail, read_toml
 
@@ -56,6 +57,9 @@ class DamperSpec:
     # the friction turns over the travel since reversal. 0: the paper's smoothed sign
     # (friction_velocity_m_s), exactly. Calibrated by diagnose.
     friction_presliding_m: NonNegative = 0.0
+    # The adjusters of a damper with several ([adjuster.NAME]): each acts on one bleed
+    # path, whose law above is its own. Empty: the paper's one rod needle on both paths.
+    adjusters: tuple[Adjuster, ...] = ()
 
     # -- derived geometry -------------------------------------------------------------
     @property
@@ -125,6 +129,45 @@ class DamperSpec:
                 f"gas-bottle clicks must be 0-{self.max_gas_clicks}, got {g.tolist()}"
             )
         return self.compression_bleed.area(n, g), self.rebound_bleed.area(n, g)
+
+    @property
+    def adjuster_names(self) -> tuple[str, ...]:
+        return tuple(a.name for a in self.adjusters)
+
+    def adjuster_law(self, name: str) -> BleedLaw:
+        """The area law of the named adjuster (its path's)."""
+        for a in self.adjusters:
+            if a.name == name:
+                return self.compression_bleed if a.acts_on == "compression" else self.rebound_bleed
+        known = ", ".join(self.adjuster_names) or "none: one rod adjuster"
+        raise ConfigError(f"the damper {self.name} has no adjuster {name!r} (it has {known})")
+
+    def adjuster_on(self, path: str) -> str:
+        """The name of the adjuster acting on a bleed path ("" with the one rod needle)."""
+        return next((a.name for a in self.adjusters if a.acts_on == path), "")
+
+    def setting_areas(
+        self, setting: Mapping[str, int], gas_clicks: ArrayLike = 0
+    ) -> tuple[float, float]:
+        """True (A_bc, A_bt) at one setting of every declared adjuster (a ConfigError for
+        a missing, unknown or out-of-range one)."""
+        if set(setting) != set(self.adjuster_names):
+            raise ConfigError(
+                f"the damper {self.name} has adjusters {', '.join(self.adjuster_names)}; "
+                f"got a setting of {', '.join(setting) or 'none'}"
+            )
+        g = np.asarray(gas_clicks, dtype=float)
+        if np.any(g < 0) or np.any(g > self.max_gas_clicks):
+            raise ConfigError(
+                f"gas-bottle clicks must be 0-{self.max_gas_clicks}, got {g.tolist()}"
+            )
+        areas = {}
+        for a in self.adjusters:
+            law, n = self.adjuster_law(a.name), setting[a.name]
+            if not 0 <= n <= law.max_clicks:
+                raise ConfigError(f"{a.name} clicks must be 0-{law.max_clicks}, got {n}")
+            areas[a.acts_on] = float(law.area(n, g))
+        return areas["compression"], areas["rebound"]
 
     def with_changes(self, **changes: Any) -> DamperSpec:
         return replace(self, **changes)
@@ -225,7 +268,48 @@ class _Bleeds:
 class _SpecFile:
     damper: dict[str, Any]  # DamperSpec's own keys, checked with the valves and bleeds in
     valves: _Valves
-    bleed: _Bleeds
+    bleed: _Bleeds | None = None
+    # [adjuster.NAME]: acts_on and its area law's keys (BleedLaw's), checked below
+    adjuster: dict[str, dict[str, Any]] | None = None
+
+
+ADJUSTER_NAME = re.compile(r"^[a-z][a-z0-9_]{0,31}$")
+RESERVED_ADJUSTERS = ("gas", "rod", "clicks")  # the gas bottle's and the one needle's words
+
+
+def _adjusters(
+    p: Path, tables: dict[str, dict[str, Any]]
+) -> tuple[tuple[Adjuster, ...], dict[str, Any]]:
+    """[adjuster.NAME] tables: the adjusters and each path's law from its adjuster's table."""
+    found: list[Adjuster] = []
+    laws: dict[str, Any] = {}
+    for name, table in tables.items():
+        at = f"adjuster.{name}"
+        if not ADJUSTER_NAME.match(name) or name in RESERVED_ADJUSTERS:
+            raise fail(
+                str(p),
+                at,
+                "an adjuster's name is lower-case letters, digits and _ (not "
+                + ", ".join(RESERVED_ADJUSTERS)
+                + ")",
+            )
+        if not isinstance(table, dict):
+            raise fail(str(p), at, "must be a table")
+        acts_on = table.get("acts_on")
+        if acts_on not in PATHS:
+            raise fail(
+                str(p), f"{at}.acts_on", f"must be one of {', '.join(PATHS)}, got {acts_on!r}"
+            )
+        if f"{acts_on}_bleed" in laws:
+            raise fail(str(p), f"{at}.acts_on", f"another adjuster already acts on {acts_on}")
+        law = {k: v for k, v in table.items() if k != "acts_on"}
+        convert(law, BleedLaw, str(p), at)  # its errors name the adjuster's table
+        laws[f"{acts_on}_bleed"] = law
+        found.append(Adjuster(name, acts_on))
+    for path in PATHS:
+        if f"{path}_bleed" not in laws:
+            raise fail(str(p), "adjuster", f"no adjuster acts on the {path} bleed")
+    return tuple(found), laws
 
 
 PARTS = ("compression_valve", "rebound_valve", "compression_bleed", "rebound_bleed")
@@ -239,13 +323,30 @@ def load_spec(path: str | Path | None = None) -> DamperSpec:
     for key in PARTS:
         if key in f.damper:
             raise fail(str(p), f"damper.{key}", "unknown key (it has its own table)")
-    parts = {
+    if "adjusters" in f.damper:
+        raise fail(str(p), "damper.adjusters", "unknown key (each has its [adjuster.NAME])")
+    parts: dict[str, Any] = {
         "compression_valve": doc["valves"]["compression"],
         "rebound_valve": doc["valves"]["rebound"],
-        "compression_bleed": doc["bleed"]["compression"],
-        "rebound_bleed": doc["bleed"]["rebound"],
     }
-    spec = convert({**f.damper, **parts}, DamperSpec, str(p), "damper")
+    adjusters: tuple[Adjuster, ...] = ()
+    if f.adjuster:
+        if f.bleed is not None:
+            raise fail(
+                str(p), "bleed", "the [adjuster.*] tables carry the bleed laws: drop [bleed]"
+            )
+        adjusters, laws = _adjusters(p, doc["adjuster"])
+    elif f.bleed is None:
+        raise fail(
+            str(p), "bleed", "missing: [bleed.compression] and [bleed.rebound], or [adjuster.*]"
+        )
+    else:
+        laws = {
+            "compression_bleed": doc["bleed"]["compression"],
+            "rebound_bleed": doc["bleed"]["rebound"],
+        }
+    spec = convert({**f.damper, **parts, **laws}, DamperSpec, str(p), "damper")
+    spec = replace(spec, adjusters=adjusters)
     try:
         spec.validate()
     except ConfigError as exc:

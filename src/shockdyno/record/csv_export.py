@@ -27,8 +27,9 @@ from numpy.typing import NDArray
 
 from shockdyno.atomic import atomic_dir
 from shockdyno.errors import RecordingError
+from shockdyno.record import adjusters
 from shockdyno.record.csv_table import DECIMALS_KEY, VELOCITY_COLUMN
-from shockdyno.record.manifest import SOURCE_KEY
+from shockdyno.record.manifest import ADJUSTER_PREFIX, SOURCE_KEY
 from shockdyno.record.reader import Recording, open_recording
 from shockdyno.record.types import TestData, TestMeta
 
@@ -126,6 +127,9 @@ def _write_manifest(path: Path, tests: list[TestMeta], names: list[str]) -> None
     # a constant-velocity test's speed and reversal acceleration, only when a test has one
     stroke = any(m.target_velocity_m_s is not None for m in tests)
     header += ["target_velocity_m_s", "reversal_accel_m_s2"] * stroke
+    # a damper with several adjusters: a clicks_NAME column each (none for the one rod)
+    named = adjusters.names(m.adjusters for m in tests)
+    header += [f"{ADJUSTER_PREFIX}{n}" for n in named]
     header += extras
     with open(path, "w", encoding="utf-8", newline="") as out:
         w = csv.writer(out, lineterminator="\n")
@@ -145,6 +149,7 @@ def _write_manifest(path: Path, tests: list[TestMeta], names: list[str]) -> None
                 row += [_num(m.gas_force_n) if known else "", (m.gas_force_source or "") * known]
             if stroke:
                 row += [_num(m.target_velocity_m_s), _num(m.reversal_accel_m_s2)]
+            row += [str(m.adjusters.get(n, "")) for n in named]
             row += [m.extra.get(k, "") for k in extras]
             w.writerow(row)
 

@@ -38,7 +38,7 @@ def _test_row(rec: Recording, meta: TestMeta) -> dict[str, Any]:
         # A constant-velocity test's (motion triangle | trapezoid); None for a sine.
         "target_velocity_m_s": meta.target_velocity_m_s,
         "reversal_accel_m_s2": meta.reversal_accel_m_s2,
-    }
+    } | ({"adjusters": dict(meta.adjusters)} if meta.adjusters else {})
 
 
 def summarise(rec: Recording) -> dict[str, Any]:
@@ -120,6 +120,10 @@ def format_text(doc: dict[str, Any], max_events: int = 20) -> str:
             f"{t['samples']:>8} {dur:>7} {_opt(t['dropped_frames']):>7} "
             f"{_opt(t['corrupt_frames']):>7}"
         )
+        if t.get("adjusters"):  # a damper with several: every adjuster's clicks
+            lines.append(
+                f"{'':>4} adjusters: " + ", ".join(f"{n} {v}" for n, v in t["adjusters"].items())
+            )
         if t["damage"]:
             lines.append(f"{'':>4} DAMAGED: {t['damage']}; left out of fit and diagnose")
     if doc["event_counts"]:

@@ -50,6 +50,8 @@ MANIFEST_KNOWN = (
     "gas_force_source",  # "measured" | "estimated"
 )
 GAS_FORCE_SOURCES = ("measured", "estimated")
+# `clicks_NAME`: that adjuster's clicks, for a damper with several (docs/adjusters.md)
+ADJUSTER_PREFIX = "clicks_"
 SOURCE_KEY = "csv_file"  # TestMeta.extra key: the data file a test was imported from
 
 
@@ -153,10 +155,20 @@ def read_manifest(
             _float_cell(table, i, cols[name]) if cell(name) else None
             for name in ("measured_start_s", "measured_end_s")
         ]
+        named: dict[str, int] = {}  # a damper with several adjusters: clicks_NAME each
+        for j, h in enumerate(table.header):
+            if h.startswith(ADJUSTER_PREFIX) and len(h) > len(ADJUSTER_PREFIX):
+                value = _int_cell(table, i, j)
+                if value < 0:
+                    raise RecordingError(f"{table.where(i, j)}: {value} must not be negative")
+                check_setting(table.where(i, j), h, value, MAX_CLICKS)
+                named[h[len(ADJUSTER_PREFIX) :]] = value
         extra = {
             h: row[j].strip()
             for j, h in enumerate(table.header)
-            if h not in MANIFEST_KNOWN and h not in (SOURCE_KEY, DECIMALS_KEY)
+            if h not in MANIFEST_KNOWN
+            and h not in (SOURCE_KEY, DECIMALS_KEY)
+            and not h.startswith(ADJUSTER_PREFIX)
         }
         extra[SOURCE_KEY] = file_name
         if places:
@@ -179,6 +191,7 @@ def read_manifest(
             measured_end_s=window[1],
             status=status,
             extra=extra,
+            adjusters=named,
             dropped_frames=0,
             gas_pressure_pa=(
                 _float_cell(table, i, cols["gas_pressure_pa"], positive=True)

@@ -201,9 +201,16 @@ class Recording:
         return sum(s.samples_header(p)[1] for p in payloads)
 
     def completed_keys(self) -> set[tuple[int, int, float]]:
-        """(clicks, gas_clicks, frequency_hz) of every complete test, for a resumed sweep."""
+        """(clicks, gas_clicks, frequency_hz) of every complete test."""
+        return {(c, g, f) for c, g, f, _ in self.completed_points()}
+
+    def completed_points(self) -> set[tuple[int, int, float, tuple[tuple[str, int], ...]]]:
+        """(clicks, gas_clicks, frequency_hz, every adjuster's clicks sorted by name) of
+        every complete test, for a resumed sweep (run/plan.py's point keys)."""
         return {
-            (m.clicks, m.gas_clicks, m.frequency_hz) for m in self.tests if m.status == "complete"
+            (m.clicks, m.gas_clicks, m.frequency_hz, m.setting)
+            for m in self.tests
+            if m.status == "complete"
         }
 
 

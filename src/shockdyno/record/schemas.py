@@ -245,6 +245,8 @@ def meta_to_json(meta: TestMeta) -> dict[str, Any]:
     for key in _ONLY_WHEN_SET:
         if d[key] is None:
             del d[key]
+    if not meta.adjusters:  # a test of the one rod adjuster is written as it always was
+        del d["adjusters"]
     return d
 
 
@@ -290,6 +292,18 @@ def _check_types(kw: dict[str, Any]) -> None:
                 raise RecordingError(f"bad test record: {name} must be {what}, got {kw[name]!r}")
 
 
+def _adjusters(value: Any) -> dict[str, int]:
+    ok = isinstance(value, dict) and all(
+        isinstance(k, str) and isinstance(v, int) and not isinstance(v, bool) and v >= 0
+        for k, v in value.items()
+    )
+    if not ok:
+        raise RecordingError(
+            f"bad test record: adjusters must map names to clicks >= 0, got {value!r}"
+        )
+    return dict(value)
+
+
 def meta_from_json(d: dict[str, Any]) -> TestMeta:
     """TestMeta from a /dyno/test record; unknown keys (newer writers) are ignored, a
     field of the wrong type is a RecordingError."""
@@ -309,6 +323,7 @@ def meta_from_json(d: dict[str, Any]) -> TestMeta:
         if stored.isdigit():
             kw["dropped_frames"] = max(int(stored), int(kw.get("dropped_frames") or 0))
         kw["extra"] = extra
+        kw["adjusters"] = _adjusters(kw.get("adjusters", {}))
         return TestMeta(**kw)
     except (TypeError, ValueError) as exc:
         raise RecordingError(f"bad test record: {exc}") from exc

@@ -53,6 +53,14 @@ class TestMeta:
     # sine; older recordings have neither (and every test of theirs is a sine).
     target_velocity_m_s: float | None = None
     reversal_accel_m_s2: float | None = None
+    # Every adjuster's clicks, by name, for a damper with several (docs/adjusters.md);
+    # empty (and not written) for the one rod adjuster, whose clicks are `clicks`.
+    adjusters: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def setting(self) -> tuple[tuple[str, int], ...]:
+        """The adjusters' clicks sorted by name: () for the one rod adjuster."""
+        return tuple(sorted(self.adjusters.items()))
 
 
 @dataclass(frozen=True)

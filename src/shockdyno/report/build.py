@@ -29,6 +29,7 @@ import numpy as np
 
 from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError
+from shockdyno.record import adjusters
 from shockdyno.record.types import TestData
 from shockdyno.report import clickchart, plots, repeatability, temperature
 from shockdyno.report import gas as gas_force
@@ -181,7 +182,19 @@ def build_report(
 
     # Per-cycle peaks and chart readings, once: the chart's bands, drift, the peak bands.
     cycles = repeatability.sweep_cycles([c.test for c in complete], units.standard_velocities_m_s)
-    if complete:
+    lines = adjusters.lines([c.test for c in complete])  # a damper with several adjusters
+    for name, line in lines.items():
+        say(f"click chart: {name} adjuster")
+        held = adjusters.held(name, adjusters.base([t.meta.adjusters for t in line]))
+        line_cycles = repeatability.sweep_cycles(line, units.standard_velocities_m_s)
+        line_fit = fit.for_adjuster(name) if fit is not None else None
+        _click_chart_section(
+            page, line, line_fit, out_dir, live, raw_force, line_cycles, forces, (name, held)
+        )
+        temperature.render(
+            page, line, line_fit, reference_temperature_c, out_dir, raw_force, units, name
+        )
+    if complete and not lines:
         say("click chart")
         _click_chart_section(
             page, [c.test for c in complete], fit, out_dir, live, raw_force, cycles, forces
@@ -206,7 +219,15 @@ def build_report(
         page.section(heading)
         page.table(header, rows)
 
-    if complete:
+    for name, line in lines.items():  # a damper with several adjusters: one's line each
+        say(f"peak and overlay figures: {name} adjuster")
+        drawn = [
+            plots.prepare(t, summarise(t, gas_force_n=None if raw_force else t.meta.gas_force_n))
+            for t in line
+        ]
+        line_cycles = repeatability.sweep_cycles(line, units.standard_velocities_m_s)
+        _peaks_and_overlays(page, drawn, out_dir, gas_force_n, live, line_cycles, force_note, name)
+    if complete and not lines:
         say("peak and overlay figures")
         _peaks_and_overlays(page, complete, out_dir, gas_force_n, live, cycles, force_note)
 
@@ -246,8 +267,12 @@ def _click_chart_section(
     raw_force: bool,
     cycles: list[repeatability.TestCycles],
     forces: gas_force.GasForces,
+    adjuster: tuple[str, str] | None = None,
 ) -> None:
+    """The click chart; `adjuster`: (name, what the others were held at) of one adjuster's
+    line of a damper with several, its own section and files (click_chart_NAME.*)."""
     units = live.units
+    stem = f"click_chart_{adjuster[0]}" if adjuster else "click_chart"
     chart = clickchart.click_chart(
         tests, fit, units.standard_velocities_m_s, raw_force=raw_force, gas=forces
     )
@@ -265,13 +290,14 @@ def _click_chart_section(
         + "; --raw-force shows the force as measured)"
     )
     page.section(
-        "Click chart",
+        f"Click chart: {adjuster[0]} adjuster ({adjuster[1]})" if adjuster else "Click chart",
         f"{what} at standard velocities per click, compression (comp, velocity > 0) and "
         f"rebound (reb, velocity < 0), in {units.force_label}. Measured: the force of each "
         "test's force-velocity branch where it passes the velocity (every crossing of the "
         "measured cycles averaged), then averaged over the click's frequencies.",
     )
-    png = force_vs_clicks(chart, out_dir / "click_chart.png", band, units).name
+    label = f"{adjuster[0]} clicks" if adjuster else "rod clicks"
+    png = force_vs_clicks(chart, out_dir / f"{stem}.png", band, units, clicks_label=label).name
     caption = (
         "Force against clicks at each standard velocity: measured (solid; hollow markers "
         "extrapolated)" + (", fitted model (dashed)" if chart.model_curve else "") + ". "
@@ -282,8 +308,8 @@ def _click_chart_section(
             else "; none known)."
         )
     )
-    page.raw(live.figure(png, caption, live.click_chart(chart, band)))
-    write_text_atomic(out_dir / "click_chart.csv", clickchart.to_csv(chart, units))
+    page.raw(live.figure(png, caption, live.click_chart(chart, band, label)))
+    write_text_atomic(out_dir / f"{stem}.csv", clickchart.to_csv(chart, units))
     header, rows = clickchart.table_rows(chart, "measured", units)
     page.subheading(f"Measured ({u})")
     page.table(header, rows, numeric=[True] * len(header))
@@ -304,8 +330,8 @@ def _click_chart_section(
     cols = clickchart.csv_header(units)
     held = "raw force" if raw_force else f"damping force, the gas force removed in {cols[-1]}"
     page.link(
-        "click_chart.csv",
-        "click_chart.csv",
+        f"{stem}.csv",
+        f"{stem}.csv",
         f": the measured values{also} as CSV ({cols[2]}, {cols[4]}; {held}).",
     )
 
@@ -359,23 +385,35 @@ def _peaks_and_overlays(
     live: Interactive,
     cycles: list[repeatability.TestCycles],
     force_note: str,
+    adjuster: str = "",
 ) -> None:
+    """`adjuster`: the figures of one adjuster's line, named for it (peaks_NAME.png)."""
     units = live.units
-    page.section("Peak force vs peak velocity")
+    of = f": {adjuster} adjuster" if adjuster else ""
+    tag = f"_{adjuster}" if adjuster else ""
+    page.section(f"Peak force vs peak velocity{of}")
     band = repeatability.peak_band(cycles)
-    peaks = plots.peak_curves([c.summary for c in complete], out_dir / "peaks.png", band, units)
+    peaks = plots.peak_curves(
+        [c.summary for c in complete], out_dir / f"peaks{tag}.png", band, units
+    )
     caption = (
         f"One curve per click through its test frequencies; complete tests only; {force_note}. "
         "Bars: ±2 SD of the test's per-cycle peak force (cycle-to-cycle band)."
     )
     page.raw(live.figure(peaks.name, caption, live.peaks(complete, band)))
-    page.section("Overlays across clicks")
+    page.section(f"Overlays across clicks{of}")
     by_freq: dict[float, list[plots.Curves]] = {}
     for c in complete:
         by_freq.setdefault(round(c.test.meta.frequency_hz, 6), []).append(c)
     for k, (f, group) in enumerate(sorted(by_freq.items())):
         page.details(f"{f:g} Hz: every click", opened=k == 0)
-        png = plots.frequency_overlay(group, f, out_dir / _freq_name(f), gas_force_n, units)
+        png = plots.frequency_overlay(
+            group,
+            f,
+            out_dir / _freq_name(f).replace("overlay", f"overlay{tag}"),
+            gas_force_n,
+            units,
+        )
         caption = f"{f:g} Hz: every click, named in the legend; complete tests."
         page.raw(live.figure(png.name, caption, live.overlay(group, gas_force_n)))
     page.close_details()
@@ -416,8 +454,11 @@ def _fit_section(
         page.paragraph("Calibrated globals (±1σ) beside the spec's values:")
         page.table(header, rows, numeric=[False, True, True, True, False, True])
     page.definitions(ERROR_MEASURES)
-    for caption, png in fit_figures(fit, tests, out_dir, units):
-        page.figure(_link_extra(out_dir, png, 0), caption)
+    lines = adjusters.lines(tests)
+    views = [(f"{n} adjuster: ", fit.for_adjuster(n), line, n) for n, line in lines.items()]
+    for head, view, line, name in views or [("", fit, tests, "")]:
+        for caption, png in fit_figures(view, line, out_dir, units, name):
+            page.figure(_link_extra(out_dir, png, 0), head + caption)
 
 
 def _loops_section(
@@ -434,19 +475,22 @@ def _loops_section(
         "frequencies overlaid; aborted tests dashed and labelled. Open a click to see it."
         + (" Dotted: the static gas force." if gas_force_n is not None else ""),
     )
-    by_click: dict[tuple[int, int], list[plots.Curves]] = {}
+    by_click: dict[tuple[int, int, tuple[tuple[str, int], ...]], list[plots.Curves]] = {}
     for c in drawable:
-        by_click.setdefault((c.test.meta.clicks, c.test.meta.gas_clicks), []).append(c)
-    for (clicks, gas), group in sorted(by_click.items()):
+        m = c.test.meta
+        by_click.setdefault((m.clicks, m.gas_clicks, m.setting), []).append(c)
+    for (clicks, gas, _setting), group in sorted(by_click.items()):
         freqs = ", ".join(f"{c.test.meta.frequency_hz:g}" for c in group)
         aborted = sum(c.aborted for c in group)
-        label = f"clicks {clicks}, gas clicks {gas}: {freqs} Hz"
+        # a damper with several adjusters: every adjuster named, in the sweep's order
+        named = group[0].test.meta.adjusters
+        where = ", ".join(f"{n} {v}" for n, v in named.items()) or f"clicks {clicks}"
+        label = f"{where}, gas clicks {gas}: {freqs} Hz"
         if aborted:
             label += f" ({aborted} not complete)"
         page.details(label, opened=len(by_click) == 1)
-        png = plots.click_loops(
-            group, out_dir / f"loops_c{clicks:02d}_g{gas:02d}.png", gas_force_n, units
-        )
-        caption = f"clicks {clicks}, gas clicks {gas}"
+        stem = "".join(f"_{n}{v:02d}" for n, v in named.items()) or f"_c{clicks:02d}"
+        png = plots.click_loops(group, out_dir / f"loops{stem}_g{gas:02d}.png", gas_force_n, units)
+        caption = f"{where}, gas clicks {gas}"
         page.raw(live.figure(png.name, caption, live.click_loops(group, gas_force_n)))
     page.close_details()

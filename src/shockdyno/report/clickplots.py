@@ -24,6 +24,7 @@ def force_vs_clicks(
     band: dict[Setting, dict[float, float]] | None = None,
     units: Units = SI,
     ylims_n: tuple[tuple[float, float], tuple[float, float]] | None = None,
+    clicks_label: str = "rod clicks",
 ) -> Path:
     """``band``: per setting and signed velocity, the half-width (N) of the cycle-to-cycle
     band, drawn as error bars on the measured points (report/repeatability.py).
@@ -82,7 +83,7 @@ def force_vs_clicks(
                     lw=1.1,
                 )
         ax.set_title(f"{title} (velocity {'+' if sign > 0 else '−'}, force at each speed)")
-        ax.set_xlabel("rod clicks (open →)")
+        ax.set_xlabel(f"{clicks_label} (open →)")
         ax.set_ylabel(
             f"force F ({units.force_label})"
             if chart.raw_force

@@ -128,7 +128,8 @@ def summary_row(s: TestSummary, units: Units = SI) -> list[str]:
     temp = None if s.temperature_c is None else units.temperature(s.temperature_c)
     return [
         str(s.index),
-        str(s.clicks),
+        # every adjuster's clicks of a damper with several
+        ", ".join(f"{n} {v}" for n, v in s.adjusters.items()) or str(s.clicks),
         str(s.gas_clicks),
         _num(s.frequency_hz, ".3g"),
         _num(units.length(s.amplitude_m), length),

@@ -289,7 +289,10 @@ class Interactive:
         ]
 
     def click_chart(
-        self, chart: ClickChart, band: dict[Setting, dict[float, float]] | None = None
+        self,
+        chart: ClickChart,
+        band: dict[Setting, dict[float, float]] | None = None,
+        clicks_label: str = "rod clicks",
     ) -> list[Chart]:
         """Force against clicks at each standard speed, compression and rebound; ``band``
         (N, half-widths per setting and signed speed) is read out on hover, as ±2 SD."""
@@ -367,7 +370,7 @@ class Interactive:
             out.append(
                 Chart(
                     f"{title} (velocity {'+' if sign > 0 else '−'})",
-                    "rod clicks (open →)",
+                    f"{clicks_label} (open →)",
                     y_label,
                     "clicks",
                     "",

@@ -17,7 +17,7 @@ Definitions (all over the measured cycles, ``test.measured()``):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -59,6 +59,13 @@ class TestSummary:
     motion: str = "sine"
     target_velocity_m_s: float | None = None
     cv: tuple[CvPoint, CvPoint] | None = None
+    adjusters: dict[str, int] = field(default_factory=dict)  # of a damper with several
+
+    def _clicks(self) -> str:
+        """'clicks=12', or every adjuster's: 'compression=12 rebound=4'."""
+        if not self.adjusters:
+            return f"clicks={self.clicks}"
+        return " ".join(f"{n}={v}" for n, v in self.adjusters.items())
 
     def line(self, done: int | None = None, total: int | None = None, units: Units = SI) -> str:
         """One plain ASCII line (no control codes) for logs, pipes and CI; imperial units
@@ -76,7 +83,7 @@ class TestSummary:
         f_unit, v_unit = ("lbf", "in/s") if imp else ("N", "m/s")
         v_scale, v_spec = (units.velocity_per_m_s, "+.2f") if imp else (1.0, "+.3f")
         return (
-            f"{head} clicks={self.clicks} gas={self.gas_clicks} f={self.frequency_hz:.2f}Hz"
+            f"{head} {self._clicks()} gas={self.gas_clicks} f={self.frequency_hz:.2f}Hz"
             f" A={amp}"
             f" Fc={_fmt(units.force(self.peak_compression_force_n), '+.0f')}{f_unit}"
             f" Fr={_fmt(units.force(self.peak_rebound_force_n), '+.0f')}{f_unit}"
@@ -192,6 +199,7 @@ def summarise(
         index=meta.index,
         clicks=meta.clicks,
         gas_clicks=meta.gas_clicks,
+        adjusters=dict(meta.adjusters),
         frequency_hz=meta.frequency_hz,
         amplitude_m=meta.amplitude_m,
         status=meta.status,

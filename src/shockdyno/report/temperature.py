@@ -256,20 +256,25 @@ def render(
     out_dir: Path | None = None,
     raw_force: bool = True,
     units: Units = SI,
+    adjuster: str = "",
 ) -> None:
     """The section after the click chart: the corrected chart (and, given ``out_dir``, its
-    CSV there, SI), or one line saying why there is none; the page's numbers in ``units``."""
+    CSV there, SI), or one line saying why there is none; the page's numbers in ``units``.
+    ``adjuster``: one adjuster's line of a damper with several (its own CSV and heading)."""
     reason = why_not(tests, fit)
     tl = units.temperature_label
+    csv_name = CSV_NAME.replace(".csv", f"_{adjuster}.csv") if adjuster else CSV_NAME
 
     def temp(t_c: float, spec: str = "g") -> str:
         return f"{units.temperature(t_c):{spec}} {tl}"
 
-    heading = f"Click chart at {temp(reference_c)} oil"
+    heading = f"Click chart at {temp(reference_c)} oil" + (
+        f": {adjuster} adjuster" if adjuster else ""
+    )
     if reason or fit is None:
         page.paragraph(reason)  # in the click chart's section: one line, no heading
         if out_dir is not None:  # a re-run's page must not sit beside an earlier one's CSV
-            (Path(out_dir) / CSV_NAME).unlink(missing_ok=True)
+            (Path(out_dir) / csv_name).unlink(missing_ok=True)
         return
     c = corrected_chart(tests, fit, reference_c, raw_force, units.standard_velocities_m_s)
     formula = (
@@ -316,8 +321,8 @@ def render(
     )
     page.table(header, rows, numeric=[True] * len(header))
     if out_dir is not None:
-        write_text_atomic(Path(out_dir) / CSV_NAME, to_csv(c))
-        page.link(CSV_NAME, CSV_NAME, ": measured and corrected values, with the temperatures.")
+        write_text_atomic(Path(out_dir) / csv_name, to_csv(c))
+        page.link(csv_name, csv_name, ": measured and corrected values, with the temperatures.")
     left_out = sorted(set(c.measured) - set(c.corrected))
     if left_out:
         page.paragraph(

@@ -110,6 +110,22 @@ class ClickTable:
     gas_force_n: float  # the force at rest at mid-stroke
     measured_m_s: Span | None = None  # what the recording reached (None: not recorded)
     friction_band_m_s: float | None = None  # the friction's smoothing, if widened
+    # One adjuster's table of a damper with several: its name, and what the others were
+    # held at ("rebound at 10"); "" for the one rod adjuster
+    adjuster: str = ""
+    held: str = ""
+
+    @property
+    def label(self) -> str:
+        """'12 clicks', or 'compression 12 clicks (rebound at 10)'."""
+        if not self.adjuster:
+            return f"{self.clicks} clicks"
+        return f"{self.adjuster} {self.clicks} clicks" + (f" ({self.held})" if self.held else "")
+
+    @property
+    def stem(self) -> str:
+        """The files' name: clicks_NN, or NAME_NN for one adjuster of several."""
+        return f"{self.adjuster or 'clicks'}_{self.clicks:02d}"
 
     @property
     def damping_force_n(self) -> FloatArray:
@@ -269,7 +285,7 @@ def table_csv(t: ClickTable, units: Units, spec_name: str) -> str:
     u_v, u_f = units.velocity.replace("/", "_"), units.force
     measured = t.measured
     lines = [
-        f"# shockdyno damper table: {spec_name}, {t.clicks} clicks ({t.source}); "
+        f"# shockdyno damper table: {spec_name}, {t.label} ({t.source}); "
         "quasi-static force at mid-stroke, no rod acceleration",
         "# sign: velocity > 0 compression (bump), force > 0 resists compression; "
         f"damping force = force less the static gas force {_g(t.gas_force_n / units.n_per_unit)}"
@@ -301,7 +317,7 @@ def table_teimorbit(t: ClickTable, units: Units, spec_name: str, version: str) -
  FILE_FORMAT   =  'ASCII'
 (COMMENTS)
 {{comment_string}}
-'shockdyno {version}: {spec_name}, {t.clicks} clicks ({t.source})'
+'shockdyno {version}: {spec_name}, {t.label} ({t.source})'
 'quasi-static damping force at mid-stroke; velocity > 0 extension (rebound)'
 'static gas force {gas} {units.force_word} pushing the rod out, not in this curve'
 'bleed areas A_bc {_g(t.a_bc_m2)} m^2, A_bt {_g(t.a_bt_m2)} m^2'
@@ -365,7 +381,7 @@ def write_tables(
     """Write every file into out_dir (which the caller has checked), each atomically."""
     written = []
     for t in tables:
-        stem = out_dir / f"clicks_{t.clicks:02d}"
+        stem = out_dir / t.stem
         for path, text in (
             (stem.with_suffix(".csv"), table_csv(t, units, spec_name)),
             (stem.with_suffix(".dpr"), table_teimorbit(t, units, spec_name, version)),

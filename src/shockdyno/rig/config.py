@@ -54,6 +54,9 @@ REQUIRED_REGISTERS = (
 OPTIONAL_REGISTERS = (
     "rod_clicks",
     "gas_clicks",
+    # A damper's own adjusters, motorised: these, or any NAME_clicks (ADJUSTER_REGISTER)
+    "compression_clicks",
+    "rebound_clicks",
     "force_actual",
     "cycle_count",
     "travel_limit",
@@ -65,6 +68,9 @@ OPTIONAL_REGISTERS = (
     "waveform_acceleration",
     "acceleration_limit",
 )
+
+# A damper's own adjuster, motorised: NAME_clicks for the spec's [adjuster.NAME]
+ADJUSTER_REGISTER = re.compile(r"[a-z][a-z0-9_]{0,31}_clicks")
 
 DEFAULT_CONTROL_BITS = {"enable": 0, "start": 1, "stop": 2, "quick_stop": 3, "fault_reset": 7}
 DEFAULT_STATUS_BITS = {
@@ -319,7 +325,9 @@ def _register_map(tables: Any, src: str) -> RegisterMap:
     for name, entry in tables.items():
         if name in SPECIAL_TABLES:
             continue
-        if name not in known:  # a misspelt optional register would silently be absent
+        if name not in known and not ADJUSTER_REGISTER.fullmatch(name):
+            # a misspelt optional register would silently be absent (a misspelt NAME_clicks
+            # is named when a sweep over that adjuster finds its register missing)
             near = difflib.get_close_matches(name, known, n=1)
             hint = f"did you mean {near[0]}?" if near else f"known: {', '.join(known)}"
             raise fail(src, dotted(at, name), f"unknown register ({hint})")

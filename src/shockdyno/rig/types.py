@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -80,4 +81,8 @@ class Daq(Protocol):
 class Adjuster(Protocol):
     def set_clicks(self, rod_clicks: int, gas_clicks: int) -> None:
         """Set the damper's adjusters (a motor, or an operator prompt that waits)."""
+
+    def set_adjusters(self, setting: Mapping[str, int], gas_clicks: int) -> None:
+        """Set each named adjuster of a damper with several (a register
+        `NAME_clicks` each, or a prompt), and the gas bottle."""
         ...

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import itertools
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from shockdyno.errors import ConfigError
+from shockdyno.lists import parse_ints
 from shockdyno.model.stroke import CONSTANT_VELOCITY, WAVEFORMS, Stroke
 
 DEFAULT_FREQUENCIES_HZ = (0.5, 1.0, 1.5)  # paper, Table 3
@@ -84,16 +87,84 @@ def stroke_frequency_hz(stroke: Stroke) -> float:
     """The drive's frequency for a stroke, rounded as a sine's is (5 significant digits)."""
     return float(f"{stroke.frequency_hz:.5g}")
 
+# Every adjuster's clicks at one point of a sweep over several, by name in the spec's
+# order; () for a damper with the one rod adjuster (its clicks are `clicks`).
+Setting = tuple[tuple[str, int], ...]
+# What identifies a test of a plan: (clicks, gas clicks, frequency, setting sorted by name).
+PointKey = tuple[int, int, float, Setting]
+# How a sweep over several adjusters visits their settings (docs/adjusters.md says when
+# to use which): each adjuster through its list with the others at the base, or every
+# combination.
+DESIGNS = ("one-at-a-time", "factorial")
+
+
+def parse_base(items: Sequence[str], ranges: Mapping[str, int]) -> Setting:
+    """`--base NAME=N` (repeated): where a one-at-a-time sweep holds each named adjuster."""
+    out: dict[str, int] = {}
+    for item in items:
+        name, eq, text = (s.strip() for s in item.partition("="))
+        if not eq or name not in ranges:
+            known = ", ".join(ranges) or "none"
+            raise ConfigError(
+                f"--base {item!r}: use NAME=CLICKS with an adjuster of the damper ({known})"
+            )
+        try:
+            value = int(text)
+        except ValueError:
+            raise ConfigError(
+                f"--base {item!r}: {text!r} is not a whole number of clicks"
+            ) from None
+        if not 0 <= value <= ranges[name]:
+            raise ConfigError(f"--base {name}: clicks must be 0-{ranges[name]}, got {value}")
+        out[name] = value
+    return tuple(out.items())
+
+
+def point_key(clicks: int, gas_clicks: int, frequency_hz: float, setting: Setting) -> PointKey:
+    return (clicks, gas_clicks, frequency_hz, tuple(sorted(setting)))
+
 
 @dataclass(frozen=True)
 class SweepPoint:
     clicks: int
     gas_clicks: int
     frequency_hz: float
+    adjusters: Setting = ()
 
     @property
-    def key(self) -> tuple[int, int, float]:
-        return (self.clicks, self.gas_clicks, self.frequency_hz)
+    def key(self) -> PointKey:
+        return point_key(self.clicks, self.gas_clicks, self.frequency_hz, self.adjusters)
+
+
+def parse_adjust(
+    items: Sequence[str], ranges: Mapping[str, int]
+) -> tuple[tuple[str, tuple[int, ...]], ...]:
+    """`--adjust NAME=LIST` (repeated) against the spec's adjusters {name: max clicks}:
+    every adjuster once, in the spec's order, each list within its range."""
+    given: dict[str, tuple[int, ...]] = {}
+    names = ", ".join(ranges) or "none"
+    for item in items:
+        name, eq, text = item.partition("=")
+        name = name.strip()
+        if not eq or not text.strip():
+            raise ConfigError(f"--adjust {item!r}: use NAME=CLICKS, e.g. compression=0-20:5")
+        if name not in ranges:
+            raise ConfigError(f"--adjust {item!r}: the damper has no adjuster {name!r} ({names})")
+        if name in given:
+            raise ConfigError(f"--adjust {name} is given twice")
+        values = parse_ints(text, f"--adjust {name}")
+        top = ranges[name]
+        bad = [v for v in values if not 0 <= v <= top]
+        if bad:
+            raise ConfigError(f"--adjust {name}: clicks must be 0-{top}, got {bad[0]}")
+        given[name] = tuple(values)
+    missing = [n for n in ranges if n not in given]
+    if missing:
+        raise ConfigError(
+            f"--adjust: the damper's adjusters are {names}; give each (a single value holds "
+            f"one, e.g. --adjust {missing[0]}=10)"
+        )
+    return tuple((n, given[n]) for n in ranges)
 
 
 @dataclass(frozen=True)
@@ -110,6 +181,11 @@ class SweepPlan:
     # Constant-velocity tests (model/stroke.py): one stroke per frequency, in order (the
     # frequencies are theirs: stroke_frequency_hz). Empty: sines.
     strokes: tuple[Stroke, ...] = ()
+    # A sweep over several adjusters (`--adjust`): each one's clicks, in the spec's order;
+    # `clicks` is then unused. Empty: the one rod adjuster at `clicks`.
+    adjust: tuple[tuple[str, tuple[int, ...]], ...] = ()
+    design: str = "one-at-a-time"
+    held: Setting = ()  # `--base`: where one-at-a-time holds these adjusters (else the middle)
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.amplitude_m) and self.amplitude_m > 0):
@@ -129,6 +205,14 @@ class SweepPlan:
         if gas is not None and not (math.isfinite(gas) and 1e5 <= gas <= 1e7):
             raise ConfigError(f"gas pressure must be 1-100 bar absolute, got {gas / 1e5:g} bar")
 
+        if self.design not in DESIGNS:
+            raise ConfigError(f"--design must be {' or '.join(DESIGNS)}, got {self.design!r}")
+        if self.held and self.design != "one-at-a-time":
+            raise ConfigError("--base goes with --design one-at-a-time (factorial holds none)")
+        unknown = [n for n, _ in self.held if n not in dict(self.adjust)]
+        if unknown:
+            raise ConfigError(f"--base {unknown[0]}: not an adjuster of --adjust")
+
     @property
     def waveform(self) -> str:
         return self.strokes[0].waveform if self.strokes else WAVEFORMS[0]
@@ -140,9 +224,38 @@ class SweepPlan:
                 return s
         return None
 
+    def base(self) -> Setting:
+        """The setting a one-at-a-time sweep holds the other adjusters at: `--base` where
+        given, else the middle of each one's list (the lower middle of an even count)."""
+        given = dict(self.held)
+        return tuple((n, given.get(n, sorted(v)[(len(v) - 1) // 2])) for n, v in self.adjust)
+
+    def settings(self) -> list[Setting]:
+        """Every adjuster setting the plan visits, in order (the base first)."""
+        if self.design == "factorial":
+            names = [n for n, _ in self.adjust]
+            combos = itertools.product(*(v for _, v in self.adjust))
+            return [tuple(zip(names, c, strict=True)) for c in combos]
+        base = self.base()
+        out = [base]
+        for name, values in self.adjust:
+            for v in values:
+                s = tuple((n, v if n == name else b) for n, b in base)
+                if s not in out:
+                    out.append(s)
+        return out
+
     def points(self) -> list[SweepPoint]:
         """Clicks outer, frequency inner: the adjuster moves as rarely as possible."""
+        if self.adjust:
+            # `clicks` of a test over several adjusters: the first adjuster's, for a
+            # reader that knows one (recordings/FORMAT.md)
+            return [
+                SweepPoint(s[0][1], self.gas_clicks, f, s)
+                for s in self.settings()
+                for f in self.frequencies_hz
+            ]
         return [SweepPoint(c, self.gas_clicks, f) for c in self.clicks for f in self.frequencies_hz]
 
-    def remaining(self, done: set[tuple[int, int, float]]) -> list[SweepPoint]:
+    def remaining(self, done: set[PointKey]) -> list[SweepPoint]:
         return [p for p in self.points() if p.key not in done]

@@ -17,7 +17,7 @@ from rich.console import Console
 
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.outputs import check_recording_output
-from shockdyno.run.plan import SweepPlan
+from shockdyno.run.plan import PointKey, SweepPlan
 from shockdyno.units import SI, Units
 
 NEW_SUFFIX = ".new.mcap"  # a forced sweep's recording, until its first test completes
@@ -64,7 +64,7 @@ def _record_sweep(
     from shockdyno.run.sweep import run_sweep
 
     console = console or Console()
-    done: set[tuple[int, int, float]] = set()
+    done: set[PointKey] = set()
     first_index = 0
     ident = identity(rig, plan)
     if resume:
@@ -74,7 +74,7 @@ def _record_sweep(
         _check_resume_matches(previous.tests, plan, output)
         _check_same_set(previous.metadata, metadata, output)
         _check_same_identity(previous.identity, ident, output)
-        done = previous.completed_keys()
+        done = previous.completed_points()
         first_index = len(previous.tests)
         console.print(
             f"resuming {output}: {len(done)} tests done, {len(plan.remaining(done))} to go"
@@ -92,6 +92,14 @@ def _record_sweep(
                    None if stroke is None else stroke.velocity_m_s)  # fmt: skip
     if plan.temperature_band_c is not None:
         check_band(rig, plan.temperature_band_c)
+    if plan.adjust and rig.adjuster == "motorised":
+        for name, _ in plan.adjust:
+            if f"{name}_clicks" not in rig.registers.registers:
+                raise ConfigError(
+                    f"{rig.source}: the {name} adjuster is motorised (rig.adjuster) but the "
+                    f"register map has no {name}_clicks; add it, or set rig.adjuster = "
+                    '"operator"'
+                )
     if rig.adjuster == "operator" and not sys.stdin.isatty():
         raise ConfigError(
             f"{rig.source}: the adjuster is set by an operator, who confirms each setting at a "
@@ -218,6 +226,10 @@ def identity(rig: RigConfig, plan: SweepPlan) -> dict[str, str]:
         plan_doc["waveform"] = plan.waveform
         plan_doc["velocities_m_s"] = [s.velocity_m_s for s in plan.strokes]
         plan_doc["reversal_accel_m_s2"] = [s.accel_m_s2 for s in plan.strokes]
+    if plan.adjust:  # only a sweep over several adjusters says so (the one rod's as before)
+        plan_doc |= {"adjust": {n: list(v) for n, v in plan.adjust}, "design": plan.design}
+        if plan.held:
+            plan_doc["base"] = dict(plan.held)
     return {
         "rig_identity": json.dumps(rig_doc, sort_keys=True),
         "plan": json.dumps(plan_doc, sort_keys=True),

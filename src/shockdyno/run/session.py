@@ -30,7 +30,7 @@ from __future__ import annotations
 import functools
 import math
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from types import TracebackType
@@ -331,6 +331,36 @@ class RigSession:
                     f"and the gas bottle to {gas_clicks} clicks"
                 )
             self._event("adjust", f"operator set rod {rod_clicks}, gas {gas_clicks} clicks")
+
+    def set_adjusters(self, setting: Mapping[str, int], gas_clicks: int) -> None:
+        """Each adjuster of a damper with several: its register `NAME_clicks` written and
+        read back (motorised), or one prompt naming every adjuster (operator)."""
+        values = {f"{name}_clicks": v for name, v in setting.items()} | {"gas_clicks": gas_clicks}
+        for name, value in values.items():
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+                raise ConfigError(f"{name} must be a whole number >= 0, got {value!r}")
+        words = ", ".join(f"{name} {v}" for name, v in setting.items())
+        if self.rig.adjuster == "motorised":
+            missing = [r for r in values if r not in self.rig.registers.registers]
+            if missing:
+                raise ConfigError(
+                    f"{self.rig.source}: a motorised adjuster needs register {missing[0]}"
+                )
+            act = self._act()
+            act.write({k: int(v) for k, v in values.items()})
+            got = act.read(list(values))
+            if any(int(got[k]) != v for k, v in values.items()):
+                raise RigFault(f"adjusters did not reach {words}, gas {gas_clicks} clicks: {got}")
+            self._watch.expect({k: float(v) for k, v in values.items()})
+            self._event("adjust", f"adjusters set to {words}, gas {gas_clicks} clicks")
+        else:
+            with self.parked("the operator sets the clicks"):
+                self.prompt(
+                    "Set "
+                    + ", ".join(f"the {name} adjuster to {v} clicks" for name, v in setting.items())
+                    + f" and the gas bottle to {gas_clicks} clicks"
+                )
+            self._event("adjust", f"operator set {words}, gas {gas_clicks} clicks")
 
     @contextmanager
     def parked(self, why: str) -> Iterator[None]:

@@ -20,7 +20,7 @@ from shockdyno.record.types import TestMeta
 from shockdyno.rig.types import Adjuster, SampleBlock
 from shockdyno.run import signals
 from shockdyno.run.gas_measure import Holder, measure_gas_force
-from shockdyno.run.plan import SweepPlan, SweepPoint
+from shockdyno.run.plan import PointKey, SweepPlan, SweepPoint
 from shockdyno.run.signals import Terminated
 
 
@@ -115,22 +115,25 @@ def run_sweep(
     view: View,
     *,
     first_index: int = 0,
-    done: set[tuple[int, int, float]] | None = None,
+    done: set[PointKey] | None = None,
     sample_rate_hz: float,
     log: Callable[[str], None] = print,
     temperature_timeout_s: float = 1800.0,
 ) -> SweepResult:
     result = SweepResult()
     index = first_index
-    current_clicks: tuple[int, int] | None = None
+    current_clicks: tuple[int, int, tuple[tuple[str, int], ...]] | None = None
     gas_force_n: float | None = None
     good_gas: dict[int, float] = {}  # the last usable measurement per gas setting
     last_t = [0.0]  # DAQ time of the newest sample: events are stamped on the rig's clock
     for point in plan.remaining(done or set()):
-        clicks_changed = current_clicks != (point.clicks, point.gas_clicks)
+        clicks_changed = current_clicks != (point.clicks, point.gas_clicks, point.adjusters)
         if clicks_changed:
-            session.set_clicks(point.clicks, point.gas_clicks)
-            current_clicks = (point.clicks, point.gas_clicks)
+            if point.adjusters:
+                session.set_adjusters(dict(point.adjusters), point.gas_clicks)
+            else:
+                session.set_clicks(point.clicks, point.gas_clicks)
+            current_clicks = (point.clicks, point.gas_clicks, point.adjusters)
         if plan.temperature_band_c is not None:
             wait_for_temperature(session, plan.temperature_band_c, temperature_timeout_s, log)
         if clicks_changed and plan.measure_gas:
@@ -230,6 +233,7 @@ def _sine_meta(
         status="running",
         start_temperature_c=round(float(temp_c), 2),
         gas_pressure_pa=plan.gas_pressure_pa,
+        adjusters=dict(point.adjusters),
     )
 
 

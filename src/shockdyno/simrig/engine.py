@@ -22,6 +22,7 @@ import numpy as np
 from msgspec import Meta
 from numpy.typing import NDArray
 
+from shockdyno.errors import ConfigError
 from shockdyno.model.composite import DamperModel, ModelInputs, Term
 from shockdyno.model.filters import first_order_lag
 from shockdyno.model.spec import DamperSpec
@@ -99,6 +100,7 @@ class _State:
     jam_start: float = 0.0
     jam_until: float = -1.0
     clicks: tuple[int, int] = (10, 0)
+    setting: dict[str, int] = field(default_factory=dict)  # a damper's own adjusters, by name
     areas: tuple[float, float] = (0.0, 0.0)
     temperature_c: float = 40.0
     plant: PlantState | None = None
@@ -123,6 +125,11 @@ class SimEngine:
         self.model = DamperModel(spec, tuple(terms or ()), dict(term_values or {}))
         self.params = SimParams.from_rig(rig)
         self.fs = rig.daq.sample_rate_hz
+        if plant is not None and spec.adjusters:
+            raise ConfigError(
+                f"the reference plant has the one rod needle; the damper {spec.name} has "
+                f"adjusters {', '.join(spec.adjuster_names)} (use a scenario without [plant])"
+            )
         self.plant = ReferencePlant(spec, plant, self.fs) if plant is not None else None
         # Samples per step of the server's loop. The reference plant's compiled implicit
         # steps take 0.1-0.4 ms a sample (8 sub-steps each) and run in a thread of their
@@ -185,9 +192,30 @@ class SimEngine:
         return self.produced / self.fs
 
     def set_clicks(self, rod: int, gas: int) -> None:
+        """The rod needle's clicks (every adjuster at them, on a damper with several)."""
         a_bc, a_bt = self.spec.bleed_areas(rod, gas)  # ConfigError if out of range
         self.state.clicks = (rod, gas)
         self.state.areas = (float(a_bc), float(a_bt))
+        self.state.setting = {
+            a.name: min(rod, self.spec.adjuster_law(a.name).max_clicks) for a in self.spec.adjusters
+        }
+        if self.spec.adjusters:
+            self._set(self.state.setting, gas)
+
+    def set_adjuster(self, name: str, clicks: int) -> None:
+        """One adjuster of a damper with several: its path's area follows (ConfigError for
+        an adjuster the damper has not, or clicks out of its range)."""
+        self._set({**self.state.setting, name: clicks}, self.state.clicks[1])
+
+    def set_gas(self, gas: int) -> None:
+        """The gas bottle of a damper with several adjusters, which keep their clicks."""
+        self._set(self.state.setting, gas)
+
+    def _set(self, setting: dict[str, int], gas: int) -> None:
+        a_bc, a_bt = self.spec.setting_areas(setting, gas)  # ConfigError if out of range
+        self.state.setting = setting
+        self.state.clicks = (self.state.clicks[0], gas)
+        self.state.areas = (a_bc, a_bt)
 
     def inject(self, fault: Fault) -> None:
         """Apply a fault at the next sample (fault.at_s is ignored)."""

@@ -65,6 +65,8 @@ class DriveRegisters:
             "waveform_acceleration": d.waveform_accel_m_s2,
             "acceleration_limit": d.params.accel_limit_m_s2,
         }
+        if name.endswith("_clicks") and name[: -len("_clicks")] in e.state.setting:
+            return float(e.state.setting[name[: -len("_clicks")]])
         return float(values.get(name, 0.0))
 
     def refresh(self, registers: list[int], block_start: int) -> None:
@@ -122,7 +124,15 @@ class DriveRegisters:
             rod, gas = e.state.clicks
             rod, gas = (int(value), gas) if name == "rod_clicks" else (rod, int(value))
             try:
-                e.set_clicks(rod, gas)
+                if name == "gas_clicks" and e.state.setting:  # keep the adjusters' own
+                    e.set_gas(gas)
+                else:
+                    e.set_clicks(rod, gas)
+            except ConfigError:
+                return ExcCodes.ILLEGAL_VALUE
+        elif name.endswith("_clicks") and name[: -len("_clicks")] in e.state.setting:
+            try:
+                e.set_adjuster(name[: -len("_clicks")], int(value))
             except ConfigError:
                 return ExcCodes.ILLEGAL_VALUE
         elif name == "position_command":

@@ -87,6 +87,7 @@ def stroke_frequency_hz(stroke: Stroke) -> float:
     """The drive's frequency for a stroke, rounded as a sine's is (5 significant digits)."""
     return float(f"{stroke.frequency_hz:.5g}")
 
+
 # Every adjuster's clicks at one point of a sweep over several, by name in the spec's
 # order; () for a damper with the one rod adjuster (its clicks are `clicks`).
 Setting = tuple[tuple[str, int], ...]

@@ -69,7 +69,7 @@ def test_a_motorised_rig_without_the_register_is_refused_before_anything(tmp_pat
 
 def test_any_adjusters_register_is_named_for_it_and_a_misspelt_one_still_refused() -> None:
     text = SIM_RIG.read_text()
-    extra = 'bump_clicks = { address = 36, type = "uint16" }\n'
+    extra = 'bump_clicks = { address = 44, type = "uint16" }\n'  # a free address
     rig = parse_rig(text.replace("[daq]\n", extra + "\n[daq]\n", 1), "bump.toml")
     assert "bump_clicks" in rig.registers.registers
     with pytest.raises(ConfigError, match="unknown register"):

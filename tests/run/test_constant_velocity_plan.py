@@ -38,7 +38,7 @@ def test_a_trapezoid_plan_gives_each_speed_its_period() -> None:
 def test_a_sine_record_keeps_its_keys_and_an_old_record_reads_as_a_sine() -> None:
     sine = TestMeta(index=0, clicks=3, gas_clicks=0, frequency_hz=1.0, amplitude_m=0.03,
                     sample_rate_hz=1000.0)  # fmt: skip
-    new = {"target_velocity_m_s", "reversal_accel_m_s2"}
+    new = {"target_velocity_m_s", "reversal_accel_m_s2", "adjusters"}  # written when set
     assert set(meta_to_json(sine)) == {f.name for f in fields(TestMeta)} - new
     old = {k: v for k, v in meta_to_json(sine).items() if k != "motion"}
     back = meta_from_json(old)

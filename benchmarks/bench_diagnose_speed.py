@@ -104,13 +104,19 @@ def _region(u: dict[str, Any]) -> str:
     return json.dumps(where, sort_keys=True)
 
 
+def _regions(v: dict[str, Any]) -> list[dict[str, Any]]:
+    """The unexplained regions, listed one an entry (before issue 45) or inside each
+    described residual's `regions` (after): a checkout on either side compares."""
+    return [r for u in v.get("unexplained") or [] for r in u.get("regions") or [u]]
+
+
 def verdict(d: dict[str, Any]) -> dict[str, Any]:
     """What must not change: the physics, the calibrations that moved, the unexplained."""
     v = d["verdict"]
     return {
         "physics": list(v["physics"]),
         "calibrated": sorted(r["parameter"] for r in v["calibration"] if r.get("moved")),
-        "unexplained": sorted(_region(u) for u in v.get("unexplained") or []),
+        "unexplained": sorted(_region(u) for u in _regions(v)),
     }
 
 

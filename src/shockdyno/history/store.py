@@ -195,7 +195,7 @@ def visits(path: Path, damper_id: str) -> list[Visit]:
             )
             for r in db.execute(
                 """SELECT id, kind, options, made_utc, result_file, version, e_t, e_t_before,
-                          physics, verdict FROM results WHERE sha256 = ? ORDER BY made_utc""",
+                          physics, verdict FROM results WHERE sha256 = ? ORDER BY made_utc, id""",
                 (row[0],),
             ).fetchall():
                 areas = tuple(

@@ -31,11 +31,9 @@ from shockdyno.model.terms import make_term
 FloatArray = NDArray[np.float64]
 AREA_SCALE = 1e-6  # areas per mm², like the fit
 
-# A fold's refit started from the full fit's Jacobian with Broyden's updates (fitting.refit
-# warm=True) took 13 s of a 96 s diagnosis of a 15-test sweep, but its held-out gains are
-# not the differenced ones: on the reference plant's elasto-plastic seal (seed
-# 755, four tests) the seal's friction lost its held-out claim and nothing was named,
-# where the differenced folds name it. A faster verdict that misses a seal is no verdict.
+# A fold's refit may start from the full fit's Jacobian with Broyden's updates (fitting.refit
+# warm=True): far fewer model evaluations, but held-out gains that are not the differenced
+# ones, and a real seal lost its claim with them (benchmarks/results). Off until they agree.
 WARM_FOLDS = False
 
 

@@ -82,9 +82,8 @@ SPEC_GLOBALS: dict[str, SpecGlobal] = {
         # A new seal against a bedded one, a guide's fit: within a factor of two.
         SpecGlobal("friction_n", "N", 0.0, 6.0, 20.0, tolerance=(0.5, 2.0)),
         # A shim stack's preload and its face: the stack a drawing gives is built to tenths
-        # of a mm, and a model's plate stands in for a real stack's beam (a wedge beam's
-        # stiffness is 0.74 of the plate's, so its calibrated face moved 1.4-1.5x on a
-        # plant with that stack): half to twice.
+        # of a mm, and the model's plate stands in for a real stack's beam (a wedge beam is
+        # softer than the plate, which a calibrated face takes up): half to twice.
         SpecGlobal("compression_valve.preload_m", "m", 0.0, 5.0, 1.0e-4, tolerance=(0.5, 2.0)),
         SpecGlobal("compression_valve.face_area_m2", "m²", 0.2, 5.0, 1.0e-4, tolerance=(0.5, 2.0)),
         SpecGlobal("rebound_valve.preload_m", "m", 0.0, 5.0, 1.0e-4, tolerance=(0.5, 2.0)),

@@ -104,6 +104,27 @@ def test_ctrl_c_mid_sine_stops_centres_and_disables(backend: Backend) -> None:
     assert [e.kind for e in session.events][-2:] == ["disable", "closed"]
 
 
+def test_ctrl_c_in_a_slow_sine_waits_for_its_ramp_out(sim_rig_factory) -> None:
+    """A drive ramps a sine out over one period at least: at 0.1 Hz that is 10 s, longer
+    than the rig file's stop time. The stop's wait must last that long (it was the stop
+    time + 2 s: the drive was disabled mid-ramp, off centre, on a real-time rig)."""
+    sim = sim_rig_factory(speed=4.0)
+    rig = sim.rig_config()
+    rec = Collector()
+
+    def interrupt(block) -> None:  # type: ignore[no-untyped-def]
+        rec.block(block)
+        if rec.moved_for(2.5):  # in the 10 s ramp-in, the ram 7 mm off centre
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt), RigSession(rig) as session:
+        session.run_sine(0.02, 0.1, 1, 1, interrupt)
+    st = drive_status(rig)
+    assert not st.enabled and not st.running
+    assert st.position_m == pytest.approx(rig.stroke_centre_m, abs=1e-3)
+    assert "stop_step_failed" not in [e.kind for e in session.events]
+
+
 def test_operator_adjuster_prompts_and_waits(backend: Backend) -> None:
     rig = replace(backend.rig, adjuster="operator")
     asked: list[str] = []

@@ -55,7 +55,73 @@ def test_a_blocked_control_loop_lets_the_drive_stop_itself(sim_rig_factory) -> N
     assert not seen[-1].enabled and not seen[-1].running
     assert out.status == "aborted" and "heartbeat lost" in out.reason
     st = settled_status(rig)
-    assert not st.enabled and not st.running
+    assert not st.enabled and not st.running and not st.fault
+    assert st.position_m == pytest.approx(rig.stroke_centre_m, abs=1e-3)
+
+
+def test_a_signal_during_a_stall_past_the_watchdog_still_centres(sim_rig_factory) -> None:
+    """A loaded host stalls the sweep process past the watchdog mid-sine (the drive trips,
+    ramps the sine out and then disables itself), and a SIGTERM arrives meanwhile: the
+    teardown's stop, reset and centring ran while the drive's own disable was still to
+    come, which cut the move to the centre short (a CI run: 64.9 mm against a 75 mm
+    centre). The teardown waits for the watchdog's disable before it resets and centres.
+    Whether the old order lost the race depends on timing: this test passed without the
+    fix on an idle machine; it holds the sequence, the CI run found the race."""
+    sim = sim_rig_factory(speed=4.0)
+    rig = sim.rig_config()
+    probe = _client(rig)
+    rec = Collector()
+    tripped: list[ActuatorStatus] = []
+
+    def stalled(block) -> None:  # type: ignore[no-untyped-def]
+        rec.block(block)
+        if rec.moved_for(0.6):  # off centre: about a quarter of a 0.5 Hz cycle in
+            t0 = time.monotonic()
+            while time.monotonic() - t0 < rig.heartbeat.timeout_s + 2.0:
+                st = probe.status()
+                if st.fault:  # tripped; still ramping the sine out
+                    tripped.append(st)
+                    break
+                time.sleep(0.02)
+            raise KeyboardInterrupt  # the signal: its stop re-ramps what the trip began
+
+    try:
+        with pytest.raises(KeyboardInterrupt), RigSession(rig) as session:
+            session.run_sine(0.02, 0.5, 1, 4, stalled)
+        final = settled_status(rig)
+    finally:
+        probe.close()
+    assert tripped and tripped[0].fault_code == HEARTBEAT_LOST
+    assert not final.enabled and not final.running and not final.fault
+    assert final.position_m == pytest.approx(rig.stroke_centre_m, abs=1e-3)
+    kinds = [e.kind for e in session.events]
+    assert "stop_step_failed" not in kinds
+    i = kinds.index("reset")
+    assert kinds[i : i + 3] == ["reset", "centre", "disable"]
+
+
+def test_a_drive_disabled_by_another_master_is_not_enabled_to_centre(sim_rig_factory) -> None:
+    """Re-enabling is for the session's own watchdog lapse only: a drive another master
+    (a panel, an emergency stop) disabled mid-sine stays disabled where it is."""
+    sim = sim_rig_factory(speed=4.0)
+    rig = sim.rig_config()
+    intruder = _client(rig)
+    rec = Collector()
+
+    def panel(block) -> None:  # type: ignore[no-untyped-def]
+        rec.block(block)
+        if rec.moved_for(0.6) and intruder.status().enabled:
+            intruder.control(enable=False)
+
+    try:
+        with RigSession(rig) as session:
+            out = session.run_sine(0.02, 0.5, 1, 4, panel)
+        final = settled_status(rig)
+    finally:
+        intruder.close()
+    assert out.status == "aborted"
+    assert not final.enabled and abs(final.position_m - rig.stroke_centre_m) > 2e-3
+    assert "reset" not in [e.kind for e in session.events]  # no fault: nothing re-enabled it
 
 
 def test_the_drive_is_disabled_while_the_operator_sets_the_clicks(sim_rig_factory) -> None:

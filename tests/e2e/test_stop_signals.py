@@ -51,8 +51,9 @@ def test_signal_mid_test_stops_centres_disables_and_records_why(sim_rig_factory,
     assert proc.returncode == 128 + sig, err
     assert b"Traceback" not in err
     assert final is not None and not final.enabled and not final.running and not final.fault
-    assert abs(final.position_m - sim.rig.stroke_centre_m) < 0.001  # centred
     rec = open_recording(out)
+    story = "; ".join(f"{k}: {m}" for _, k, m in rec.events[-8:])
+    assert abs(final.position_m - sim.rig.stroke_centre_m) < 0.001, story  # centred
     assert not rec.truncated and not rec.interrupted
     name = signal.Signals(sig).name if sig != signal.SIGINT else "Ctrl-C"
     kinds = [k for _, k, _ in rec.events]

@@ -85,8 +85,11 @@ DEFAULT_MODES = {"hold": 0, "sine": 1, "stream": 2}
 WAVEFORM_CODES = {"sine": 0, "triangle": 1, "trapezoid": 2}  # the `waveform` register
 Bit = Annotated[int, Meta(ge=0, le=15)]
 Word = Annotated[int, Meta(ge=0, le=65535)]
+# The text a register map gives its drive's watchdog fault: its fault reaction ends in a
+# disable, which a session's stop waits for before it resets and centres (run/session.py).
+WATCHDOG_FAULT = "heartbeat lost"
 DEFAULT_FAULT_CODES = {
-    1: "heartbeat lost",
+    1: WATCHDOG_FAULT,
     2: "over-force",
     3: "over-velocity",
     4: "travel limit",

@@ -42,7 +42,7 @@ from shockdyno import priority
 from shockdyno.errors import ConfigError, RigFault
 from shockdyno.model.stroke import Stroke
 from shockdyno.rig.actuator import ActuatorStatus, ModbusActuator
-from shockdyno.rig.config import WAVEFORM_CODES, DaqConfig, RigConfig
+from shockdyno.rig.config import WATCHDOG_FAULT, WAVEFORM_CODES, DaqConfig, RigConfig
 from shockdyno.rig.daq import READ_SIZE, SerialDaq
 from shockdyno.rig.frames import FRAME_LEN, STATUS_MOTION
 from shockdyno.rig.types import Daq, SampleBlock
@@ -196,6 +196,9 @@ class RigSession:
         self._heartbeat = LoopHeartbeat(self._beat, rig.heartbeat.period_s, clock)
         self._armed = False
         self._stop_sent = False  # the stop command went out since the last start or enable
+        # A drive ramps a profile out over its stop time or one period, the longer: the
+        # last profile's period (0: none yet) sizes the stop's wait.
+        self._period_s = 0.0
         self._last_status: ActuatorStatus | None = None
         self._poll_rtt = 0.0  # host time the last status poll took
         self._nice_before: int | None = None
@@ -450,6 +453,7 @@ class RigSession:
                 self._emit_actuator(command)
                 self._stream.motion = False
                 self._stop_sent = False
+                self._period_s = 1.0 / frequency_hz
                 act.control("start")
                 self._event("start", _describe_start(amplitude_m, frequency_hz, waveform))
                 t0 = self._wait_motion_start(budget_s=1.0)
@@ -851,7 +855,7 @@ class RigSession:
     def _wait_stopped(self) -> None:
         self._wait(
             lambda s: not s.running,
-            daq_budget_s=self.rig.ramp.stop_time_s + 2.0,
+            daq_budget_s=max(self.rig.ramp.stop_time_s, self._period_s) + 2.0,
             what="controlled stop",
             check=False,
         )
@@ -859,12 +863,17 @@ class RigSession:
     def _reset_fault(self) -> None:
         act = self._act()
         st = act.status()
-        if st.fault:
-            self._event("reset", f"fault reset: {st.fault_text}")
-            act.control("fault_reset")
-            st = act.status()
-            if st.fault:
-                raise RigFault(f"fault will not reset: {st.fault_text}")
+        if not st.fault:
+            return
+        if st.fault_text == WATCHDOG_FAULT and st.enabled:
+            # Its watchdog's fault reaction ends in a disable: a reset before it would
+            # be overtaken by it (the ram cut off mid-ramp on the way to the centre).
+            self._wait(lambda s: not s.enabled, daq_budget_s=2.0, what="watchdog stop", check=False)
+        self._event("reset", f"fault reset: {st.fault_text}")
+        act.control("fault_reset")
+        after = act.status()
+        if after.fault:
+            raise RigFault(f"fault will not reset: {after.fault_text}")
 
     def _disable(self, reason: str) -> None:
         self._armed = False

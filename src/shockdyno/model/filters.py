@@ -57,8 +57,6 @@ def first_order_lag(
     in (exact, by superposition); starting
     at y = u instead would add a transient of a few τ to every test.
     """
-    from scipy.signal import lfilter  # here: scipy.signal takes a second to import
-
     taus = np.broadcast_to(np.asarray(tau_s, dtype=float), (starts.size,))
     if starts.size == u.size and carry is None and not from_rest:  # one sample each
         return u.copy(), None
@@ -75,7 +73,7 @@ def first_order_lag(
             zi = carry
         elif periodic and seg.size:
             # y = y₀ + z eⁿ for initial state z (y₀: from rest); periodic: z_end(z) = z.
-            out0, zf0 = lfilter([b0, b1], [1.0, -e], seg, zi=np.zeros(1))
+            out0, zf0 = lag_filter(b0, b1, e, seg, 0.0)
             decay = e**seg.size
             z = np.asarray(zf0, dtype=float) / (1.0 - decay)
             y[lo:hi] = out0 + z[0] * e ** np.arange(seg.size)
@@ -85,10 +83,65 @@ def first_order_lag(
             zi = np.zeros(1)
         else:
             zi = np.array([(b1 + e) * seg[0]]) if seg.size else np.zeros(1)
-        out, zf_k = lfilter([b0, b1], [1.0, -e], seg, zi=zi)
+        out, zf_k = lag_filter(b0, b1, e, seg, float(zi[0]))
         y[lo:hi] = out
-        zf = np.asarray(zf_k, dtype=float)
+        zf = zf_k
     return y, zf
+
+
+def lag_filter(
+    b0: float, b1: float, e: float, u: FloatArray, z0: float
+) -> tuple[FloatArray, FloatArray]:
+    """scipy.signal.lfilter([b0, b1], [1, -e], u, zi=[z0]): (y, final state [z]).
+
+    Compiled, so that a fit or a report does not import scipy.signal (a second or two at
+    every start of a command)."""
+    y = np.empty(u.size)
+    z = _lag_filter(b0, b1, e, np.ascontiguousarray(u, dtype=float), z0, y)
+    return y, np.array([z])
+
+
+@njit(cache=True)
+def _lag_filter(b0: float, b1: float, e: float, u: FloatArray, z: float, y: FloatArray) -> float:
+    # lfilter's transposed direct form II, term for term.
+    for n in range(u.size):
+        out = b0 * u[n] + z
+        z = b1 * u[n] + e * out
+        y[n] = out
+    return z
+
+
+def biquad(
+    b: FloatArray, a: FloatArray, u: FloatArray, zi: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """scipy.signal.lfilter(b, a, u, zi) for a second-order section with a[0] = 1:
+    (y, final state), compiled like `lag_filter`."""
+    y = np.empty(u.size)
+    zf = np.array(zi, dtype=float)
+    u = np.ascontiguousarray(u, dtype=float)
+    _biquad(float(b[0]), float(b[1]), float(b[2]), float(a[1]), float(a[2]), u, zf, y)
+    return y, zf
+
+
+@njit(cache=True)
+def _biquad(
+    b0: float,
+    b1: float,
+    b2: float,
+    a1: float,
+    a2: float,
+    u: FloatArray,
+    z: FloatArray,
+    y: FloatArray,
+) -> None:
+    # lfilter's transposed direct form II, term for term; z is updated in place.
+    z0, z1 = z[0], z[1]
+    for n in range(u.size):
+        out = b0 * u[n] + z0
+        z0 = b1 * u[n] - a1 * out + z1
+        z1 = b2 * u[n] - a2 * out
+        y[n] = out
+    z[0], z[1] = z0, z1
 
 
 def delayed(

@@ -11,6 +11,8 @@ amplitude error on a sine is below 0.1 %.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -54,8 +56,28 @@ def differentiate(
         # Too few samples for the filter: plain central differences.
         v = np.gradient(x, dt)
         return v, np.gradient(v, dt)
-    from scipy.signal import savgol_filter  # here: scipy.signal takes a second to import
+    v = savgol(x, w, POLYORDER, deriv=1, delta=dt)
+    a = savgol(x, w, POLYORDER, deriv=2, delta=dt)
+    return v, a
 
-    v = savgol_filter(x, w, POLYORDER, deriv=1, delta=dt, mode="interp")
-    a = savgol_filter(x, w, POLYORDER, deriv=2, delta=dt, mode="interp")
-    return np.asarray(v, dtype=float), np.asarray(a, dtype=float)
+
+def savgol(x: FloatArray, window: int, order: int, deriv: int, delta: float) -> FloatArray:
+    """scipy.signal.savgol_filter(x, window, order, deriv, delta, mode="interp"), in numpy:
+    importing scipy.signal takes a second or two at every start of a command.
+
+    Inside, each sample is the least-squares polynomial's derivative at the window's
+    centre; within half a window of either end, the polynomial fitted to the first (last)
+    whole window, evaluated where the sample is."""
+    half = window // 2
+    pos = np.arange(-half, window - half, dtype=float)
+    powers = pos[None, :] ** np.arange(order + 1)[:, None]
+    target = np.zeros(order + 1)
+    target[deriv] = math.factorial(deriv) / delta**deriv
+    coeffs = np.linalg.lstsq(powers, target, rcond=None)[0]
+    y = np.convolve(x, coeffs[::-1], mode="same")
+    t = np.arange(window, dtype=float)
+    for lo, at in ((0, slice(0, half)), (x.size - window, slice(window - half, window))):
+        poly = np.polynomial.polynomial.polyfit(t, x[lo : lo + window], order)
+        d = np.polynomial.polynomial.polyder(poly, deriv) / delta**deriv
+        y[lo + at.start : lo + at.stop] = np.polynomial.polynomial.polyval(t[at], d)
+    return np.asarray(y, dtype=float)

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 
 from shockdyno.errors import ConfigError
 from shockdyno.model.composite import DamperModel, ModelInputs, Term
-from shockdyno.model.filters import first_order_lag
+from shockdyno.model.filters import biquad, first_order_lag
 from shockdyno.model.spec import DamperSpec
 from shockdyno.rig.config import RigConfig
 from shockdyno.rig.frames import FRAME_LEN, STATUS_MOTION, encode_frames
@@ -43,6 +43,23 @@ from shockdyno.simrig.reference import PlantParams, PlantState, ReferencePlant
 _ONE_SEGMENT = np.zeros(1, dtype=np.intp)
 CHUNK = 10  # samples: the grid on which commands, faults and trips take effect
 FloatArray = NDArray[np.float64]
+
+
+def servo_filter(bandwidth_hz: float, damping: float, fs: float) -> tuple[FloatArray, FloatArray]:
+    """(b, a) of the servo's second-order response wn²/(s² + 2ζ wn s + wn²), by the
+    bilinear transform at fs (scipy.signal.bilinear's, without importing scipy.signal)."""
+    wn = 2 * math.pi * bandwidth_hz
+    k = 2.0 * fs
+    a0 = k * k + 2 * damping * wn * k + wn * wn
+    b = np.array([1.0, 2.0, 1.0]) * wn * wn / a0
+    a = np.array([a0, 2 * (wn * wn - k * k), k * k - 2 * damping * wn * k + wn * wn]) / a0
+    return b, a
+
+
+def at_rest(b: FloatArray, a: FloatArray, x0: float) -> FloatArray:
+    """The filter's state when input and output have stood at x0 (scipy.signal.lfiltic's
+    with both histories x0)."""
+    return np.array([(b[1] + b[2] - a[1] - a[2]) * x0, (b[2] - a[2]) * x0])
 
 
 @dataclass
@@ -140,13 +157,9 @@ class SimEngine:
         self.cal = rig.daq.calibration
         self.centre = rig.stroke_centre_m
         p = self.params
-        from scipy.signal import bilinear, lfiltic  # here: scipy.signal takes a second to import
-
-        wn = 2 * math.pi * p.servo_bandwidth_hz
-        b, a = bilinear([wn * wn], [1.0, 2 * p.servo_damping * wn, wn * wn], fs=self.fs)
-        self._servo_b, self._servo_a = np.asarray(b, float), np.asarray(a, float)
+        self._servo_b, self._servo_a = servo_filter(p.servo_bandwidth_hz, p.servo_damping, self.fs)
         x0 = p.initial_position_m
-        zi = lfiltic(self._servo_b, self._servo_a, [x0, x0], [x0, x0])
+        zi = at_rest(self._servo_b, self._servo_a, x0)
         self._lvdt_lag_s = float(lvdt_lag_s)
         drive = SimDrive(
             DriveParams(
@@ -272,11 +285,7 @@ class SimEngine:
         t = seq / self.fs
         drv = st.drive
         x_cmd = drv.command(t)
-        from scipy.signal import lfilter
-
-        x, zf = lfilter(self._servo_b, self._servo_a, x_cmd, zi=st.servo_zi)
-        x = np.asarray(x, float)
-        st.servo_zi = np.asarray(zf, float)
+        x, st.servo_zi = biquad(self._servo_b, self._servo_a, x_cmd, st.servo_zi)
         v, a = _backward_derivatives(x, st.x_hist, self.fs)
         st.x_hist = _tail(st.x_hist, x)
         rel = x - self.centre

@@ -123,8 +123,9 @@ def test_a_shut_bleed_alone_at_333_hz_is_refused_and_its_sample_rate_named(
 
 
 def test_the_issues_example_thinned_to_333_hz_is_refused_not_removed(tmp_path: Path) -> None:
-    # The shipped click-0 example (a shut bleed) thinned to 333 Hz estimated -291 N, and
-    # the page removed it; at 500 Hz it read 230 N by the luck of where the samples fell.
+    # The shipped click-0 example (a shut bleed) thinned to 333 Hz estimated -291 N (one
+    # of its four reversals missed: its velocity was exactly zero at a sample), and the
+    # page removed it; at 500 Hz it read 230 N by the luck of where the samples fell.
     src = REPO / "recordings" / "examples" / "csv"
     got = {}
     for step in (2, 3):
@@ -132,7 +133,7 @@ def test_the_issues_example_thinned_to_333_hz_is_refused_not_removed(tmp_path: P
         tests = open_recording(rec).load_all()
         (got[step],) = gas_forces(tests, limit=limit_for(tests)).values()
     assert got[3].source == "refused" and got[3].value_n is None
-    assert got[3].estimate_n == pytest.approx(-291.3, abs=0.5) and got[3].rate_dependent
+    assert got[3].estimate_n < 0 and got[3].rate_dependent  # no gas force is negative
     assert got[2].value_n == pytest.approx(230.5, abs=0.5)
     assert got[2].rate_dependent and got[2].sd_n > 100  # right by luck, and said to be
 

@@ -101,7 +101,13 @@ def reversals(test: TestData) -> Reversals | None:
         return None
     v = velocity(m.t, m.x)
     ok = np.isfinite(v[:-1]) & np.isfinite(v[1:])
-    i = np.flatnonzero(ok & (np.sign(v[:-1]) * np.sign(v[1:]) < 0))
+    # A velocity of exactly zero at a sample is a reversal too: its sign is the next
+    # sample's (a product of signs missed it, and one of the four reversals of a shut
+    # bleed's test thinned to 333 Hz went uncounted).
+    sign = np.sign(v)
+    zero = np.flatnonzero(sign[:-1] == 0)
+    sign[zero] = sign[zero + 1]
+    i = np.flatnonzero(ok & (sign[:-1] * sign[1:] < 0))
     if i.size < 2:
         return None
     w = v[i] / (v[i] - v[i + 1])

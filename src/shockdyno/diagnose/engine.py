@@ -494,7 +494,7 @@ def calibration_rows(
         for key in fitted.globals
     ]
     if gas_calibrated:
-        v0 = spec.gas_piston_area_m2 * spec.gas_length_m
+        v0 = spec.gas_volume_m3
         sd = fitted.term_sd.get(GAS_VOLUME, math.nan)
         rows.append(
             CalibrationRow(

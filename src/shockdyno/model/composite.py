@@ -564,7 +564,7 @@ class DamperModel:
 
 def gas_volume(spec: DamperSpec, x: FloatArray) -> FloatArray:
     """The gas column's volume as the rod enters (eq. 5's V0 - A_rod x)."""
-    v0 = spec.gas_piston_area_m2 * spec.gas_length_m
+    v0 = spec.gas_volume_m3
     return np.asarray(np.maximum(v0 - spec.rod_area_m2 * x, 1e-3 * v0), dtype=float)
 
 

@@ -12,7 +12,7 @@ FloatArray = NDArray[np.float64]
 
 def gas_pressure(spec: DamperSpec, x: FloatArray) -> FloatArray:
     """Eq. 5: isothermal gas pressure as the rod enters (x > 0) and shrinks the gas volume."""
-    v0 = spec.gas_piston_area_m2 * spec.gas_length_m
+    v0 = spec.gas_volume_m3
     return np.asarray(spec.gas_pressure_pa * v0 / (v0 - spec.rod_area_m2 * x), dtype=float)
 
 

@@ -79,6 +79,11 @@ class DamperSpec:
         return math.pi / 4 * self.gas_piston_diameter_m**2
 
     @property
+    def gas_volume_m3(self) -> float:
+        """The gas column's volume at the charge, the rod out (eq. 5's V0)."""
+        return self.gas_piston_area_m2 * self.gas_length_m
+
+    @property
     def bleed_bore_area_m2(self) -> float:
         """The bleed bore's cross-section: no bleed area can exceed it."""
         return math.pi / 4 * self.bleed_bore_diameter_m**2
@@ -112,7 +117,7 @@ class DamperSpec:
     @property
     def max_travel_m(self) -> float:
         """Rod travel that would crush the gas chamber to zero volume (an absolute bound)."""
-        return self.gas_piston_area_m2 * self.gas_length_m / self.rod_area_m2
+        return self.gas_volume_m3 / self.rod_area_m2
 
     def bleed_areas(
         self, clicks: ArrayLike, gas_clicks: ArrayLike = 0

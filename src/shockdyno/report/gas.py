@@ -154,7 +154,7 @@ def charge_limit(spec: DamperSpec, stroke_m: float, name: str) -> Charge:
     """The spec's charge compressed isothermally by the rod at `stroke_m` (the deepest a
     recording went): no gas force the damper makes at rest within that stroke is larger."""
     x = np.array([max(stroke_m, 0.0)])
-    v0 = spec.gas_piston_area_m2 * spec.gas_length_m
+    v0 = spec.gas_volume_m3
     p = spec.gas_pressure_pa * v0 / float(gas_volume(spec, x)[0])
     return Charge(
         max_n=(p - ATMOSPHERE_PA) * spec.rod_area_m2,

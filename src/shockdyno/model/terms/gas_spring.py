@@ -60,7 +60,7 @@ class GasSpring(Term):
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:
         spec = w.spec
-        v0 = spec.gas_piston_area_m2 * spec.gas_length_m
+        v0 = spec.gas_volume_m3
         swept = spec.rod_area_m2 * w.x
         vol = p["volume_factor"] * v0
         base = v0 / np.maximum(v0 - swept, 1e-3 * v0)

@@ -60,33 +60,85 @@ def first_order_lag(
     taus = np.broadcast_to(np.asarray(tau_s, dtype=float), (starts.size,))
     if starts.size == u.size and carry is None and not from_rest:  # one sample each
         return u.copy(), None
-    y = np.empty_like(u)
-    zf: FloatArray | None = None
-    for k, (lo, hi) in enumerate(segment_bounds(starts, u.size)):
-        seg = u[lo:hi]
-        b0, b1, e = lag_coefficients(float(taus[k]), float(dt_s[k]))
+    use_carry = carry is not None and starts.size == 1
+    mode = CARRY if use_carry else PERIODIC if periodic else FROM_REST if from_rest else STEADY
+    y = np.empty(u.size)
+    zf = np.zeros(1)
+    seen = _lag_segments(
+        np.ascontiguousarray(u, dtype=float),
+        np.ascontiguousarray(taus, dtype=float),
+        np.ascontiguousarray(starts, dtype=np.int64),
+        np.ascontiguousarray(dt_s, dtype=float),
+        mode,
+        float(np.asarray(carry, dtype=float).reshape(-1)[0]) if use_carry else 0.0,
+        y,
+        zf,
+    )
+    return y, (zf if seen else None)
+
+
+STEADY, PERIODIC, FROM_REST, CARRY = 0, 1, 2, 3  # how a segment of `first_order_lag` starts
+
+
+@njit(cache=True)
+def _lag_coefficients(tau_s: float, dt_s: float) -> tuple[float, float, float]:
+    if not tau_s > 0:
+        return 1.0, 0.0, 0.0
+    e = math.exp(-dt_s / tau_s)
+    g = tau_s / dt_s * (1.0 - e)
+    return 1.0 - g, g - e, e
+
+
+@njit(cache=True)
+def _lag_segments(
+    u: FloatArray,
+    taus: FloatArray,
+    starts: NDArray[np.int64],
+    dt_s: FloatArray,
+    mode: int,
+    carry: float,
+    y: FloatArray,
+    zf: FloatArray,
+) -> bool:
+    """`first_order_lag`'s segments in one pass: y, and the last segment's final state in
+    zf[0]; whether there was a segment. The same arithmetic as lfilter's transposed
+    direct form II, segment by segment (tests/model/test_filters_without_scipy_signal.py)."""
+    n = u.size
+    seen = False
+    for k in range(starts.size):
+        lo = starts[k]
+        hi = starts[k + 1] if k + 1 < starts.size else n
+        seen = True
+        b0, b1, e = _lag_coefficients(taus[k], dt_s[k])
         if e == 0.0 and b1 == 0.0:
-            y[lo:hi] = seg
-            zf = np.zeros(1)
+            for i in range(lo, hi):
+                y[i] = u[i]
+            zf[0] = 0.0
             continue
-        if carry is not None and starts.size == 1:
-            zi = carry
-        elif periodic and seg.size:
+        if mode == PERIODIC and hi > lo:
             # y = y₀ + z eⁿ for initial state z (y₀: from rest); periodic: z_end(z) = z.
-            out0, zf0 = lag_filter(b0, b1, e, seg, 0.0)
-            decay = e**seg.size
-            z = np.asarray(zf0, dtype=float) / (1.0 - decay)
-            y[lo:hi] = out0 + z[0] * e ** np.arange(seg.size)
-            zf = z
+            z = 0.0
+            for i in range(lo, hi):
+                out = b0 * u[i] + z
+                z = b1 * u[i] + e * out
+                y[i] = out
+            z = z / (1.0 - e ** (hi - lo))
+            for i in range(lo, hi):
+                y[i] = y[i] + z * e ** (i - lo)
+            zf[0] = z
             continue
-        elif from_rest:  # y = 0 before the segment (a rise that starts at nothing)
-            zi = np.zeros(1)
+        if mode == CARRY:
+            z = carry
+        elif mode == FROM_REST or hi <= lo:  # y = 0 before the segment
+            z = 0.0
         else:
-            zi = np.array([(b1 + e) * seg[0]]) if seg.size else np.zeros(1)
-        out, zf_k = lag_filter(b0, b1, e, seg, float(zi[0]))
-        y[lo:hi] = out
-        zf = zf_k
-    return y, zf
+            z = (b1 + e) * u[lo]
+        for i in range(lo, hi):
+            out = b0 * u[i] + z
+            z = b1 * u[i] + e * out
+            y[i] = out
+        zf[0] = z
+    return seen
 
 
 def lag_filter(

@@ -150,7 +150,8 @@ def check_named(diagnoses: Diagnoses, name: str) -> None:
     # click the refit may move the compression bleed from 1e-24 to 2e-8 m², which the
     # 100 Hz objective barely sees but which sets the force at the one 1 kHz sample per
     # reversal (337 N against 752 N measured at 1.5 Hz): at 0.5 Hz E_t rose 0.0086 ->
-    # 0.0151 while the error away from reversal fell 67503 -> 39482 N² (docs/diagnose.md).
+    # 0.0151 while the error away from reversal fell 67503 -> 39482 N²
+    # (benchmarks/results/diagnose-notebook.md, "Known defect").
     for before, after, noise in d["_structure"]:
         assert after <= 1.1 * before + 3 * noise, (before, after, noise)
     sse = d["_sse_moving"]

@@ -1,5 +1,5 @@
 """Concealed effects on the reference plant (simrig/reference.py): a damper whose every
-equation is other than the library's (docs/diagnose.md has the table, form by form): here
+equation is other than the library's (docs/diagnose-method.md has the table, form by form): here
 Tait oil carrying 1 % free air through the piston, and an elasto-plastic rod seal with a
 Hess-Soom breakaway. The diagnosis sees only the tests; it must name each effect, model
 it to near the clean sweep's own error with the plant's own numbers, and claim nothing

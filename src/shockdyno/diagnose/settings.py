@@ -1,5 +1,5 @@
 """Every threshold of the diagnosis in one place: the search, the claim rules, where the
-mismatch is and how the verdict words it (docs/diagnose.md). `diagnose --alpha` and the
+mismatch is and how the verdict words it (docs/diagnose-method.md). `diagnose --alpha` and the
 verdict read the same object."""
 
 from __future__ import annotations

@@ -130,7 +130,8 @@ def prepare_tests(
     `phase_locked` (the diagnosis): each test's objective step is the one near the rate
     whose samples fall at the same phase in every cycle (`locked_step`). At 1.5 Hz that
     cuts the drift fivefold but not the scatter it causes: a 16.7 ms phase bin holds one
-    or two samples of either grid (docs/diagnose.md, "What set the noise").
+    or two samples of either grid (benchmarks/results/diagnose-notebook.md, "What set the
+    noise").
 
     Tried and left out: starting successive tests' grids at offsets spread over the step
     (so the sweep's objective meets every millisecond after a reversal). On reference-

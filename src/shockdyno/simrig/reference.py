@@ -5,7 +5,7 @@ and bleed map); a rig that evaluated those equations, or re-typed them, would te
 search against itself. This plant takes from the model package only the damper's
 description (`DamperSpec`: its geometry numbers, never its derived laws: not
 `bleed_areas`, not the shim stack's stiffness or preload force) and writes every effect in
-a form of its own. docs/diagnose.md has the table, form by form, plant against library.
+a form of its own. docs/diagnose-method.md has the table, form by form, plant against library.
 
 Chambers. Both hold a fixed mass of oil that moves through the piston (mass, not volume,
 is what passes: each chamber takes it at its own density). The oil is a Tait liquid,

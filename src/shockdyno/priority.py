@@ -7,7 +7,7 @@ duration of a session and restores it after; threads started meanwhile inherit i
 started before (a recording's writer, a simulated rig) keep theirs. A process without the
 right to raise it (CAP_SYS_NICE, or an RLIMIT_NICE in /etc/security/limits.conf such as
 `@dyno - nice -10`) runs at its normal priority and says so: the session goes on, with
-the watchdog's budget as the only guarantee (docs/rig.md, "A busy host").
+the watchdog's budget as the only guarantee (docs/safety.md, "A busy host").
 """
 
 from __future__ import annotations

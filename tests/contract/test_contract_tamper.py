@@ -179,7 +179,7 @@ def test_a_clean_test_is_complete_and_says_what_was_measured(sim_rig_factory) ->
 
 
 def test_a_single_master_drive_refuses_another_masters_writes(sim_rig_factory) -> None:
-    """With the simulated rig's one-master option (the set-up docs/rig.md recommends for
+    """With the simulated rig's one-master option (the set-up docs/safety.md recommends for
     real drives) the rogue's write is answered 'device busy' and the test runs as planned."""
     sim = sim_rig_factory(speed=10.0, single_master=True)
     rig = sim.rig_config()

@@ -1,4 +1,5 @@
-"""The reference DAQ firmware in docs/rig.md, compiled from the page and decoded by frames.py.
+"""The reference DAQ firmware in docs/daq-firmware.md, compiled from the page and decoded by
+frames.py.
 
 The sketch's frame builder is plain C++ (its Arduino part sits behind `#ifdef ARDUINO`),
 so the host's compiler builds it with a small main that writes frames for known values;
@@ -18,14 +19,14 @@ import pytest
 from shockdyno.rig import frames
 from shockdyno.rig.frames import FrameDecoder
 
-DOC = Path(__file__).resolve().parents[2] / "docs" / "rig.md"
+DOC = Path(__file__).resolve().parents[2] / "docs" / "daq-firmware.md"
 N = 300
 
 
 def sketch() -> str:
     text = DOC.read_text()
     m = re.search(r"<!-- firmware-sketch -->\s*```cpp\n(.*?)```", text, re.S)
-    assert m, "docs/rig.md lost its firmware sketch"
+    assert m, "docs/daq-firmware.md lost its firmware sketch"
     return m.group(1)
 
 

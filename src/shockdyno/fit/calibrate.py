@@ -1,5 +1,5 @@
 """Joint least squares over the damper's globals, the terms' free parameters and every
-click's bleed areas (the fit's step 2, docs/fit.md).
+click's bleed areas (the fit's step 2, docs/fit-method.md).
 
 Unknowns, scaled to order 1: the spec globals / their scale, each term parameter / its
 declared scale, and the areas in mm². The Jacobian is built by finite differences in

@@ -1,6 +1,6 @@
 """Fit a sweep: calibrate the damper's globals and terms, then the bleed areas per click.
 
-Stages (docs/fit.md has the why of each), each a function with a typed result:
+Stages (docs/fit-method.md has the why of each), each a function with a typed result:
 
 1. `prepare_problem`: usable tests, stacked objective samples, the model with its terms.
 2. Start: with the nominal globals, each click's A_bc and A_bt by a log grid and a

@@ -33,7 +33,7 @@ class TestMeta:
     # "complete" | "aborted" (stopped early: safety, Ctrl-C, fault) | "degraded" (ran to the
     # end, but its measured motion missed the plan or it lost too many frames: not complete);
     # "running" in a test's begin record; "interrupted" as read back when no end followed
-    # (the process died mid-test). docs/rig.md.
+    # (the process died mid-test). docs/safety.md.
     status: str = "complete"
     extra: dict[str, str] = field(default_factory=dict)
     # Optional, added with the MCAP recording (older code need not set them):

@@ -3,7 +3,7 @@
 The table is the damper as a car carries it (`DamperModel.vehicle`: sensor terms dropped,
 the oil at its reference temperature), evaluated quasi-statically at mid-stroke with no
 rod acceleration: the same function the ride study tabulates, so a vehicle model fed
-these tables and the ride study drive the same damper (docs/ride.md).
+these tables and the ride study drive the same damper (docs/damper-tables.md).
 
 Two files per click setting:
 

@@ -16,7 +16,7 @@ Two plants (`--plant`):
   orifices of a tapered needle's annulus, a wedge-beam shim stack that opens and closes
   in time, an elasto-plastic seal with a Hess-Soom level, Walther viscosity, a Maxwell
   bump rubber, a load cell's resonance behind a Bessel anti-alias and a skewed channel:
-  the table is in docs/diagnose.md). Click sweeps (clicks 2/5/10/15/20 x 0.5/1/1.5 Hz,
+  the table is in docs/diagnose-method.md). Click sweeps (clicks 2/5/10/15/20 x 0.5/1/1.5 Hz,
   30 mm, 1 kHz, 1 warm-up + 3 measured cycles, 2 s rests, the body's temperature), made
   offline by `reference_sweep`. Each physics at three strengths, two pairs and a triple,
   clean and a spec error (the gas volume 1.4x). Seeds from 755 (fresh: no rule was

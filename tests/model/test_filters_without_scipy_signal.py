@@ -84,3 +84,19 @@ def test_the_sim_rigs_servo_filter_is_scipys_bilinear_at_rest_then_driven() -> N
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
     np.testing.assert_allclose(zf, zf_want, rtol=0, atol=1e-15)
     assert abs(got[-1] - 0.075) < 1e-3  # a 60 Hz servo follows a 1 Hz sine closely
+
+
+def test_a_periodic_lag_is_the_state_many_cycles_of_the_same_motion_reach() -> None:
+    """`periodic`: each segment starts in the state it ends in, as after many repeats of
+    its cycles (the last of 60 repeats filtered by lfilter from rest)."""
+    n = 400
+    seg = np.sin(2 * np.pi * np.arange(n) / n) + 0.3 * np.cos(6 * np.pi * np.arange(n) / n)
+    dt = 1e-3
+    for tau in (0.002, 0.02, 0.2):
+        b0, b1, e = lag_coefficients(tau, dt)
+        many, _ = lfilter([b0, b1], [1.0, -e], np.tile(seg, 60), zi=[0.0])
+        got, _ = first_order_lag(
+            np.tile(seg, 2), tau, np.array([0, n]), np.full(2, dt), periodic=True
+        )
+        np.testing.assert_allclose(got[:n], many[-n:], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(got[n:], many[-n:], rtol=0, atol=1e-12)

@@ -123,8 +123,10 @@ def _lag_segments(
                 z = b1 * u[i] + e * out
                 y[i] = out
             z = z / (1.0 - e ** (hi - lo))
+            decay = 1.0  # e^(i - lo), by products (a power at every sample took 9x the filter)
             for i in range(lo, hi):
-                y[i] = y[i] + z * e ** (i - lo)
+                y[i] = y[i] + z * decay
+                decay *= e
             zf[0] = z
             continue
         if mode == CARRY:

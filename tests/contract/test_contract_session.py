@@ -11,6 +11,8 @@ import pytest
 from contract_helpers import Backend, Collector, drive_status, sine_fit
 
 from shockdyno.errors import ConfigError
+from shockdyno.rig.config import RigConfig
+from shockdyno.run.daq_stream import BlockSink
 from shockdyno.run.gas_measure import MAX_HYSTERESIS_N, OFFSET_M, measure_gas_force
 from shockdyno.run.session import RigSession
 
@@ -86,6 +88,19 @@ def test_amplitude_beyond_travel_is_refused_before_anything_moves(backend: Backe
     assert after.position_m == pytest.approx(before.position_m, abs=2e-4)
 
 
+def _interrupted_then_parked(
+    rig: RigConfig, frequency_hz: float, warmup: int, measured: int, sink: BlockSink
+) -> RigSession:
+    """A 20 mm sine that `sink` interrupts (KeyboardInterrupt); the drive as a fresh
+    client then sees it: stopped, disabled and centred."""
+    with pytest.raises(KeyboardInterrupt), RigSession(rig) as session:
+        session.run_sine(0.02, frequency_hz, warmup, measured, sink)
+    st = drive_status(rig)
+    assert not st.enabled and not st.running
+    assert st.position_m == pytest.approx(rig.stroke_centre_m, abs=1e-3)
+    return session
+
+
 def test_ctrl_c_mid_sine_stops_centres_and_disables(backend: Backend) -> None:
     rig = backend.rig
     seen = [0]
@@ -95,11 +110,7 @@ def test_ctrl_c_mid_sine_stops_centres_and_disables(backend: Backend) -> None:
         if seen[0] > 600:
             raise KeyboardInterrupt
 
-    with pytest.raises(KeyboardInterrupt), RigSession(rig) as session:
-        session.run_sine(0.02, 1.0, 2, 4, interrupt)
-    st = drive_status(rig)
-    assert not st.enabled and not st.running
-    assert st.position_m == pytest.approx(rig.stroke_centre_m, abs=1e-3)
+    session = _interrupted_then_parked(rig, 1.0, 2, 4, interrupt)
     assert any(e.message == "operator interrupt (Ctrl-C)" for e in session.events)
     assert [e.kind for e in session.events][-2:] == ["disable", "closed"]
 
@@ -117,11 +128,7 @@ def test_ctrl_c_in_a_slow_sine_waits_for_its_ramp_out(sim_rig_factory) -> None:
         if rec.moved_for(2.5):  # in the 10 s ramp-in, the ram 7 mm off centre
             raise KeyboardInterrupt
 
-    with pytest.raises(KeyboardInterrupt), RigSession(rig) as session:
-        session.run_sine(0.02, 0.1, 1, 1, interrupt)
-    st = drive_status(rig)
-    assert not st.enabled and not st.running
-    assert st.position_m == pytest.approx(rig.stroke_centre_m, abs=1e-3)
+    session = _interrupted_then_parked(rig, 0.1, 1, 1, interrupt)
     assert "stop_step_failed" not in [e.kind for e in session.events]
 
 

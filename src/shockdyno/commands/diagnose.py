@@ -73,26 +73,16 @@ def register(sub: Any) -> None:
 def _summary(doc: dict[str, Any], units: units_mod.Units = units_mod.SI) -> Any:
     from rich.table import Table
 
-    from shockdyno.diagnose.verdict import in_units
+    from shockdyno.diagnose.verdict import finding_cells
 
     table = Table(title="Candidate physics (refitted with globals and areas)")
     effect = f"peak effect {units.force_label}"
     for name in ("round", "physics", "claimed", "p", "held-out gain", effect, "note"):
         table.add_column(name, justify="left" if name in ("physics", "note") else "right")
     for f in doc["findings"]:
-        gain = f["heldout_gain"]
-        note = in_units(f["why_not"], units) or (
-            "alike: " + ", ".join(f["ambiguous_with"]) if f["ambiguous_with"] else ""
-        )
-        table.add_row(
-            str(f["round"]),
-            f["physics"],
-            "[bold green]yes[/]" if f["claimed"] else "",
-            f"{f['p_value']:.3g}",
-            "–" if gain is None else f"{gain:.2f}",
-            f"{units.force(f['effect_peak_n']):.3g}",
-            note,
-        )
+        rnd, physics, claimed, p, gain, peak, alike, why_not = finding_cells(f, units)
+        note = why_not or (f"alike: {alike}" if alike else "")
+        table.add_row(rnd, physics, "[bold green]yes[/]" if claimed else "", p, gain, peak, note)
     return table
 
 

@@ -9,7 +9,7 @@ from typing import Any
 from shockdyno.atomic import write_text_atomic
 from shockdyno.diagnose.engine import Diagnosis
 from shockdyno.diagnose.plots import loops, residual_maps
-from shockdyno.diagnose.verdict import in_units
+from shockdyno.diagnose.verdict import FINDING_COLUMNS, finding_cells
 from shockdyno.report.diagnose_section import spec_shown
 from shockdyno.report.documents import SpecUsed, Verdict, typed
 from shockdyno.report.html import Page
@@ -50,33 +50,10 @@ def write_report(d: Diagnosis, doc: dict[str, Any], out: Path, units: Units = SI
         "likelihood ratio, held-out gain the share of held-out structure it removes (median "
         "fold).",
     )
-    rows = []
-    for f in doc["findings"]:
-        gain = f["heldout_gain"]
-        rows.append(
-            [
-                str(f["round"]),
-                f["physics"],
-                "yes" if f["claimed"] else "",
-                f"{f['p_value']:.3g}",
-                "–" if gain is None else f"{gain:.2f}",
-                f"{units.force(f['effect_peak_n']):.3g}",
-                ", ".join(f["ambiguous_with"]),
-                in_units(f["why_not"], units),
-            ]
-        )
+    headers = [c if c != "peak effect" else f"{c} ({units.force_label})" for c in FINDING_COLUMNS]
     page.table(
-        [
-            "round",
-            "physics",
-            "claimed",
-            "p",
-            "held-out gain",
-            f"peak effect ({units.force_label})",
-            "alike",
-            "why not",
-        ],
-        rows,
+        headers,
+        [list(finding_cells(f, units)) for f in doc["findings"]],
         numeric=[True, False, False, True, True, True, False, False],
     )
     page.section("Residual maps", "Phase-locked residual against displacement and velocity.")

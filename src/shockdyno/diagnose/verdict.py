@@ -223,6 +223,34 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
     return " ".join(lines)
 
 
+FINDING_COLUMNS = (
+    "round",
+    "physics",
+    "claimed",
+    "p",
+    "held-out gain",
+    "peak effect",
+    "alike",
+    "why not",
+)
+
+
+def finding_cells(f: dict[str, Any], u: Units = SI) -> tuple[str, ...]:
+    """A DIAG.json finding as the findings table shows it, on every page and terminal
+    (FINDING_COLUMNS; the peak effect in `u`'s force unit)."""
+    gain = f["heldout_gain"]
+    return (
+        str(f["round"]),
+        f["physics"],
+        "yes" if f["claimed"] else "",
+        f"{f['p_value']:.3g}",
+        "–" if gain is None else f"{gain:.2f}",
+        f"{u.force(f['effect_peak_n']):.3g}",
+        ", ".join(f["ambiguous_with"]),
+        in_units(f["why_not"], u),
+    )
+
+
 def _num(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 

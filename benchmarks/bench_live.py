@@ -30,7 +30,7 @@ from shockdyno.record.queued import QueuedWriter
 from shockdyno.record.types import TestMeta
 from shockdyno.record.writer import RecordingWriter
 from shockdyno.rig.frames import STATUS_MOTION
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 BLOCK = 50
 CALLS = 20_000

@@ -36,7 +36,7 @@ from mcap.writer import IndexType, Writer
 from shockdyno.model import force_from_displacement, load_spec
 from shockdyno.record import RecordingWriter, TestMeta, open_recording
 from shockdyno.record import schemas as s
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 RATE = 1000.0
 BLOCK = 50

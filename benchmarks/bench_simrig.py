@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import time
 
-from shockdyno.rig.types import SampleBlock
 from shockdyno.run.session import RigSession
+from shockdyno.samples import SampleBlock
 from shockdyno.simrig import start_sim_rig
 
 

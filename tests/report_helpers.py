@@ -12,7 +12,7 @@ from shockdyno.model import damper_force, load_spec
 from shockdyno.model.spec import DamperSpec
 from shockdyno.record import RecordingWriter
 from shockdyno.record.types import TestData, TestMeta
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 AMPLITUDE_M = 0.03
 RATE_HZ = 1000.0

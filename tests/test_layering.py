@@ -22,6 +22,7 @@ UTILITY = {
     "atomic",
     "schema",
     "priority",
+    "samples",
 }
 # Package -> the project packages it may import (utilities aside). `commands` is the
 # command-line glue (each subcommand's arguments, progress and files) and may use any;
@@ -29,7 +30,7 @@ UTILITY = {
 LAYERS: dict[str, set[str]] = {
     "model": set(),
     "rig": set(),
-    "record": {"rig"},
+    "record": set(),
     "simrig": {"model", "rig", "record"},
     "fit": {"model", "record"},
     "report": {"model", "record", "fit"},

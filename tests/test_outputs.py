@@ -14,7 +14,7 @@ from shockdyno.errors import ConfigError
 from shockdyno.outputs import check_output, write_output
 from shockdyno.record import RecordingWriter
 from shockdyno.record.types import TestMeta
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "recordings" / "examples" / "example.mcap"
 FAST_RIDE = ["--linear-damper-ns-m", "1500", "--clicks", "5", "--roads", "A", "--speeds-kmh",

@@ -11,7 +11,7 @@ import numpy as np
 from shockdyno.rig.actuator import ActuatorStatus, ModbusActuator
 from shockdyno.rig.config import RigConfig
 from shockdyno.rig.frames import STATUS_MOTION
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 
 @dataclass

@@ -13,7 +13,7 @@ import numpy as np
 from shockdyno.fit.synthetic import synthetic_sweep
 from shockdyno.model import load_spec
 from shockdyno.record import RecordingWriter
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 REPO = Path(__file__).resolve().parents[2]
 

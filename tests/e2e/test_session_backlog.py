@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import time
 
-from shockdyno.rig.types import SampleBlock
 from shockdyno.run.daq_stream import DaqStream
 from shockdyno.run.session import RigSession
+from shockdyno.samples import SampleBlock
 
 
 def test_samples_from_before_the_session_centred_the_ram_are_not_the_first_holds(

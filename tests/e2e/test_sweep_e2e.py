@@ -17,11 +17,11 @@ from shockdyno.fit import fit_sweep
 from shockdyno.model.spec import default_spec_path, load_spec
 from shockdyno.record import RecordingWriter, open_recording
 from shockdyno.report.clickchart import spec_static_force_n
-from shockdyno.rig.types import SampleBlock
 from shockdyno.run.liveview import LiveView
 from shockdyno.run.plan import SweepPlan
 from shockdyno.run.session import RigSession
 from shockdyno.run.sweep import run_sweep
+from shockdyno.samples import SampleBlock
 from shockdyno.simrig import start_sim_rig
 
 REPO = Path(__file__).resolve().parents[2]

@@ -14,7 +14,7 @@ from fit_helpers import true_spec
 from shockdyno.cli import main
 from shockdyno.fit.synthetic import synthetic_sweep
 from shockdyno.record import RecordingWriter
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 

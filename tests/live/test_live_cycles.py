@@ -8,7 +8,7 @@ import pytest
 from shockdyno.live.cycles import CycleCutter, planned_position
 from shockdyno.record.types import TestMeta
 from shockdyno.rig.frames import STATUS_MOTION
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 FS, F, A, RAMP, WARMUP, MEASURED = 1000.0, 2.5, 0.025, 2, 1, 3
 T0 = 0.5  # the drive's start: the first sample with the motion bit

@@ -16,7 +16,7 @@ import pytest
 from shockdyno.live.publisher import LivePublisher
 from shockdyno.live.server import LiveServer
 from shockdyno.record.types import TestMeta
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 from shockdyno.simrig import start_sim_rig
 
 REPO = Path(__file__).resolve().parents[2]

@@ -22,7 +22,7 @@ from mcap.reader import make_reader
 from shockdyno.record import open_recording
 from shockdyno.record import schemas as s
 from shockdyno.rig.config import load_rig
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 REPO = Path(__file__).resolve().parents[2]
 CLI = [sys.executable, "-m", "shockdyno.cli"]

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from shockdyno.record import RecordingWriter, TestMeta
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 RATE = 1000.0
 

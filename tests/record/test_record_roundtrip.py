@@ -16,7 +16,7 @@ from rec_helpers import SAMPLES_PER_TEST, TESTS, block, meta, seq_range, write_s
 
 from shockdyno.errors import RecordingError
 from shockdyno.record import RecordingWriter, open_recording
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 
 def test_samples_metadata_events_round_trip(tmp_path: Path) -> None:

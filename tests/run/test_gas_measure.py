@@ -9,9 +9,9 @@ import pytest
 
 from shockdyno.errors import ConfigError, RigFault
 from shockdyno.rig.config import load_rig
-from shockdyno.rig.types import SampleBlock
 from shockdyno.run.gas_measure import MAX_HYSTERESIS_N, GasMeasurement, rest_force
 from shockdyno.run.session import RigSession
+from shockdyno.samples import SampleBlock
 
 SIM = Path(__file__).resolve().parents[2] / "rigs" / "sim.toml"
 

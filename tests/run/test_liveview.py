@@ -18,8 +18,8 @@ from report_helpers import AMPLITUDE_M, make_test, temperature_at
 from shockdyno.record import RecordingWriter, open_recording
 from shockdyno.record.types import TestData as Recorded  # aliased: pytest collects Test*
 from shockdyno.report import build_report
-from shockdyno.rig.types import SampleBlock
 from shockdyno.run.liveview import LiveView, summarise
+from shockdyno.samples import SampleBlock
 
 LINE = re.compile(
     r"test (\d+)/(\d+) clicks=(\d+) gas=(\d+) f=([\d.]+)Hz A=([\d.]+)mm"

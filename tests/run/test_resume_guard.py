@@ -11,7 +11,7 @@ import pytest
 from shockdyno.cli import main
 from shockdyno.record import RecordingWriter
 from shockdyno.record.types import TestMeta
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 SIM = Path(__file__).resolve().parents[2] / "rigs" / "sim.toml"
 

@@ -20,7 +20,7 @@ from shockdyno.model.composite import DamperModel, ModelInputs
 from shockdyno.model.spec import default_spec_path
 from shockdyno.rig.config import RigConfig, load_rig
 from shockdyno.rig.daq import SerialDaq
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 REPO = Path(__file__).resolve().parents[2]
 SIM_RIG = REPO / "rigs" / "sim.toml"

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from shockdyno.rig.config import Limits
-from shockdyno.rig.types import SampleBlock
 from shockdyno.run.safety import LimitMonitor
+from shockdyno.samples import SampleBlock
 
 LIMITS = Limits(
     travel_m=0.04, force_n=5000.0, velocity_m_s=0.5, temperature_c=90.0, trip_margin=0.05

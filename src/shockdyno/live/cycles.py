@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from shockdyno.record.schemas import display_velocity
 from shockdyno.record.types import TestMeta
 from shockdyno.rig.frames import STATUS_MOTION
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 FloatArray = NDArray[np.float64]
 

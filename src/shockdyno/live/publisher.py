@@ -29,7 +29,7 @@ from shockdyno.live.cycles import Cycle, CycleCutter, Stretch
 from shockdyno.live.server import TOPIC_CYCLE, TOPIC_POSITION, LiveServer
 from shockdyno.record import schemas as s
 from shockdyno.record.types import TestMeta
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 MAX_SAMPLES = 60_000  # a minute of a 1 kHz DAQ waiting for the thread
 MAX_ITEMS = 20_000

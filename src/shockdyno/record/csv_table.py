@@ -22,7 +22,7 @@ from shockdyno.errors import RecordingError
 from shockdyno.record.plausible import (
     check_samples,
 )
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 from shockdyno.units import M_PER_IN
 from shockdyno.units import N_PER_LBF as LBF_N
 

@@ -28,7 +28,7 @@ from shockdyno.record.plausible import (
     check_setting,
 )
 from shockdyno.record.types import TestMeta
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 MANIFEST_REQUIRED = ("file", "clicks", "frequency_hz", "amplitude_m")
 # Manifest columns that map onto TestMeta fields; any other column is kept in TestMeta.extra.

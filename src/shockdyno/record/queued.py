@@ -27,7 +27,7 @@ from shockdyno import priority
 from shockdyno.errors import RecordingError
 from shockdyno.record.types import TestMeta
 from shockdyno.record.writer import RecordingWriter
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 MAX_PENDING_SAMPLES = 1_000_000  # ~42 MB of SampleBlocks; 1000 s of a 1 kHz DAQ
 

@@ -33,7 +33,7 @@ from shockdyno.record import schemas as s
 from shockdyno.record.layout import set_paths
 from shockdyno.record.types import TestData, TestMeta
 from shockdyno.result_files import starts_as_mcap
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 
 @dataclass

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from shockdyno.errors import RecordingError
 from shockdyno.record.types import TestMeta
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 FORMAT_VERSION = "2"  # 2: SampleBlock2 (velocity_m_s), wall-clock log_time
 METADATA_NAME = "shockdyno.recording"

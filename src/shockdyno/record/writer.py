@@ -46,7 +46,7 @@ from shockdyno.record.layout import next_part_path
 from shockdyno.record.lock import lock_file
 from shockdyno.record.reader import part_metadata, set_members
 from shockdyno.record.types import TestMeta
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 _COMPRESSION = {
     "zstd": CompressionType.ZSTD,

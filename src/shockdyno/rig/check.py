@@ -27,7 +27,7 @@ from shockdyno.rig.frames import (
     STATUS_MOTION,
     STATUS_TEMP_FAULT,
 )
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 RATE_TOLERANCE = 0.05  # measured on the host's clock over ~1 s, where reads jitter by ms
 POSITION_AGREEMENT_M = 0.001  # LVDT vs the drive's own position (as CENTRE_TOLERANCE_M)

@@ -15,7 +15,7 @@ import serial
 from shockdyno.errors import RigFault
 from shockdyno.rig.config import Calibration, DaqConfig
 from shockdyno.rig.frames import FrameDecoder, Plausible, RawFrames
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 READ_WAIT_S = 0.005  # a read returns what arrived within this time
 READ_SIZE = 1 << 16

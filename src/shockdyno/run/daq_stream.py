@@ -17,8 +17,9 @@ import numpy as np
 from shockdyno.errors import RigFault
 from shockdyno.rig.config import DaqConfig, Limits
 from shockdyno.rig.frames import STATUS_MOTION
-from shockdyno.rig.types import Daq, SampleBlock
+from shockdyno.rig.types import Daq
 from shockdyno.run.safety import LimitMonitor, SafetyEvent, SafetyTrip
+from shockdyno.samples import SampleBlock
 
 BlockSink = Callable[[SampleBlock], None]
 

@@ -7,8 +7,8 @@ always written first, so what a viewer does cannot come before or instead of it.
 from __future__ import annotations
 
 from shockdyno.record.types import TestMeta
-from shockdyno.rig.types import SampleBlock
 from shockdyno.run.sweep import Writer
+from shockdyno.samples import SampleBlock
 
 
 class Fanout:

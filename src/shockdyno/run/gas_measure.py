@@ -36,7 +36,7 @@ from typing import Protocol
 import numpy as np
 
 from shockdyno.errors import RigFault
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 OFFSET_M = 0.005  # the approach: from 5 mm either side of mid-stroke
 VELOCITY_M_S = 0.004  # at 4 mm/s

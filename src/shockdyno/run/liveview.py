@@ -40,8 +40,8 @@ from rich.text import Text
 
 from shockdyno.record.types import TestData, TestMeta
 from shockdyno.report.summary import TestSummary, summarise
-from shockdyno.rig.types import SampleBlock
 from shockdyno.run.verify import RunKeeper
+from shockdyno.samples import SampleBlock
 from shockdyno.units import SI, Units
 
 __all__ = ["LiveStats", "LiveView", "TestSummary", "summarise"]

@@ -14,7 +14,7 @@ import numpy as np
 
 from shockdyno.errors import RigFault
 from shockdyno.rig.config import Limits
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 VELOCITY_WINDOW = 5  # samples
 

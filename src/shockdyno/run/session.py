@@ -45,7 +45,7 @@ from shockdyno.rig.actuator import ActuatorStatus, ModbusActuator
 from shockdyno.rig.config import WATCHDOG_FAULT, WAVEFORM_CODES, DaqConfig, RigConfig
 from shockdyno.rig.daq import READ_SIZE, SerialDaq
 from shockdyno.rig.frames import FRAME_LEN, STATUS_MOTION
-from shockdyno.rig.types import Daq, SampleBlock
+from shockdyno.rig.types import Daq
 from shockdyno.run import signals
 from shockdyno.run.daq_stream import BlockSink, DaqStream
 from shockdyno.run.events import EventLog, EventSink
@@ -54,6 +54,7 @@ from shockdyno.run.refusals import check_hold, check_sine, check_stroke
 from shockdyno.run.safety import SafetyEvent, SafetyTrip
 from shockdyno.run.verify import RunKeeper, judge_run
 from shockdyno.run.watch import DriveWatch
+from shockdyno.samples import SampleBlock
 
 CENTRE_TOLERANCE_M = 0.001
 HOLD_TOLERANCE_M = 0.0005  # a hold has arrived when the DAQ's displacement is this close

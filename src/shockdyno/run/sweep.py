@@ -17,11 +17,12 @@ from typing import Protocol
 from shockdyno.errors import RigFault
 from shockdyno.model.stroke import Stroke
 from shockdyno.record.types import TestMeta
-from shockdyno.rig.types import Adjuster, SampleBlock
+from shockdyno.rig.types import Adjuster
 from shockdyno.run import signals
 from shockdyno.run.gas_measure import Holder, measure_gas_force
 from shockdyno.run.plan import PointKey, SweepPlan, SweepPoint
 from shockdyno.run.signals import Terminated
+from shockdyno.samples import SampleBlock
 
 
 class _Outcome(Protocol):

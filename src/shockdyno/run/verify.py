@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shockdyno.rig.config import RigConfig, VerifyConfig
-from shockdyno.rig.types import SampleBlock
+from shockdyno.samples import SampleBlock
 
 # The most of a run kept as samples: ~42 MB, 1000 s at 1 kHz, a cycle and a half of the
 # slowest sine a sweep plans (one in 10 min).

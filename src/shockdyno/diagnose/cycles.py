@@ -52,6 +52,7 @@ def cycle_starts(t: FloatArray, x: FloatArray) -> FloatArray:
         return np.zeros(0)
     i = int(idx_below[0])
     n = x.size
+    out.extend(_leading_crossing(t, x, mid, hi, i))
     while i < n:
         if state == 0:
             nxt = np.flatnonzero(above[i:])
@@ -75,6 +76,27 @@ def cycle_starts(t: FloatArray, x: FloatArray) -> FloatArray:
     return np.asarray(out)
 
 
+def _leading_crossing(
+    t: FloatArray, x: FloatArray, mid: float, hi: float, first_below: int
+) -> list[float]:
+    """The upward crossing a record starts on, which the loop (it starts from the first
+    sample below the band) cannot see: a measured window begins where the sine crosses
+    its centre going up, so a 3-cycle test showed 2 crossings and was read as one cycle
+    (its structure then had no scatter to be judged against: p = 1 on a 25 N stiction).
+    When the record rises through the band above mid before it first falls below it, the
+    crossing is where the first samples, extended back along their slope, reach mid."""
+    rise = np.flatnonzero(x[:first_below] > hi)
+    if rise.size == 0 or not x[0] < hi:
+        return []
+    j = int(rise[0])
+    if x[0] < mid:  # inside the record: found by the loop's own rule
+        seg = np.flatnonzero(x[: j + 1] >= mid)
+        k = int(seg[0])
+        return [float(t[k - 1] + (mid - x[k - 1]) / (x[k] - x[k - 1]) * (t[k] - t[k - 1]))]
+    slope = (x[j] - x[0]) / max(float(t[j] - t[0]), 1e-12)
+    return [float(t[0] - (x[0] - mid) / slope)] if slope > 0 else []
+
+
 def phase_of(
     t: FloatArray, x: FloatArray, n_bins: int = N_BINS, whole_cells: bool = False
 ) -> Phase:
@@ -89,7 +111,7 @@ def phase_of(
     cycle-to-cycle scatter of the phase means 16-242 N² per test at 1 kHz, against 1-9 N²
     without them, and the mismatch test could see no structure (p = 1 against 0.001)."""
     starts = cycle_starts(t, x)
-    if starts.size < 3:  # fewer than two whole cycles: one "cycle" over the record
+    if starts.size < 2:  # no period to read: one "cycle" over the record
         frac = (t - t[0]) / max(float(t[-1] - t[0]), 1e-12)
         b = np.minimum((frac * n_bins).astype(np.intp), n_bins - 1)
         return Phase(np.zeros(t.size, dtype=np.intp), b, 1)

@@ -288,6 +288,13 @@ def test_demo_writes_recording_fit_and_report(tmp_path):
     assert "Enhancement" in res.stdout and str(index) in res.stdout
     rec = open_recording(tmp_path / "demo.mcap")
     assert len(rec.tests) == 6 and all(m.status == "complete" for m in rec.tests)
+    # The demo's fit names its recording: a report of the two together is accepted.
+    again = subprocess.run(
+        [*CLI, "report", str(tmp_path / "demo.mcap"), "--fit", str(tmp_path / "demo-fit.json"),
+         "-o", str(tmp_path / "again")],
+        cwd=REPO, capture_output=True, text=True, timeout=110,
+    )  # fmt: skip
+    assert again.returncode == 0, again.stderr
 
 
 def test_unreachable_rig_is_one_line_and_leaves_no_file(tmp_path):

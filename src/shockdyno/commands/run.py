@@ -517,7 +517,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         record_sweep(live_rig, plan, rec_path, metadata=meta, overwrite=True, console=console)
     console.print(f"sweep recorded in {time.perf_counter() - t0:.1f} s: {rec_path}", soft_wrap=True)
     tests = open_recording(rec_path).load_all()
-    fit = None if args.no_fit else _demo_fit(tests, spec_path, out, args.seed, console)
+    fit = None if args.no_fit else _demo_fit(rec_path, spec_path, out, args.seed, console)
     with console.status("report") as status:
         index = build_report(
             tests,
@@ -540,15 +540,17 @@ def _static_force(spec: Any) -> float:
     return spec_static_force_n(spec)
 
 
-def _demo_fit(tests: list[Any], spec_path: Path, out: Path, seed: int, console: Console) -> Any:
+def _demo_fit(rec_path: Path, spec_path: Path, out: Path, seed: int, console: Console) -> Any:
+    """`shockdyno fit` of the demo's recording: the result names it (info.recording), so
+    `report demo.mcap --fit demo-fit.json` and `diagnose --fit` accept it."""
     from rich.table import Table
 
-    from shockdyno.fit import fit_sweep
+    from shockdyno.fit.file import fit_file
     from shockdyno.fit.validate import table4_rows
 
     console.rule("fit: globals, bleed areas per click, trend, validation")
     t0 = time.perf_counter()
-    result = fit_sweep(tests, spec_path, optimizer="fast", seed=seed)
+    result, _ = fit_file(rec_path, spec=str(spec_path), optimizer="fast", seed=seed)
     fit_path = out / "demo-fit.json"
     result.save(fit_path)
     console.print(f"fit done in {time.perf_counter() - t0:.1f} s: {fit_path}", soft_wrap=True)

@@ -290,3 +290,17 @@ def test_check_over_modbus_rtu(
     doc = json.loads(capsys.readouterr().out)
     assert doc["ok"] and "modbus rtu socket://" in doc["drive"][0]["value"]
     assert writes == []
+
+
+def test_check_reads_a_faster_than_real_time_sim_by_its_time_scale(
+    sim_rig_factory: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A simulated rig at 5x real time sends 5 kHz of 1 kHz frames: the rig file that says
+    so (daq.time_scale, as a sweep needs it) passes the rate check ('BAD' before)."""
+    sim = sim_rig_factory(speed=5.0)
+    rig = rig_file(sim, tmp_path)
+    assert main(["rig", "check", "--rig", str(rig), "--json", "-"]) == 0
+    daq = {f["what"]: f for f in json.loads(capsys.readouterr().out)["daq"]}
+    rate = daq["frame rate"]
+    assert rate["ok"] and "x daq.time_scale 5" in rate["value"], rate
+    assert 4750 < float(rate["value"].split()[0]) < 5250

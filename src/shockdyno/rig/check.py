@@ -232,20 +232,24 @@ def check_daq(got: DaqListen, rig: RigConfig, drive_position_m: float | None) ->
     cfg = rig.daq
     s = got.samples
     out: list[Finding] = []
-    nominal = cfg.sample_rate_hz
+    # A simulated rig at N x real time sends N x the frames per host second (daq.time_scale),
+    # as the session checks before enabling.
+    nominal = cfg.sample_rate_hz * cfg.time_scale
+    scale = "" if cfg.time_scale == 1.0 else f" x daq.time_scale {cfg.time_scale:g}"
     f = Finding("frames", f"{got.frames} valid in {got.seconds:g} s")
     if not len(s):
         f.ok, f.note = False, f"no valid frame from {cfg.url} in {got.seconds:g} s"
         return [f]
     out.append(f)
-    rate = Finding("frame rate", f"{got.rate_hz:.0f} frames/s (rig file: {nominal:g})")
+    rate = Finding("frame rate", f"{got.rate_hz:.0f} frames/s (rig file: {nominal:g}{scale})")
     if not math.isfinite(got.rate_hz):
         rate.ok, rate.note = False, "too few reads brought frames to measure the rate"
     elif abs(got.rate_hz / nominal - 1) > RATE_TOLERANCE:
         rate.ok = False
         rate.note = (
             f"{got.rate_hz:.0f} frames/s, the rig file says {nominal:g} "
-            f"(daq.sample_rate_hz; time in recordings would be off by {got.rate_hz / nominal:.3g}x)"
+            f"(daq.sample_rate_hz{scale}; time in recordings would be off by "
+            f"{got.rate_hz / nominal:.3g}x)"
         )
     out.append(rate)
     lost = got.dropped + got.corrupt

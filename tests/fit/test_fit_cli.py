@@ -247,3 +247,17 @@ def test_piped_tables_are_written_whole(tmp_path: Path) -> None:
     wrapped = [line for line in bleeds.splitlines() if re.match(r"^│\s+│", line)]
     assert not wrapped, "\n".join(wrapped)
     assert "…" not in done.stdout
+
+
+def test_the_globals_tables_force_delay_at_zero_reads_at_lower_bound() -> None:
+    """The force channel's delay row (the globals table, terminal and page): 8.4e-19 s is
+    the bound 0, as the terms table says it; a real delay is printed in ms."""
+    from shockdyno.fit.display import globals_rows
+    from shockdyno.fit.result import FitResult
+    from shockdyno.model import default_spec_path
+
+    result = FitResult.from_spec(default_spec_path(), (0, 10))
+    for delay, want in ((8.4e-19, "at lower bound (0 ms)"), (0.0021, "2.1")):
+        result.info["calibration"] = {"force_delay_s": delay, "force_delay_sd_s": 1e-5}
+        (row,) = [r for r in globals_rows(result)[1] if r[0] == "force delay"]
+        assert row[1] == want, row

@@ -109,6 +109,7 @@ def globals_rows(result: FitResult, units: Units = SI) -> tuple[list[str], list[
     global pressed against its calibration range reads "at lower bound (...)". Shared by
     the terminal table and the report's fit section."""
     from shockdyno.fit.parameters import spec_global  # the model's weight, only when drawn
+    from shockdyno.model.terms import LIBRARY
 
     cal = result.info.get("calibration", {})
     nominal, sd = cal.get("globals_nominal", {}), cal.get("globals_sd", {})
@@ -135,5 +136,9 @@ def globals_rows(result: FitResult, units: Units = SI) -> tuple[list[str], list[
         delay, delay_sd = cal["force_delay_s"], cal.get("force_delay_sd_s")
         ms = shown("s", units, 0.0)  # a delay: always ms
         sd_ms = ms.text(delay_sd) if isinstance(delay_sd, int | float) else "?"
-        rows.append(["force delay", ms.text(delay), sd_ms, "0", "ms", ""])
+        delay_p = next(q for q in LIBRARY["sensor_lag"].PARAMS if q.name == "delay_s")
+        side = bound_hit(delay, delay_p.lo, delay_p.hi)
+        bounds = {"lower": delay_p.lo, "upper": delay_p.hi}
+        text = bound_text(side, bounds[side], ms) if side else ms.text(delay)
+        rows.append(["force delay", text, sd_ms, "0", "ms", ""])
     return header, rows

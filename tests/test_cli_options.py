@@ -98,3 +98,12 @@ def test_a_bad_list_is_one_line_naming_its_flag(
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and flag in err
+
+
+def test_sim_rig_help_names_every_fault_it_accepts(capsys: pytest.CaptureFixture[str]) -> None:
+    from shockdyno.simrig.faults import KINDS
+
+    with pytest.raises(SystemExit):
+        main(["sim-rig", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert [k for k in KINDS if k not in text] == []

@@ -435,7 +435,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
     chunk = 100
     with (
         live_view(args, console, blocking=True) as live,
-        LiveView(len(rec.tests), console=console, units=units_mod.get(args.units)) as view,
+        LiveView(
+            len(rec.tests), console=console, title="replay", units=units_mod.get(args.units)
+        ) as view,
     ):
         records = _ReplayRecords(rec, live)
         if live is not None:

@@ -53,7 +53,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         default=[],
         metavar="KIND@S[:N]",
         help="inject a fault at sim time S: garble, drop (N frames), freeze, modbus_timeout, "
-        "actuator_fault, over_force (N: duration s); repeatable",
+        "daq_disconnect, actuator_fault, over_force (N: duration s); repeatable",
     )
     p.add_argument(
         "--single-master",

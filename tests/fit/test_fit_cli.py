@@ -261,3 +261,13 @@ def test_the_globals_tables_force_delay_at_zero_reads_at_lower_bound() -> None:
         result.info["calibration"] = {"force_delay_s": delay, "force_delay_sd_s": 1e-5}
         (row,) = [r for r in globals_rows(result)[1] if r[0] == "force delay"]
         assert row[1] == want, row
+
+
+def test_no_test_to_fit_says_how_many_were_read() -> None:
+    """A recording cut off before its first test ended holds no test: the error says so
+    instead of ending on a colon."""
+    from shockdyno.errors import FitError
+    from shockdyno.fit import fit_sweep
+
+    with pytest.raises(FitError, match=r"samples\): 0 tests read \(a recording cut off"):
+        fit_sweep([], None)

@@ -88,10 +88,10 @@ def prepare_problem(
     _check_adjusters(tests, base, path)
     prepared, notes = prepare_tests(tests, objective_rate_hz)
     if not prepared:
+        why = "; ".join(notes[:3]) + (f"; and {len(notes) - 3} more" if len(notes) > 3 else "")
         raise FitError(
             "no usable test to fit (each needs motion, force and 20 samples): "
-            + "; ".join(notes[:3])
-            + (f"; and {len(notes) - 3} more" if len(notes) > 3 else "")
+            + (why or f"{len(tests)} tests read (a recording cut off before its first test ended?)")
         )
     prob = StackedProblem(base, prepared)
     model = DamperModel(base, selection.terms)

@@ -135,3 +135,11 @@ def test_a_recording_that_grew_by_a_resume_is_shown_once(tmp_path: Path) -> None
     shown, left_out = store.grown(everything)
     assert [v.recording.sha256 for v in everything] == ["partial", "whole", "later"]
     assert [v.recording.sha256 for v in shown] == ["whole", "later"] and left_out == 1
+
+
+def test_a_value_at_a_bound_of_zero_shows_as_zero_within_its_sigma() -> None:
+    from shockdyno.history.view import Series
+
+    s = Series("sensor_lag.delay_s", "ms", 1e3, (4.018e-17, 0.0021), (6.0e-6, 1e-4))
+    assert s.shown(0) == "0 ±0.006"  # it read 4.018e-17 ±1.5e+16%
+    assert s.shown(1) == "2.1 ±4.8%"

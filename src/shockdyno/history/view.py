@@ -72,6 +72,10 @@ class Series:
             return "–"
         text = f"{v * self.scale:.4g}"
         sd = self.sds[k]
+        if sd is not None and math.isfinite(sd) and abs(v) < 1e-3 * sd:
+            # An optimiser at a bound of 0 leaves 4e-17 there: zero within its σ, said so
+            # (as a percentage it read ±1.5e+16 %).
+            return f"0 ±{sd * self.scale:.2g}"
         if sd is not None and math.isfinite(sd) and v:
             text += f" ±{100 * sd / abs(v):.2g}%"
         return text

@@ -169,10 +169,14 @@ def test_rows_beyond_the_measured_velocities_are_marked(
     inside = np.abs(rows[:, 0]) <= PEAK_M_S * 1e3
     assert np.array_equal(rows[:, 3] == 1, inside) and rows[:, 0].max() == 1000
     assert "beyond, the model extrapolated" in (out / "clicks_21.dpr").read_text()
-    # A click from the trend takes the span of the fitted clicks either side.
+    # Click 0's bleed is not identifiable (a closed needle), so the trend rests on click 21
+    # alone: a table at 10 clicks would be click 21's (it was), refused in one line.
+    capsys.readouterr()
     assert main(["export", str(fitted_example), "--damper-table", str(tmp_path / "t"),
-                 "--clicks", "10"]) == 0  # fmt: skip
-    assert "(the fitted clicks either side)" in (tmp_path / "t" / "clicks_10.csv").read_text()
+                 "--clicks", "10"]) == 2  # fmt: skip
+    err = capsys.readouterr().err
+    assert "trend rests on clicks 21-21 only" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "t" / "clicks_10.csv").exists()
 
 
 def test_within_measured_stops_at_the_measured_velocities(

@@ -305,6 +305,16 @@ class FitResult:
             and trend_bt is not None
             and trend_bc.gas_clicks == gas
         ):
+            for name, trend in (("A_bc", trend_bc), ("A_bt", trend_bt)):
+                used = trend.clicks_used
+                if used and not trend.adjuster and not min(used) <= clicks <= max(used):
+                    # A trend read only where its clicks are: one identifiable click
+                    # (a closed needle beside it) made a constant that drew every click
+                    # between as that one.
+                    raise FitError(
+                        f"{clicks} clicks: the {name} trend rests on clicks "
+                        f"{min(used)}-{max(used)} only (the others not identifiable){at}"
+                    )
             return max(trend_bc.at(clicks), 0.0), max(trend_bt.at(clicks), 0.0)
         raise FitError(f"the fit has no result for {clicks} clicks{at}")
 

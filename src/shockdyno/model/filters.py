@@ -24,6 +24,7 @@ def segment_bounds(starts: IntArray, n: int) -> list[tuple[int, int]]:
     return [(int(s), e) for s, e in zip(starts, ends, strict=True)]
 
 
+@njit(cache=True)
 def lag_coefficients(tau_s: float, dt_s: float) -> tuple[float, float, float]:
     """(b0, b1, e) of a first-order lag τ dy/dt = u - y, exact for u linear between samples.
 
@@ -81,15 +82,6 @@ STEADY, PERIODIC, FROM_REST, CARRY = 0, 1, 2, 3  # how a segment of `first_order
 
 
 @njit(cache=True)
-def _lag_coefficients(tau_s: float, dt_s: float) -> tuple[float, float, float]:
-    if not tau_s > 0:
-        return 1.0, 0.0, 0.0
-    e = math.exp(-dt_s / tau_s)
-    g = tau_s / dt_s * (1.0 - e)
-    return 1.0 - g, g - e, e
-
-
-@njit(cache=True)
 def _lag_segments(
     u: FloatArray,
     taus: FloatArray,
@@ -109,7 +101,7 @@ def _lag_segments(
         lo = starts[k]
         hi = starts[k + 1] if k + 1 < starts.size else n
         seen = True
-        b0, b1, e = _lag_coefficients(taus[k], dt_s[k])
+        b0, b1, e = lag_coefficients(taus[k], dt_s[k])
         if e == 0.0 and b1 == 0.0:
             for i in range(lo, hi):
                 y[i] = u[i]
@@ -117,12 +109,7 @@ def _lag_segments(
             continue
         if mode == PERIODIC and hi > lo:
             # y = y₀ + z eⁿ for initial state z (y₀: from rest); periodic: z_end(z) = z.
-            z = 0.0
-            for i in range(lo, hi):
-                out = b0 * u[i] + z
-                z = b1 * u[i] + e * out
-                y[i] = out
-            z = z / (1.0 - e ** (hi - lo))
+            z = _lag_run(b0, b1, e, u, lo, hi, 0.0, y) / (1.0 - e ** (hi - lo))
             decay = 1.0  # e^(i - lo), by products (a power at every sample took 9x the filter)
             for i in range(lo, hi):
                 y[i] = y[i] + z * decay
@@ -135,33 +122,20 @@ def _lag_segments(
             z = 0.0
         else:
             z = (b1 + e) * u[lo]
-        for i in range(lo, hi):
-            out = b0 * u[i] + z
-            z = b1 * u[i] + e * out
-            y[i] = out
-        zf[0] = z
+        zf[0] = _lag_run(b0, b1, e, u, lo, hi, z, y)
     return seen
 
 
-def lag_filter(
-    b0: float, b1: float, e: float, u: FloatArray, z0: float
-) -> tuple[FloatArray, FloatArray]:
-    """scipy.signal.lfilter([b0, b1], [1, -e], u, zi=[z0]): (y, final state [z]).
-
-    Compiled, so that a fit or a report does not import scipy.signal (a second or two at
-    every start of a command)."""
-    y = np.empty(u.size)
-    z = _lag_filter(b0, b1, e, np.ascontiguousarray(u, dtype=float), z0, y)
-    return y, np.array([z])
-
-
 @njit(cache=True)
-def _lag_filter(b0: float, b1: float, e: float, u: FloatArray, z: float, y: FloatArray) -> float:
-    # lfilter's transposed direct form II, term for term.
-    for n in range(u.size):
-        out = b0 * u[n] + z
-        z = b1 * u[n] + e * out
-        y[n] = out
+def _lag_run(
+    b0: float, b1: float, e: float, u: FloatArray, lo: int, hi: int, z: float, y: FloatArray
+) -> float:
+    """y[lo:hi] of lfilter([b0, b1], [1, -e], u[lo:hi], zi=[z]), its transposed direct form
+    II term for term; the final state."""
+    for i in range(lo, hi):
+        out = b0 * u[i] + z
+        z = b1 * u[i] + e * out
+        y[i] = out
     return z
 
 
@@ -169,7 +143,8 @@ def biquad(
     b: FloatArray, a: FloatArray, u: FloatArray, zi: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
     """scipy.signal.lfilter(b, a, u, zi) for a second-order section with a[0] = 1:
-    (y, final state), compiled like `lag_filter`."""
+    (y, final state), compiled (importing scipy.signal takes a second or two at every
+    start of a command)."""
     y = np.empty(u.size)
     zf = np.array(zi, dtype=float)
     u = np.ascontiguousarray(u, dtype=float)

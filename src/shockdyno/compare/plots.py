@@ -43,9 +43,9 @@ def peak_overlay(inputs: Sequence[Input], path: Path, units: Units) -> Path:
         c = colour[inp.label]
         by_setting: dict[tuple[int, int], list] = {}  # type: ignore[type-arg]
         for s in inp.summaries:
-            by_setting.setdefault((s.clicks, s.gas_clicks), []).append(s)
+            by_setting.setdefault((s.meta.clicks, s.meta.gas_clicks), []).append(s)
         for key, group in sorted(by_setting.items()):
-            group.sort(key=lambda s: s.frequency_hz)
+            group.sort(key=lambda s: s.meta.frequency_hz)
             for vel, force in (
                 ([s.peak_compression_velocity_m_s for s in group],
                  [s.peak_compression_force_n for s in group]),

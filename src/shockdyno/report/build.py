@@ -340,7 +340,7 @@ def _summary_section(
     page: Page, summaries: list[TestSummary], units: Units, force_note: str
 ) -> None:
     page.section("Summary", f"{SUMMARY_LEGEND} F comp / F reb: {force_note}.")
-    n_aborted = sum(s.status != "complete" for s in summaries)
+    n_aborted = sum(s.meta.status != "complete" for s in summaries)
     if n_aborted:
         page.paragraph(f"{n_aborted} of {len(summaries)} tests did not complete (marked).")
     long = len(summaries) > OPEN_SUMMARY_MAX_ROWS
@@ -349,7 +349,7 @@ def _summary_section(
     page.table(
         header,
         [summary_row(s, units) for s in summaries],
-        row_classes=["" if s.status == "complete" else "aborted" for s in summaries],
+        row_classes=["" if s.meta.status == "complete" else "aborted" for s in summaries],
         numeric=[True] * (len(header) - 1) + [False],
     )
     page.close_details()

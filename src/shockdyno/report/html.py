@@ -126,13 +126,14 @@ def summary_row(s: TestSummary, units: Units = SI) -> list[str]:
     v_scale, v_spec = (units.velocity_per_m_s, ".3f") if units.imperial else (1.0, ".4f")
     length = ".2f" if units.imperial else ".1f"
     temp = None if s.temperature_c is None else units.temperature(s.temperature_c)
+    m = s.meta
     return [
-        str(s.index),
+        str(m.index),
         # every adjuster's clicks of a damper with several
-        ", ".join(f"{n} {v}" for n, v in s.adjusters.items()) or str(s.clicks),
-        str(s.gas_clicks),
-        _num(s.frequency_hz, ".3g"),
-        _num(units.length(s.amplitude_m), length),
+        ", ".join(f"{n} {v}" for n, v in m.adjusters.items()) or str(m.clicks),
+        str(m.gas_clicks),
+        _num(m.frequency_hz, ".3g"),
+        _num(units.length(m.amplitude_m), length),
         _num(units.force(s.peak_compression_force_n), ".1f"),
         _num(units.force(s.peak_rebound_force_n), ".1f"),
         _num(v_scale * s.peak_compression_velocity_m_s, v_spec),
@@ -140,7 +141,7 @@ def summary_row(s: TestSummary, units: Units = SI) -> list[str]:
         _num(temp, ".1f"),
         "–" if s.dropped_frames is None else str(s.dropped_frames),
         str(s.n_samples),
-        s.status,
+        m.status,
     ]
 
 

@@ -394,7 +394,7 @@ class Interactive:
             if cv is not None:  # a constant-velocity test: its mean force's sd
                 sd = u.force(cv[branch].force_sd_n)
                 return f", ±{sd:.1f} {u.force_label} (1 SD, constant velocity)"
-            h = (band or {}).get(c.summary.index, (math.nan, math.nan))[branch]
+            h = (band or {}).get(c.summary.meta.index, (math.nan, math.nan))[branch]
             return f", ±{u.force(h):.1f} {u.force_label} (2 SD, cycles)" if math.isfinite(h) else ""
 
         by_click: dict[tuple[int, int], list[Curves]] = {}
@@ -433,7 +433,7 @@ class Interactive:
                         notes=notes,
                     )
                 )
-        removed = bool(curves) and all(c.summary.gas_force_n is not None for c in curves)
+        removed = bool(curves) and all(c.summary.gas_removed_n is not None for c in curves)
         what = "peak damping force" if removed else "peak force"
         return [
             Chart(

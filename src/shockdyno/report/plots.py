@@ -278,18 +278,18 @@ def peak_curves(
     over the constant-velocity part of its strokes at their mean velocity, its error bar
     the force's standard deviation there (report/constant_velocity.py).
     """
-    norm = _click_norm([s.clicks for s in summaries])
+    norm = _click_norm([s.meta.clicks for s in summaries])
     cmap = CMAP
     fig = Figure(figsize=(8.0, 5.6), layout="constrained")
     ax = fig.subplots()
     by_click: dict[tuple[int, int], list[TestSummary]] = {}
     for s in summaries:
-        by_click.setdefault((s.clicks, s.gas_clicks), []).append(s)
+        by_click.setdefault((s.meta.clicks, s.meta.gas_clicks), []).append(s)
     markers = "osD^v<>"
     gas_values = sorted({g for _, g in by_click})
     ends: list[tuple[float, float, str, Any]] = []  # fast end of each compression curve
     for (clicks, gas), group in sorted(by_click.items()):
-        group = sorted(group, key=lambda s: s.frequency_hz)
+        group = sorted(group, key=lambda s: s.meta.frequency_hz)
         colour = cmap(norm(clicks))
         marker = markers[gas_values.index(gas) % len(markers)]
         branches = (
@@ -321,7 +321,7 @@ def peak_curves(
                     lw=1.0,
                 )
         for s in group if band else ():
-            half = band.get(s.index) if band and s.cv is None else None
+            half = band.get(s.meta.index) if band and s.cv is None else None
             if half is None:
                 continue
             for vel1, f1, h in (
@@ -345,7 +345,7 @@ def peak_curves(
     cv = any(s.cv is not None for s in summaries)
     what = "velocity (sines: peak; constant-velocity tests: their speed)" if cv else "peak velocity"
     ax.set_xlabel(f"{what} ({units.velocity_label}, + compression, − rebound)")
-    removed = bool(summaries) and all(s.gas_force_n is not None for s in summaries)
+    removed = bool(summaries) and all(s.gas_removed_n is not None for s in summaries)
     fl = units.force_label
     peak = "force (sines: peak; constant velocity: mean ± sd)" if cv else "peak force"
     ax.set_ylabel(

@@ -17,7 +17,7 @@ Definitions (all over the measured cycles, ``test.measured()``):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from shockdyno.errors import ConfigError
 from shockdyno.model import differentiate
-from shockdyno.record.types import TestData
+from shockdyno.record.types import TestData, TestMeta
 from shockdyno.units import SI, Units
 
 if TYPE_CHECKING:
@@ -36,66 +36,63 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class TestSummary:
-    """Headline numbers of one test. Forces in N, velocities in m/s, signed."""
+    """Headline numbers of one test. Forces in N, velocities in m/s, signed.
+
+    What the test was (its clicks, frequency, amplitude, motion, status, ...) is ``meta``,
+    the test's own TestMeta; the fields here are what :func:`summarise` measured."""
 
     __test__ = False  # not a pytest test class, despite the name
 
-    index: int
-    clicks: int
-    gas_clicks: int
-    frequency_hz: float
-    amplitude_m: float
-    status: str
+    meta: TestMeta
     n_samples: int
     peak_compression_force_n: float
     peak_rebound_force_n: float
     peak_compression_velocity_m_s: float
     peak_rebound_velocity_m_s: float
     temperature_c: float | None
+    # The largest count known (see summarise): at least meta.dropped_frames.
     dropped_frames: int | None
-    gas_force_n: float | None = None  # removed from the peak forces (None: raw force)
-    # A constant-velocity test (report/constant_velocity.py): its motion, planned speed
-    # and (compression, rebound) points; None for a sine.
-    motion: str = "sine"
-    target_velocity_m_s: float | None = None
+    # The gas force taken from the peak forces (None: raw force, whatever meta.gas_force_n).
+    gas_removed_n: float | None = None
+    # A constant-velocity test's (compression, rebound) points (report/constant_velocity.py);
+    # None for a sine.
     cv: tuple[CvPoint, CvPoint] | None = None
-    adjusters: dict[str, int] = field(default_factory=dict)  # of a damper with several
 
     def _clicks(self) -> str:
         """'clicks=12', or every adjuster's: 'compression=12 rebound=4'."""
-        if not self.adjusters:
-            return f"clicks={self.clicks}"
-        return " ".join(f"{n}={v}" for n, v in self.adjusters.items())
+        m = self.meta
+        if not m.adjusters:
+            return f"clicks={m.clicks}"
+        return " ".join(f"{n}={v}" for n, v in m.adjusters.items())
 
     def line(self, done: int | None = None, total: int | None = None, units: Units = SI) -> str:
         """One plain ASCII line (no control codes) for logs, pipes and CI; imperial units
         give in, lbf, in/s and F (SI keeps the line as it always read: mm, N, m/s, C)."""
         head = f"test {done}/{total}" if done is not None and total is not None else "test"
         imp = units.imperial
+        m = self.meta
         if self.temperature_c is None:
             temp = "-"
         else:
             temp = f"{units.temperature(self.temperature_c):.1f}{'F' if imp else 'C'}"
         dropped = "?" if self.dropped_frames is None else str(self.dropped_frames)
-        amp = (
-            f"{units.length(self.amplitude_m):.2f}in" if imp else f"{self.amplitude_m * 1e3:.1f}mm"
-        )
+        amp = f"{units.length(m.amplitude_m):.2f}in" if imp else f"{m.amplitude_m * 1e3:.1f}mm"
         f_unit, v_unit = ("lbf", "in/s") if imp else ("N", "m/s")
         v_scale, v_spec = (units.velocity_per_m_s, "+.2f") if imp else (1.0, "+.3f")
         return (
-            f"{head} {self._clicks()} gas={self.gas_clicks} f={self.frequency_hz:.2f}Hz"
+            f"{head} {self._clicks()} gas={m.gas_clicks} f={m.frequency_hz:.2f}Hz"
             f" A={amp}"
             f" Fc={_fmt(units.force(self.peak_compression_force_n), '+.0f')}{f_unit}"
             f" Fr={_fmt(units.force(self.peak_rebound_force_n), '+.0f')}{f_unit}"
             + (
                 ""
-                if self.gas_force_n is None
-                else f" gas_removed={units.force(self.gas_force_n):.0f}{f_unit}"
+                if self.gas_removed_n is None
+                else f" gas_removed={units.force(self.gas_removed_n):.0f}{f_unit}"
             )
             + self._cv_text(units)
             + f" vc={_fmt(self.peak_compression_velocity_m_s * v_scale, v_spec)}{v_unit}"
             f" vr={_fmt(self.peak_rebound_velocity_m_s * v_scale, v_spec)}{v_unit}"
-            f" T={temp} dropped={dropped} {self.status}"
+            f" T={temp} dropped={dropped} {m.status}"
         )
 
     def point(self, direction: int) -> tuple[float, float]:
@@ -111,19 +108,16 @@ class TestSummary:
     def _cv_text(self, units: Units) -> str:
         """A constant-velocity test's speed and mean forces: ' triangle v=100mm/s
         Fcv=+150/-1325N' (in/s and lbf in imperial); empty for a sine."""
-        if self.target_velocity_m_s is None:
+        target = self.meta.target_velocity_m_s
+        if target is None:
             return ""
         imp = units.imperial
-        speed = (
-            f"{self.target_velocity_m_s * units.velocity_per_m_s:.2f}in/s"
-            if imp
-            else f"{self.target_velocity_m_s * 1e3:.0f}mm/s"
-        )
+        speed = f"{target * units.velocity_per_m_s:.2f}in/s" if imp else f"{target * 1e3:.0f}mm/s"
         forces = "-"
         if self.cv is not None:
             c, r = (units.force(p.force_n) for p in self.cv)
             forces = f"{c:+.0f}/{r:+.0f}{'lbf' if imp else 'N'}"
-        return f" {self.motion} v={speed} Fcv={forces}"
+        return f" {self.meta.motion} v={speed} Fcv={forces}"
 
 
 def _fmt(value: float, spec: str) -> str:
@@ -196,13 +190,7 @@ def summarise(
     from shockdyno.report.constant_velocity import cv_points  # it reads `velocity` here
 
     return TestSummary(
-        index=meta.index,
-        clicks=meta.clicks,
-        gas_clicks=meta.gas_clicks,
-        adjusters=dict(meta.adjusters),
-        frequency_hz=meta.frequency_hz,
-        amplitude_m=meta.amplitude_m,
-        status=meta.status,
+        meta=meta,
         n_samples=int(m.t.size),
         peak_compression_force_n=f_max,
         peak_rebound_force_n=f_min,
@@ -210,8 +198,6 @@ def summarise(
         peak_rebound_velocity_m_s=v_min,
         temperature_c=temp,
         dropped_frames=dropped,
-        gas_force_n=gas_force_n,
-        motion=meta.motion,
-        target_velocity_m_s=meta.target_velocity_m_s,
+        gas_removed_n=gas_force_n,
         cv=cv_points(test, gas_force_n),
     )

@@ -312,6 +312,6 @@ class LiveView:
             self.console.file.flush()
             return
         text = Text(line)
-        ok = summary.status == "complete"
-        text.stylize("green" if ok else "bold red", len(line) - len(summary.status))
+        status = summary.meta.status
+        text.stylize("green" if status == "complete" else "bold red", len(line) - len(status))
         self.console.print(text, soft_wrap=True)

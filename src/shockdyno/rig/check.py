@@ -232,10 +232,8 @@ def check_daq(got: DaqListen, rig: RigConfig, drive_position_m: float | None) ->
     cfg = rig.daq
     s = got.samples
     out: list[Finding] = []
-    # A simulated rig at N x real time sends N x the frames per host second (daq.time_scale),
-    # as the session checks before enabling.
-    nominal = cfg.sample_rate_hz * cfg.time_scale
-    scale = "" if cfg.time_scale == 1.0 else f" x daq.time_scale {cfg.time_scale:g}"
+    # As the session checks before enabling: a simulated rig's time scale counts.
+    nominal, scale = cfg.frames_per_host_s, cfg.time_scale_note
     f = Finding("frames", f"{got.frames} valid in {got.seconds:g} s")
     if not len(s):
         f.ok, f.note = False, f"no valid frame from {cfg.url} in {got.seconds:g} s"

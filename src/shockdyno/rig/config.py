@@ -175,8 +175,8 @@ class DaqConfig:
     calibration: Calibration
     baudrate: Annotated[int, Meta(ge=300, le=20_000_000)] = 921600
     # DAQ seconds per wall-clock second: 1 for hardware; a simulated rig run at --speed N
-    # says N. The frame rate measured before enabling is checked against
-    # sample_rate_hz × time_scale (run/session.py).
+    # says N. The frame rate measured before enabling (run/session.py) and by `rig check`
+    # is checked against `frames_per_host_s`.
     time_scale: Annotated[float, Meta(gt=0, le=1000)] = 1.0
     frozen_timeout_s: Positive = 0.5  # wall time without a valid frame: the DAQ is frozen
     max_gap_s: Positive = 0.05  # a longer run of lost frames leaves the limits unwatched: stop
@@ -186,6 +186,18 @@ class DaqConfig:
     position_range_m: tuple[float, float] = (-math.inf, math.inf)
     force_range_n: tuple[float, float] = (-math.inf, math.inf)
     temperature_range_c: tuple[float, float] = (-40.0, 200.0)
+
+    @property
+    def frames_per_host_s(self) -> float:
+        """The frame rate to expect on the host: sample_rate_hz × time_scale (a simulated
+        rig at N × real time sends N × the frames per host second)."""
+        return self.sample_rate_hz * self.time_scale
+
+    @property
+    def time_scale_note(self) -> str:
+        """' x daq.time_scale 5' after a frame rate the time scale multiplied; empty at
+        real time."""
+        return "" if self.time_scale == 1.0 else f" x daq.time_scale {self.time_scale:g}"
 
 
 # What a shock-absorber dyno can be at all. A limit beyond is a typo or another unit (mm

@@ -929,7 +929,7 @@ class RigSession:
         than real time (time_scale != 1) may fall behind for good (a slow plant), so only
         a faster DAQ than stated is refused for it."""
         cfg = self.rig.daq
-        expected = cfg.sample_rate_hz * cfg.time_scale
+        expected = cfg.frames_per_host_s
         self._catch_up(check=False)
         start = self.clock()
         seq0, wall0 = self._stream.seq, start
@@ -948,11 +948,11 @@ class RigSession:
                 if last:
                     break
                 seq0, wall0 = self._stream.seq, now
-        scale = "" if cfg.time_scale == 1.0 else f" x daq.time_scale {cfg.time_scale:g}"
         got = f"{min(seen):.0f}-{max(seen):.0f}" if seen else "no"
         raise ConfigError(
             f"DAQ {cfg.url} delivers {got} frames/s, the rig file says {expected:g} "
-            f"({self.rig.source} daq.sample_rate_hz {cfg.sample_rate_hz:g}{scale}): a wrong "
+            f"({self.rig.source} daq.sample_rate_hz {cfg.sample_rate_hz:g}"
+            f"{cfg.time_scale_note}): a wrong "
             "rate scales every velocity and time; refused before enabling"
         )
 

@@ -81,3 +81,30 @@ def savgol(x: FloatArray, window: int, order: int, deriv: int, delta: float) -> 
         d = np.polynomial.polynomial.polyder(poly, deriv) / delta**deriv
         y[lo + at.start : lo + at.stop] = np.polynomial.polynomial.polyval(t[at], d)
     return np.asarray(y, dtype=float)
+
+
+def velocity(t: FloatArray, x: FloatArray) -> FloatArray:
+    """v = dx/dt with the model's differentiator, also across gaps left by dropped frames.
+
+    NaN everywhere when t does not increase from sample to sample.
+
+    ``differentiate`` needs a uniform time base. A few dropped frames break that, so the
+    record is interpolated onto the uniform grid, differentiated there, and the velocity is
+    read back at the original times (the gap is bridged linearly, which only matters in it).
+    """
+    t = np.asarray(t, dtype=float)
+    x = np.asarray(x, dtype=float)
+    if t.size < 3:
+        return np.full(t.size, np.nan)
+    try:
+        return differentiate(t, x)[0]
+    except ConfigError:
+        steps = np.diff(t)
+        if not np.all(steps > 0):
+            # Repeated or reversed time stamps: no velocity rather than a wrong one.
+            return np.full(t.size, np.nan)
+        dt = float(np.median(steps))
+        n = round(float(t[-1] - t[0]) / dt) + 1
+        grid = t[0] + dt * np.arange(n)
+        v_grid = differentiate(grid, np.interp(grid, t, x))[0]
+        return np.interp(t, grid, v_grid)

@@ -45,11 +45,11 @@ from numpy.typing import NDArray
 
 from shockdyno.errors import FitError
 from shockdyno.model import DamperSpec, damper_force
+from shockdyno.model.kinematics import velocity
 from shockdyno.model.quarter_car import quasi_static_force
 from shockdyno.record.types import TestData
 from shockdyno.report import gas as gas_force
 from shockdyno.report.constant_velocity import cv_points, is_constant_velocity
-from shockdyno.report.summary import velocity
 from shockdyno.units import SI, Units
 
 if TYPE_CHECKING:  # only its methods are called: no import of the fit package at run time

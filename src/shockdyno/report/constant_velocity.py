@@ -24,9 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from shockdyno.model.kinematics import velocity
 from shockdyno.model.stroke import CONSTANT_VELOCITY, Stroke
 from shockdyno.record.types import TestData
-from shockdyno.report.summary import velocity
 
 SPEED_BAND = 0.1  # a sample within 10 % of the planned speed is at constant velocity
 POSITION_SHARE = 0.9  # of the constant-velocity travel, centred: the servo settles first

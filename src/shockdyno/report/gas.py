@@ -51,8 +51,8 @@ from numpy.typing import NDArray
 from shockdyno.errors import ConfigError
 from shockdyno.model import DamperSpec
 from shockdyno.model.composite import ATMOSPHERE_PA, gas_volume
+from shockdyno.model.kinematics import velocity
 from shockdyno.record.types import TestData
-from shockdyno.report.summary import velocity
 from shockdyno.units import SI, Units
 
 FloatArray = NDArray[np.float64]

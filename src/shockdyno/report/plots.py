@@ -20,8 +20,9 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 from numpy.typing import NDArray
 
+from shockdyno.model.kinematics import velocity
 from shockdyno.record.types import TestData
-from shockdyno.report.summary import TestSummary, velocity
+from shockdyno.report.summary import TestSummary
 from shockdyno.units import SI, Units
 
 FloatArray = NDArray[np.float64]

@@ -39,9 +39,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from shockdyno.model.kinematics import velocity
 from shockdyno.record.types import TestData
 from shockdyno.report import clickchart
-from shockdyno.report.summary import velocity
 
 FloatArray = NDArray[np.float64]
 Setting = clickchart.Setting

@@ -7,7 +7,8 @@ Definitions (all over the measured cycles, ``test.measured()``):
 
 - peak compression / rebound force: max(F) and min(F), signed (rebound is usually < 0);
 - peak compression / rebound velocity: max(v) and min(v), with v from
-  :func:`shockdyno.model.differentiate` (Savitzky–Golay, 25 ms window);
+  :func:`shockdyno.model.kinematics.velocity` (Savitzky–Golay, 25 ms window, across
+  the gaps of dropped frames);
 - temperature: mean over the measured cycles (None when the test has no temperature);
 - dropped frames: over the whole test, not only the measured cycles (see :func:`summarise`);
 - with ``gas_force_n`` given, the peak forces are damping forces: force minus that static
@@ -18,18 +19,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
-from shockdyno.errors import ConfigError
-from shockdyno.model import differentiate
+from shockdyno.model.kinematics import velocity
 from shockdyno.record.types import TestData, TestMeta
+from shockdyno.report.constant_velocity import CvPoint, cv_points
 from shockdyno.units import SI, Units
-
-if TYPE_CHECKING:
-    from shockdyno.report.constant_velocity import CvPoint
 
 FloatArray = NDArray[np.float64]
 
@@ -124,33 +121,6 @@ def _fmt(value: float, spec: str) -> str:
     return "nan" if math.isnan(value) else format(value, spec)
 
 
-def velocity(t: FloatArray, x: FloatArray) -> FloatArray:
-    """v = dx/dt with the model's differentiator, also across gaps left by dropped frames.
-
-    NaN everywhere when t does not increase from sample to sample.
-
-    ``differentiate`` needs a uniform time base. A few dropped frames break that, so the
-    record is interpolated onto the uniform grid, differentiated there, and the velocity is
-    read back at the original times (the gap is bridged linearly, which only matters in it).
-    """
-    t = np.asarray(t, dtype=float)
-    x = np.asarray(x, dtype=float)
-    if t.size < 3:
-        return np.full(t.size, np.nan)
-    try:
-        return differentiate(t, x)[0]
-    except ConfigError:
-        steps = np.diff(t)
-        if not np.all(steps > 0):
-            # Repeated or reversed time stamps: no velocity rather than a wrong one.
-            return np.full(t.size, np.nan)
-        dt = float(np.median(steps))
-        n = round(float(t[-1] - t[0]) / dt) + 1
-        grid = t[0] + dt * np.arange(n)
-        v_grid = differentiate(grid, np.interp(grid, t, x))[0]
-        return np.interp(t, grid, v_grid)
-
-
 def dropped_from_time(t: FloatArray, sample_rate_hz: float) -> int:
     """Missing samples implied by gaps in a time base that comes from a sample counter."""
     if t.size < 2 or not sample_rate_hz > 0:
@@ -187,8 +157,6 @@ def summarise(
     temp: float | None = None
     if m.temperature is not None and np.any(np.isfinite(m.temperature)):
         temp = float(np.nanmean(m.temperature))
-    from shockdyno.report.constant_velocity import cv_points  # it reads `velocity` here
-
     return TestSummary(
         meta=meta,
         n_samples=int(m.t.size),

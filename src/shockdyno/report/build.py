@@ -111,6 +111,7 @@ def build_report(
     extra_sections: Sequence[Section] = (),
     tables: Sequence[Table] = (),
     fit: FitResult | None = None,
+    # or as json.load gives them (Any: a JSON value), read into their typed documents here
     diagnose: DiagnosisDoc | dict[str, Any] | None = None,
     ride: RideDoc | dict[str, Any] | None = None,
     gas_force_n: float | None = None,

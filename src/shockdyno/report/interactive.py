@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 from matplotlib.colors import to_hex
+from matplotlib.typing import ColorType
 
 from shockdyno.report.clickchart import ClickChart, Setting
 from shockdyno.report.plots import (
@@ -82,7 +83,7 @@ def _own(name: str) -> str:
     return (resources.files("shockdyno.report") / name).read_text(encoding="utf-8")
 
 
-def _script_json(value: Any) -> str:
+def _script_json(value: Any) -> str:  # Any: whatever json.dumps takes
     """JSON safe inside <script>: no '</' to end the element early."""
     return json.dumps(value, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
 
@@ -98,7 +99,7 @@ def _nums(values: Sequence[float] | np.ndarray) -> list[float | None]:
     return [_num(float(v)) for v in values]
 
 
-def css_colour(colour: Any) -> str:
+def css_colour(colour: ColorType) -> str:
     return str(to_hex(colour))
 
 
@@ -116,7 +117,7 @@ class Series:
     width: float = 1.5
     notes: list[str] | None = None  # per point, appended to the readout
 
-    def as_json(self) -> dict[str, Any]:
+    def as_json(self) -> dict[str, Any]:  # Any: a JSON object's values, for json.dumps
         out: dict[str, Any] = {
             "label": self.label,
             "colour": self.colour,
@@ -154,7 +155,7 @@ class Interactive:
 
     units: Units = SI
     loops: dict[str, dict[str, list[float | None]]] = field(default_factory=dict)
-    charts: list[dict[str, Any]] = field(default_factory=list)
+    charts: list[dict[str, Any]] = field(default_factory=list)  # JSON objects, for json.dumps
     _ids: dict[int, str] = field(default_factory=dict)  # id(TestData) -> loop id
 
     # ---- data

@@ -10,7 +10,6 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from matplotlib import colormaps
@@ -18,6 +17,7 @@ from matplotlib.axes import Axes
 from matplotlib.colors import Colormap, ListedColormap, Normalize
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
+from matplotlib.typing import ColorType
 from numpy.typing import NDArray
 
 from shockdyno.model.kinematics import velocity
@@ -196,7 +196,7 @@ def _click_legend(fig: Figure, axes: Sequence[Axes], n: int) -> None:
     )
 
 
-def _direct_labels(ax: Axes, ends: Sequence[tuple[float, float, str, Any]]) -> None:
+def _direct_labels(ax: Axes, ends: Sequence[tuple[float, float, str, ColorType]]) -> None:
     """Name each curve at its end, right of it; labels of curves that end close together
     are pushed apart vertically (a leader line back to the point) so none overlaps."""
     ends = [e for e in ends if math.isfinite(e[0]) and math.isfinite(e[1])]
@@ -288,7 +288,7 @@ def peak_curves(
         by_click.setdefault((s.meta.clicks, s.meta.gas_clicks), []).append(s)
     markers = "osD^v<>"
     gas_values = sorted({g for _, g in by_click})
-    ends: list[tuple[float, float, str, Any]] = []  # fast end of each compression curve
+    ends: list[tuple[float, float, str, ColorType]] = []  # fast end of each compression curve
     for (clicks, gas), group in sorted(by_click.items()):
         group = sorted(group, key=lambda s: s.meta.frequency_hz)
         colour = cmap(norm(clicks))

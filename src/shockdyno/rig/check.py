@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -43,7 +44,7 @@ class Finding:
     ok: bool = True
     note: str = ""
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, Any]:  # Any: a JSON object's values (`rig check --json`)
         return {"what": self.what, "value": self.value, "ok": self.ok, "note": self.note}
 
 
@@ -76,7 +77,7 @@ class CheckResult:
     def ok(self) -> bool:
         return not self.problems
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, Any]:  # Any: a JSON object's values (`rig check --json`)
         return {
             "rig": self.rig,
             "source": self.source,
@@ -120,7 +121,9 @@ def open_links(rig: RigConfig) -> tuple[ModbusActuator, SerialDaq]:
     return act, daq
 
 
-def listen(daq: SerialDaq, seconds: float, clock: Any = time.monotonic) -> DaqListen:
+def listen(
+    daq: SerialDaq, seconds: float, clock: Callable[[], float] = time.monotonic
+) -> DaqListen:
     """Read the DAQ for `seconds` of host time. The rate is the slope of the last sequence
     number of each read against the host time it arrived: a backlog waiting at the start,
     a late read or a burst moves single points, not the slope, and lost frames do not

@@ -256,7 +256,8 @@ class RigConfig:
     heartbeat: HeartbeatConfig
     poll_period_s: float = 0.02
     verify: VerifyConfig = field(default_factory=VerifyConfig)
-    simulation: dict[str, Any] = field(default_factory=dict)  # [simulation]: sim-rig only
+    # [simulation] as tomllib read it (Any: a TOML value): sim-rig only, SimParams checks it
+    simulation: dict[str, Any] = field(default_factory=dict)
     raw_toml: str = ""
 
     @property
@@ -300,7 +301,8 @@ class _RigTable:
 @dataclass(frozen=True)
 class _RigFile:
     """The file's shape. [actuator] and [daq] are checked on their own (the transport
-    decides the actuator's keys; the DAQ's ranges default from the limits)."""
+    decides the actuator's keys; the DAQ's ranges default from the limits), so they stay
+    tables as tomllib gives them (dict[str, Any]: any TOML value) until then."""
 
     rig: _RigTable
     actuator: dict[str, Any]
@@ -331,7 +333,7 @@ def _transport(act: dict[str, Any], src: str) -> ModbusTransport:
     return convert({**keys, "kind": kind}, ModbusTransport, src, "actuator")
 
 
-def _register_map(tables: Any, src: str) -> RegisterMap:
+def _register_map(tables: Any, src: str) -> RegisterMap:  # Any: a TOML value, checked here
     at = "actuator.registers"
     if not isinstance(tables, dict):
         raise fail(src, at, "missing table" if tables is None else "must be a table")
@@ -366,7 +368,7 @@ def _register_map(tables: Any, src: str) -> RegisterMap:
     given = {k: tables[k] for k in SPECIAL_TABLES if k in tables}
     codes = given.get("fault_codes", {})
     if isinstance(codes, dict):
-        numbered: dict[int, Any] = {}
+        numbered: dict[int, Any] = {}  # Any: the TOML values, checked below
         for key, text in codes.items():
             where = dotted(f"{at}.fault_codes", key)
             if not re.fullmatch(r"[0-9]{1,5}", key) or int(key) > 65535:

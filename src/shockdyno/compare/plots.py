@@ -11,6 +11,7 @@ from matplotlib.lines import Line2D
 
 from shockdyno.compare.inputs import Input
 from shockdyno.report import clickchart, plots
+from shockdyno.report.summary import TestSummary
 from shockdyno.units import Units
 
 MARKERS = "osD^v<>ph"
@@ -41,7 +42,7 @@ def peak_overlay(inputs: Sequence[Input], path: Path, units: Units) -> Path:
     )  # fmt: skip
     for inp, lw in zip(inputs, widths(len(inputs)), strict=True):
         c = colour[inp.label]
-        by_setting: dict[tuple[int, int], list] = {}  # type: ignore[type-arg]
+        by_setting: dict[tuple[int, int], list[TestSummary]] = {}
         for s in inp.summaries:
             by_setting.setdefault((s.meta.clicks, s.meta.gas_clicks), []).append(s)
         for key, group in sorted(by_setting.items()):

@@ -52,6 +52,7 @@ from shockdyno.errors import ConfigError
 from shockdyno.model import DamperSpec
 from shockdyno.model.composite import ATMOSPHERE_PA, gas_volume
 from shockdyno.model.kinematics import velocity
+from shockdyno.model.spec import load_spec, spec_used
 from shockdyno.record.types import TestData
 from shockdyno.units import SI, Units
 
@@ -172,8 +173,6 @@ def limit_for(
     given, else the spec named (`--spec`), else the one a simulated recording names, else
     the default spec (as fit and diagnose assume). None when a spec not named by the user
     cannot be read: then only > 0 is checked."""
-    from shockdyno.model.spec import load_spec, spec_used
-
     deepest = deepest_m(tests)
     if fit_spec is not None:
         return charge_limit(fit_spec, deepest, "the fitted damper")

@@ -20,7 +20,7 @@ import numpy as np
 
 from shockdyno.errors import RigFault
 from shockdyno.rig.actuator import STATUS_NAMES, ModbusActuator
-from shockdyno.rig.config import RigConfig
+from shockdyno.rig.config import DaqConfig, Limits, RigConfig
 from shockdyno.rig.daq import SerialDaq
 from shockdyno.rig.frames import (
     STATUS_LOAD_OVERRANGE,
@@ -232,16 +232,24 @@ def _share(status: np.ndarray, bit: int) -> float:
 
 
 def check_daq(got: DaqListen, rig: RigConfig, drive_position_m: float | None) -> list[Finding]:
-    cfg = rig.daq
+    """What the DAQ sent with the drive at rest: its frames, then each sensor's reading."""
     s = got.samples
-    out: list[Finding] = []
+    if not len(s):
+        why = f"no valid frame from {rig.daq.url} in {got.seconds:g} s"
+        return [Finding("frames", f"{got.frames} valid in {got.seconds:g} s", False, why)]
+    return [
+        *_stream(got, rig.daq),
+        _load_cell(s, rig.limits),
+        *_lvdt(s, rig, drive_position_m),
+        _temperature(s, rig.daq, rig.limits),
+        _motion_input(s),
+    ]
+
+
+def _stream(got: DaqListen, cfg: DaqConfig) -> list[Finding]:
+    """Frames received, their rate against the rig file's, and the frames lost."""
     # As the session checks before enabling: a simulated rig's time scale counts.
     nominal, scale = cfg.frames_per_host_s, cfg.time_scale_note
-    f = Finding("frames", f"{got.frames} valid in {got.seconds:g} s")
-    if not len(s):
-        f.ok, f.note = False, f"no valid frame from {cfg.url} in {got.seconds:g} s"
-        return [f]
-    out.append(f)
     rate = Finding("frame rate", f"{got.rate_hz:.0f} frames/s (rig file: {nominal:g}{scale})")
     if not math.isfinite(got.rate_hz):
         rate.ok, rate.note = False, "too few reads brought frames to measure the rate"
@@ -252,7 +260,6 @@ def check_daq(got: DaqListen, rig: RigConfig, drive_position_m: float | None) ->
             f"(daq.sample_rate_hz{scale}; time in recordings would be off by "
             f"{got.rate_hz / nominal:.3g}x)"
         )
-    out.append(rate)
     lost = got.dropped + got.corrupt
     share = lost / max(1, lost + got.frames)
     bad = Finding(
@@ -263,9 +270,10 @@ def check_daq(got: DaqListen, rig: RigConfig, drive_position_m: float | None) ->
     if share > cfg.max_frame_loss:
         bad.ok = False
         bad.note = f"{share:.1%} of frames lost (daq.max_frame_loss {cfg.max_frame_loss:.1%})"
-    out.append(bad)
+    return [Finding("frames", f"{got.frames} valid in {got.seconds:g} s"), rate, bad]
 
-    lim = rig.limits
+
+def _load_cell(s: SampleBlock, lim: Limits) -> Finding:
     force = Finding(
         "load cell",
         f"{np.mean(s.force_n):+.1f} N (sd {np.std(s.force_n):.2f} N, "
@@ -279,8 +287,12 @@ def check_daq(got: DaqListen, rig: RigConfig, drive_position_m: float | None) ->
             f"reads {np.max(np.abs(s.force_n)):.0f} N at rest, beyond limits.force_n "
             f"{lim.force_n:g} N: a sweep would trip at once (calibration? tare?)"
         )
-    out.append(force)
+    return force
 
+
+def _lvdt(s: SampleBlock, rig: RigConfig, drive_position_m: float | None) -> list[Finding]:
+    """The LVDT at rest, and against the drive's own position when it has one."""
+    lim = rig.limits
     x = s.displacement_m
     lvdt = Finding("LVDT", f"{_mm(float(np.mean(x)))} from centre (sd {np.std(x) * 1e3:.3f} mm)")
     if _share(s.status, STATUS_LVDT_OVERRANGE):
@@ -294,18 +306,20 @@ def check_daq(got: DaqListen, rig: RigConfig, drive_position_m: float | None) ->
     elif np.std(x) > AT_REST_SD_M:
         lvdt.ok = False
         lvdt.note = f"varies by {np.std(x) * 1e3:.3f} mm sd with the drive at rest: noise or motion"
-    out.append(lvdt)
-    if drive_position_m is not None:
-        gap = float(np.mean(x)) + rig.stroke_centre_m - drive_position_m
-        agree = Finding("LVDT vs drive position", f"differ by {gap * 1e3:.2f} mm")
-        if abs(gap) > POSITION_AGREEMENT_M:
-            agree.ok = False
-            agree.note = (
-                f"the LVDT and the drive differ by {gap * 1e3:+.2f} mm "
-                "(daq.calibration.position_offset_m / position_m_per_count, or the register scale)"
-            )
-        out.append(agree)
+    if drive_position_m is None:
+        return [lvdt]
+    gap = float(np.mean(x)) + rig.stroke_centre_m - drive_position_m
+    agree = Finding("LVDT vs drive position", f"differ by {gap * 1e3:.2f} mm")
+    if abs(gap) > POSITION_AGREEMENT_M:
+        agree.ok = False
+        agree.note = (
+            f"the LVDT and the drive differ by {gap * 1e3:+.2f} mm "
+            "(daq.calibration.position_offset_m / position_m_per_count, or the register scale)"
+        )
+    return [lvdt, agree]
 
+
+def _temperature(s: SampleBlock, cfg: DaqConfig, lim: Limits) -> Finding:
     t = s.temperature_c
     temp = Finding("temperature", f"{np.mean(t):.1f} °C")
     lo, hi = cfg.temperature_range_c
@@ -316,15 +330,16 @@ def check_daq(got: DaqListen, rig: RigConfig, drive_position_m: float | None) ->
     elif float(np.max(t)) > lim.temperature_c:
         temp.ok = False
         temp.note = f"{np.max(t):.1f} °C is above limits.temperature_c: a sweep would stop"
-    out.append(temp)
+    return temp
 
+
+def _motion_input(s: SampleBlock) -> Finding:
     motion = _share(s.status, STATUS_MOTION)
     m = Finding("motion input (status bit 0)", f"set in {motion:.0%} of frames")
     if motion:
         m.ok = False
         m.note = "set with no sine running: the drive's motion output is miswired or inverted"
-    out.append(m)
-    return out
+    return m
 
 
 def check_rig(rig: RigConfig, seconds: float = 1.0) -> CheckResult:

@@ -302,7 +302,7 @@ def render_figures(
             continue
         page.figure(link(png, 50 + n), caption)
         shown += 1
-    drawn = doc.info.figures_units
+    drawn = doc.info.figures_units or "si"  # batch diagnose draws in SI and does not say
     if shown and drawn != units.name:
         axes = "in, in/s, lbf" if drawn == "imperial" else "mm, m/s, N"
         page.paragraph(

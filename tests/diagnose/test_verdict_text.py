@@ -7,13 +7,13 @@ import math
 
 import numpy as np
 
-from shockdyno.diagnose.engine import CalibrationRow, Finding
+from shockdyno.diagnose.engine import CalibrationRow, Trial
 from shockdyno.diagnose.verdict import describe, describe_calibration
 from shockdyno.model.params import Estimate
 
 
-def _finding(physics: str, params: dict[str, tuple[float, float | None]]) -> Finding:
-    return Finding(
+def _finding(physics: str, params: dict[str, tuple[float, float | None]]) -> Trial:
+    return Trial(
         physics=physics,
         round=1,
         claimed=True,
@@ -165,7 +165,7 @@ def test_the_verdict_judges_significance_at_the_search_s_alpha() -> None:
             settings=Settings(alpha=alpha),
             mismatch=stat,
             location=Location([]),
-            findings=[f],
+            trials=[f],
             indistinguishable=[],
             single_frequency=False,
             unexplained=Location([]),

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from shockdyno.diagnose.engine import CalibrationRow, Diagnosis, Finding
+from shockdyno.diagnose.engine import CalibrationRow, Diagnosis, Trial
 from shockdyno.diagnose.locate import Location
 from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.unexplained import described_json, described_text
@@ -67,7 +67,7 @@ def _signature(loc: Location, s: Settings) -> str:
 
 
 def describe(
-    f: Finding,
+    f: Trial,
     spec_gas_pa: float,
     u: Units = SI,
     reach_m: tuple[float, float] = (-math.inf, math.inf),
@@ -186,7 +186,7 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
         f"Mismatch: {u.force(m.structured_rms_n):.3g} {fl} RMS repeats every cycle "
         f"(noise {u.force(m.noise_floor_n):.2g} {fl})" + (f", {where}" if where else "") + "."
     ]
-    claimed = [f for f in d.findings if f.claimed]
+    claimed = [f for f in d.trials if f.claimed]
     if not claimed:
         lines.append(
             "No candidate physics explains it on held-out tests; see the unexplained regions."
@@ -257,7 +257,7 @@ def _num(x: float) -> float | None:
 
 def to_json(d: Diagnosis) -> dict[str, Any]:
     m = d.mismatch
-    claimed = [f for f in d.findings if f.claimed]
+    claimed = [f for f in d.trials if f.claimed]
     # Most important first: by the share of the held-out structure removed.
     order = sorted(claimed, key=lambda f: -f.heldout_gain)
     return {
@@ -288,7 +288,7 @@ def to_json(d: Diagnosis) -> dict[str, Any]:
                 "ambiguous_with": f.ambiguous_with,
                 "why_not": f.why_not,
             }
-            for f in d.findings
+            for f in d.trials
         ],
         "verdict": {
             "physics": [f.physics for f in order],

@@ -4,7 +4,8 @@ Every TOML and JSON the project reads (rig, damper spec, scenario, FIT/DIAG/RIDE
 described by the dataclasses that hold it, with constraints written once on the field's
 type (`Positive`, `Fraction`, `Literal[...]`, ...). `convert` checks a parsed document
 against that class and turns any problem into one ConfigError line naming the file, the
-dotted key, what was expected and what was found.
+dotted key, what was expected and what was found. A writer that builds the same classes
+gets its file's JSON from `to_json` (DIAG.json), so writer and readers share one shape.
 
 msgspec, not pydantic: it is strict by default (a quoted "false" is not a bool, 6.5 is
 not an int, "1e-3" is not a number), it converts into the plain frozen dataclasses the
@@ -23,6 +24,7 @@ import json
 import math
 import re
 import tomllib
+from dataclasses import MISSING, Field, fields, is_dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal, TypeVar, Union
 
@@ -111,6 +113,35 @@ def convert(data: Any, cls: type[T], source: str, at: str = "", *, unknown_keys:
         raise _explain(str(exc), data, info, source, at) from None
     except RecursionError:
         raise fail(source, at, "nested too deeply") from None
+
+
+# A field's metadata: the key is left out of the file while the field holds its default
+# (a key its writer has only ever written when it says something, e.g. a parameter's
+# `fixed`, a figure's `plot`); a reader gets the default back.
+OMITTED_AT_DEFAULT = {"omitted_at_default": True}
+
+
+def to_json(doc: Any) -> Any:
+    """A typed document (dataclasses, tuples, dicts, numbers, text) as the JSON value its
+    file holds, for `json.dumps`: the keys in their fields' order, a field marked
+    OMITTED_AT_DEFAULT left out at its default. `convert` reads it back."""
+    if is_dataclass(doc) and not isinstance(doc, type):
+        out = {}
+        for f in fields(doc):
+            value = getattr(doc, f.name)
+            if f.metadata.get("omitted_at_default") and value == _default(f):
+                continue
+            out[f.name] = to_json(value)
+        return out
+    if isinstance(doc, list | tuple):
+        return [to_json(v) for v in doc]
+    if isinstance(doc, dict):
+        return {k: to_json(v) for k, v in doc.items()}
+    return doc
+
+
+def _default(f: Field[Any]) -> Any:
+    return f.default_factory() if f.default_factory is not MISSING else f.default
 
 
 def check(obj: Any, source: str) -> None:

@@ -9,6 +9,7 @@ The standard velocities of a click chart are the ones a shop reads in that syste
 from __future__ import annotations
 
 import argparse
+import re
 from dataclasses import dataclass
 
 from shockdyno.errors import ConfigError
@@ -82,6 +83,28 @@ IMPERIAL = Units(
 )
 
 UNITS: dict[str, Units] = {"si": SI, "imperial": IMPERIAL}
+
+
+# A force or speed inside a sentence the diagnosis wrote in SI (a finding's why_not,
+# what separates two terms): "0.017 N", "25 mm/s". Nothing else there carries a display unit.
+_SI_QUANTITY = re.compile(r"(-?\d+(?:\.\d+)?(?:e[-+]?\d+)?) (N|mm/s)\b")
+
+
+def in_units(text: str, u: Units = SI) -> str:
+    """An SI sentence of the diagnosis with its forces and speeds in `u`."""
+    if not u.imperial:
+        return text
+
+    def convert(m: re.Match[str]) -> str:
+        value = float(m.group(1))
+        # As many significant digits as the SI text gave: no more precision than it had.
+        digits = re.sub(r"e.*|[-.]", "", m.group(1)).lstrip("0")
+        spec = f".{max(len(digits), 1)}g"
+        if m.group(2) == "N":
+            return f"{format(u.force(value), spec)} {u.force_label}"
+        return f"{format(u.velocity(value / 1e3), spec)} {u.velocity_label}"
+
+    return _SI_QUANTITY.sub(convert, text)
 
 
 def get(name: str) -> Units:

@@ -11,7 +11,7 @@ import pytest
 
 from shockdyno.diagnose.candidates import folds
 from shockdyno.diagnose.data import Data
-from shockdyno.diagnose.engine import Finding, Settings, _backward
+from shockdyno.diagnose.engine import Settings, Trial, _backward
 from shockdyno.diagnose.fitting import refit
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.model import DamperModel, load_spec
@@ -27,8 +27,8 @@ BUMP = (
 )
 
 
-def _finding(name: str) -> Finding:
-    return Finding(name, 1, True, 0.001, 1.0, 0.9, "", 10.0, 50.0, {})
+def _finding(name: str) -> Trial:
+    return Trial(name, 1, True, 0.001, 1.0, 0.9, "", 10.0, 50.0, {})
 
 
 def test_a_gas_spring_claimed_before_the_bump_stop_is_dropped(tmp_path: Path) -> None:

@@ -65,9 +65,9 @@ def test_a_term_that_stays_off_or_adds_too_little_force_is_the_refits_gain() -> 
 def test_a_gas_spring_at_a_spec_s_error_is_calibration_not_a_second_physics() -> None:
     """With air claimed, a gas spring joined at 0.972x the spec's volume (a CI run's s-air
     recording): the spec's error, listed as calibration. At 0.33x it stays physics."""
-    from shockdyno.diagnose.engine import Finding, _gas_spring_is_calibration
+    from shockdyno.diagnose.engine import Trial, _gas_spring_is_calibration
 
-    def case(factor: float) -> tuple[bool, list[str], list[Finding]]:
+    def case(factor: float) -> tuple[bool, list[str], list[Trial]]:
         model = DamperModel(
             load_spec(),
             (make_term("compressibility"), make_term("gas_spring")),
@@ -76,7 +76,7 @@ def test_a_gas_spring_at_a_spec_s_error_is_calibration_not_a_second_physics() ->
         base = Fitted(model, ("gas_spring.volume_factor",), {}, {}, np.zeros(0), np.zeros(0))
         claimed = ["compressibility", "gas_spring"]
         findings = [
-            Finding(name, 1 + i, True, 0.002, 1.0, 0.96, "", 1.0, 2.0, {})
+            Trial(name, 1 + i, True, 0.002, 1.0, 0.96, "", 1.0, 2.0, {})
             for i, name in enumerate(claimed)
         ]
         groups: list[dict[str, object]] = [{"group": ["gas_spring", "position_force"]}]

@@ -18,6 +18,7 @@ from plants import Made, assert_modelled, claimed_values
 from holdout.plant import Effects
 from holdout.recording import holdout_recording
 from shockdyno.diagnose.file import diagnose_file
+from shockdyno.schema import to_json
 
 pytestmark = [pytest.mark.timeout(900), pytest.mark.slow]
 
@@ -40,8 +41,8 @@ def diagnosed(tmp_path_factory: pytest.TempPathFactory) -> Made:
     def make(name: str) -> dict[str, Any]:
         where = tmp_path_factory.mktemp(name)
         rec, truth = holdout_recording(HIDDEN[name], where, SEED, clicks=CLICKS, freqs=FREQS)
-        _, doc = diagnose_file(Path(rec))
-        (where / "DIAG.json").write_text(json.dumps(doc, default=str))  # to read after
+        doc = to_json(diagnose_file(Path(rec))[1])  # DIAG.json's value
+        (where / "DIAG.json").write_text(json.dumps(doc))  # to read after
         return {"truth": truth.physics(), "doc": doc}
 
     return Made(make)

@@ -15,7 +15,7 @@ import pytest
 
 from shockdyno.diagnose.engine import Diagnosis, Settings, diagnose
 from shockdyno.diagnose.report import write_report
-from shockdyno.diagnose.verdict import to_json
+from shockdyno.diagnose.verdict import document, to_json
 from shockdyno.fit.synthetic import synthetic_sweep
 from shockdyno.model import load_spec
 from shockdyno.model.kinematics import differentiate
@@ -96,7 +96,7 @@ def test_the_report_shows_it_with_a_figure_of_the_residual_against_what_it_follo
     png = _embedded_png(html)
     assert png.startswith(b"\x89PNG") and len(png) > 5000
     # the diagnose command's own page, in imperial units
-    page = write_report(side_load, doc, tmp_path / "diag", IMPERIAL)
+    page = write_report(side_load, document(side_load), tmp_path / "diag", IMPERIAL)
     text = unescape(page.read_text())
     assert doc["verdict"]["unexplained"][0]["term"]["form_imperial"] in text
     assert "lbf/in" in text and _embedded_png(text).startswith(b"\x89PNG")

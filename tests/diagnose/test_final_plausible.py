@@ -12,7 +12,7 @@ import numpy as np
 
 from shockdyno.diagnose.candidates import with_term
 from shockdyno.diagnose.data import Data
-from shockdyno.diagnose.engine import Finding, Settings, _at_range_end, _final_refit
+from shockdyno.diagnose.engine import Settings, Trial, _at_range_end, _final_refit
 from shockdyno.diagnose.fitting import Fitted, refit
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.synthetic import synthetic_sweep
@@ -20,11 +20,11 @@ from shockdyno.model.composite import DamperModel
 from shockdyno.model.spec import load_spec
 
 
-def _claimed(name: str) -> Finding:
-    return Finding(name, 1, True, 0.001, 100.0, 0.5, "", 5.0, 20.0, {})
+def _claimed(name: str) -> Trial:
+    return Trial(name, 1, True, 0.001, 100.0, 0.5, "", 5.0, 20.0, {})
 
 
-def _final(floor_pa: float) -> tuple[list[str], list[Finding], Fitted]:
+def _final(floor_pa: float) -> tuple[list[str], list[Trial], Fitted]:
     spec = load_spec(None)
     prepared, _ = prepare_tests(synthetic_sweep(spec, [5, 15], cycles=3, seed=5))
     data = Data.build(spec, prepared)

@@ -7,13 +7,13 @@ import math
 
 import numpy as np
 
-from shockdyno.diagnose.engine import CalibrationRow, Finding
+from shockdyno.diagnose.engine import CalibrationRow, Trial
 from shockdyno.diagnose.verdict import describe, describe_calibration
 from shockdyno.model.params import Estimate
 
 
-def _finding(physics: str, params: dict[str, tuple[float, float | None]]) -> Finding:
-    return Finding(
+def _finding(physics: str, params: dict[str, tuple[float, float | None]]) -> Trial:
+    return Trial(
         physics=physics,
         round=1,
         claimed=True,
@@ -165,7 +165,7 @@ def test_the_verdict_judges_significance_at_the_search_s_alpha() -> None:
             settings=Settings(alpha=alpha),
             mismatch=stat,
             location=Location([]),
-            findings=[f],
+            trials=[f],
             indistinguishable=[],
             single_frequency=False,
             unexplained=Location([]),
@@ -193,8 +193,7 @@ def test_the_engine_s_si_sentences_convert_their_forces_and_speeds() -> None:
     25.4 mm/in; every other number left alone; SI untouched."""
     from shockdyno.diagnose.engine import separate_by
     from shockdyno.diagnose.spikes import Spikes
-    from shockdyno.diagnose.verdict import in_units
-    from shockdyno.units import IMPERIAL
+    from shockdyno.units import IMPERIAL, in_units
 
     spikes = Spikes(count=217, samples=12000, tests=6, largest_n=1234.0).sentence()
     assert "up to 1.23e+03 N off" in spikes

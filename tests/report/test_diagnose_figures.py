@@ -11,6 +11,9 @@ from pathlib import Path
 import pytest
 
 from shockdyno.cli import main
+from shockdyno.errors import ConfigError
+from shockdyno.report.documents import DiagnosisDoc, diagnosis_text
+from shockdyno.schema import convert
 
 
 @pytest.fixture(scope="module")
@@ -19,6 +22,21 @@ def diagnosed(recording: Path, tmp_path_factory: pytest.TempPathFactory) -> Path
     args = ["diagnose", str(recording), "--terms", "friction", "--json", str(d / "diag.json")]
     assert main([*args, "--report", str(d / "diag-page")]) == 0
     return d / "diag.json"
+
+
+def test_every_key_diagnose_writes_is_declared_by_its_typed_document(diagnosed: Path):
+    """DIAG.json has one definition (report/documents.py) that its writer builds and every
+    reader reads: read strictly, an undeclared key anywhere in the file is an error, and
+    the typed document written again is the file, byte for byte."""
+    text = diagnosed.read_text()
+    doc = convert(json.loads(text), DiagnosisDoc, str(diagnosed))  # unknown keys refused
+    assert doc.info.figures and doc.info.spec is not None and doc.info.recording is not None
+    assert doc.findings and doc.verdict.calibration and doc.mismatch.axes
+    assert diagnosis_text(doc) == text
+    with pytest.raises(ConfigError, match=r"findings\[0\]\.prior"):  # one written untyped
+        raw = json.loads(text)
+        raw["findings"][0]["prior"] = 1
+        convert(raw, DiagnosisDoc, str(diagnosed))
 
 
 def _images(index: Path) -> list[str]:

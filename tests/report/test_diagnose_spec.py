@@ -20,8 +20,8 @@ def test_the_spec_is_shown_without_this_machines_path() -> None:
 
 
 def test_spec_shown_reads_the_dict_diagnose_writes_as_its_file() -> None:
-    # `diagnose --report` words its page from the dict it is about to write.
+    # A spec as DIAG.json holds it (`info.spec`), read as the typed document.
     used = {"path": "sim/ohlins-s46.toml", "name": "ohlins-s46", "default": True}
     spec = typed(used, SpecUsed, "info.spec")
-    assert spec == SpecUsed("sim/ohlins-s46.toml", "ohlins-s46", True)
+    assert spec == SpecUsed(path="sim/ohlins-s46.toml", name="ohlins-s46", default=True)
     assert spec_shown(spec) == "built-in default sim/ohlins-s46.toml (ohlins-s46)"

@@ -54,7 +54,7 @@ def test_a_first_version_diag_reads_with_the_defaults_that_show_nothing(tmp_path
     assert doc.mismatch.tested and doc.mismatch.where[0].x_range_m == (0.0156, 0.0292)
     assert doc.verdict.text_imperial is None and doc.verdict.calibration == ()
     assert doc.info.spec is None and doc.info.recording is None
-    assert doc.info.figures == {} and doc.info.figures_units == "si"
+    assert doc.info.figures == {} and doc.info.figures_units is None  # None: SI
     f = doc.findings[0]
     assert f.parameters["breakaway_n"].sd is None and not f.parameters["breakaway_n"].fixed
     assert doc.tests[0].E_t_after is None

@@ -57,12 +57,12 @@ def test_diagnose_section_renders_the_documented_keys(full_report: Path) -> None
         "Still unexplained: in rebound at -30 to -10 mm, -0.28 to -0.12 m/s "
         "(0.5 Hz; 20 % of the structure)." in text
     )
-    findings = next(t for t in page.tables if t[0][1][0] == "physics")
-    rows = {cells[0]: (cls, cells) for cls, cells in findings[1:]}
+    findings = next(t for t in page.tables if t[0][1][:2] == ["round", "physics"])
+    rows = {cells[1]: (cls, cells) for cls, cells in findings[1:]}  # finding_cells' columns
     assert set(rows) == {"compressibility", "thermal"}
     cls, cells = rows["compressibility"]
-    assert cls == "" and cells[1] == "yes" and cells[6] == "sensor_lag"
-    assert "bulk_modulus_pa = 1.2e+09 ± 1e+08 Pa" in cells[5]
+    assert cls == "" and cells[2] == "yes" and cells[7] == "sensor_lag"
+    assert "bulk_modulus_pa = 1.2e+09 ± 1e+08 Pa" in cells[6]
     assert rows["thermal"][0] == "dim"  # not claimed: shown, but greyed
     where = next(t for t in page.tables if t[0][1][0] == "stroke")
     assert where[1][1][1] == "-30 to -10 mm"

@@ -14,7 +14,7 @@ import contextlib
 import json
 import os
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -135,6 +135,7 @@ def _diagnose(job: Job, row: Row) -> None:
     from shockdyno.diagnose.file import diagnose_file
     from shockdyno.diagnose.plots import loops, residual_maps
     from shockdyno.diagnose.report import FIGURES, figure_paths
+    from shockdyno.report.documents import diagnosis_text
 
     o = job.options
     d, doc = diagnose_file(
@@ -149,16 +150,14 @@ def _diagnose(job: Job, row: Row) -> None:
     # Its residual maps and loops beside it, named in it: `batch report` shows them. The
     # JSON first: a plotting failure must not lose the diagnosis.
     figures = Path(job.out_dir) / f"{job.name}.diagnose"
-    doc["info"]["figures"] = figure_paths(figures, str(job.result_path))
-    write_text_atomic(job.result_path, json.dumps(doc, indent=2, allow_nan=False) + "\n")
+    doc = replace(doc, info=replace(doc.info, figures=figure_paths(figures, str(job.result_path))))
+    write_text_atomic(job.result_path, diagnosis_text(doc))
     figures.mkdir(exist_ok=True)
     residual_maps(d, figures / FIGURES["residual_maps"])
     loops(d, figures / FIGURES["loops"])
     _from_tests(row, [p.data for p in d.data.prepared])
     row.damper_id = _damper_id(job.recording)
-    from shockdyno.report.documents import DiagnosisDoc, typed
-
-    _from_diag(row, typed(doc, DiagnosisDoc, str(job.result_path)))
+    _from_diag(row, doc)
 
 
 def _report(job: Job, row: Row) -> None:

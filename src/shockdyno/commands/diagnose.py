@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
+import math
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -14,6 +15,7 @@ from shockdyno.diagnose.file import diagnose_file, parse_candidates
 from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError
 from shockdyno.record.identity import add_allow_argument
+from shockdyno.report.documents import Finding, diagnosis_text
 
 
 def register(sub: Any) -> None:
@@ -70,20 +72,24 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run_diagnose)
 
 
-def _summary(doc: dict[str, Any], units: units_mod.Units = units_mod.SI) -> Any:
+def _summary(findings: tuple[Finding, ...], units: units_mod.Units = units_mod.SI) -> Any:
     from rich.table import Table
 
-    from shockdyno.diagnose.verdict import finding_cells
+    from shockdyno.report.findings_table import finding_cells
 
     table = Table(title="Candidate physics (refitted with globals and areas)")
     effect = f"peak effect {units.force_label}"
     for name in ("round", "physics", "claimed", "p", "held-out gain", effect, "note"):
         table.add_column(name, justify="left" if name in ("physics", "note") else "right")
-    for f in doc["findings"]:
-        rnd, physics, claimed, p, gain, peak, alike, why_not = finding_cells(f, units)
+    for f in findings:  # the page's cells, its parameters left to the page
+        rnd, physics, claimed, p, gain, peak, _, alike, why_not = finding_cells(f, units)
         note = why_not or (f"alike: {alike}" if alike else "")
         table.add_row(rnd, physics, "[bold green]yes[/]" if claimed else "", p, gain, peak, note)
     return table
+
+
+def _nan(x: float | None) -> float:
+    return math.nan if x is None else x
 
 
 def run_diagnose(args: argparse.Namespace) -> int:
@@ -126,9 +132,10 @@ def run_diagnose(args: argparse.Namespace) -> int:
     if args.report:  # DIAG.json names the figures drawn below, for `report --diagnose`
         from shockdyno.diagnose.report import figure_paths
 
-        doc["info"]["figures"] = figure_paths(Path(args.report), args.json)
-        doc["info"]["figures_units"] = args.units  # report says so if its page's differ
-    text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
+        figures = figure_paths(Path(args.report), args.json)
+        # the units they are drawn in: report says so if its page's differ
+        doc = replace(doc, info=replace(doc.info, figures=figures, figures_units=args.units))
+    text = diagnosis_text(doc)
     # Written before the figures are drawn: a plotting failure must not lose the diagnosis.
     write_output(args.json, text, force=args.force, inputs=inputs)
     from shockdyno.commands.history import keep
@@ -144,12 +151,13 @@ def run_diagnose(args: argparse.Namespace) -> int:
     shown = table_console(stderr=out is None)
     from shockdyno.model.spec import spec_line
 
-    used = doc["info"]["spec"]
-    via = f", the base spec of {used['from_fit']}" if "from_fit" in used else ""
-    shown.print(spec_line(used) + via, soft_wrap=True, highlight=False, markup=False)
-    m = doc["mismatch"]
-    if doc["short_tests"]:  # a warning, not an error: the rest of the diagnosis stands
-        n = len(doc["short_tests"])
+    used = doc.info.spec
+    assert used is not None  # diagnose_file says which spec
+    via = f", the base spec of {used.from_fit}" if used.from_fit is not None else ""
+    shown.print(spec_line(vars(used)) + via, soft_wrap=True, highlight=False, markup=False)
+    m = doc.mismatch
+    if doc.short_tests:  # a warning, not an error: the rest of the diagnosis stands
+        n = len(doc.short_tests)
         print(
             f"warning: {n} test{'s' * (n > 1)} of fewer than two whole cycles: nothing "
             "claimed from them (no cycle-to-cycle noise to test against)",
@@ -157,24 +165,24 @@ def run_diagnose(args: argparse.Namespace) -> int:
         )
     units = units_mod.get(args.units)
     fl = units.force_label
-    if not m["tested"]:
+    if not m.tested:
         shown.print("mismatch: not tested (no test has two whole cycles)")
     else:
         shown.print(
-            f"mismatch: {'[bold red]significant[/]' if m['significant'] else 'none beyond noise'} "
-            f"(p = {m['p_value']:.3g}); structure {units.force(m['structured_rms_n']):.3g} {fl} "
-            f"RMS, noise {units.force(m['noise_floor_n']):.3g} {fl}, about "
-            f"{m['effective_values']:.0f} independent values"
+            f"mismatch: {'[bold red]significant[/]' if m.significant else 'none beyond noise'} "
+            f"(p = {_nan(m.p_value):.3g}); structure "
+            f"{units.force(_nan(m.structured_rms_n)):.3g} {fl} "
+            f"RMS, noise {units.force(_nan(m.noise_floor_n)):.3g} {fl}, about "
+            f"{_nan(m.effective_values):.0f} independent values"
             + (
-                f"; {m['lone_cells']} lone cycle-phase "
-                f"cell{'s' if m['lone_cells'] != 1 else ''} left out"
-                if m.get("lone_cells")
+                f"; {m.lone_cells} lone cycle-phase cell{'s' if m.lone_cells != 1 else ''} left out"
+                if m.lone_cells
                 else ""
             )
         )
-    if m["significant"]:
-        shown.print(_summary(doc, units))
-    text = doc["verdict"]["text_imperial" if units.imperial else "text"]
+    if m.significant:
+        shown.print(_summary(doc.findings, units))
+    text = (doc.verdict.text_imperial if units.imperial else None) or doc.verdict.text
     shown.print(f"[bold]verdict:[/] {text}")
     if args.report:
         from shockdyno.atomic import staged_dir

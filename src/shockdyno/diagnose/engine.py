@@ -84,7 +84,12 @@ GAS_VOLUME_RANGE = (0.5, 2.0)
 
 
 @dataclass
-class Finding:
+class Trial:
+    """One candidate term tried in one round of the search: its refit's scores, the term's
+    parameters as fitted, and whether it is claimed (and why not). The search edits it as
+    later rounds decide; verdict.py makes each one a row of DIAG.json's `findings`
+    (report/documents.py `Finding`)."""
+
     physics: str
     round: int
     claimed: bool
@@ -156,7 +161,7 @@ class ShortTest:
 class Diagnosis:
     mismatch: MismatchStat
     location: Location
-    findings: list[Finding]
+    trials: list[Trial]
     claimed: list[str]
     indistinguishable: list[dict[str, object]]
     unexplained: Location
@@ -338,7 +343,7 @@ def _backward(
     search: Data,
     base: Fitted,
     claimed: list[str],
-    findings: list[Finding],
+    trials: list[Trial],
     groups: list[dict[str, object]],
     fold_list: list[Fold],
     rng: np.random.Generator,
@@ -350,7 +355,7 @@ def _backward(
     (a bump stop first pulls the gas spring off the spec's, then a contact term explains
     it all). So each claimed term is tested again as the last to join the others: it
     stays only if it still passes (p < alpha, held-out gain ≥ min_gain_joining); else it
-    is dropped from the model and its finding says why. Edits `claimed`, `findings` and
+    is dropped from the model and its trial says why. Edits `claimed`, `trials` and
     `groups`; returns the model without the dropped terms. `came_with`: per claimed
     term, the spec values freed with it, which leave with it."""
     came_with = {} if came_with is None else came_with
@@ -371,7 +376,7 @@ def _backward(
         if c.p_value < s.alpha and gain >= s.min_gain_joining:
             continue
         others = [n for n in claimed if n != name]
-        f = next(f for f in findings if f.physics == name and f.claimed)
+        f = next(f for f in trials if f.physics == name and f.claimed)
         f.claimed = False
         f.why_not = (
             f"dropped in the backward check: with {', '.join(others)} in the model it removes "
@@ -446,7 +451,7 @@ def _baseline(data: Data, fit: FitResult | None, settings: Settings, notes: list
 
 
 def _gas_spring_is_calibration(
-    base: Fitted, claimed: list[str], findings: list[Finding], groups: list[dict[str, object]]
+    base: Fitted, claimed: list[str], trials: list[Trial], groups: list[dict[str, object]]
 ) -> bool:
     """A gas spring claimed at a volume within a spec's error is calibration, not physics.
 
@@ -454,7 +459,7 @@ def _gas_spring_is_calibration(
     reach (GAS_VOLUME_RANGE); with air in the oil it can (the air softens the stroke), and
     once the air is claimed the gas spring joins at the spec's volume give or take a few
     per cent (0.972x in a CI run): the spec's error, not a second physics. It stays in
-    the model, and the verdict lists it under calibration. Edits `claimed`, `findings`
+    the model, and the verdict lists it under calibration. Edits `claimed`, `trials`
     and `groups`."""
     if "gas_spring" not in claimed:
         return False
@@ -463,7 +468,7 @@ def _gas_spring_is_calibration(
     if not lo <= factor <= hi:
         return False
     claimed.remove("gas_spring")
-    for f in findings:
+    for f in trials:
         if f.claimed and f.physics == "gas_spring":
             f.claimed = False
             f.why_not = (
@@ -518,14 +523,14 @@ def _round(
     shapes: Sequence[tuple[str, FloatArray]],
     report: Progress,
     workers: Workers = SERIAL,
-) -> tuple[list[Finding], Candidate | None, list[str]]:
+) -> tuple[list[Trial], Candidate | None, list[str]]:
     """One round of the forward search: every remaining candidate refitted beside `base`
     and tested (LR against the noise's draws), the significant ones scored held out, the
-    claim rules (why_not) applied. Returns the round's findings and the candidate it
+    claim rules (why_not) applied. Returns the round's trials and the candidate it
     claims (None: nothing claimable), and every candidate that passed the claim rules
     (the claimed one among them). The candidates, and then the held-out folds, are
     independent: up to `workers` processes run them (workers.py)."""
-    found: list[Finding] = []
+    found: list[Trial] = []
     rounds = s.max_rounds  # for the progress fraction
     noise = noise_draws(binned, rng, s.n_boot)
     n_done = 0
@@ -588,7 +593,7 @@ def _round(
             if same and rest <= s.alike_rest_ratio * rest_best + s.alike_rest_margin:
                 amb.append(best.name)
         found.append(
-            Finding(
+            Trial(
                 physics=c.name,
                 round=rnd,
                 claimed=c is best,
@@ -654,7 +659,7 @@ def _final_refit(
     data: Data,
     base: Fitted,
     claimed: list[str],
-    findings: list[Finding],
+    trials: list[Trial],
     groups: list[dict[str, object]],
     s: Settings,
     force_peak: float,
@@ -666,7 +671,7 @@ def _final_refit(
     whose term, refitted to convergence, stays at its off values, or whose own force is
     then below the limit a candidate must pass (0.1 % of the peak force, 3 noise σ of a
     phase mean), was the short refit's gain, not the term's: it leaves the model and the
-    verdict (`claimed`, `findings` and `groups` are updated in place). A 2 % air sweep
+    verdict (`claimed`, `trials` and `groups` are updated in place). A 2 % air sweep
     kept a position force that refitted to 0.45 N at most, against a 1.8 N limit. And a
     claim whose values, refitted, are no longer physical (term.implausible) leaves too:
     a reference-plant friction sweep's cavitation floor, claimed above vacuum less the
@@ -698,7 +703,7 @@ def _final_refit(
             )
     idle = list(why)
     if idle:
-        for f in findings:
+        for f in trials:
             if f.claimed and f.physics in idle:
                 f.claimed = False
                 f.why_not = why[f.physics]
@@ -709,7 +714,7 @@ def _final_refit(
             came_with.pop(n, None)
         nfev = s.final_nfev if claimed else s.max_nfev
         base = refit(data, kept, free, base, max_nfev=nfev, calibrated=calibrated)
-    for f in findings:
+    for f in trials:
         if f.claimed:
             f.parameters = _parameters(base, f.physics)
     return base
@@ -777,7 +782,7 @@ def _diagnose(
     search = search_subset(data, s.search_clicks)
     fold_list = folds(search)
     force_peak = float(np.max(np.abs(data.prob.f)))
-    findings: list[Finding] = []
+    trials: list[Trial] = []
     claimed: list[str] = []
     shapes: list[tuple[str, FloatArray]] = []
     groups: list[dict[str, object]] = []
@@ -817,9 +822,9 @@ def _diagnose(
             report,
             workers,
         )
-        # A calibration candidate's finding is not physics: DIAG.json's findings hold the
+        # A calibration candidate's trial is not physics: DIAG.json's findings hold the
         # library's terms; a calibration the search took is a row of verdict.calibration.
-        findings += [f for f in found if f.physics not in CALIBRATIONS]
+        trials += [f for f in found if f.physics not in CALIBRATIONS]
         if best is None:
             break
         outranked = (
@@ -828,10 +833,8 @@ def _diagnose(
             else []
         )
         if best.name not in CALIBRATIONS:  # a calibration taken joins the model only
-            best_f = next(f for f in findings if f.physics == best.name and f.round == rnd)
-            alike = [
-                f.physics for f in findings if f.round == rnd and best.name in f.ambiguous_with
-            ]
+            best_f = next(f for f in trials if f.physics == best.name and f.round == rnd)
+            alike = [f.physics for f in trials if f.round == rnd and best.name in f.ambiguous_with]
             if alike:
                 best_f.ambiguous_with = alike
                 group = sorted([best.name, *alike])
@@ -847,13 +850,13 @@ def _diagnose(
     if len(claimed) >= 2:
         report("backward check", 0.92)
         base = _backward(
-            search, base, claimed, findings, groups, fold_list, rng, s, came_with, workers
+            search, base, claimed, trials, groups, fold_list, rng, s, came_with, workers
         )
     report("scores", 0.95)
     if claimed or search is not data:
-        base = _final_refit(data, base, claimed, findings, groups, s, force_peak, came_with)
+        base = _final_refit(data, base, claimed, trials, groups, s, force_peak, came_with)
     gas_calibrated = GAS_VOLUME in baseline.free or _gas_spring_is_calibration(
-        base, claimed, findings, groups
+        base, claimed, trials, groups
     )
     before, after = _e_t(data, baseline), _e_t(data, base)
     scores = [
@@ -878,7 +881,7 @@ def _diagnose(
     return Diagnosis(
         mismatch=mismatch,
         location=location,
-        findings=findings,
+        trials=trials,
         claimed=claimed,
         indistinguishable=groups,
         unexplained=unexplained,
@@ -926,7 +929,7 @@ def _untestable(
     return Diagnosis(
         mismatch=untested,
         location=Location([], {}),
-        findings=[],
+        trials=[],
         claimed=[],
         indistinguishable=[],
         unexplained=Location([], {}),

@@ -4,9 +4,12 @@ run it."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from shockdyno.errors import ConfigError
+
+if TYPE_CHECKING:
+    from shockdyno.report.documents import DiagnosisDoc
 
 
 def parse_candidates(text: str) -> tuple[str, ...]:
@@ -38,17 +41,20 @@ def diagnose_file(
     progress: Any = None,
     warn: Any = None,
     workers: int = 1,
-) -> tuple[Any, dict[str, Any]]:
+) -> tuple[Any, DiagnosisDoc]:
     """`shockdyno diagnose` on one recording, as `batch diagnose` runs it too: the
-    Diagnosis and its DIAG.json document (with `info.recording` and the fit's
-    provenance)."""
+    Diagnosis and its DIAG.json document (a DiagnosisDoc, with `info.recording`, the
+    spec and the fit's provenance)."""
+    from dataclasses import replace
+
     from shockdyno.diagnose.engine import Settings, diagnose
-    from shockdyno.diagnose.verdict import to_json
+    from shockdyno.diagnose.verdict import document
     from shockdyno.fit.result import FitResult
     from shockdyno.model import load_spec
     from shockdyno.model.spec import spec_used
     from shockdyno.record import open_recording
     from shockdyno.record.identity import provenance, recording_info, stored_sha256
+    from shockdyno.report.documents import RecordingRef, SpecUsed
 
     if not 0 < alpha < 1:
         raise ConfigError(f"--alpha must be between 0 and 1, got {alpha}")
@@ -71,14 +77,14 @@ def diagnose_file(
     if not tests:
         raise ConfigError(f"{recording}: no tests to diagnose")
     d = diagnose(tests, fit, settings, progress, spec_path=spec, workers=workers)
-    doc = to_json(d)
-    doc["info"]["recording"] = info
+    doc = document(d)
     # Which damper spec the model started from: --spec, the fit's base spec, or the default.
-    doc["info"]["spec"] = spec_used(fit.spec_file() if fit is not None else spec)
-    if fit is not None:
-        doc["info"]["spec"]["from_fit"] = str(fit_path)
-    if loss:
-        doc["info"]["recording_loss"] = loss
-    if fit_from is not None:
-        doc["info"]["fit_provenance"] = fit_from
-    return d, doc
+    used = spec_used(fit.spec_file() if fit is not None else spec)
+    made = replace(
+        doc.info,
+        recording=RecordingRef(**info),
+        spec=SpecUsed(**used, from_fit=str(fit_path) if fit is not None else None),
+        recording_loss=loss or None,
+        fit_provenance=fit_from,
+    )
+    return d, replace(doc, info=made)

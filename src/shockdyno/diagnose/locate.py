@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from shockdyno.diagnose.cycles import N_BINS, BinnedTest
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.settings import Settings
+from shockdyno.report import documents as docs
 
 FloatArray = NDArray[np.float64]
 
@@ -33,16 +34,17 @@ class Region:
     rms_n: float
     near_reversal: bool = False
 
-    def to_json(self) -> dict[str, object]:
-        return {
-            "stroke": self.stroke,
-            "x_range_m": list(self.x_range_m),
-            "v_range_m_s": list(self.v_range_m_s),
-            "frequencies_hz": self.frequencies_hz,
-            "share": self.share,
-            "rms_n": self.rms_n,
-            "near_reversal": self.near_reversal,
-        }
+    def doc(self) -> docs.Region:
+        """As DIAG.json holds it (mismatch.where[], verdict.unexplained[])."""
+        return docs.Region(
+            stroke=self.stroke,
+            x_range_m=self.x_range_m,
+            v_range_m_s=self.v_range_m_s,
+            frequencies_hz=tuple(self.frequencies_hz),
+            share=self.share,
+            rms_n=self.rms_n,
+            near_reversal=self.near_reversal,
+        )
 
 
 @dataclass(frozen=True)

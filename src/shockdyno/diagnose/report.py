@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
 
 from shockdyno.atomic import write_text_atomic
 from shockdyno.diagnose.engine import Diagnosis
 from shockdyno.diagnose.plots import loops, residual_maps
-from shockdyno.diagnose.verdict import FINDING_COLUMNS, finding_cells
 from shockdyno.report.diagnose_section import spec_shown
-from shockdyno.report.documents import SpecUsed, Verdict, typed
+from shockdyno.report.documents import DiagnosisDoc
+from shockdyno.report.findings_table import render_findings
 from shockdyno.report.html import Page
 from shockdyno.report.unexplained_section import render_unexplained
 from shockdyno.units import SI, Units
@@ -31,31 +30,26 @@ def figure_paths(report_dir: Path, json_path: str) -> dict[str, str]:
     }
 
 
-def write_report(d: Diagnosis, doc: dict[str, Any], out: Path, units: Units = SI) -> Path:
+def write_report(d: Diagnosis, doc: DiagnosisDoc, out: Path, units: Units = SI) -> Path:
     """The page and its figures, forces, lengths and speeds in ``units``."""
     out.mkdir(parents=True, exist_ok=True)
     maps = residual_maps(d, out / FIGURES["residual_maps"], units)
     lp = loops(d, out / FIGURES["loops"], units)
     page = Page("Diagnosis: where the model and the recording differ, and why")
     page.section("Verdict")
-    page.paragraph(doc["verdict"]["text_imperial" if units.imperial else "text"])
+    v = doc.verdict
+    page.paragraph((v.text_imperial if units.imperial else None) or v.text)
     # what is left, described, with its discovered term and figure (issue 45)
-    render_unexplained(page, typed(doc["verdict"], Verdict, "the verdict").unexplained, units)
-    used = doc.get("info", {}).get("spec")
-    if used is not None:
-        page.paragraph(f"Damper spec: {spec_shown(typed(used, SpecUsed, 'info.spec'))}.")
+    render_unexplained(page, v.unexplained, units)
+    if doc.info.spec is not None:
+        page.paragraph(f"Damper spec: {spec_shown(doc.info.spec)}.")
     page.section(
         "Findings",
         "Each candidate term refitted with the globals and areas; p from a cycle-bootstrap "
         "likelihood ratio, held-out gain the share of held-out structure it removes (median "
         "fold).",
     )
-    headers = [c if c != "peak effect" else f"{c} ({units.force_label})" for c in FINDING_COLUMNS]
-    page.table(
-        headers,
-        [list(finding_cells(f, units)) for f in doc["findings"]],
-        numeric=[True, False, False, True, True, True, False, False],
-    )
+    render_findings(page, doc.findings, units)
     page.section("Residual maps", "Phase-locked residual against displacement and velocity.")
     page.figure(maps.name, "Residual before (paper's model) and after (with the claimed physics)")
     page.section("Loops", "The tests with the most structure, measured against both models.")
@@ -65,13 +59,13 @@ def write_report(d: Diagnosis, doc: dict[str, Any], out: Path, units: Units = SI
         ["test", "clicks", "Hz", "E_t before", "E_t after"],
         [
             [
-                str(t["index"]),
-                str(t["clicks"]),
-                f"{t['frequency_hz']:g}",
-                f"{t['E_t_before']:.4g}" if t["E_t_before"] is not None else "–",
-                f"{t['E_t_after']:.4g}" if t["E_t_after"] is not None else "–",
+                str(t.index),
+                str(t.clicks),
+                f"{t.frequency_hz:g}",
+                f"{t.E_t_before:.4g}" if t.E_t_before is not None else "–",
+                f"{t.E_t_after:.4g}" if t.E_t_after is not None else "–",
             ]
-            for t in doc["tests"]
+            for t in doc.tests
         ],
         numeric=[True, True, True, True, True],
     )

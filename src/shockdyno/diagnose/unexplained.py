@@ -1,5 +1,5 @@
 """What the search left, in words and as DIAG.json's `verdict.unexplained` (discover.py
-finds it; verdict.py calls these).
+finds it; verdict.py calls these; the document's classes: report/documents.py).
 
 `verdict.unexplained` was a list of regions. It is now a list of described residuals;
 each keeps the keys of its largest region (so a reader of regions still reads one) and
@@ -12,9 +12,9 @@ for the report's figure). docs/diagnose.md documents the keys.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 from shockdyno.diagnose.discover import Coefficient, Described, Discovered, hint, phase_words
+from shockdyno.report import documents as docs
 from shockdyno.units import IMPERIAL, SI, Units
 
 
@@ -92,64 +92,69 @@ def described_text(d: Described, remaining_rms_n: float, u: Units = SI) -> str:
     return f"{text} A discovered form {form} removes {gain}: not claimed ({t.why_not})."
 
 
-def described_json(d: Described) -> dict[str, Any]:
+def described_doc(d: Described) -> docs.Unexplained:
     """One described residual of `verdict.unexplained` (docs/diagnose.md)."""
-    out: dict[str, Any] = dict(d.regions[0].to_json())
-    out["regions"] = [r.to_json() for r in d.regions]
-    out["axes"] = d.axes
-    out["phase_deg"] = list(d.phase_deg)
-    out["phase"] = phase_words(d.phase_deg)
-    out["follows"] = [
-        {
-            "signal": f.feature.key,
-            "label": f.feature.label_in(SI),
-            "label_imperial": f.feature.label_in(IMPERIAL),
-            "family": f.feature.family,
-            "share": f.share,
-            "rises_with_it": f.sign > 0,
-            "resembles": list(f.feature.resembles),
-        }
-        for f in d.follows
-    ]
-    out["term"] = None if d.term is None else _term_json(d.term)
+    plot = None
     if d.plot_feature is not None and d.plot:
-        out["plot"] = {
-            "signal": d.plot_feature.key,
-            "label": d.plot_feature.label_in(SI),
-            "label_imperial": d.plot_feature.label_in(IMPERIAL),
-            "unit": d.plot_feature.unit,
-            **d.plot,
-        }
-    return out
+        plot = docs.ResidualPlot(
+            signal=d.plot_feature.key,
+            label=d.plot_feature.label_in(SI),
+            label_imperial=d.plot_feature.label_in(IMPERIAL),
+            unit=d.plot_feature.unit,
+            x=tuple(d.plot["x"]),
+            residual=tuple(d.plot["residual"]),
+            term=tuple(d.plot["term"]),
+        )
+    return docs.Unexplained(
+        **vars(d.regions[0].doc()),  # its largest region's keys, as an older file's
+        regions=tuple(r.doc() for r in d.regions),
+        axes=d.axes,
+        phase_deg=tuple(d.phase_deg),
+        phase=phase_words(d.phase_deg),
+        follows=tuple(
+            docs.Follows(
+                signal=f.feature.key,
+                label=f.feature.label_in(SI),
+                label_imperial=f.feature.label_in(IMPERIAL),
+                family=f.feature.family,
+                share=f.share,
+                rises_with_it=f.sign > 0,
+                resembles=tuple(f.feature.resembles),
+            )
+            for f in d.follows
+        ),
+        term=None if d.term is None else _term_doc(d.term),
+        plot=plot,
+    )
 
 
-def _term_json(t: Discovered) -> dict[str, Any]:
-    return {
-        "name": "unnamed",
-        "claimed": t.claimed,
-        "form": form_words(t),
-        "form_imperial": form_words(t, IMPERIAL),
-        "features": [c.feature.key for c in t.coefficients],
-        "coefficients": [
-            {
-                "feature": c.feature.key,
-                "label": c.feature.label_in(SI),
-                "label_imperial": c.feature.label_in(IMPERIAL),
-                "family": c.feature.family,
-                "symbol": c.feature.symbol_in(SI),
-                "symbol_imperial": c.feature.symbol_in(IMPERIAL),
-                "value": _json_num(c.value),
-                "sd": _json_num(c.sd),
-                "unit": c.feature.coefficient_unit,
-                "text": coefficient_text(c, SI),
-                "text_imperial": coefficient_text(c, IMPERIAL),
-            }
+def _term_doc(t: Discovered) -> docs.UnnamedTerm:
+    return docs.UnnamedTerm(
+        name="unnamed",
+        claimed=t.claimed,
+        form=form_words(t),
+        form_imperial=form_words(t, IMPERIAL),
+        features=tuple(c.feature.key for c in t.coefficients),
+        coefficients=tuple(
+            docs.Coefficient(
+                feature=c.feature.key,
+                label=c.feature.label_in(SI),
+                label_imperial=c.feature.label_in(IMPERIAL),
+                family=c.feature.family,
+                symbol=c.feature.symbol_in(SI),
+                symbol_imperial=c.feature.symbol_in(IMPERIAL),
+                value=_json_num(c.value),
+                sd=_json_num(c.sd),
+                unit=c.feature.coefficient_unit,
+                text=coefficient_text(c, SI),
+                text_imperial=coefficient_text(c, IMPERIAL),
+            )
             for c in t.coefficients
-        ],
-        "heldout_gain": _json_num(t.heldout_gain),
-        "heldout_detail": t.heldout_detail,
-        "in_sample_share": _json_num(t.in_sample_share),
-        "effect_peak_n": _json_num(t.effect_peak_n),
-        "hint": hint(t),
-        "why_not": t.why_not,
-    }
+        ),
+        heldout_gain=_json_num(t.heldout_gain),
+        heldout_detail=t.heldout_detail,
+        in_sample_share=_json_num(t.in_sample_share),
+        effect_peak_n=_json_num(t.effect_peak_n),
+        hint=hint(t),
+        why_not=t.why_not,
+    )

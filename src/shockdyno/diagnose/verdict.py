@@ -1,42 +1,24 @@
-"""The diagnosis in words an engineer can act on, and as the DIAG.json document."""
+"""The diagnosis in words an engineer can act on, and as the DIAG.json document (its
+classes, the one definition every reader reads: report/documents.py)."""
 
 from __future__ import annotations
 
 import math
-import re
 from itertools import pairwise
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
-from shockdyno.diagnose.engine import CalibrationRow, Diagnosis, Finding
+from shockdyno import schema
+from shockdyno.diagnose.engine import CalibrationRow, Diagnosis, Trial
 from shockdyno.diagnose.locate import Location
 from shockdyno.diagnose.settings import Settings
-from shockdyno.diagnose.unexplained import described_json, described_text
+from shockdyno.diagnose.unexplained import described_doc, described_text
+from shockdyno.model.params import Estimate
 from shockdyno.model.reading import Reading
 from shockdyno.model.terms import LIBRARY
-from shockdyno.units import IMPERIAL, SI, Units
-
-# A force or speed inside a sentence the engine wrote in SI (a finding's why_not, what
-# separates two terms): "0.017 N", "25 mm/s". Nothing else there carries a display unit.
-_SI_QUANTITY = re.compile(r"(-?\d+(?:\.\d+)?(?:e[-+]?\d+)?) (N|mm/s)\b")
-
-
-def in_units(text: str, u: Units = SI) -> str:
-    """An SI sentence of the engine with its forces and speeds in `u`."""
-    if not u.imperial:
-        return text
-
-    def convert(m: re.Match[str]) -> str:
-        value = float(m.group(1))
-        # As many significant digits as the SI text gave: no more precision than it had.
-        digits = re.sub(r"e.*|[-.]", "", m.group(1)).lstrip("0")
-        spec = f".{max(len(digits), 1)}g"
-        if m.group(2) == "N":
-            return f"{format(u.force(value), spec)} {u.force_label}"
-        return f"{format(u.velocity(value / 1e3), spec)} {u.velocity_label}"
-
-    return _SI_QUANTITY.sub(convert, text)
+from shockdyno.report import documents as docs
+from shockdyno.units import IMPERIAL, SI, Units, in_units
 
 
 def _signature(loc: Location, s: Settings) -> str:
@@ -67,7 +49,7 @@ def _signature(loc: Location, s: Settings) -> str:
 
 
 def describe(
-    f: Finding,
+    f: Trial,
     spec_gas_pa: float,
     u: Units = SI,
     reach_m: tuple[float, float] = (-math.inf, math.inf),
@@ -186,7 +168,7 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
         f"Mismatch: {u.force(m.structured_rms_n):.3g} {fl} RMS repeats every cycle "
         f"(noise {u.force(m.noise_floor_n):.2g} {fl})" + (f", {where}" if where else "") + "."
     ]
-    claimed = [f for f in d.findings if f.claimed]
+    claimed = [f for f in d.trials if f.claimed]
     if not claimed:
         lines.append(
             "No candidate physics explains it on held-out tests; see the unexplained regions."
@@ -223,125 +205,123 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
     return " ".join(lines)
 
 
-FINDING_COLUMNS = (
-    "round",
-    "physics",
-    "claimed",
-    "p",
-    "held-out gain",
-    "peak effect",
-    "alike",
-    "why not",
-)
-
-
-def finding_cells(f: dict[str, Any], u: Units = SI) -> tuple[str, ...]:
-    """A DIAG.json finding as the findings table shows it, on every page and terminal
-    (FINDING_COLUMNS; the peak effect in `u`'s force unit)."""
-    gain = f["heldout_gain"]
-    return (
-        str(f["round"]),
-        f["physics"],
-        "yes" if f["claimed"] else "",
-        f"{f['p_value']:.3g}",
-        "–" if gain is None else f"{gain:.2f}",
-        f"{u.force(f['effect_peak_n']):.3g}",
-        ", ".join(f["ambiguous_with"]),
-        in_units(f["why_not"], u),
-    )
-
-
 def _num(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
-def to_json(d: Diagnosis) -> dict[str, Any]:
-    m = d.mismatch
-    claimed = [f for f in d.findings if f.claimed]
+def _parameter(e: Estimate) -> docs.Parameter:
+    value = e.value if math.isfinite(e.value) else None
+    sd = e.sd if math.isfinite(e.sd) else None
+    return docs.Parameter(value=value, sd=sd, unit=e.unit, fixed=e.fixed, at_bound=e.at_bound)
+
+
+def finding(t: Trial) -> docs.Finding:
+    """A trial of the search as a row of DIAG.json's `findings`: the one place the
+    in-memory result becomes the file's."""
+    return docs.Finding(
+        physics=t.physics,
+        round=t.round,
+        claimed=t.claimed,
+        p_value=t.p_value,
+        heldout_gain=_num(t.heldout_gain),
+        heldout_detail=t.heldout_detail,
+        lr_n2=t.lr_n2,
+        effect_rms_n=t.effect_rms_n,
+        effect_peak_n=t.effect_peak_n,
+        parameters={k: _parameter(e) for k, e in t.parameters.items()},
+        ambiguous_with=tuple(t.ambiguous_with),
+        why_not=t.why_not,
+    )
+
+
+def _verdict(d: Diagnosis) -> docs.Verdict:
+    claimed = [t for t in d.trials if t.claimed]
     # Most important first: by the share of the held-out structure removed.
-    order = sorted(claimed, key=lambda f: -f.heldout_gain)
-    return {
-        "mismatch": {
-            "tested": d.testable,
-            "significant": d.testable and m.p_value < d.alpha,
-            "p_value": _num(m.p_value),
-            "noise_floor_n": _num(m.noise_floor_n),
-            "structured_rms_n": _num(m.structured_rms_n),
-            "structured_share": _num(m.structured_share),
-            "effective_values": m.effective_values,
-            "lone_cells": m.lone_cells,
-            "where": [r.to_json() for r in d.location.regions],
-            "axes": d.location.axes,
-        },
-        "findings": [
-            {
-                "physics": f.physics,
-                "round": f.round,
-                "claimed": f.claimed,
-                "p_value": f.p_value,
-                "heldout_gain": _num(f.heldout_gain),
-                "heldout_detail": f.heldout_detail,
-                "lr_n2": f.lr_n2,
-                "effect_rms_n": f.effect_rms_n,
-                "effect_peak_n": f.effect_peak_n,
-                "parameters": {k: e.to_json() for k, e in f.parameters.items()},
-                "ambiguous_with": f.ambiguous_with,
-                "why_not": f.why_not,
-            }
-            for f in d.findings
-        ],
-        "verdict": {
-            "physics": [f.physics for f in order],
-            # described residuals (unexplained.py); regions alone where none was described
-            "unexplained": [described_json(x) for x in d.described]
-            or [r.to_json() for r in d.unexplained.regions],
-            "indistinguishable": d.indistinguishable,
-            "calibration": [
-                {
-                    "parameter": r.parameter,
-                    "spec_value": r.spec_value,
-                    "fitted": r.fitted,
-                    "sd": _num(r.sd),
-                    "unit": r.unit,
-                    "moved": r.moved,
-                    # beyond the spec's tolerance: a finding, not a calibration
-                    "beyond_tolerance": r.beyond,
-                }
-                for r in d.calibration
-            ],
-            "sensor": list(d.sensor),
-            "text": verdict_text(d),
-            # The same words in in/s, lbf, in: a report in imperial units shows them
-            # (report may not import diagnose to write them itself).
-            "text_imperial": verdict_text(d, IMPERIAL),
-            "remaining_rms_n": _num(d.remaining.structured_rms_n),
-            "remaining_p_value": _num(d.remaining.p_value),
-        },
-        "short_tests": [
-            {
-                "index": t.index,
-                "clicks": t.clicks,
-                "frequency_hz": t.frequency_hz,
-                "cycles": t.cycles,
-                "reason": "fewer than two whole cycles: no cycle-to-cycle noise to test against",
-            }
+    order = sorted(claimed, key=lambda t: -t.heldout_gain)
+    return docs.Verdict(
+        physics=tuple(t.physics for t in order),
+        # described residuals (unexplained.py); regions alone where none was described
+        unexplained=tuple(described_doc(x) for x in d.described)
+        or tuple(docs.Unexplained(**vars(r.doc())) for r in d.unexplained.regions),
+        indistinguishable=tuple(
+            docs.Indistinguishable(
+                group=tuple(cast(list[str], g["group"])), separate_by=str(g["separate_by"])
+            )
+            for g in d.indistinguishable
+        ),
+        calibration=tuple(
+            docs.Calibration(
+                parameter=r.parameter,
+                spec_value=r.spec_value,
+                fitted=r.fitted,
+                sd=_num(r.sd),
+                unit=r.unit,
+                moved=r.moved,
+                # beyond the spec's tolerance: a finding, not a calibration
+                beyond_tolerance=r.beyond,
+            )
+            for r in d.calibration
+        ),
+        sensor=tuple(d.sensor),
+        text=verdict_text(d),
+        # The same words in in/s, lbf, in: a report in imperial units shows them
+        # (report may not import diagnose to write them itself).
+        text_imperial=verdict_text(d, IMPERIAL),
+        remaining_rms_n=_num(d.remaining.structured_rms_n),
+        remaining_p_value=_num(d.remaining.p_value),
+    )
+
+
+def document(d: Diagnosis) -> docs.DiagnosisDoc:
+    """The diagnosis as DIAG.json holds it (report/documents.py defines every key);
+    `diagnose_file` adds the recording and the spec to its `info`."""
+    m = d.mismatch
+    return docs.DiagnosisDoc(
+        mismatch=docs.Mismatch(
+            tested=d.testable,
+            significant=d.testable and m.p_value < d.alpha,
+            p_value=_num(m.p_value),
+            noise_floor_n=_num(m.noise_floor_n),
+            structured_rms_n=_num(m.structured_rms_n),
+            structured_share=_num(m.structured_share),
+            effective_values=m.effective_values,
+            lone_cells=m.lone_cells,
+            where=tuple(r.doc() for r in d.location.regions),
+            axes=d.location.axes,
+        ),
+        findings=tuple(finding(t) for t in d.trials),
+        verdict=_verdict(d),
+        short_tests=tuple(
+            docs.ShortTest(
+                index=t.index,
+                clicks=t.clicks,
+                frequency_hz=t.frequency_hz,
+                cycles=t.cycles,
+                reason="fewer than two whole cycles: no cycle-to-cycle noise to test against",
+            )
             for t in d.short_tests
-        ],
-        "tests": [
-            {
-                "index": t.index,
-                "clicks": t.clicks,
-                "frequency_hz": t.frequency_hz,
-                "E_t_before": _num(t.e_t_before),
-                "E_t_after": _num(t.e_t_after),
-            }
+        ),
+        tests=tuple(
+            docs.ScoredTest(
+                index=t.index,
+                clicks=t.clicks,
+                frequency_hz=t.frequency_hz,
+                E_t_before=_num(t.e_t_before),
+                E_t_after=_num(t.e_t_after),
+            )
             for t in d.tests
-        ],
-        "info": {
-            "wall_s": d.wall_s,
-            "n_tests": len(d.tests),
-            "single_frequency": d.single_frequency,
-            "skipped": d.notes,
-            "final_terms": [t.name for t in d.final.model.terms],
-        },
-    }
+        ),
+        info=docs.DiagnosisInfo(
+            wall_s=d.wall_s,
+            n_tests=len(d.tests),
+            single_frequency=d.single_frequency,
+            skipped=tuple(d.notes),
+            final_terms=tuple(t.name for t in d.final.model.terms),
+        ),
+    )
+
+
+def to_json(d: Diagnosis) -> dict[str, Any]:
+    """DIAG.json's value (before `diagnose_file`'s info.recording and info.spec)."""
+    doc: dict[str, Any] = schema.to_json(document(d))
+    return doc

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from shockdyno.history import store
 from shockdyno.history.entries import (
@@ -28,6 +28,9 @@ from shockdyno.history.entries import (
     recording_entry,
 )
 from shockdyno.history.schema import VERSION
+
+if TYPE_CHECKING:  # the report package pulls in matplotlib: imported where it is used
+    from shockdyno.report.documents import DiagnosisDoc
 
 ENV = "SHOCKDYNO_HISTORY"
 DEFAULT = Path("recordings") / "history.sqlite"
@@ -51,15 +54,18 @@ def record_fit(
 
 
 def record_diagnosis(
-    db: Path, recording: Path, doc: Any, result_file: str, alpha: float, seed: int, terms: str
+    db: Path,
+    recording: Path,
+    doc: DiagnosisDoc,
+    result_file: str,
+    alpha: float,
+    seed: int,
+    terms: str,
 ) -> store.RecordingEntry:
-    """Add a diagnosis of `recording` (DIAG.json's document, or its dict) to the history."""
-    from shockdyno.report.documents import DiagnosisDoc, typed
-
+    """Add a diagnosis of `recording` (DIAG.json's document) to the history."""
     rec = recording_entry(recording)
-    diag = typed(doc, DiagnosisDoc, "the diagnosis") if isinstance(doc, dict) else doc
-    options = diagnosis_options(diag, alpha, seed, terms)
-    store.add(db, rec, diagnosis_entry(diag, options, result_file))
+    options = diagnosis_options(doc, alpha, seed, terms)
+    store.add(db, rec, diagnosis_entry(doc, options, result_file))
     return rec
 
 

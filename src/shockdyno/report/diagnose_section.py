@@ -6,7 +6,8 @@ nothing. Shown:
 
 - ``mismatch``: whether it is significant (or not tested), p, noise floor, structured
   share, and its regions ``where``
-- ``findings``: each candidate term, its parameters in the page's units, greyed unless claimed
+- ``findings``: each candidate term, its parameters in the page's units, greyed unless
+  claimed: the cells of the terminal and diagnose's own page (report/findings_table.py)
 - ``verdict``: its words in SI or in imperial units (``text_imperial`` is newer: an older
   file's page in imperial shows ``text`` and says its numbers are SI), the physics named,
   the regions still unexplained and, newer, what is left described with a discovered
@@ -33,20 +34,16 @@ from shockdyno.report.documents import (
     DiagnosisDoc,
     Finding,
     Mismatch,
-    Parameter,
     Region,
     ScoredTest,
     SpecUsed,
     Verdict,
 )
+from shockdyno.report.findings_table import number_text as _num
+from shockdyno.report.findings_table import render_findings
 from shockdyno.report.html import Page
 from shockdyno.report.unexplained_section import render_unexplained
 from shockdyno.units import SI, Units
-
-
-def _num(value: float | None, spec: str = ".3g") -> str:
-    """A number as text; '–' for none, or one that is not finite (a hand-edited NaN)."""
-    return format(value, spec) if _finite(value) else "–"
 
 
 def _finite(value: float | None) -> TypeGuard[float]:
@@ -142,63 +139,11 @@ def _render_mismatch(page: Page, mismatch: Mismatch, units: Units) -> None:
         )
 
 
-def _in_units(unit: str, units: Units) -> tuple[float, float, str]:
-    """(scale, offset, label) of a parameter stored in SI ``unit``, shown in ``units``: the
-    forces, lengths, speeds, damping coefficients and temperatures the units module converts;
-    anything else (Pa, s, 1/K, ...) and everything in SI as stored."""
-    if not units.imperial:
-        return 1.0, 0.0, unit
-    fn, ln, vn = units.force_per_n, units.length_per_m, units.velocity_per_m_s
-    zero = units.temperature(0.0)  # °C is affine: a spread (sd) takes the scale only
-    return {
-        "N": (fn, 0.0, units.force_label),
-        "m": (ln, 0.0, units.length_label),
-        "m/s": (vn, 0.0, units.velocity_label),
-        "N·s/m": (fn / ln, 0.0, f"{units.force_label}·s/{units.length_label}"),
-        "°C": (units.temperature(1.0) - zero, zero, units.temperature_label),
-    }.get(unit, (1.0, 0.0, unit))
-
-
-def _parameters(value: dict[str, Parameter], units: Units) -> str:
-    out = []
-    for name, p in value.items():
-        scale, offset, label = _in_units(p.unit, units)
-        shown = None if p.value is None else p.value * scale + offset
-        unit = f" {label}" if label else ""
-        sd = _num(_times(p.sd, scale), ".2g")  # a spread: no offset
-        out.append(f"{name} = {_num(shown, '.4g')} ± {sd}{unit}")
-    return "; ".join(out) or "–"
-
-
 def _render_findings(page: Page, findings: tuple[Finding, ...], units: Units) -> bool:
     if not findings:
         return False
     page.subheading("Findings: candidate physics")
-    page.table(
-        [
-            "physics",
-            "claimed",
-            "p",
-            "held-out gain",
-            f"peak effect ({units.force_label})",
-            "parameters (± 1σ)",
-            "ambiguous with",
-        ],
-        [
-            [
-                f.physics,
-                "yes" if f.claimed else "no",
-                _num(f.p_value),
-                _num(f.heldout_gain),
-                _num(_times(f.effect_peak_n, units.force_per_n)),
-                _parameters(f.parameters, units),
-                _join(f.ambiguous_with),
-            ]
-            for f in findings
-        ],
-        row_classes=["" if f.claimed else "dim" for f in findings],
-        numeric=[False, False, True, True, True, False, False],
-    )
+    render_findings(page, findings, units)  # the terminal's and diagnose's page's cells
     return True
 
 
@@ -302,7 +247,7 @@ def render_figures(
             continue
         page.figure(link(png, 50 + n), caption)
         shown += 1
-    drawn = doc.info.figures_units
+    drawn = doc.info.figures_units or "si"  # batch diagnose draws in SI and does not say
     if shown and drawn != units.name:
         axes = "in, in/s, lbf" if drawn == "imperial" else "mm, m/s, N"
         page.paragraph(

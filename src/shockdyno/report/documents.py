@@ -1,12 +1,18 @@
-"""What the report reads of a DIAG.json and a RIDE.json, as typed documents.
+"""DIAG.json and RIDE.json as typed documents.
 
-The writers are `diagnose/verdict.py` (`to_json`, documented in docs/diagnose.md) and
-`ride/study.py` (`RideResult.to_json`, docs/ride.md); only the keys the page shows are
-described here. A result file gains keys over versions and must still be read when old,
-so keys not named here are skipped (`schema.convert(..., unknown_keys=True)`), and a key a
-writer added later, or that a hand-written sample may leave out, has the default that
-shows nothing. A key every writer has written is required: without it the file is not
-that result. A garbled value is one ConfigError line naming the file and the key.
+DIAG.json is defined here whole, for its writer and every reader: `diagnose/verdict.py`
+builds a `DiagnosisDoc` (`document`; docs/diagnose.md documents the keys) and
+`diagnosis_text` writes it, and the report, the history, `batch` and the commands read it
+with `read_diagnosis`. It lives in report/, not beside its writer in diagnose/, because
+report may not import diagnose (tests/test_layering.py) and diagnose, history and batch
+may all import report. RIDE.json's writer is `ride/study.py` (`RideResult.to_json`,
+docs/ride.md); only the keys the page shows are described here.
+
+A result file gains keys over versions and must still be read when old, so keys not named
+here are skipped (`schema.convert(..., unknown_keys=True)`), and a key a writer added
+later, or that a hand-written sample may leave out, has the default that shows nothing. A
+key every writer has written is required: without it the file is not that result. A
+garbled value is one ConfigError line naming the file and the key.
 
 No project imports beyond the utilities: report may not import diagnose or ride.
 """
@@ -20,7 +26,7 @@ from pathlib import Path
 from typing import Any, Literal, TypeVar
 
 from shockdyno.result_files import read_result
-from shockdyno.schema import Positive, convert
+from shockdyno.schema import OMITTED_AT_DEFAULT, Positive, convert, to_json
 
 T = TypeVar("T")
 
@@ -34,9 +40,16 @@ class RecordingRef:
 
 
 # -- DIAG.json -------------------------------------------------------------------------
+#
+# Every key the writer puts in the file, in the order it writes them (kw_only: a field with
+# a default may come before one without). A key the first `diagnose` wrote is required; a
+# later one has the default an older file implies. `_OMIT`: written only when it holds
+# something other than its default, as the writer always has.
+
+_OMIT = OMITTED_AT_DEFAULT
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Region:
     """A cell of the located structure: `mismatch.where[]`, `verdict.unexplained[]`."""
 
@@ -49,107 +62,134 @@ class Region:
     near_reversal: bool = False
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Follows:
     """A signal what is left follows (`verdict.unexplained[].follows[]`)."""
 
     signal: str
     label: str
-    share: float  # of the structure left, explained by this signal alone
     label_imperial: str | None = None
+    family: str = ""  # the feature's family ("position × friction", ...)
+    share: float  # of the structure left, explained by this signal alone
     rises_with_it: bool = True
     resembles: tuple[str, ...] = ()  # library terms whose physics the signal is
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Coefficient:
     """One feature of a discovered term, its coefficient in SI `unit` (N per feature)."""
 
     feature: str
     label: str
+    label_imperial: str | None = None
+    family: str = ""
     symbol: str
+    symbol_imperial: str | None = None
     value: float | None
     sd: float | None
     unit: str
-    label_imperial: str | None = None
-    symbol_imperial: str | None = None
     text: str = ""  # value ± sd and unit in display units (SI, with time in minutes)
     text_imperial: str = ""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class UnnamedTerm:
     """The discovered term tried for what is left (`verdict.unexplained[].term`)."""
 
+    name: str = "unnamed"
     claimed: bool
     form: str  # SI
+    form_imperial: str | None = None
+    features: tuple[str, ...] = ()
     coefficients: tuple[Coefficient, ...]
     heldout_gain: float | None
-    form_imperial: str | None = None
     heldout_detail: str = ""
+    in_sample_share: float | None = None
+    effect_peak_n: float | None = None
     hint: str = ""
     why_not: str = ""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class ResidualPlot:
     """Phase means of what is left against the signal it follows most, and the term's."""
 
     signal: str
     label: str
+    label_imperial: str | None = None
     unit: str
     x: tuple[float, ...]
     residual: tuple[float, ...]
     term: tuple[float, ...] = ()
-    label_imperial: str | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Unexplained(Region):
     """`verdict.unexplained[]`: what the search left, its largest region's keys (an older
     file has these only) and, newer, its description and a discovered term."""
 
     regions: tuple[Region, ...] = ()
+    axes: dict[str, dict[str, float]] = field(default_factory=dict)
+    phase_deg: tuple[float, ...] = ()  # the shortest part of the cycle holding half of it
     phase: str = ""
     follows: tuple[Follows, ...] = ()
     term: UnnamedTerm | None = None
-    plot: ResidualPlot | None = None
+    plot: ResidualPlot | None = field(default=None, metadata=_OMIT)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Mismatch:
+    tested: bool = True  # newer: false when no test has two whole cycles
     significant: bool
     p_value: float | None  # null when not tested
     noise_floor_n: float | None
+    structured_rms_n: float | None = None
     structured_share: float | None
+    effective_values: float | None = None  # independent values the binned residual holds
+    lone_cells: int = 0  # (cycle, bin) cells left out as a lone sample's
     where: tuple[Region, ...]
-    tested: bool = True  # newer: false when no test has two whole cycles
+    # the structure's shares by axis: stroke, speed, frequency_hz, click, test_order, ...
+    axes: dict[str, dict[str, float]] = field(default_factory=dict)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Parameter:
     """One fitted parameter of a finding's term, in SI `unit`; null where not estimated."""
 
     value: float | None
     sd: float | None
     unit: str
-    fixed: bool = False
+    fixed: bool = field(default=False, metadata=_OMIT)
+    at_bound: bool = field(default=False, metadata=_OMIT)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Finding:
-    """One candidate term of one round of the search."""
+    """One candidate term of one round of the search, as tried and scored."""
 
     physics: str
+    round: int = 0  # 0: not said
     claimed: bool
     p_value: float
     heldout_gain: float | None  # null when not scored held out
+    heldout_detail: str = ""
+    lr_n2: float | None = None  # the likelihood ratio's statistic, N²
+    effect_rms_n: float | None = None  # the term's own force, RMS and peak
+    effect_peak_n: float | None = None
     parameters: dict[str, Parameter]
     ambiguous_with: tuple[str, ...]
-    effect_peak_n: float | None = None
+    why_not: str = ""  # why a term that fitted better is not claimed
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
+class Indistinguishable:
+    """Claimed terms the data cannot tell apart (`verdict.indistinguishable[]`)."""
+
+    group: tuple[str, ...]
+    separate_by: str  # the test that would
+
+
+@dataclass(frozen=True, kw_only=True)
 class Calibration:
     """A spec value the recording calibrated (`verdict.calibration[]`)."""
 
@@ -159,19 +199,34 @@ class Calibration:
     sd: float | None
     unit: str
     moved: bool
+    beyond_tolerance: bool = False  # further than a damper departs from its drawing
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Verdict:
-    text: str  # in SI
     physics: tuple[str, ...]  # claimed, most important first
     unexplained: tuple[Unexplained, ...]
-    text_imperial: str | None = None  # newer: the same words in lbf, in, in/s
+    indistinguishable: tuple[Indistinguishable, ...] = ()
     calibration: tuple[Calibration, ...] = ()
     sensor: tuple[str, ...] = ()
+    text: str  # in SI
+    text_imperial: str | None = None  # newer: the same words in lbf, in, in/s
+    remaining_rms_n: float | None = None  # the final model's structured residual
+    remaining_p_value: float | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
+class ShortTest:
+    """A test of fewer than two whole cycles, left out (`short_tests[]`)."""
+
+    index: int
+    clicks: int
+    frequency_hz: float
+    cycles: float
+    reason: str
+
+
+@dataclass(frozen=True, kw_only=True)
 class ScoredTest:
     """A row of `tests[]`: the test's E_t with the baseline and with the final model."""
 
@@ -182,30 +237,39 @@ class ScoredTest:
     E_t_after: float | None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SpecUsed:
     """`info.spec`: the damper spec the diagnosis's model started from."""
 
     path: str  # as the user gave it; the built-in default as its repository path
     name: str
     default: bool = False
-    from_fit: str | None = None  # the --fit whose base spec it is
+    from_fit: str | None = field(default=None, metadata=_OMIT)  # the --fit whose base spec
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class DiagnosisInfo:
-    spec: SpecUsed | None = None
-    recording: RecordingRef | None = None
-    # With `diagnose --report`: the PNGs by key, relative to the JSON's folder.
-    figures: dict[str, str] = field(default_factory=dict)
-    figures_units: Literal["si", "imperial"] = "si"
+    wall_s: float | None = None  # how long the diagnosis took
+    n_tests: int = 0
+    single_frequency: bool = False
+    skipped: tuple[str, ...] = ()  # notes on what the search left out
+    final_terms: tuple[str, ...] = ()  # the final model's terms
+    recording: RecordingRef | None = field(default=None, metadata=_OMIT)
+    spec: SpecUsed | None = field(default=None, metadata=_OMIT)
+    recording_loss: str | None = field(default=None, metadata=_OMIT)  # a cut-off recording
+    fit_provenance: str | None = field(default=None, metadata=_OMIT)  # where --fit came from
+    # With `diagnose --report`: the PNGs by key, relative to the JSON's folder, and the
+    # units they were drawn in (none said: SI, as `batch diagnose` draws them).
+    figures: dict[str, str] = field(default_factory=dict, metadata=_OMIT)
+    figures_units: Literal["si", "imperial"] | None = field(default=None, metadata=_OMIT)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class DiagnosisDoc:
     mismatch: Mismatch
     findings: tuple[Finding, ...]
     verdict: Verdict
+    short_tests: tuple[ShortTest, ...] = ()
     tests: tuple[ScoredTest, ...]
     info: DiagnosisInfo = field(default_factory=DiagnosisInfo)
 
@@ -269,6 +333,11 @@ def read_diagnosis(path: str | Path, flag: str) -> DiagnosisDoc:
     """The DIAG.json at `path`, given as `flag`; else one ConfigError line."""
     doc = read_result(path, flag, "diagnosis")  # refuses a recording, a FIT.json, ...
     return convert(doc, DiagnosisDoc, f"{flag}: {path}", unknown_keys=True)
+
+
+def diagnosis_text(doc: DiagnosisDoc) -> str:
+    """DIAG.json's text: the document `diagnose/verdict.py` built, as JSON."""
+    return json.dumps(to_json(doc), indent=2, allow_nan=False) + "\n"
 
 
 def read_ride(path: str | Path, flag: str) -> RideDoc:

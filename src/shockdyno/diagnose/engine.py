@@ -21,6 +21,7 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import cast
 
 import numpy as np
@@ -50,9 +51,10 @@ from shockdyno.fit.metrics import error_metrics
 from shockdyno.fit.parameters import spec_global
 from shockdyno.fit.prepare import PreparedTest, prepare_tests, whole_cycles
 from shockdyno.fit.result import FitResult
+from shockdyno.fit.sweep import check_adjusters
 from shockdyno.model.composite import FORCE, PRESSURE, DamperModel, Term
 from shockdyno.model.params import Estimate
-from shockdyno.model.spec import DamperSpec, load_spec
+from shockdyno.model.spec import DamperSpec, default_spec_path, load_spec
 from shockdyno.model.terms import LIBRARY, make_term
 from shockdyno.record.types import TestData
 
@@ -768,6 +770,10 @@ def _diagnose(
         for m in (p.data.meta,)
     ]
     spec = fit.spec() if fit is not None else load_spec(spec_path)
+    # As `fit` does: each area's trend follows the adjuster on its path, which only the
+    # spec names, so a spec of another damper's adjusters would misread every click.
+    where = fit.spec_file() if fit is not None else spec_path or default_spec_path()
+    check_adjusters(tests, spec, Path(where))
     if len(few) == len(prepared):
         return _untestable(few, short, fit, spec, s, notes, sensor, wall0)
     prepared = [p for p in prepared if whole_cycles(p.data) >= 2]

@@ -85,7 +85,7 @@ def prepare_problem(
 ) -> Problem:
     path = Path(spec_path) if spec_path is not None else default_spec_path()
     base = load_spec(path)
-    _check_adjusters(tests, base, path)
+    check_adjusters(tests, base, path)
     prepared, notes = prepare_tests(tests, objective_rate_hz)
     if not prepared:
         why = "; ".join(notes[:3]) + (f"; and {len(notes) - 3} more" if len(notes) > 3 else "")
@@ -111,10 +111,10 @@ def prepare_problem(
     )
 
 
-def _check_adjusters(tests: Sequence[TestData], spec: DamperSpec, path: Path) -> None:
+def check_adjusters(tests: Sequence[TestData], spec: DamperSpec, path: Path) -> None:
     """The recording's adjusters are the spec's: each area's trend follows the adjuster
     on its path, which only the spec names (a spec without them would trend both areas
-    against the first adjuster's clicks)."""
+    against the first adjuster's clicks). `fit` and `diagnose` both refuse a mismatch."""
     named = sorted({n for t in tests for n in t.meta.adjusters})
     if named != sorted(spec.adjuster_names):
         have = ", ".join(spec.adjuster_names) or "one rod adjuster"

@@ -105,6 +105,14 @@ def test_a_local_cluster_batch_is_the_single_command_and_resumes(
     assert rows[4]["status"] == "done" and rows[4]["e_t_before"] is not None
     csv = (out / "results.csv").read_text().splitlines()
     assert len(csv) == 8 and '"r1","' in csv[5] and '"diagnose"' in csv[5]
+    assert "no NAME.fit.json" not in diag.stderr
+    # A recording the --fit folder has no fit of runs without one, and the batch says so
+    # before it starts (it ran silently without the fit).
+    nofit = _cli("batch", "diagnose", str(recordings / "cut.mcap"), "--out",
+                 str(tmp_path / "other"), "--fit", str(out), "--workers", "1")  # fmt: skip
+    assert nofit.returncode == 3, nofit.stderr
+    warned = [line for line in nofit.stderr.splitlines() if "no NAME.fit.json" in line]
+    assert len(warned) == 1 and "for 1 of 1 recordings (cut): they run without a fit" in warned[0]
 
 
 def test_a_damaged_results_table_is_refused_before_any_work(

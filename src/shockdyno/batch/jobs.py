@@ -140,7 +140,7 @@ def _diagnose(job: Job, row: Row) -> None:
     o = job.options
     d, doc = diagnose_file(
         Path(job.recording),
-        fit_path=_fit_for(job),
+        fit_path=fit_for(job),
         spec=o.get("spec"),
         alpha=float(o.get("alpha", 0.01)),
         seed=int(o.get("seed", 0)),
@@ -169,7 +169,7 @@ def _report(job: Job, row: Row) -> None:
 
     rec = open_recording(job.recording).require_recording()
     tests = rec.load_all()
-    fit_path = _fit_for(job)
+    fit_path = fit_for(job)
     fit = FitResult.load(fit_path).require_usable(f"--fit {fit_path}") if fit_path else None
     diag_path = Path(job.out_dir) / f"{job.name}.diag.json"
     diag = read_diagnosis(diag_path, "diagnose result") if diag_path.exists() else None
@@ -195,8 +195,9 @@ def _report(job: Job, row: Row) -> None:
 _RUN = {"fit": _fit, "diagnose": _diagnose, "report": _report}
 
 
-def _fit_for(job: Job) -> str | None:
-    """--fit: a file for every recording, or a folder of NAME.fit.json (a batch fit's)."""
+def fit_for(job: Job) -> str | None:
+    """--fit: a file for every recording, or a folder of NAME.fit.json (a batch fit's);
+    None for a recording the folder has no fit of (it runs without one: `missing_fits`)."""
     given = job.options.get("fit")
     if not given:
         return None
@@ -205,6 +206,15 @@ def _fit_for(job: Job) -> str | None:
         candidate = p / f"{job.name}.fit.json"
         return str(candidate) if candidate.exists() else None
     return str(p)
+
+
+def missing_fits(jobs: list[Job]) -> list[str]:
+    """The recordings a --fit folder has no NAME.fit.json of, by name."""
+    return [
+        j.name
+        for j in jobs
+        if j.options.get("fit") and Path(j.options["fit"]).is_dir() and fit_for(j) is None
+    ]
 
 
 def _damper_id(recording: str) -> str:

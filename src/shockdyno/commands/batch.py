@@ -86,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
+    from shockdyno.batch.jobs import missing_fits
     from shockdyno.batch.runner import collect, plan_jobs, run_batch
     from shockdyno.batch.table import earlier_rows
 
@@ -104,6 +105,16 @@ def run(args: argparse.Namespace) -> int:
     kept = earlier_rows(out)  # a damaged table is refused before any work
     recordings = collect(args.paths)
     jobs = plan_jobs(args.kind, recordings, out.resolve(), options)
+    missing = missing_fits(jobs)
+    if missing:  # as the single command without --fit: said, not silent
+        names = ", ".join(missing[:5]) + (
+            f" and {len(missing) - 5} more" if len(missing) > 5 else ""
+        )
+        print(
+            f"batch: warning: --fit {args.fit}: no NAME.fit.json for {len(missing)} of "
+            f"{len(jobs)} recordings ({names}): they run without a fit",
+            file=sys.stderr,
+        )
     console = Console(stderr=True)
     counts = {"done": 0, "skipped": 0, "failed": 0}
     with Progress(

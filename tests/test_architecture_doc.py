@@ -1,4 +1,4 @@
-"""docs/architecture.md matches the code: its module tree names every module under
+"""docs/modules.md (the module map docs/architecture.md points to) matches the code: its module tree names every module under
 src/shockdyno in its own package's section, and names no module that is not there.
 
 The tree is the fenced block that starts with `src/shockdyno/`. A package's heading is a
@@ -17,7 +17,7 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 SRC = REPO / "src" / "shockdyno"
-DOC = REPO / "docs" / "architecture.md"
+DOC = REPO / "docs" / "modules.md"
 NOT_MODULES = {"__init__.py", "__main__.py"}
 
 _ENTRY = re.compile(r"^(?P<indent> *)(?P<word>\w+/|\w+\.py,?)(?:\s|$)")
@@ -109,7 +109,7 @@ def test_every_module_is_named_in_its_package_section() -> None:
     count = sum(m not in tree.modules for m in modules)
     assert not gaps, (
         f"{count} module(s) of src/shockdyno are not named in their package's section of "
-        "docs/architecture.md's tree; add a line `name.py   what it is for` (or a shared "
+        "docs/modules.md's tree; add a line `name.py   what it is for` (or a shared "
         "`a.py, b.py   ...`) under the package's heading:\n  " + "\n  ".join(gaps)
     )
 
@@ -117,7 +117,7 @@ def test_every_module_is_named_in_its_package_section() -> None:
 def test_every_module_the_tree_names_exists() -> None:
     gone = stale(parse_tree(DOC.read_text()))
     assert not gone, (
-        "docs/architecture.md's tree names modules or packages that are not in "
+        "docs/modules.md's tree names modules or packages that are not in "
         "src/shockdyno (renamed or removed: fix or delete the line):\n  " + "\n  ".join(gone)
     )
 
@@ -133,7 +133,7 @@ def test_every_path_the_document_names_exists() -> None:
             if "/" in name and not any((base / name).is_file() for base in (SRC, SRC.parent, REPO))
         }
     )
-    assert not gone, "docs/architecture.md names files that do not exist:\n  " + "\n  ".join(gone)
+    assert not gone, "docs/modules.md names files that do not exist:\n  " + "\n  ".join(gone)
 
 
 SAMPLE = """\

@@ -1,5 +1,6 @@
-"""docs/modules.md (the module map docs/architecture.md points to) matches the code: its module tree names every module under
-src/shockdyno in its own package's section, and names no module that is not there.
+"""docs/modules.md (the module map docs/architecture.md points to) matches the code: its
+module tree names every module under src/shockdyno in its own package's section, and
+names no module that is not there.
 
 The tree is the fenced block that starts with `src/shockdyno/`. A package's heading is a
 line whose first word is `name/`; a module's line starts with `name.py` (or

@@ -25,7 +25,7 @@ the next (`Evaluation.state`), never on the term or the model.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, ClassVar
 
@@ -383,25 +383,58 @@ class DamperModel:
         object.__setattr__(self, "values", dict(self.values))
 
     # -- parameters ---------------------------------------------------------------------
+    # A fit builds a model at every evaluation and the evaluation asks for each term's
+    # values at each of its stages: the lookups are worked out once per model (the
+    # declared parameters once per set of terms, shared by the models derived from it).
+    @cached_property
+    def _declared(self) -> dict[str, Param]:
+        """Each parameter by qualified name (the first term's, were one declared twice)."""
+        declared: dict[str, Param] = {}
+        for name, p in self.param_list():
+            declared.setdefault(name, p)
+        return declared
+
+    @cached_property
+    def _locals(self) -> dict[int, dict[str, float]]:
+        """Each of the model's terms' values by local name, by the term's id."""
+        return {id(t): self._local_values(t) for t in self.terms}
+
     def param_list(self) -> list[tuple[str, Param]]:
         return [(t.qualified(p.name), p) for t in self.terms for p in t.params()]
 
     def value(self, qualified: str) -> float:
-        for name, p in self.param_list():
-            if name == qualified:
-                return float(self.values.get(name, p.nominal))
-        raise ConfigError(f"unknown term parameter {qualified!r}")
+        p = self._declared.get(qualified)
+        if p is None:
+            raise ConfigError(f"unknown term parameter {qualified!r}")
+        return float(self.values.get(qualified, p.nominal))
 
     def local_values(self, term: Term) -> dict[str, float]:
+        got = self._locals.get(id(term))  # a term not of this model is not live under its id
+        return dict(got) if got is not None else self._local_values(term)  # a copy: theirs
+
+    def _local_values(self, term: Term) -> dict[str, float]:
         return {
             p.name: float(self.values.get(term.qualified(p.name), p.nominal)) for p in term.params()
         }
 
     def with_values(self, values: Mapping[str, float]) -> DamperModel:
-        return replace(self, values={**self.values, **values})
+        unknown = sorted(set(values) - self._declared.keys())
+        if unknown:
+            raise ConfigError(f"unknown term parameter {unknown[0]!r}")
+        return self._derived(self.spec, {**self.values, **values})
 
     def with_spec(self, spec: DamperSpec) -> DamperModel:
-        return replace(self, spec=spec)
+        return self._derived(spec, dict(self.values))
+
+    def _derived(self, spec: DamperSpec, values: dict[str, float]) -> DamperModel:
+        """This model's terms (ordered and checked already: __post_init__ is not run
+        again) with `spec` and `values` (their names checked by the caller)."""
+        new = object.__new__(DamperModel)
+        object.__setattr__(new, "spec", spec)
+        object.__setattr__(new, "terms", self.terms)
+        object.__setattr__(new, "values", values)
+        new.__dict__["_declared"] = self._declared  # the same terms
+        return new
 
     def with_terms(self, terms: Iterable[Term]) -> DamperModel:
         terms = tuple(terms)

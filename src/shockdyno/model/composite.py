@@ -336,6 +336,16 @@ class Evaluation:
 
 
 def _samples(value: ArrayLike, n: int) -> FloatArray:
+    """A read-only per-sample view (or copy) of a scalar or an array of n samples."""
+    if (
+        type(value) is np.ndarray
+        and value.dtype == np.float64
+        and value.shape == (n,)
+        and value.flags.c_contiguous
+    ):  # what broadcast_to gives for it, without its cost at every evaluation
+        view = value.view()
+        view.flags.writeable = False
+        return view
     return np.ascontiguousarray(np.broadcast_to(np.asarray(value, dtype=float), (n,)))
 
 
@@ -395,6 +405,11 @@ class DamperModel:
         return declared
 
     @cached_property
+    def _schedule(self) -> tuple[tuple[Term, int], ...]:
+        """(term, stage) in the order the evaluation runs them: by term, then stage."""
+        return tuple((t, stage) for t in self.terms for stage in t.run_stages())
+
+    @cached_property
     def _locals(self) -> dict[int, dict[str, float]]:
         """Each of the model's terms' values by local name, by the term's id."""
         return {id(t): self._local_values(t) for t in self.terms}
@@ -434,6 +449,7 @@ class DamperModel:
         object.__setattr__(new, "terms", self.terms)
         object.__setattr__(new, "values", values)
         new.__dict__["_declared"] = self._declared  # the same terms
+        new.__dict__["_schedule"] = self._schedule
         return new
 
     def with_terms(self, terms: Iterable[Term]) -> DamperModel:
@@ -533,13 +549,12 @@ class DamperModel:
         carry_out: dict[str, FloatArray] = {}
 
         def run(lo: int, hi: int) -> None:
-            for term in self.terms:
-                for stage in term.run_stages():
-                    if lo <= stage < hi:
-                        carry = (state or {}).get(term.name)
-                        got = term.apply(w, self.local_values(term), carry, stage)
-                        if got is not None:
-                            carry_out[term.name] = got
+            for term, stage in self._schedule:
+                if lo <= stage < hi:
+                    carry = (state or {}).get(term.name)
+                    got = term.apply(w, self.local_values(term), carry, stage)
+                    if got is not None:
+                        carry_out[term.name] = got
 
         run(0, CHAMBER)
         w.p_c = chamber_pressure(spec, w.x, w.a, inputs)
@@ -621,5 +636,5 @@ def chamber_pressure(
 def _sum(parts: Iterable[FloatArray], n: int) -> FloatArray:
     total = np.zeros(n)
     for p in parts:
-        total = total + p
+        np.add(total, p, out=total)  # total + p, in order, without an array per part
     return total

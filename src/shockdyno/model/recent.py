@@ -81,6 +81,7 @@ class Recent:
         self.size = size
         self.max_bytes = max_bytes
         self._entries: list[tuple[tuple[Any, ...], tuple[Any, ...], Any, int]] = []
+        self._held = 0  # the entries' bytes, kept as they come and go (not summed per call)
         self._lock = threading.Lock()
         self.hits = 0
         self.calls = 0
@@ -101,7 +102,7 @@ class Recent:
             return result
         with self._lock:
             self._entries.insert(0, (key, stored, _copy(result), cost))
-            del self._entries[self.size :]
-            while sum(e[3] for e in self._entries) > self.max_bytes:
-                self._entries.pop()
+            self._held += cost
+            while len(self._entries) > self.size or self._held > self.max_bytes:
+                self._held -= self._entries.pop()[3]
         return result

@@ -119,8 +119,7 @@ def calibrate(
     cache: dict[bytes, FloatArray] = {}
 
     def model_at(p: FloatArray) -> DamperModel:
-        spec = prob.spec_with(ps.values(p, GLOBAL))
-        return DamperModel(spec, base.terms, base.values).with_values(ps.values(p, TERM))
+        return base.with_spec(prob.spec_with(ps.values(p, GLOBAL))).with_values(ps.values(p, TERM))
 
     def evaluated(p: FloatArray) -> FloatArray:
         model = model_at(p)

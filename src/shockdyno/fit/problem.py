@@ -26,6 +26,7 @@ from shockdyno.record.types import PERIODIC_MOTIONS
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
+SPECS_KEPT = 32  # spec_with's: a Jacobian asks for 1 + one per global
 
 
 def full_step(p: PreparedTest, max_rate_hz: float | None) -> int:
@@ -130,6 +131,7 @@ class StackedProblem:
             [np.full(p.obj.size, i, dtype=np.intp) for i, p in enumerate(tests)]
         )
         self.counts = Counts()
+        self._specs: dict[tuple[tuple[str, ...], bytes], DamperSpec] = {}  # spec_with's
         self._bind(DamperModel(base), ())
         self._frozen = True
 
@@ -162,6 +164,7 @@ class StackedProblem:
         `base`."""
         new = copy.copy(self)
         object.__setattr__(new, "base", base)
+        object.__setattr__(new, "_specs", {})  # specs of the old base
         return new
 
     @property
@@ -186,7 +189,21 @@ class StackedProblem:
         return int(self.inputs.size)
 
     def spec_with(self, overrides: dict[str, float]) -> DamperSpec:
-        return self.base.with_values(overrides) if overrides else self.base
+        """The base with these globals. A Jacobian's term and area columns, and a point
+        evaluated again, ask for the spec of the same globals: the last few are kept,
+        matched by name and bits (-0.0 is not 0.0, nor one NaN another), and given back
+        as the same spec (whose valves keep their cached stiffness)."""
+        if not overrides:
+            return self.base
+        bits = np.fromiter(overrides.values(), dtype=float, count=len(overrides)).tobytes()
+        key = (tuple(overrides), bits)
+        spec = self._specs.get(key)
+        if spec is None:
+            spec = self.base.with_values(overrides)
+            self._specs[key] = spec
+            if len(self._specs) > SPECS_KEPT:
+                del self._specs[next(iter(self._specs))]  # the oldest
+        return spec
 
     def force(
         self, model: DamperModel | DamperSpec, a_bc: FloatArray, a_bt: FloatArray

@@ -25,7 +25,7 @@ the next (`Evaluation.state`), never on the term or the model.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, ClassVar
 
@@ -336,6 +336,16 @@ class Evaluation:
 
 
 def _samples(value: ArrayLike, n: int) -> FloatArray:
+    """A read-only per-sample view (or copy) of a scalar or an array of n samples."""
+    if (
+        type(value) is np.ndarray
+        and value.dtype == np.float64
+        and value.shape == (n,)
+        and value.flags.c_contiguous
+    ):  # what broadcast_to gives for it, without its cost at every evaluation
+        view = value.view()
+        view.flags.writeable = False
+        return view
     return np.ascontiguousarray(np.broadcast_to(np.asarray(value, dtype=float), (n,)))
 
 
@@ -383,25 +393,64 @@ class DamperModel:
         object.__setattr__(self, "values", dict(self.values))
 
     # -- parameters ---------------------------------------------------------------------
+    # A fit builds a model at every evaluation and the evaluation asks for each term's
+    # values at each of its stages: the lookups are worked out once per model (the
+    # declared parameters once per set of terms, shared by the models derived from it).
+    @cached_property
+    def _declared(self) -> dict[str, Param]:
+        """Each parameter by qualified name (the first term's, were one declared twice)."""
+        declared: dict[str, Param] = {}
+        for name, p in self.param_list():
+            declared.setdefault(name, p)
+        return declared
+
+    @cached_property
+    def _schedule(self) -> tuple[tuple[Term, int], ...]:
+        """(term, stage) in the order the evaluation runs them: by term, then stage."""
+        return tuple((t, stage) for t in self.terms for stage in t.run_stages())
+
+    @cached_property
+    def _locals(self) -> dict[int, dict[str, float]]:
+        """Each of the model's terms' values by local name, by the term's id."""
+        return {id(t): self._local_values(t) for t in self.terms}
+
     def param_list(self) -> list[tuple[str, Param]]:
         return [(t.qualified(p.name), p) for t in self.terms for p in t.params()]
 
     def value(self, qualified: str) -> float:
-        for name, p in self.param_list():
-            if name == qualified:
-                return float(self.values.get(name, p.nominal))
-        raise ConfigError(f"unknown term parameter {qualified!r}")
+        p = self._declared.get(qualified)
+        if p is None:
+            raise ConfigError(f"unknown term parameter {qualified!r}")
+        return float(self.values.get(qualified, p.nominal))
 
     def local_values(self, term: Term) -> dict[str, float]:
+        got = self._locals.get(id(term))  # a term not of this model is not live under its id
+        return dict(got) if got is not None else self._local_values(term)  # a copy: theirs
+
+    def _local_values(self, term: Term) -> dict[str, float]:
         return {
             p.name: float(self.values.get(term.qualified(p.name), p.nominal)) for p in term.params()
         }
 
     def with_values(self, values: Mapping[str, float]) -> DamperModel:
-        return replace(self, values={**self.values, **values})
+        unknown = sorted(set(values) - self._declared.keys())
+        if unknown:
+            raise ConfigError(f"unknown term parameter {unknown[0]!r}")
+        return self._derived(self.spec, {**self.values, **values})
 
     def with_spec(self, spec: DamperSpec) -> DamperModel:
-        return replace(self, spec=spec)
+        return self._derived(spec, dict(self.values))
+
+    def _derived(self, spec: DamperSpec, values: dict[str, float]) -> DamperModel:
+        """This model's terms (ordered and checked already: __post_init__ is not run
+        again) with `spec` and `values` (their names checked by the caller)."""
+        new = object.__new__(DamperModel)
+        object.__setattr__(new, "spec", spec)
+        object.__setattr__(new, "terms", self.terms)
+        object.__setattr__(new, "values", values)
+        new.__dict__["_declared"] = self._declared  # the same terms
+        new.__dict__["_schedule"] = self._schedule
+        return new
 
     def with_terms(self, terms: Iterable[Term]) -> DamperModel:
         terms = tuple(terms)
@@ -500,13 +549,12 @@ class DamperModel:
         carry_out: dict[str, FloatArray] = {}
 
         def run(lo: int, hi: int) -> None:
-            for term in self.terms:
-                for stage in term.run_stages():
-                    if lo <= stage < hi:
-                        carry = (state or {}).get(term.name)
-                        got = term.apply(w, self.local_values(term), carry, stage)
-                        if got is not None:
-                            carry_out[term.name] = got
+            for term, stage in self._schedule:
+                if lo <= stage < hi:
+                    carry = (state or {}).get(term.name)
+                    got = term.apply(w, self.local_values(term), carry, stage)
+                    if got is not None:
+                        carry_out[term.name] = got
 
         run(0, CHAMBER)
         w.p_c = chamber_pressure(spec, w.x, w.a, inputs)
@@ -588,5 +636,5 @@ def chamber_pressure(
 def _sum(parts: Iterable[FloatArray], n: int) -> FloatArray:
     total = np.zeros(n)
     for p in parts:
-        total = total + p
+        np.add(total, p, out=total)  # total + p, in order, without an array per part
     return total

@@ -191,13 +191,16 @@ class DamperSpec:
     def with_values(self, values: Mapping[str, float]) -> DamperSpec:
         """A copy with these named values (as `value` names them) replaced."""
         changes: dict[str, Any] = {}
+        parts: dict[str, dict[str, float]] = {}  # a valve's fields, replaced in one copy
         for key, v in values.items():
             self.value(key)  # a name that is not a number of the spec is an error
             head, _, tail = key.partition(".")
             if tail:
-                changes[head] = replace(changes.get(head, getattr(self, head)), **{tail: float(v)})
+                parts.setdefault(head, {})[tail] = float(v)
             else:
                 changes[head] = float(v)
+        for head, fields in parts.items():
+            changes[head] = replace(getattr(self, head), **fields)
         return replace(self, **changes)
 
     def validate(self) -> None:

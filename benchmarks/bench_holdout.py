@@ -44,6 +44,8 @@ lag_lo|mid|hi    force channel only: transport delay 0.5-1.5 | 1.5-3 | 3-6 ms (D
                  digital filtering in the amplifier) and a load-cell/amplifier 2nd-order
                  response at f_n = 150-300 | 80-150 | 40-80 Hz, ζ 0.6-0.8. Total
                  low-frequency delay ≈ 1.2-2.8 | 2.4-4.5 | 4.4-8.8 ms.
+lag1             force channel only: a first-order (RC) load-cell amplifier, τ = 3-8 ms,
+                 no delay (issue 44: a lag the library must read as a lag, not a delay).
 thermal_lo|mid|hi  temperature-dependent oil (Vogel: 24 / 11 / 3.1 cSt at 20 / 40 / 100 °C)
                  acting on the gap leak, a valve seat land of 0.5-0.8 | 0.8-1.2 | 1.2-1.6 mm
                  and a needle-passage viscous share of 5-10 | 10-20 | 20-30 % at 40 °C; gas
@@ -139,6 +141,7 @@ BASE = [
     _c("lag_lo", force_delay_s=(0.5e-3, 1.5e-3), cell_freq_hz=(150.0, 300.0), **LAG),
     _c("lag_mid", force_delay_s=(1.5e-3, 3e-3), cell_freq_hz=(80.0, 150.0), **LAG),
     _c("lag_hi", force_delay_s=(3e-3, 6e-3), cell_freq_hz=(40.0, 80.0), **LAG),
+    _c("lag1", cell_lag_s=(3e-3, 8e-3)),
     _c(
         "thermal_lo",
         ON,
@@ -320,7 +323,8 @@ def key_values(truth: dict[str, Any]) -> str:
     if "force_delay_s" in v:
         parts.append(
             f"force delay {v['force_delay_s'] * 1e3:.2f} ms (transport "
-            f"{v['transport_delay_s'] * 1e3:.2f} ms, cell {v['cell_freq_hz']:.0f} Hz)"
+            f"{v['transport_delay_s'] * 1e3:.2f} ms, cell {v['cell_freq_hz']:.0f} Hz, "
+            f"RC {v.get('cell_lag_s', 0.0) * 1e3:.2f} ms)"
         )
     if "bump_onset_m" in v:
         parts.append(f"bump onset {v['bump_onset_m'] * 1e3:.1f} mm")

@@ -95,8 +95,9 @@ friction (rod seal and piston band): an elastic seal lip with a reset limit. The
   spec's friction_velocity_m_s (1 mm/s) as v_f.
 sensor_lag: the force channel only (the LVDT is untouched): a pure transport delay D (DAQ
   channel skew, done by interpolation at 4 kHz) and a load-cell/amplifier second-order
-  response ω_n² / (s² + 2 ζ ω_n s + ω_n²). True key value: the low-frequency delay of the
-  force behind the displacement, D + 2 ζ / ω_n.
+  response ω_n² / (s² + 2 ζ ω_n s + ω_n²), or (cell_lag_s) a first-order RC amplifier
+  1 / (τ s + 1), bilinear at 4 kHz. True key value: the low-frequency delay of the force
+  behind the displacement, D + 2 ζ / ω_n + τ.
 thermal: oil viscosity from a Vogel law through 24 / 11 / 3.1 cSt at 20 / 40 / 100 °C (the
   spec's 11 cSt at 40 °C; the others typical of a light racing damper oil),
       ν(T) = 0.27745 cSt · exp(420.77 K / (T - 198.81 K)),
@@ -193,6 +194,7 @@ class Effects:
     force_delay_s: float = 0.0
     cell_freq_hz: float = 0.0  # 0 = no load-cell dynamics
     cell_damping: float = 0.7
+    cell_lag_s: float = 0.0  # a first-order (RC) load-cell amplifier instead; 0 = none
     # thermal
     thermal: bool = False
     land_length_m: float = 0.0
@@ -221,7 +223,7 @@ class Effects:
 
     @property
     def sensor(self) -> bool:
-        return self.force_delay_s > 0 or self.cell_freq_hz > 0
+        return self.force_delay_s > 0 or self.cell_freq_hz > 0 or self.cell_lag_s > 0
 
 
 class Plant:
@@ -588,9 +590,11 @@ class Plant:
             lag = fx.force_delay_s
             if fx.cell_freq_hz > 0:
                 lag += 2 * fx.cell_damping / (2 * math.pi * fx.cell_freq_hz)
+            lag += fx.cell_lag_s
             out["force_delay_s"] = lag
             out["transport_delay_s"] = fx.force_delay_s
             out["cell_freq_hz"] = fx.cell_freq_hz
+            out["cell_lag_s"] = fx.cell_lag_s
         if math.isfinite(fx.bump_onset_m):
             out["bump_onset_m"] = fx.bump_onset_m
             out["bump_k_n_m"] = fx.bump_k_n_m
@@ -624,6 +628,11 @@ class Daq:
             z = effects.cell_damping
             b, a = signal.bilinear([wn * wn], [1.0, 2 * z * wn, wn * wn], fs=fs_in)
             self.cell = signal.tf2sos(b, a)
+        if effects.cell_lag_s > 0:
+            # An RC amplifier 1 / (τ s + 1), bilinear at the analog rate (a single pole).
+            b, a = signal.bilinear([1.0], [effects.cell_lag_s, 1.0], fs=fs_in)
+            rc = signal.tf2sos(b, a)
+            self.cell = rc if self.cell is None else np.vstack([self.cell, rc])
         self.tc: float | None = None
 
     def _aa(self, sig: NDArray[np.float64], sigma: float) -> NDArray[np.float64]:

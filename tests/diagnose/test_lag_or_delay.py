@@ -45,6 +45,9 @@ def test_a_first_order_load_cell_lag_is_read_as_a_lag(tmp_path: Path) -> None:
     # What the fit leaves as a delay of the force against the motion is no more than a
     # tenth of the lag (a delay and an LVDT lag cancel: only their difference is a shift).
     assert abs(v["delay_s"] - v["lvdt_lag_s"]) < 0.0005, v
+    # Its advice carries the lag into a fit (`--terms sensor_lag` alone frees only the delay
+    # and read this lag as a 4 ms delay).
+    assert "fit --terms sensor_lag,sensor_lag.load_cell_lag_s." in doc["verdict"]["text"]
 
 
 def test_a_transport_delay_is_read_as_a_delay(tmp_path: Path) -> None:

@@ -183,6 +183,9 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
             f"Claimed {describe(f, spec_gas, u, _reach(d))}{alike}: p = {f.p_value:.2g}, it "
             f"removes {100 * f.heldout_gain:.0f} % of the held-out structure (median fold)."
         )
+    if claimed:
+        lines.append(f"To carry {'it' if len(claimed) == 1 else 'them'} into a fit: "
+                     f"fit --terms {fit_terms(claimed)}.")  # fmt: skip
     for g in d.indistinguishable:
         by = in_units(str(g["separate_by"]), u)
         lines.append(f"To separate {' and '.join(g['group'])}: {by}.")  # type: ignore[arg-type]
@@ -203,6 +206,23 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
             f"{u.length_label}, {vs * r.v_range_m_s[0]:.2g}…{vs * r.v_range_m_s[1]:.2g} {vl}."
         )
     return " ".join(lines)
+
+
+def fit_terms(claimed: list[Trial]) -> str:
+    """`fit --terms` for the claimed terms, with each parameter the fit holds unless named
+    (Param.free False) that the diagnosis moved: `--terms sensor_lag` alone would fit a
+    load cell's lag as a delay."""
+    names: list[str] = []
+    for t in claimed:
+        names.append(t.physics)
+        cls = LIBRARY.get(t.physics)
+        if cls is None:
+            continue
+        reading = Reading(cls.PARAMS, t.parameters)
+        names += [
+            f"{t.physics}.{p.name}" for p in cls.PARAMS if not p.free and reading.moved(p.name)
+        ]
+    return ",".join(names)
 
 
 def _num(x: float) -> float | None:

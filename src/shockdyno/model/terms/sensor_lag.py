@@ -62,6 +62,10 @@ class SensorLag(Term):
 
     def describe(self, r: Reading) -> str:
         shift = r.v("delay_s") + r.v("load_cell_lag_s") - r.v("lvdt_lag_s")
+        # A delay of the force and a lag of the LVDT move the loop the same way at every
+        # frequency and through every sharp event (x(t - δ) against x + τ_x ẋ), so a sweep
+        # reads only δ - τ_x: both "moved" is a ridge of the fit, not two sensors.
+        ridge = r.moved("delay_s") and r.moved("lvdt_lag_s")
         parts = [
             f"{label} {1e3 * r.v(key):.2g}{r.sd(key, 1e3)} ms"
             for key, label in (
@@ -69,8 +73,14 @@ class SensorLag(Term):
                 ("load_cell_lag_s", "load-cell lag"),
                 ("lvdt_lag_s", "LVDT lag"),
             )
-            if r.moved(key)
+            if r.moved(key) and not (ridge and key != "load_cell_lag_s")
         ]
+        if ridge:
+            both = 1e3 * (r.v("delay_s") - r.v("lvdt_lag_s"))
+            parts.append(
+                f"pure delay less LVDT lag {both:.2g} ms: a sweep cannot tell a force delay "
+                "from an LVDT lag"
+            )
         detail = f" ({', '.join(parts)})" if parts else ""
         if shift < 0:
             return (

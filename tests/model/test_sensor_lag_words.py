@@ -1,6 +1,7 @@
 """The sensor-lag term's words name only what a sweep can read: a delay of the force and a
-lag of the LVDT shift the loop alike (x(t - δ) against x + τ_x ẋ), so when the fit moved
-both it says their difference and that they cannot be told apart, not two sensors."""
+lag of the LVDT shift the loop alike to first order (x(t - δ) ≈ x - δ ẋ against x + τ_x ẋ), so
+when the fit moved both it says their difference and that they cannot be told apart, not
+two sensors."""
 
 from __future__ import annotations
 

@@ -62,9 +62,9 @@ class SensorLag(Term):
 
     def describe(self, r: Reading) -> str:
         shift = r.v("delay_s") + r.v("load_cell_lag_s") - r.v("lvdt_lag_s")
-        # A delay of the force and a lag of the LVDT move the loop the same way at every
-        # frequency and through every sharp event (x(t - δ) against x + τ_x ẋ), so a sweep
-        # reads only δ - τ_x: both "moved" is a ridge of the fit, not two sensors.
+        # A delay of the force and a lag of the LVDT differ only beyond first order in the
+        # shift (x(t - δ) ≈ x - δ ẋ against x + τ_x ẋ), far below the noise at a few ms, so
+        # a sweep reads δ - τ_x: both "moved" is a ridge of the fit, not two sensors.
         ridge = r.moved("delay_s") and r.moved("lvdt_lag_s")
         parts = [
             f"{label} {1e3 * r.v(key):.2g}{r.sd(key, 1e3)} ms"

@@ -150,12 +150,27 @@ def run(args: argparse.Namespace) -> int:
             history=history,
             warn=lambda text: print(f"batch: warning: {text}", file=sys.stderr),
         )
+    return _print_outcome(args.kind, rows, kept, counts, len(jobs), out, history)
+
+
+def _print_outcome(
+    kind: str,
+    rows: list[dict[str, Any]],
+    kept: list[dict[str, Any]],
+    counts: dict[str, int],
+    n_jobs: int,
+    out: Path,
+    history: Path | None,
+) -> int:
+    """The batch's last lines: done, skipped and failed of all, where the table is (and
+    how many rows of earlier runs it keeps), the history's additions, each failure; the
+    exit code (3 when a recording failed)."""
     failed = [r for r in rows if r["status"] == "failed"]
     ran = {(r["name"], r["kind"]) for r in rows}
     others = sum((r.get("name"), r.get("kind")) not in ran for r in kept)
     print(
-        f"batch {args.kind}: {counts['done']} done, {counts['skipped']} skipped, "
-        f"{len(failed)} failed of {len(jobs)}; table {out / 'results.parquet'} and .csv"
+        f"batch {kind}: {counts['done']} done, {counts['skipped']} skipped, "
+        f"{len(failed)} failed of {n_jobs}; table {out / 'results.parquet'} and .csv"
         + (f" (with {others} rows of earlier runs)" if others else "")
     )
     if history is not None:

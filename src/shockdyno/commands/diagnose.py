@@ -7,7 +7,7 @@ import math
 import sys
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from shockdyno import units as units_mod
 from shockdyno.commands.args import add_seed, add_spec, add_term_list, require_recording
@@ -15,7 +15,10 @@ from shockdyno.diagnose.file import diagnose_file, parse_candidates
 from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError
 from shockdyno.record.identity import add_allow_argument
-from shockdyno.report.documents import Finding, diagnosis_text
+from shockdyno.report.documents import DiagnosisDoc, Finding, diagnosis_text
+
+if TYPE_CHECKING:  # rich is imported when a command prints
+    from rich.console import Console
 
 
 def register(sub: Any) -> None:
@@ -93,29 +96,10 @@ def _nan(x: float | None) -> float:
 
 
 def run_diagnose(args: argparse.Namespace) -> int:
-
-    from shockdyno.model import load_spec
-    from shockdyno.outputs import check_output, check_report_dir, write_output
+    from shockdyno.outputs import write_output
     from shockdyno.progress import StageProgress, table_console
-    from shockdyno.record.layout import set_paths
 
-    require_recording(args.recording)
-    inputs = [
-        *set_paths(Path(args.recording)),
-        *([args.fit] if args.fit else []),
-        *([args.spec] if args.spec else []),
-    ]
-    out = check_output(args.json, force=args.force, inputs=inputs)
-    if args.report:
-        check_report_dir(Path(args.report), inputs, args.force)
-    if not 0 < args.alpha < 1:
-        raise ConfigError(f"--alpha must be between 0 and 1, got {args.alpha}")
-    if args.fit is None:
-        load_spec(args.spec)  # a bad spec fails before reading the recording
-    parse_candidates(args.terms)  # a bad list fails before anything is read
-    workers = usable_cores() if args.workers is None else args.workers
-    if workers < 1:
-        raise ConfigError(f"--workers must be at least 1, got {workers}")
+    inputs, out, workers = _checked_arguments(args)
     with StageProgress("diagnose") as progress:
         d, doc = diagnose_file(
             Path(args.recording),
@@ -149,6 +133,51 @@ def run_diagnose(args: argparse.Namespace) -> int:
         "the diagnosis",
     )
     shown = table_console(stderr=out is None)
+    units = units_mod.get(args.units)
+    _print_diagnosis(shown, doc, units)
+    if args.report:
+        from shockdyno.atomic import staged_dir
+        from shockdyno.diagnose.report import write_report
+
+        with staged_dir(Path(args.report)) as folder:  # whole, or not at all
+            write_report(d, doc, folder, units)
+        shown.print(f"report: {Path(args.report) / 'index.html'}")
+    if out is not None:
+        shown.print(f"wrote {out} in {d.wall_s:.1f} s")
+    return 0
+
+
+def _checked_arguments(args: argparse.Namespace) -> tuple[list[str | Path], Path | None, int]:
+    """The command's inputs (never written over), its output (None: standard output) and
+    its worker count; a bad option, spec or term list fails here, before any reading."""
+    from shockdyno.model import load_spec
+    from shockdyno.outputs import check_output, check_report_dir
+    from shockdyno.record.layout import set_paths
+
+    require_recording(args.recording)
+    inputs = [
+        *set_paths(Path(args.recording)),
+        *([args.fit] if args.fit else []),
+        *([args.spec] if args.spec else []),
+    ]
+    out = check_output(args.json, force=args.force, inputs=inputs)
+    if args.report:
+        check_report_dir(Path(args.report), inputs, args.force)
+    if not 0 < args.alpha < 1:
+        raise ConfigError(f"--alpha must be between 0 and 1, got {args.alpha}")
+    if args.fit is None:
+        load_spec(args.spec)  # a bad spec fails before reading the recording
+    parse_candidates(args.terms)  # a bad list fails before anything is read
+    workers = usable_cores() if args.workers is None else args.workers
+    if workers < 1:
+        raise ConfigError(f"--workers must be at least 1, got {workers}")
+    return inputs, out, workers
+
+
+def _print_diagnosis(shown: Console, doc: DiagnosisDoc, units: units_mod.Units) -> None:
+    """The terminal's diagnosis: the spec used, the mismatch and its noise, the candidates'
+    table (when the mismatch is significant) and the verdict; short tests warned of on
+    standard error."""
     from shockdyno.model.spec import spec_line
 
     used = doc.info.spec
@@ -163,7 +192,6 @@ def run_diagnose(args: argparse.Namespace) -> int:
             "claimed from them (no cycle-to-cycle noise to test against)",
             file=sys.stderr,
         )
-    units = units_mod.get(args.units)
     fl = units.force_label
     if not m.tested:
         shown.print("mismatch: not tested (no test has two whole cycles)")
@@ -184,13 +212,3 @@ def run_diagnose(args: argparse.Namespace) -> int:
         shown.print(_summary(doc.findings, units))
     text = (doc.verdict.text_imperial if units.imperial else None) or doc.verdict.text
     shown.print(f"[bold]verdict:[/] {text}")
-    if args.report:
-        from shockdyno.atomic import staged_dir
-        from shockdyno.diagnose.report import write_report
-
-        with staged_dir(Path(args.report)) as folder:  # whole, or not at all
-            write_report(d, doc, folder, units)
-        shown.print(f"report: {Path(args.report) / 'index.html'}")
-    if out is not None:
-        shown.print(f"wrote {out} in {d.wall_s:.1f} s")
-    return 0

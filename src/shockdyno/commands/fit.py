@@ -8,8 +8,9 @@ import functools
 import io
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from shockdyno import units as units_mod
 from shockdyno.commands.args import (
@@ -25,6 +26,12 @@ from shockdyno.fit.file import fit_file, result_json
 from shockdyno.fit.prepare import FITTED_ANYWAY
 from shockdyno.outputs import check_output, check_report_dir, write_output
 from shockdyno.units import SI, Units
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+    from shockdyno.fit.result import FitResult
+    from shockdyno.record.types import TestData
 
 
 def register(sub: Any) -> None:
@@ -168,7 +175,6 @@ def run_fit(args: argparse.Namespace) -> int:
     from shockdyno.fit.validate import table4_table
     from shockdyno.model import load_spec
     from shockdyno.progress import StageProgress, table_console
-    from shockdyno.record import open_recording
     from shockdyno.record.layout import set_paths
     from shockdyno.report.temperature import reference_c
 
@@ -221,29 +227,42 @@ def run_fit(args: argparse.Namespace) -> int:
     for note in info.get("skipped", []):
         say(f"note: {note}" if note.endswith(FITTED_ANYWAY) else f"skipped {note}")
     if args.report:
-        from shockdyno.atomic import staged_dir, write_text_atomic
-        from shockdyno.fit.validate import table4_rows
-        from shockdyno.report.build import build_report
-
-        report = Path(args.report)
-        rec = open_recording(args.recording)
-        header, rows = table4_rows(result)
-        buf = io.StringIO()
-        csv.writer(buf, lineterminator="\n").writerows([header, *rows])
-        # The page, its figures and table4.csv appear whole, or not at all.
-        with console.status("fit: writing the report") as status, staged_dir(report) as folder:
-            build_report(
-                tests,
-                folder,
-                title=f"{rec.metadata.get('damper_id') or Path(args.recording).stem}: fit report",
-                metadata={"recording": str(args.recording), **rec.metadata},
-                fit=result,
-                progress=lambda stage: status.update(f"fit report: {stage}"),
-                reference_temperature_c=reference,
-                units=units_mod.get(args.units),
-                raw_force=args.raw_force,
-            )
-            write_text_atomic(folder / "table4.csv", buf.getvalue())
-        say(f"report: {report / 'index.html'}")
-        say(f"table: Table 4 analogue: {report / 'table4.csv'}")
+        _write_report(args, result, tests, reference, console, say)
     return 0
+
+
+def _write_report(
+    args: argparse.Namespace,
+    result: FitResult,
+    tests: list[TestData],
+    reference_temperature_c: float,
+    console: Console,
+    say: Callable[[str], None],
+) -> None:
+    """--report DIR: the report page with the fit, and table4.csv beside it."""
+    from shockdyno.atomic import staged_dir, write_text_atomic
+    from shockdyno.fit.validate import table4_rows
+    from shockdyno.record import open_recording
+    from shockdyno.report.build import build_report
+
+    report = Path(args.report)
+    rec = open_recording(args.recording)
+    header, rows = table4_rows(result)
+    buf = io.StringIO()
+    csv.writer(buf, lineterminator="\n").writerows([header, *rows])
+    # The page, its figures and table4.csv appear whole, or not at all.
+    with console.status("fit: writing the report") as status, staged_dir(report) as folder:
+        build_report(
+            tests,
+            folder,
+            title=f"{rec.metadata.get('damper_id') or Path(args.recording).stem}: fit report",
+            metadata={"recording": str(args.recording), **rec.metadata},
+            fit=result,
+            progress=lambda stage: status.update(f"fit report: {stage}"),
+            reference_temperature_c=reference_temperature_c,
+            units=units_mod.get(args.units),
+            raw_force=args.raw_force,
+        )
+        write_text_atomic(folder / "table4.csv", buf.getvalue())
+    say(f"report: {report / 'index.html'}")
+    say(f"table: Table 4 analogue: {report / 'table4.csv'}")

@@ -342,15 +342,7 @@ def fit_sweep(
     bc0, bt0 = start_areas(prob, pb.model, pb.a_max)
     report("calibrate globals", 0.15)
     cal, model, start = calibrate_never_worse(pb, bc0, bt0, report)
-    unseen = {
-        t.qualified(k): v
-        for t in model.terms
-        for k, v in t.unseen(model.local_values(t), prob.inputs.x).items()
-    }
-    model = model.with_values(unseen)
-    # Reported off because the data do not measure them: no σ from the calibration's
-    # curvature stands for that (at an edge of the stroke it came out 1.6e-6 N on 50 kN).
-    cal = replace(cal, term_sd=cal.term_sd | {q: math.inf for q in unseen if q in cal.term_sd})
+    model, cal = _unseen_off(model, cal, prob)
     prob = prob.for_model(model)  # nothing is varied now but the areas
     pb = replace(pb, prob=prob)
 
@@ -378,6 +370,58 @@ def fit_sweep(
         terms=estimates,
     )
     result.tests = validate_tests(result.model(), result, pb.prepared)
+    info = _fit_info(
+        pb,
+        cal,
+        start,
+        areas,
+        obj_tal,
+        estimates,
+        optimizer=optimizer,
+        seed=seed,
+        objective_rate_hz=objective_rate_hz,
+        wall0=wall0,
+    )
+    info["table4"] = [row.as_dict() for row in table4(result)]
+    result.info = _json_safe(info)
+    report("done", 1.0)
+    return result
+
+
+def _unseen_off(
+    model: DamperModel, cal: Calibration, prob: StackedProblem
+) -> tuple[DamperModel, Calibration]:
+    """The model with each term's parameters the data do not measure at their off values
+    (`unseen`), and the calibration with those parameters' σ infinite."""
+    unseen = {
+        t.qualified(k): v
+        for t in model.terms
+        for k, v in t.unseen(model.local_values(t), prob.inputs.x).items()
+    }
+    model = model.with_values(unseen)
+    # Reported off because the data do not measure them: no σ from the calibration's
+    # curvature stands for that (at an edge of the stroke it came out 1.6e-6 N on 50 kN).
+    cal = replace(cal, term_sd=cal.term_sd | {q: math.inf for q in unseen if q in cal.term_sd})
+    return model, cal
+
+
+def _fit_info(
+    pb: Problem,
+    cal: Calibration,
+    start: str,
+    areas: AreaFit,
+    obj_tal: FloatArray,
+    estimates: dict[str, dict[str, Estimate]],
+    *,
+    optimizer: str,
+    seed: int,
+    objective_rate_hz: float,
+    wall0: float,
+) -> dict[str, Any]:
+    """The fit's `info` (docs/fit.md) but Table 4: how it ran (the wall time since
+    `wall0`), what it cost, the calibration's start and residual, the tests used and
+    skipped."""
+    prob, selection = pb.prob, pb.selection
     delay = estimates.get("sensor_lag", {}).get("delay_s")
     info: dict[str, Any] = {"ga": areas.ga_info} if areas.ga_info else {}
     info.update(
@@ -408,7 +452,4 @@ def fit_sweep(
             "skipped": pb.notes,
         }
     )
-    info["table4"] = [row.as_dict() for row in table4(result)]
-    result.info = _json_safe(info)
-    report("done", 1.0)
-    return result
+    return info

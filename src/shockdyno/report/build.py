@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 import shutil
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -102,6 +103,21 @@ def _link_extra(out_dir: Path, png: Path, n: int) -> str:
         return target.relative_to(out_dir).as_posix()
 
 
+@dataclass(frozen=True)
+class _Measured:
+    """What the page is drawn from, worked out once from the tests before any section."""
+
+    tests: list[TestData]  # their force as the page shows it (gas force handled)
+    forces: gas_force.GasForces
+    summaries: list[TestSummary]
+    drawable: list[plots.Curves]  # enough samples for a loop
+    complete: list[plots.Curves]  # and complete, with finite peaks
+    cycles: list[repeatability.TestCycles]  # per-cycle readings of the complete tests
+    lines: dict[str, list[TestData]]  # a damper with several adjusters: each one's line
+    gas_force_n: float | None  # the static gas force marked on the loops
+    force_note: str  # which force the chart and peaks show
+
+
 def build_report(
     tests: list[TestData],
     out_dir: Path,
@@ -153,6 +169,44 @@ def build_report(
     out_dir.mkdir(parents=True, exist_ok=True)
 
     say("summaries")
+    m = _measure(tests, fit, gas_force_n, raw_force, gas_given, gas_limit, units)
+    page = Page(title)
+    live = Interactive(units)  # the interactive twins of the figures, and their script
+    _recording_section(page, metadata, m.forces, raw_force, units, warn)
+    _click_charts(page, m, fit, out_dir, live, raw_force, reference_temperature_c, say)
+    if m.tests:
+        _summary_section(page, m.summaries, units, m.force_note)
+    if m.complete:
+        _drift_section(page, m.cycles, warn)
+    for heading, header, rows in tables:
+        page.section(heading)
+        page.table(header, rows)
+    _peak_figures(page, m, out_dir, live, raw_force, say)
+    if fit is not None:
+        say("fit figures")
+        _fit_section(page, fit, m.tests, out_dir, units)
+    _documents(page, diag, ride_doc, extra_sections, diagnose_dir, out_dir, units)
+    if m.drawable:
+        say("loops per click")
+        _loops_section(page, m.drawable, out_dir, m.gas_force_n, live)
+    page.close_details()
+    page.raw(live.tail())
+    index = out_dir / "index.html"
+    write_text_atomic(index, page.render())
+    return index
+
+
+def _measure(
+    tests: list[TestData],
+    fit: FitResult | None,
+    gas_force_n: float | None,
+    raw_force: bool,
+    gas_given: Mapping[int, float] | None,
+    gas_limit: gas_force.Charge | None,
+    units: Units,
+) -> _Measured:
+    """The tests' gas forces, summaries, drawable curves and cycles; the static gas force
+    to mark (given, else the fit's, else the median of the recording's)."""
     forces = gas_force.gas_forces(tests, gas_given, gas_limit)  # given, measured, estimated
     tests = gas_force.apply(tests, forces)
     summaries = [summarise(t, gas_force_n=None if raw_force else t.meta.gas_force_n) for t in tests]
@@ -170,9 +224,24 @@ def build_report(
     force_note = (
         "raw force (gas force included)" if raw_force else gas_force.describe_forces(forces, units)
     )
+    # Per-cycle peaks and chart readings, once: the chart's bands, drift, the peak bands.
+    cycles = repeatability.sweep_cycles([c.test for c in complete], units.standard_velocities_m_s)
+    lines = adjusters.lines([c.test for c in complete])  # a damper with several adjusters
+    return _Measured(
+        tests, forces, summaries, drawable, complete, cycles, lines, gas_force_n, force_note
+    )
 
-    page = Page(title)
-    live = Interactive(units)  # the interactive twins of the figures, and their script
+
+def _recording_section(
+    page: Page,
+    metadata: dict[str, str] | None,
+    forces: gas_force.GasForces,
+    raw_force: bool,
+    units: Units,
+    warn: Callable[[str], None] | None,
+) -> None:
+    """The recording's metadata table and the gas force's warnings, on the page and
+    through ``warn``."""
     if metadata:
         page.section("Recording")
         page.table(["key", "value"], [[k, shown_path(str(v))] for k, v in metadata.items()])
@@ -181,28 +250,39 @@ def build_report(
         if warn is not None:
             warn(text)
 
-    # Per-cycle peaks and chart readings, once: the chart's bands, drift, the peak bands.
-    cycles = repeatability.sweep_cycles([c.test for c in complete], units.standard_velocities_m_s)
-    lines = adjusters.lines([c.test for c in complete])  # a damper with several adjusters
-    for name, line in lines.items():
+
+def _click_charts(
+    page: Page,
+    m: _Measured,
+    fit: FitResult | None,
+    out_dir: Path,
+    live: Interactive,
+    raw_force: bool,
+    reference_temperature_c: float,
+    say: Callable[[str], None],
+) -> None:
+    """The click chart and its temperature-corrected twin: one adjuster's line each, or
+    one for the complete tests of a damper with a single adjuster."""
+    units = live.units
+    for name, line in m.lines.items():
         say(f"click chart: {name} adjuster")
         held = adjusters.held(name, adjusters.base([t.meta.adjusters for t in line]))
         line_cycles = repeatability.sweep_cycles(line, units.standard_velocities_m_s)
         line_fit = fit.for_adjuster(name) if fit is not None else None
         _click_chart_section(
-            page, line, line_fit, out_dir, live, raw_force, line_cycles, forces, (name, held)
+            page, line, line_fit, out_dir, live, raw_force, line_cycles, m.forces, (name, held)
         )
         temperature.render(
             page, line, line_fit, reference_temperature_c, out_dir, raw_force, units, name
         )
-    if complete and not lines:
+    if m.complete and not m.lines:
         say("click chart")
         _click_chart_section(
-            page, [c.test for c in complete], fit, out_dir, live, raw_force, cycles, forces
+            page, [c.test for c in m.complete], fit, out_dir, live, raw_force, m.cycles, m.forces
         )
         temperature.render(
             page,
-            [c.test for c in complete],
+            [c.test for c in m.complete],
             fit,
             reference_temperature_c,
             out_dir,
@@ -210,53 +290,53 @@ def build_report(
             units,
         )
 
-    if tests:
-        _summary_section(page, summaries, units, force_note)
 
-    if complete:
-        _drift_section(page, cycles, warn)
-
-    for heading, header, rows in tables:
-        page.section(heading)
-        page.table(header, rows)
-
-    for name, line in lines.items():  # a damper with several adjusters: one's line each
+def _peak_figures(
+    page: Page,
+    m: _Measured,
+    out_dir: Path,
+    live: Interactive,
+    raw_force: bool,
+    say: Callable[[str], None],
+) -> None:
+    """Peak force against peak velocity and the overlays across clicks: one adjuster's
+    line each, or one set for the complete tests of a damper with a single adjuster."""
+    units = live.units
+    for name, line in m.lines.items():  # a damper with several adjusters: one's line each
         say(f"peak and overlay figures: {name} adjuster")
         drawn = [
             plots.prepare(t, summarise(t, gas_force_n=None if raw_force else t.meta.gas_force_n))
             for t in line
         ]
         line_cycles = repeatability.sweep_cycles(line, units.standard_velocities_m_s)
-        _peaks_and_overlays(page, drawn, out_dir, gas_force_n, live, line_cycles, force_note, name)
-    if complete and not lines:
+        _peaks_and_overlays(
+            page, drawn, out_dir, m.gas_force_n, live, line_cycles, m.force_note, name
+        )
+    if m.complete and not m.lines:
         say("peak and overlay figures")
-        _peaks_and_overlays(page, complete, out_dir, gas_force_n, live, cycles, force_note)
+        _peaks_and_overlays(page, m.complete, out_dir, m.gas_force_n, live, m.cycles, m.force_note)
 
-    if fit is not None:
-        say("fit figures")
-        _fit_section(page, fit, tests, out_dir, units)
 
+def _documents(
+    page: Page,
+    diag: DiagnosisDoc | None,
+    ride_doc: RideDoc | None,
+    extra_sections: Sequence[Section],
+    diagnose_dir: Path | None,
+    out_dir: Path,
+    units: Units,
+) -> None:
+    """The diagnosis (with its figures), the ride study and the caller's extra figures."""
     if diag is not None:
         render_diagnose(page, diag, units)
         render_figures(page, diag, diagnose_dir, lambda png, n: _link_extra(out_dir, png, n), units)
     if ride_doc is not None:
         render_ride(page, ride_doc, units)
-
     # After the ride table: the ride page's figures follow the numbers they illustrate.
     for n, (heading, figures) in enumerate(extra_sections):
         page.section(heading)
         for m, (caption, png) in enumerate(figures):
             page.figure(_link_extra(out_dir, png, 100 * n + m), caption)
-
-    if drawable:
-        say("loops per click")
-        _loops_section(page, drawable, out_dir, gas_force_n, live)
-
-    page.close_details()
-    page.raw(live.tail())
-    index = out_dir / "index.html"
-    write_text_atomic(index, page.render())
-    return index
 
 
 def _click_chart_section(

@@ -3,7 +3,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint warm bench clean browser
+.PHONY: demo test lint bench clean browser
 
 # Two stamps: the demo needs only the runtime (.runtime); lint and tests add the test tools
 # (.installed, the name kept so `make .venv/.installed` still builds everything).
@@ -32,17 +32,12 @@ lint: $(VENV)/.installed
 browser:
 	@python3 tests/report/browser.py
 
-# Lint beside `warm` (the numba kernels compiled into their cache once, so the workers
-# load them rather than each compiling them). Three workers on the CI machine's two
-# cores: a third of the suite waits on real-time simulated rigs, and a third worker
-# fills those waits (idle 2-core machine, the same commit: 538 s on two, 459 s on three).
-# A module stays on one worker (--dist loadscope), so its recordings fixture is made once.
-test: $(VENV)/.installed
-	@$(MAKE) --no-print-directory -j2 lint warm
+# Three workers on the CI machine's two cores: a third of the suite waits on real-time
+# simulated rigs, and a third worker fills those waits (benchmarks/results/suite-workers-
+# 2026-11-29.txt). A module stays on one worker (--dist loadscope), so its recordings
+# fixture is made once.
+test: lint
 	$(BIN)/pytest -q -n 3 --dist loadscope
-
-warm: $(VENV)/.installed
-	$(PY) tests/warm_kernels.py
 
 # The benchmarks' own extras (pysindy for bench_diagnose's baseline).
 $(VENV)/.bench: $(VENV)/.runtime

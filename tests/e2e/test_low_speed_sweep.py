@@ -30,11 +30,15 @@ def test_sweep_by_velocity_then_report(tmp_path: Path) -> None:
     assert res.returncode == 0, res.stderr
     tests = open_recording(rec).load_all()
     # No gas measurement: none stored, and the report estimates it from the reversals, which
-    # on the simulated rig agrees with the damper's force at rest at mid-stroke.
+    # on the simulated rig agrees with the damper's force at rest at mid-stroke (230.7 N).
+    # How closely: 32 sweeps on an idle machine read 230.87 N mean, SD 1.06 N, 228.22-233.14;
+    # 2 of 7 runs of this test on 2026-11-29 read 234.13 and 234.54 (where the samples fall
+    # about each reversal), which a 3 N bound failed. 6 N is about 5.7 SD; an estimate pulled
+    # by a shut bleed read 132 N.
     assert all(t.meta.gas_force_n is None for t in tests)
     for t in with_gas_force(tests):
         assert t.meta.gas_force_source == "estimated"
-        assert t.meta.gas_force_n == pytest.approx(spec_static_force_n(load_spec()), abs=3.0)
+        assert t.meta.gas_force_n == pytest.approx(spec_static_force_n(load_spec()), abs=6.0)
     peaks = sorted(summarise(t).peak_compression_velocity_m_s for t in tests)
     # A peak is the largest of many noisy velocity samples, so it reads a little high; at
     # 25 mm/s that was up to 3 % in runs on a loaded machine. The fastest target is planned

@@ -210,11 +210,7 @@ def fit_for(job: Job) -> str | None:
 
 def missing_fits(jobs: list[Job]) -> list[str]:
     """The recordings a --fit folder has no NAME.fit.json of, by name."""
-    return [
-        j.name
-        for j in jobs
-        if j.options.get("fit") and Path(j.options["fit"]).is_dir() and fit_for(j) is None
-    ]
+    return [j.name for j in jobs if j.options.get("fit") and fit_for(j) is None]
 
 
 def _damper_id(recording: str) -> str:

@@ -521,6 +521,32 @@ class PlantTruth:
     lowest_rebound_pa: float
 
 
+def _to_mid_stroke(
+    last_x: float, sample_rate_hz: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """x, ẋ, ẍ of a 1 s half-cosine move from `last_x` to mid-stroke."""
+    dt = 1.0 / sample_rate_hz
+    s = np.arange(1, round(sample_rate_hz) + 1) * dt
+    move = last_x * (1 + np.cos(math.pi * s)) / 2
+    move_v = -last_x * math.pi / 2 * np.sin(math.pi * s)
+    move_a = -last_x * math.pi**2 / 2 * np.cos(math.pi * s)
+    return move, move_v, move_a
+
+
+def _ramped_sine(
+    k: NDArray[np.floating[Any]], dt: float, f: float, amplitude_m: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """x, ẋ, ẍ of a sine at times `k` (step `dt`), its amplitude ramped in."""
+    w = 2 * math.pi * f
+    # The ram starts from rest: a half-cosine ramp of the amplitude over the first
+    # warm-up cycle, so nothing jerks.
+    ramp = np.where(k < 1 / f, 0.5 - 0.5 * np.cos(math.pi * k * f), 1.0)
+    x = amplitude_m * ramp * np.sin(w * k)
+    v = np.asarray(np.gradient(x, dt), dtype=np.float64)
+    a = np.asarray(np.gradient(v, dt), dtype=np.float64)
+    return x, v, a
+
+
 def reference_sweep(
     spec: DamperSpec,
     params: PlantParams,
@@ -567,23 +593,13 @@ def reference_sweep(
     for c in clicks:
         for f in frequencies_hz:
             if last_x != 0.0:  # back to mid-stroke (the last test ended at the bottom)
-                s = np.arange(1, round(sample_rate_hz) + 1) * dt  # 1 s half-cosine move
-                move = last_x * (1 + np.cos(math.pi * s)) / 2
-                move_v = -last_x * math.pi / 2 * np.sin(math.pi * s)
-                move_a = -last_x * math.pi**2 / 2 * np.cos(math.pi * s)
-                advance(move, move_v, move_a, c)
+                advance(*_to_mid_stroke(last_x, sample_rate_hz), c)
             rest = np.zeros(round(rest_s * sample_rate_hz))
             advance(rest, rest, rest, c)
-            w = 2 * math.pi * f
             n_warm = round((warmup_cycles + 0.75) / f * sample_rate_hz)
             n = round(cycles / f * sample_rate_hz)
             k = np.arange(n_warm + n + 1) * dt
-            # The ram starts from rest: a half-cosine ramp of the amplitude over the first
-            # warm-up cycle, so nothing jerks.
-            ramp = np.where(k < 1 / f, 0.5 - 0.5 * np.cos(math.pi * k * f), 1.0)
-            x = amplitude_m * ramp * np.sin(w * k)
-            v = np.asarray(np.gradient(x, dt), dtype=np.float64)
-            a = np.asarray(np.gradient(v, dt), dtype=np.float64)
+            x, v, a = _ramped_sine(k, dt, f, amplitude_m)
             vapour = 0.0 if not tests else vapour
             f_s, x_s, temp = advance(x, v, a, c)
             last_x = float(x[-1])

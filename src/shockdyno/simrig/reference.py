@@ -521,6 +521,30 @@ class PlantTruth:
     lowest_rebound_pa: float
 
 
+class _Carried:
+    """One damper carried through a sweep's moves: its state and clock, and the truth seen
+    so far (the most vapour, the lowest rebound pressure)."""
+
+    def __init__(self, plant: ReferencePlant, ambient_c: float) -> None:
+        self.plant = plant
+        self.ambient_c = ambient_c
+        self.state = plant.initial(0.0, ambient_c)
+        self.dt = 1.0 / plant.fs
+        self.clock = 0.0
+        self.vapour, self.lowest = 0.0, math.inf
+
+    def advance(
+        self, x: FloatArray, v: FloatArray, a: FloatArray, c: int
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The move's sensed force, position and body temperature."""
+        t = np.asarray(self.clock + self.dt * (1 + np.arange(x.size)), dtype=np.float64)
+        out, self.state = self.plant.run_detail(t, x, v, a, (c, 0), self.state, self.ambient_c)
+        self.vapour = max(self.vapour, float(np.max(out[6])))
+        self.lowest = min(self.lowest, float(np.min(out[5])))
+        self.clock = float(t[-1])
+        return out[1], out[2], out[3]
+
+
 def _to_mid_stroke(
     last_x: float, sample_rate_hz: float
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -571,43 +595,29 @@ def reference_sweep(
     from shockdyno.record.types import TestData, TestMeta
 
     rng = np.random.default_rng(seed)
-    plant = ReferencePlant(spec, params, sample_rate_hz)
-    state = plant.initial(0.0, ambient_c)
+    run = _Carried(ReferencePlant(spec, params, sample_rate_hz), ambient_c)
     dt = 1.0 / sample_rate_hz
-    clock = 0.0
     tests: list[Any] = []
-    vapour, lowest, temps = 0.0, math.inf, []
+    temps: list[float] = []
     last_x = 0.0  # the rod is moved, never set: a jump would move no oil
-
-    def advance(
-        x: FloatArray, v: FloatArray, a: FloatArray, c: int
-    ) -> tuple[FloatArray, FloatArray, FloatArray]:
-        nonlocal state, clock, vapour, lowest
-        t = np.asarray(clock + dt * (1 + np.arange(x.size)), dtype=np.float64)
-        out, state = plant.run_detail(t, x, v, a, (c, 0), state, ambient_c)
-        vapour = max(vapour, float(np.max(out[6])))
-        lowest = min(lowest, float(np.min(out[5])))
-        clock = float(t[-1])
-        return out[1], out[2], out[3]
-
     for c in clicks:
         for f in frequencies_hz:
             if last_x != 0.0:  # back to mid-stroke (the last test ended at the bottom)
-                advance(*_to_mid_stroke(last_x, sample_rate_hz), c)
+                run.advance(*_to_mid_stroke(last_x, sample_rate_hz), c)
             rest = np.zeros(round(rest_s * sample_rate_hz))
-            advance(rest, rest, rest, c)
+            run.advance(rest, rest, rest, c)
             n_warm = round((warmup_cycles + 0.75) / f * sample_rate_hz)
             n = round(cycles / f * sample_rate_hz)
             k = np.arange(n_warm + n + 1) * dt
             x, v, a = _ramped_sine(k, dt, f, amplitude_m)
-            vapour = 0.0 if not tests else vapour
-            f_s, x_s, temp = advance(x, v, a, c)
+            run.vapour = 0.0 if not tests else run.vapour
+            f_s, x_s, temp = run.advance(x, v, a, c)
             last_x = float(x[-1])
             # Kept from the bottom of the stroke: a rig's recording starts anywhere but
             # exactly on a cycle's own up-crossing.
             first = n_warm
             keep = slice(first, first + n + 1)
-            temps.append(float(state.s[kern.TO]))
+            temps.append(float(run.state.s[kern.TO]))
             meta = TestMeta(
                 index=len(tests),
                 clicks=int(c),
@@ -626,5 +636,5 @@ def reference_sweep(
                     temperature=temp[keep] + rng.normal(0, temperature_noise_c, n + 1),
                 )
             )
-    truth = PlantTruth(vapour, (temps[0], temps[-1]), lowest)
+    truth = PlantTruth(run.vapour, (temps[0], temps[-1]), run.lowest)
     return tests, truth

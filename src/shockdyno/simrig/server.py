@@ -167,9 +167,13 @@ class SimRig:
     async def _main(self) -> None:
         self._stop = asyncio.Event()
         server = _modbus_server(
-            self.registers, self.rig.actuator.device_id, self._action, self._modbus,
-            self._ports[0], self._single_master,
-        )  # fmt: skip
+            self.registers,
+            self.rig.actuator.device_id,
+            self._action,
+            self._modbus,
+            self._ports[0],
+            self._single_master,
+        )
         self.modbus_server = server
         try:
             await server.serve_forever(background=True)

@@ -75,6 +75,12 @@ def _band(text: str) -> tuple[float, float]:
 
 
 def register(sub: Any) -> None:
+    _register_demo(sub)
+    _register_sweep(sub)
+    _register_replay(sub)
+
+
+def _register_demo(sub: Any) -> None:
     d = sub.add_parser(
         "demo",
         help="sweep the simulated rig, fit the model, write the recording and the report",
@@ -90,6 +96,8 @@ def register(sub: Any) -> None:
     d.add_argument("--table", action="store_true", help="only print the model's click table")
     d.set_defaults(func=cmd_demo)
 
+
+def _register_sweep(sub: Any) -> None:
     s = sub.add_parser(
         "sweep",
         help="run a click sweep on a rig and record it to MCAP",
@@ -98,6 +106,23 @@ def register(sub: Any) -> None:
         "recorded; --resume continues from the first untested point.",
     )
     add_rig(s)
+    _add_plan(s)
+    s.add_argument(
+        "-o", "--output", type=Path, required=True, help="recording, e.g. recordings/X.mcap"
+    )
+    s.add_argument("--resume", action="store_true", help="continue an interrupted sweep")
+    add_force(s, "an existing recording")
+    s.add_argument("--damper-id", default="", help="stored in the recording's metadata")
+    s.add_argument("--operator", default="", help="stored in the recording's metadata")
+    s.add_argument("--notes", default="", help="stored in the recording's metadata")
+    _add_start_sim(s)
+    units_mod.add_argument(s, "the end-of-test lines")
+    add_live_arguments(s, "the sweep")
+    s.set_defaults(func=cmd_sweep)
+
+
+def _add_plan(s: argparse.ArgumentParser) -> None:
+    """What the sweep runs: the clicks, the motion, the gas, the cycles, the temperature."""
     s.add_argument(
         "--clicks",
         help="click settings, e.g. 0-21:3 or 0,5,10; default every click of the spec (0-21)",
@@ -143,14 +168,9 @@ def register(sub: Any) -> None:
     s.add_argument("--warmup-cycles", type=int, default=2, help="cycles before the measured ones")
     s.add_argument("--cycles", type=int, default=5, help="measured cycles per test")
     s.add_argument("--temp-band-c", type=_band, help="wait until LOW <= T <= HIGH before each test")
-    s.add_argument(
-        "-o", "--output", type=Path, required=True, help="recording, e.g. recordings/X.mcap"
-    )
-    s.add_argument("--resume", action="store_true", help="continue an interrupted sweep")
-    add_force(s, "an existing recording")
-    s.add_argument("--damper-id", default="", help="stored in the recording's metadata")
-    s.add_argument("--operator", default="", help="stored in the recording's metadata")
-    s.add_argument("--notes", default="", help="stored in the recording's metadata")
+
+
+def _add_start_sim(s: argparse.ArgumentParser) -> None:
     s.add_argument(
         "--start-sim",
         action="store_true",
@@ -159,10 +179,9 @@ def register(sub: Any) -> None:
     s.add_argument("--speed", type=float, default=1.0, help=f"with --start-sim: {SPEED_HELP}")
     s.add_argument("--scenario", type=Path, help="with --start-sim: extra physics, sim/scenarios/")
     add_seed(s, "the simulated rig's noise, with --start-sim")
-    units_mod.add_argument(s, "the end-of-test lines")
-    add_live_arguments(s, "the sweep")
-    s.set_defaults(func=cmd_sweep)
 
+
+def _register_replay(sub: Any) -> None:
     r = sub.add_parser("replay", help="play a recording through the live view")
     r.add_argument("recording", type=Path)
     r.add_argument("--speed", type=float, default=1.0, help="x real time: recorded seconds per "

@@ -86,7 +86,18 @@ def render(
 ) -> Path:
     out_dir.mkdir(parents=True, exist_ok=True)
     page = Page(title)
-    f_unit, v_unit = units.force_label, units.velocity_label
+    _inputs_section(page, inputs, units)
+    _difference_section(page, inputs, rows, units)
+    _peaks_section(page, inputs, out_dir, units)
+    _loops_section(page, inputs, rows, out_dir, units)
+    _charts_section(page, inputs, out_dir, units)
+    _bleed_section(page, inputs)
+    index = out_dir / "index.html"
+    write_text_atomic(index, page.render())
+    return index
+
+
+def _inputs_section(page: Page, inputs: Sequence[Input], units: Units) -> None:
     page.section("Inputs")
     page.table(
         ["label", "file", "what", "click settings"],
@@ -104,8 +115,9 @@ def render(
             page.paragraph(f"{i.label}: {i.loss}; compared on what was read.", warn=True)
         for text in gas.warnings(i.gas, units):
             page.paragraph(f"{i.label}: {text}.", warn=True)
-    _difference_section(page, inputs, rows, units)
 
+
+def _peaks_section(page: Page, inputs: Sequence[Input], out_dir: Path, units: Units) -> None:
     page.section(
         "Peak force vs peak velocity",
         "One colour per input; a marker per click setting; fits as their model's "
@@ -116,6 +128,11 @@ def render(
         "Peak force against peak velocity of every test, one colour per input.",
     )
 
+
+def _loops_section(
+    page: Page, inputs: Sequence[Input], rows: Sequence[Row], out_dir: Path, units: Units
+) -> None:
+    """The F-x and F-v loops of the tests two or more recordings share."""
     matched, unmatched = _matched_loops(inputs)
     page.section(
         "Loops: same click and frequency",
@@ -148,6 +165,9 @@ def render(
     if any(i.kind == "fit" for i in inputs):
         page.paragraph("Fits have no loops: they are compared by their click charts.")
 
+
+def _charts_section(page: Page, inputs: Sequence[Input], out_dir: Path, units: Units) -> None:
+    f_unit, v_unit = units.force_label, units.velocity_label
     page.section(
         "Click charts side by side",
         f"Force ({f_unit}) at the standard velocities ({v_unit}); measured values ± 2 SD of "
@@ -167,14 +187,12 @@ def render(
         png = force_vs_clicks(inp.chart, out_dir / f"chart_{n + 1}.png", band, units, ylims)
         page.figure(png.name, f"{inp.label}: force against clicks")
 
+
+def _bleed_section(page: Page, inputs: Sequence[Input]) -> None:
     header, bleed, _ = bleed_rows(list(inputs))
     if bleed:
         page.section("Fitted bleed areas", "Per click setting, from each fit given (mm²).")
         page.table(header, bleed, numeric=[True] * len(header))
-
-    index = out_dir / "index.html"
-    write_text_atomic(index, page.render())
-    return index
 
 
 def _shared_limits(inputs: Sequence[Input]) -> tuple[tuple[float, float], tuple[float, float]]:

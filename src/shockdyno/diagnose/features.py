@@ -270,84 +270,131 @@ def _travelled(values: FloatArray, data: Data, shift_m: float) -> FloatArray:
     return np.asarray(out[data.prob.obj_in_full])
 
 
+Columns = list[tuple[Feature, FloatArray]]  # features with their values, in the table's order
+
+
 def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
     """Every feature on `data`'s objective samples, with `fitted`'s model (its areas for
     these tests' clicks) and the whole recording's `stroke`."""
     inputs = data.prob.inputs
-    x, v, a = inputs.x, inputs.v, inputs.a
+    x, v = inputs.x, inputs.v
     starts = [int(s) for s in inputs.starts]
     t = np.concatenate([p.data.t[p.obj] for p in data.prepared]) - stroke.origin_s
     sign = np.tanh(v / (SIGN_SPEED_SHARE * stroke.peak_speed_m_s))
     damping_full, damping = _damping_full(data, fitted)
-    feats: list[tuple[Feature, FloatArray]] = []
-
-    def add(f: Feature, col: FloatArray) -> None:
-        feats.append((f, np.asarray(col, dtype=float)))
-
-    # time: a zero drift, or the damper changing over the session; heat's when the
-    # temperature channel rose or fell with the session (no telling them apart then)
-    warmed = _warmed_with_time(t, inputs.temperature_c)
-    heat = ("thermal",) if warmed else ()
-    add(Feature("t", "the elapsed time", "t", "s", "time", heat), t)
-    for tau in DRIFT_TAUS_S:
-        add(
-            Feature(
-                f"drift_{tau:.0f}s",
-                f"the elapsed time, settling over {tau / 60:.0f} min",
-                f"(1 − e^(−t/{tau / 60:.0f} min))",
-                "1",
-                "time",
-                heat,
-            ),
-            1.0 - np.exp(-t / tau),
-        )
-    # temperature: the thermal term's
-    temp = inputs.temperature_c
-    if temp is not None and np.isfinite(stroke.temperature_c) and np.any(np.isfinite(temp)):
-        dt_c = np.where(np.isfinite(temp), temp - stroke.temperature_c, 0.0)
-        if float(np.std(dt_c)) > 0.05:
-            add(Feature("T", "the temperature", "(T − T̄)", "K", "temperature", ("thermal",)), dt_c)
-            add(
-                Feature(
-                    "T*F_d",
-                    "the damping force as the temperature changes",
-                    "(T − T̄)·F_d",
-                    "N·K",
-                    "temperature",
-                    ("thermal",),
-                ),
-                dt_c * damping,
-            )
-    # motion: the library's and the calibrations' own forms
-    add(Feature("x", "the displacement", "x", "m", "motion", ("gas_spring", "position_force")), x)
-    add(Feature("v", "the velocity", "ẋ", "m/s", "motion", ("friction", "bleed_land")), v)
-    add(
-        Feature("v|v|", "the velocity squared", "|ẋ|ẋ", "m²/s²", "motion", ("bleed areas",)),
-        v * np.abs(v),
-    )
-    add(Feature("sgn_v", "the direction of motion", "sgn ẋ", "1", "motion", ("friction",)), sign)
-    add(Feature("a", "the acceleration", "ẍ", "m/s²", "motion", ("fixture_mass",)), a)
-    add(
-        Feature("F_d", "the damping force", "F_d", "N", "motion", ("bleed areas", "valves")),
-        damping,
-    )
-    # position: bands and hinges over the stroke
     opened = {a: _damping_full(data, fitted, a)[1] - damping for a in EXTRA_AREAS_M2}
-    for area, change in opened.items():  # over the whole stroke: the areas', or heat's
-        add(
-            Feature(
-                f"A+{1e6 * area:g}mm2",
-                "{0} more bleed over the whole stroke",
-                "ΔF_d(A + {0})",
-                "N",
-                "motion",
-                ("bleed areas", "thermal"),
-                (("area", area),),
-            ),
-            change,
+    feats = [
+        *_time_features(t, inputs.temperature_c),
+        *_temperature_features(inputs.temperature_c, stroke, damping),
+        *_motion_features(x, v, inputs.a, sign, damping, opened),
+        *_band_features(x, sign, damping, opened, stroke),
+        *_hinge_features(x, sign, stroke),
+        *_hysteresis_features(x, v, sign, damping, starts),
+        *_shift_features(damping_full, damping, data),
+    ]
+    values = np.column_stack([np.asarray(c, dtype=float) for _, c in feats])
+    return FeatureTable(tuple(f for f, _ in feats), values)
+
+
+def _time_features(t: FloatArray, temp: FloatArray | None) -> Columns:
+    """A zero drift, or the damper changing over the session; heat's when the
+    temperature channel rose or fell with the session (no telling them apart then)."""
+    heat = ("thermal",) if _warmed_with_time(t, temp) else ()
+    feats: Columns = [(Feature("t", "the elapsed time", "t", "s", "time", heat), t)]
+    for tau in DRIFT_TAUS_S:
+        feats.append(
+            (
+                Feature(
+                    f"drift_{tau:.0f}s",
+                    f"the elapsed time, settling over {tau / 60:.0f} min",
+                    f"(1 − e^(−t/{tau / 60:.0f} min))",
+                    "1",
+                    "time",
+                    heat,
+                ),
+                1.0 - np.exp(-t / tau),
+            )
         )
+    return feats
+
+
+def _temperature_features(temp: FloatArray | None, stroke: Stroke, damping: FloatArray) -> Columns:
+    """The thermal term's: none unless the channel moved about the recording's mean."""
+    if temp is None or not np.isfinite(stroke.temperature_c) or not np.any(np.isfinite(temp)):
+        return []
+    dt_c = np.where(np.isfinite(temp), temp - stroke.temperature_c, 0.0)
+    if float(np.std(dt_c)) <= 0.05:
+        return []
+    return [
+        (Feature("T", "the temperature", "(T − T̄)", "K", "temperature", ("thermal",)), dt_c),
+        (
+            Feature(
+                "T*F_d",
+                "the damping force as the temperature changes",
+                "(T − T̄)·F_d",
+                "N·K",
+                "temperature",
+                ("thermal",),
+            ),
+            dt_c * damping,
+        ),
+    ]
+
+
+def _motion_features(
+    x: FloatArray,
+    v: FloatArray,
+    a: FloatArray,
+    sign: FloatArray,
+    damping: FloatArray,
+    opened: dict[float, FloatArray],
+) -> Columns:
+    """The library's and the calibrations' own forms; a bleed opened over the whole
+    stroke is the areas' (or heat's)."""
+    feats: Columns = [
+        (Feature("x", "the displacement", "x", "m", "motion", ("gas_spring", "position_force")), x),
+        (Feature("v", "the velocity", "ẋ", "m/s", "motion", ("friction", "bleed_land")), v),
+        (
+            Feature("v|v|", "the velocity squared", "|ẋ|ẋ", "m²/s²", "motion", ("bleed areas",)),
+            v * np.abs(v),
+        ),
+        (Feature("sgn_v", "the direction of motion", "sgn ẋ", "1", "motion", ("friction",)), sign),
+        (Feature("a", "the acceleration", "ẍ", "m/s²", "motion", ("fixture_mass",)), a),
+        (
+            Feature("F_d", "the damping force", "F_d", "N", "motion", ("bleed areas", "valves")),
+            damping,
+        ),
+    ]
+    for area, change in opened.items():
+        feats.append(
+            (
+                Feature(
+                    f"A+{1e6 * area:g}mm2",
+                    "{0} more bleed over the whole stroke",
+                    "ΔF_d(A + {0})",
+                    "N",
+                    "motion",
+                    ("bleed areas", "thermal"),
+                    (("area", area),),
+                ),
+                change,
+            )
+        )
+    return feats
+
+
+def _band_features(
+    x: FloatArray,
+    sign: FloatArray,
+    damping: FloatArray,
+    opened: dict[float, FloatArray],
+    stroke: Stroke,
+) -> Columns:
+    """The damping force, each bleed opened and the direction of motion, each over a band
+    of the stroke between two knots (every band but the whole stroke)."""
     knots = stroke.knots
     edge = EDGE_SHARE * (stroke.hi_m - stroke.lo_m)
+    feats: Columns = []
     for i in range(N_KNOTS - 1):
         for j in range(i + 1, N_KNOTS):
             if i == 0 and j == N_KNOTS - 1:
@@ -356,140 +403,177 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
             hi = knots[j] if j < N_KNOTS - 1 else np.inf
             w = _band(x, lo, hi, edge)
             where, sym, at = _where(lo, hi)
-
-            add(
-                Feature(f"band{i}{j}*F_d", f"the damping force {where}", f"{sym}·F_d", "N",
-                        "position × damping", (), at, "F_d"),
-                w * damping,
+            feats.append(
+                (Feature(f"band{i}{j}*F_d", f"the damping force {where}", f"{sym}·F_d", "N",
+                         "position × damping", (), at, "F_d"),
+                 w * damping)
             )  # fmt: skip
             for area, change in opened.items():
                 more = len(at)  # the area's place among the quantities
-                add(
-                    Feature(
-                        f"band{i}{j}*A+{1e6 * area:g}mm2",
-                        f"{{{more}}} more bleed {where}",
-                        f"{sym}·ΔF_d(A + {{{more}}})",
-                        "N",
-                        "position × bleed",
-                        (),
-                        (*at, ("area", area)),
-                        f"A+{1e6 * area:g}mm2",
-                    ),
-                    w * change,
+                feats.append(
+                    (
+                        Feature(
+                            f"band{i}{j}*A+{1e6 * area:g}mm2",
+                            f"{{{more}}} more bleed {where}",
+                            f"{sym}·ΔF_d(A + {{{more}}})",
+                            "N",
+                            "position × bleed",
+                            (),
+                            (*at, ("area", area)),
+                            f"A+{1e6 * area:g}mm2",
+                        ),
+                        w * change,
+                    )
                 )
-            add(
-                Feature(f"band{i}{j}*sgn_v", f"the direction of motion {where}", f"{sym}·sgn ẋ",
-                        "1", "position × friction", (), at, "sgn_v"),
-                w * sign,
+            feats.append(
+                (Feature(f"band{i}{j}*sgn_v", f"the direction of motion {where}", f"{sym}·sgn ẋ",
+                         "1", "position × friction", (), at, "sgn_v"),
+                 w * sign)
             )  # fmt: skip
-    for k in knots[1:-1]:
+    return feats
+
+
+def _hinge_features(x: FloatArray, sign: FloatArray, stroke: Stroke) -> Columns:
+    """Hinges at each inner knot: friction and a force of position growing below or
+    above it."""
+    feats: Columns = []
+    for k in stroke.knots[1:-1]:
         below, above = np.maximum(k - x, 0.0), np.maximum(x - k, 0.0)
         at = (("at", float(k)),)
         for side, col, sym in (("below", below, "({0} − x)₊"), ("above", above, "(x − {0})₊")):
-            add(
-                Feature(
-                    f"{side}{_mm(k)}*sgn_v",
-                    f"the direction of motion, growing {side} x = {{0}}",
-                    f"{sym}·sgn ẋ",
-                    "m",
-                    "position × friction",
-                    (),
-                    at,
-                    "sgn_v",
-                ),
-                col * sign,
+            feats.append(
+                (
+                    Feature(
+                        f"{side}{_mm(k)}*sgn_v",
+                        f"the direction of motion, growing {side} x = {{0}}",
+                        f"{sym}·sgn ẋ",
+                        "m",
+                        "position × friction",
+                        (),
+                        at,
+                        "sgn_v",
+                    ),
+                    col * sign,
+                )
             )
-            add(
-                Feature(
-                    f"{side}{_mm(k)}",
-                    f"the displacement {side} x = {{0}}",
-                    sym,
-                    "m",
-                    "position",
-                    ("contact", "position_force"),
-                    at,
-                ),
-                col,
+            feats.append(
+                (
+                    Feature(
+                        f"{side}{_mm(k)}",
+                        f"the displacement {side} x = {{0}}",
+                        sym,
+                        "m",
+                        "position",
+                        ("contact", "position_force"),
+                        at,
+                    ),
+                    col,
+                )
             )
-    # hysteresis of x: a seal's presliding turn
+    return feats
+
+
+def _hysteresis_features(
+    x: FloatArray, v: FloatArray, sign: FloatArray, damping: FloatArray, starts: list[int]
+) -> Columns:
+    """Hysteresis of x (a seal's presliding turn), and of the damping force: a play of a
+    share of each test's peak."""
+    feats: Columns = []
     for b in PLAY_HALF_WIDTHS_M:
-        add(
-            Feature(
-                f"play{1e3 * b:g}mm",
-                "x through a play of ±{0}",
-                "(x − P_b[x])/b, b = {0}",
-                "1",
-                "hysteresis",
-                ("friction", "seal_turn"),
-                (("len", b),),
-            ),
-            (x - play(x, b, starts)) / b,
+        feats.append(
+            (
+                Feature(
+                    f"play{1e3 * b:g}mm",
+                    "x through a play of ±{0}",
+                    "(x − P_b[x])/b, b = {0}",
+                    "1",
+                    "hysteresis",
+                    ("friction", "seal_turn"),
+                    (("len", b),),
+                ),
+                (x - play(x, b, starts)) / b,
+            )
         )
     travel = travel_since_reversal(x, v, starts)
     for lam in TURN_TRAVELS_M:
-        add(
-            Feature(
-                f"turn{1e3 * lam:g}mm",
-                "the direction of motion, fading over {0} after a reversal",
-                "sgn ẋ·e^(−s/{0})",
-                "1",
-                "hysteresis",
-                ("friction", "seal_turn"),
-                (("len", lam),),
-            ),
-            sign * np.exp(-travel / lam),
+        feats.append(
+            (
+                Feature(
+                    f"turn{1e3 * lam:g}mm",
+                    "the direction of motion, fading over {0} after a reversal",
+                    "sgn ẋ·e^(−s/{0})",
+                    "1",
+                    "hysteresis",
+                    ("friction", "seal_turn"),
+                    (("len", lam),),
+                ),
+                sign * np.exp(-travel / lam),
+            )
         )
-    # hysteresis of the force: a play on the damping force, a share of each test's peak
     for share in FORCE_PLAY_SHARES:
-        add(
-            Feature(
-                f"Fplay{100 * share:g}%",
-                f"the damping force through a play of ±{100 * share:g} % of its peak",
-                f"(P_{100 * share:g}%[F_d] − F_d)",
-                "N",
-                "force hysteresis",
-            ),
-            _force_play(damping, share, starts),
+        feats.append(
+            (
+                Feature(
+                    f"Fplay{100 * share:g}%",
+                    f"the damping force through a play of ±{100 * share:g} % of its peak",
+                    f"(P_{100 * share:g}%[F_d] − F_d)",
+                    "N",
+                    "force hysteresis",
+                ),
+                _force_play(damping, share, starts),
+            )
         )
-    # the damping force in travel: λ of travel later (the measured motion trails the rod's
-    # by a play: its position channel's linkage) or earlier (a play the rod takes up)
+    return feats
+
+
+def _shift_features(damping_full: FloatArray, damping: FloatArray, data: Data) -> Columns:
+    """The damping force shifted in travel and in time."""
+    feats: Columns = []
+    # λ of travel later (the measured motion trails the rod's by a play: its position
+    # channel's linkage) or earlier (a play the rod takes up)
     for lam in TRAVEL_SHIFTS_M:
         lead = lam > 0
-        add(
-            Feature(
-                f"F_d{1e3 * lam:+g}mm",
-                (
-                    "the damping force {0} of travel later (the force leads the measured motion)"
-                    if lead
-                    else "the damping force {0} of travel earlier"
-                ),
-                "[F_d(s + {0}) − F_d]" if lead else "[F_d(s − {0}) − F_d]",
-                "N",
-                "force in travel",
-                () if lead else ("friction", "seal_turn"),
-                (("len", abs(lam)),),
-            ),
-            _travelled(damping_full, data, lam) - damping,
+        label = (
+            "the damping force {0} of travel later (the force leads the measured motion)"
+            if lead
+            else "the damping force {0} of travel earlier"
         )
-    # the damping force in time: a lead no library physics has, a lag two terms model
+        feats.append(
+            (
+                Feature(
+                    f"F_d{1e3 * lam:+g}mm",
+                    label,
+                    "[F_d(s + {0}) − F_d]" if lead else "[F_d(s − {0}) − F_d]",
+                    "N",
+                    "force in travel",
+                    () if lead else ("friction", "seal_turn"),
+                    (("len", abs(lam)),),
+                ),
+                _travelled(damping_full, data, lam) - damping,
+            )
+        )
+    # in time: a lead no library physics has, a lag two terms model
     for tau in SHIFTS_S:
         lead = tau > 0
-        add(
-            Feature(
-                f"F_d{1e3 * tau:+g}ms",
-                (
-                    f"the damping force {1e3 * tau:g} ms later (the force leads the motion)"
-                    if lead
-                    else f"the damping force {-1e3 * tau:g} ms earlier (the force lags the motion)"
-                ),
-                f"[F_d(t{1e3 * tau:+g} ms) − F_d]",
-                "N",
-                "force in time",
-                () if lead else ("sensor_lag", "compressibility"),
-            ),
-            _shifted(damping_full, data, tau) - damping,
+        label = (
+            f"the damping force {1e3 * tau:g} ms later (the force leads the motion)"
+            if lead
+            else f"the damping force {-1e3 * tau:g} ms earlier (the force lags the motion)"
         )
-    return FeatureTable(tuple(f for f, _ in feats), np.column_stack([c for _, c in feats]))
+        feats.append(
+            (
+                Feature(
+                    f"F_d{1e3 * tau:+g}ms",
+                    label,
+                    f"[F_d(t{1e3 * tau:+g} ms) − F_d]",
+                    "N",
+                    "force in time",
+                    () if lead else ("sensor_lag", "compressibility"),
+                ),
+                _shifted(damping_full, data, tau) - damping,
+            )
+        )
+    return feats
 
 
 def _where(lo: float, hi: float) -> tuple[str, str, tuple[tuple[str, float], ...]]:

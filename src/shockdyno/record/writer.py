@@ -102,6 +102,83 @@ def _ns(t_s: float) -> int:
     return round(t_s * 1e9)
 
 
+def _create(base: Path, overwrite: bool, resume: bool) -> tuple[Path, int, str, IO[bytes]]:
+    """The file a writer writes (`base`, or with `resume` the set's next part), created
+    (over `base` and its parts only with `overwrite`) and locked; its part number and the
+    set's id (a new one unless resumed)."""
+    part = 1
+    target = base
+    if resume:
+        target, part = next_part_path(base)
+    elif base.exists() and not overwrite:
+        raise RecordingError(f"{base} exists (overwrite it explicitly, or resume into it)")
+    set_id = part_metadata(base).get("set_id", "") if resume else uuid.uuid4().hex
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        if overwrite:
+            for stale in set_members(base)[1:]:  # its own parts, not another recording
+                stale.unlink()
+        file: IO[bytes] = open(target, "wb" if overwrite else "xb")  # noqa: SIM115
+    except FileExistsError as exc:
+        raise RecordingError(f"{target} exists") from exc
+    except OSError as exc:
+        raise RecordingError(f"cannot create {target}: {exc.strerror}") from exc
+    try:
+        lock_file(target, file.fileno(), target)
+    except RecordingError:
+        file.close()
+        raise
+    return target, part, set_id, file
+
+
+def _recording_metadata(metadata: dict[str, str], part: int, set_id: str) -> dict[str, str]:
+    meta = {str(k): str(v) for k, v in metadata.items()}
+    meta.setdefault("software", f"shockdyno {__version__}")
+    meta["format_version"] = s.FORMAT_VERSION
+    meta["part"] = str(part)
+    if set_id:  # a resumed set from before set ids has none: its parts have none either
+        meta["set_id"] = set_id
+    else:
+        meta.pop("set_id", None)
+    return meta
+
+
+def _start(
+    mcap: Writer, meta: dict[str, str], identity: dict[str, str] | None, rig_toml: str | None
+) -> tuple[int, int, int, int]:
+    """The file's header, metadata, rig attachment and channels; the channels' ids
+    (samples, test, actuator, events)."""
+    mcap.start(profile="", library=f"shockdyno {__version__}")
+    mcap.add_metadata(s.METADATA_NAME, meta)
+    if identity:
+        mcap.add_metadata(s.IDENTITY_METADATA_NAME, dict(identity))
+    if rig_toml is not None:
+        mcap.add_attachment(0, 0, s.RIG_ATTACHMENT, "application/toml", rig_toml.encode())
+    # Registered in this order, so channel ids are always those of schemas.CHANNEL_IDS
+    return (
+        _channel(
+            mcap,
+            s.TOPIC_SAMPLES,
+            s.SAMPLES_SCHEMA_NAME,
+            SchemaEncoding.ROS2,
+            s.SAMPLES_SCHEMA.encode(),
+            MessageEncoding.CDR,
+        ),
+        _json_channel(mcap, s.TOPIC_TEST, s.TEST_SCHEMA_NAME, s.TEST_SCHEMA),
+        _json_channel(mcap, s.TOPIC_ACTUATOR, s.ACTUATOR_SCHEMA_NAME, s.ACTUATOR_SCHEMA),
+        _json_channel(mcap, s.TOPIC_EVENTS, s.EVENT_SCHEMA_NAME, s.EVENT_SCHEMA),
+    )
+
+
+def _channel(mcap: Writer, topic: str, name: str, enc: str, data: bytes, msg_enc: str) -> int:
+    schema_id = mcap.register_schema(name=name, encoding=enc, data=data)
+    return mcap.register_channel(topic=topic, message_encoding=msg_enc, schema_id=schema_id)
+
+
+def _json_channel(mcap: Writer, topic: str, name: str, schema: bytes) -> int:
+    return _channel(mcap, topic, name, SchemaEncoding.JSONSchema, schema, MessageEncoding.JSON)
+
+
 class RecordingWriter:
     """Write one recording (or, with resume=True, the next part file of a recording set).
 
@@ -127,33 +204,11 @@ class RecordingWriter:
         replaces: Path | None = None,
         identity: dict[str, str] | None = None,
     ) -> None:
-        base = Path(path)
         if compression not in _COMPRESSION:
             raise RecordingError(f"unknown compression {compression!r}")
         if overwrite and resume:
             raise RecordingError("overwrite and resume exclude each other")
-        part = 1
-        target = base
-        if resume:
-            target, part = next_part_path(base)
-        elif base.exists() and not overwrite:
-            raise RecordingError(f"{base} exists (overwrite it explicitly, or resume into it)")
-        set_id = part_metadata(base).get("set_id", "") if resume else uuid.uuid4().hex
-        try:
-            target.parent.mkdir(parents=True, exist_ok=True)
-            if overwrite:
-                for stale in set_members(base)[1:]:  # its own parts, not another recording
-                    stale.unlink()
-            self._file: IO[bytes] = open(target, "wb" if overwrite else "xb")  # noqa: SIM115
-        except FileExistsError as exc:
-            raise RecordingError(f"{target} exists") from exc
-        except OSError as exc:
-            raise RecordingError(f"cannot create {target}: {exc.strerror}") from exc
-        try:
-            lock_file(target, self._file.fileno(), target)
-        except RecordingError:
-            self._file.close()
-            raise
+        target, part, set_id, self._file = _create(Path(path), overwrite, resume)
         self.path = target
         self.part = part
         self.replaces = replaces
@@ -164,35 +219,9 @@ class RecordingWriter:
             self._mcap = Writer(
                 self._file, chunk_size=chunk_size, compression=_COMPRESSION[compression]
             )
-            self._mcap.start(profile="", library=f"shockdyno {__version__}")
-            meta = {str(k): str(v) for k, v in metadata.items()}
-            meta.setdefault("software", f"shockdyno {__version__}")
-            meta["format_version"] = s.FORMAT_VERSION
-            meta["part"] = str(part)
-            if set_id:  # a resumed set from before set ids has none: its parts have none either
-                meta["set_id"] = set_id
-            else:
-                meta.pop("set_id", None)
-            self._mcap.add_metadata(s.METADATA_NAME, meta)
-            if identity:
-                self._mcap.add_metadata(s.IDENTITY_METADATA_NAME, dict(identity))
-            if rig_toml is not None:
-                self._mcap.add_attachment(
-                    0, 0, s.RIG_ATTACHMENT, "application/toml", rig_toml.encode()
-                )
-            # Registered in this order, so channel ids are always those of schemas.CHANNEL_IDS
-            self._ch_samples = self._channel(
-                s.TOPIC_SAMPLES,
-                s.SAMPLES_SCHEMA_NAME,
-                SchemaEncoding.ROS2,
-                s.SAMPLES_SCHEMA.encode(),
-                MessageEncoding.CDR,
-            )
-            self._ch_test = self._json_channel(s.TOPIC_TEST, s.TEST_SCHEMA_NAME, s.TEST_SCHEMA)
-            self._ch_act = self._json_channel(
-                s.TOPIC_ACTUATOR, s.ACTUATOR_SCHEMA_NAME, s.ACTUATOR_SCHEMA
-            )
-            self._ch_event = self._json_channel(s.TOPIC_EVENTS, s.EVENT_SCHEMA_NAME, s.EVENT_SCHEMA)
+            meta = _recording_metadata(metadata, part, set_id)
+            channels = _start(self._mcap, meta, identity, rig_toml)
+            self._ch_samples, self._ch_test, self._ch_act, self._ch_event = channels
         except OSError as exc:  # a full disk at the first write: nothing of it is kept
             self._abandon(target)
             raise RecordingError(f"cannot write {target} ({exc.strerror or exc})") from None
@@ -223,16 +252,7 @@ class RecordingWriter:
             self._file.close()
         target.unlink(missing_ok=True)
 
-    # -- channels and low-level writes --------------------------------------------------------
-
-    def _channel(self, topic: str, name: str, enc: str, data: bytes, msg_enc: str) -> int:
-        schema_id = self._mcap.register_schema(name=name, encoding=enc, data=data)
-        return self._mcap.register_channel(
-            topic=topic, message_encoding=msg_enc, schema_id=schema_id
-        )
-
-    def _json_channel(self, topic: str, name: str, schema: bytes) -> int:
-        return self._channel(topic, name, SchemaEncoding.JSONSchema, schema, MessageEncoding.JSON)
+    # -- low-level writes ---------------------------------------------------------------------
 
     def _set_origin(self, origin_ns: int, source: str) -> None:
         self._origin_ns = origin_ns

@@ -202,103 +202,130 @@ def _walther(nu40_cst: float, nu100_cst: float) -> tuple[float, float]:
     return y1 + b * t1, b
 
 
+def _chamber_constants(k: FloatArray, s: DamperSpec, p: PlantParams, p0: float) -> None:
+    """The kernel's geometry, oil (Tait liquid with its entrained air), gas and cavities."""
+    K = kern.K
+    a_p, a_rod = math.pi / 4 * s.piston_diameter_m**2, math.pi / 4 * s.rod_diameter_m**2
+    a_g = math.pi / 4 * s.gas_piston_diameter_m**2
+    k[K["A_P"]], k[K["A_A"]], k[K["A_ROD"]], k[K["A_G"]] = a_p, a_p - a_rod, a_rod, a_g
+    k[K["L_COL"]] = s.oil_column_m
+    k[K["M_ROD"]] = s.piston_rod_mass_kg
+    rho = s.oil_density_kg_m3
+    k[K["RHO"]], k[K["V0"]] = rho, 1.0 / rho
+    k[K["TAIT_B"]] = kern.TAIT_C * p.oil_bulk_modulus_pa
+    k[K["P0"]] = p0
+    k[K["KAPPA"]] = p.air_polytropic_index
+    k[K["W_AIR"]] = 0.0
+    # air per kg of oil: α of the mixture's volume at the charge
+    v_liq0 = kern.specific_volume(k, p0)
+    k[K["W_AIR"]] = p.air_fraction / (1.0 - p.air_fraction) * v_liq0
+    k[K["VG0"]] = a_g * s.gas_length_m * p.gas_volume_factor
+    k[K["GAMMA"]], k[K["TAU_G"]] = p.gas_heat_capacity_ratio, p.gas_thermal_time_s
+    k[K["COUPLING"]] = p.gas_thermal_coupling
+    k[K["P_V"]] = p.release_pressure_pa
+    n_b = p.nuclei_per_cm3 * 1e6 * (a_p - a_rod) * s.oil_column_m
+    k[K["N_B"]] = n_b
+    k[K["V_N"]] = n_b * 4 / 3 * math.pi * p.nucleus_radius_m**3
+    k[K["C_NUC"]] = (36 * math.pi * n_b) ** (1 / 3)
+    k[K["U_DES"]], k[K["TAU_RES"]] = p.gas_desorption_m_s, p.gas_resorption_time_s
+
+
+def _flow_constants(k: FloatArray, s: DamperSpec, p: PlantParams) -> None:
+    """The kernel's flow paths: passages, the piston's leak and each shim stack."""
+    K = kern.K
+    k[K["CD"]] = p.discharge_coefficient
+    k[K["NEEDLE_LAND"]], k[K["VALVE_LAND"]] = p.needle_land_m, p.valve_land_m
+    k[K["TAU_OPEN"]], k[K["TAU_CLOSE"]] = p.valve_open_time_s, p.valve_close_time_s
+    k[K["LEAK_G"]] = (
+        math.pi
+        * s.piston_diameter_m
+        * s.leak_gap_m**3
+        * (1 + 1.5 * LEAK_ECCENTRICITY**2)
+        / (12 * s.leak_land_length_m)
+    )
+    for tag, v in (("C", s.compression_valve), ("R", s.rebound_valve)):
+        k[K[f"K0_{tag}"]] = wedge_beam_stiffness(
+            v.n_shims,
+            v.thickness_m,
+            v.outer_diameter_m,
+            v.clamp_diameter_m,
+            v.youngs_modulus_pa,
+            v.poisson,
+        )
+        k[K[f"DISH_{tag}"]], k[K[f"T_{tag}"]] = v.preload_m, v.thickness_m
+        k[K[f"YMAX_{tag}"]], k[K[f"FACE_{tag}"]] = v.max_lift_m, v.face_area_m2
+        k[K[f"PERIM_{tag}"]] = math.pi * v.seat_diameter_m
+    k[K["PROG"]], k[K["STOP"]] = p.valve_progression, BACKING_STOP
+
+
+def _seal_bump_heat_constants(k: FloatArray, s: DamperSpec, p: PlantParams) -> None:
+    """The kernel's viscosity law, rod seal, bump stop and heat balance."""
+    K = kern.K
+    k[K["MU40"]] = s.oil_viscosity_cst * 1e-6 * s.oil_density_kg_m3
+    if p.viscosity_at_100c_cst > 0:
+        if p.viscosity_at_100c_cst >= s.oil_viscosity_cst:
+            raise ConfigError(
+                "plant.viscosity_at_100c_cst: must be below the spec's 40 °C viscosity "
+                f"({s.oil_viscosity_cst:g} cSt), got {p.viscosity_at_100c_cst:g}"
+            )
+        k[K["WALTHER"]] = 1.0
+        k[K["WA"]], k[K["WB"]] = _walther(s.oil_viscosity_cst, p.viscosity_at_100c_cst)
+    k[K["FC"]], k[K["FB"]], k[K["VS"]] = s.friction_n, p.breakaway_n, p.stribeck_velocity_m_s
+    k[K["SIG0"]] = max(s.friction_n, 1.0) / p.seal_presliding_m
+    k[K["ZBA"]], k[K["LIP"]] = p.seal_elastic_share, p.lip_drag_n
+    k[K["XB"]], k[K["F10"]], k[K["LB"]] = (
+        p.bump_onset_m,
+        p.bump_force_at_10mm_n,
+        p.bump_length_m,
+    )
+    k[K["KM"]] = p.bump_loss_share * p.bump_force_at_10mm_n / 0.010
+    k[K["TAU_M"]] = p.bump_relaxation_time_s
+    k[K["C_O"]], k[K["C_B"]] = p.oil_heat_capacity_j_k, p.body_heat_capacity_j_k
+    k[K["G_OB"]], k[K["H_CONV"]] = p.oil_to_body_w_k, p.body_convection_w_k125
+    k[K["HEAT"]] = p.heating_factor
+
+
+def _sensor_constants(k: FloatArray, p: PlantParams, fs_sub: float) -> int:
+    """The kernel's load cell resonance, anti-alias filter and force skew, at the
+    sub-sample rate; the length of the force channel's ring of recent sub-samples."""
+    from scipy import signal  # here: scipy.signal takes a second to import
+
+    wn = 2 * math.pi * p.load_cell_hz
+    warped = 2 * fs_sub * math.tan(wn / (2 * fs_sub))  # the resonance where it is
+    b, a = signal.bilinear(
+        [warped**2], [1.0, 2 * p.load_cell_damping * warped, warped**2], fs=fs_sub
+    )
+    _set_sos(k, "LC", signal.tf2sos(b, a)[0])
+    f_aa = min(p.anti_alias_hz, 0.45 * fs_sub)
+    aa = signal.bessel(4, f_aa, norm="mag", fs=fs_sub, output="sos")
+    _set_sos(k, "AA0", aa[0])
+    _set_sos(k, "AA1", aa[1])
+    k[kern.K["SKEW"]] = p.force_skew_s * fs_sub
+    return math.ceil(p.force_skew_s * fs_sub) + 3
+
+
+def _set_sos(k: FloatArray, tag: str, sec: FloatArray) -> None:
+    sec = np.asarray(sec, float) / float(sec[3])
+    base = kern.K[f"{tag}_B0"]
+    k[base : base + 3] = sec[:3]
+    k[base + 3 : base + 5] = sec[4:6]
+
+
 class ReferencePlant:
     """The plant: `run` gives a chunk of samples, carrying its state explicitly."""
 
     def __init__(self, spec: DamperSpec, params: PlantParams, fs_hz: float) -> None:
-        from scipy import signal  # here: scipy.signal takes a second to import
-
         self.spec = spec
-        self.p = p = params
+        self.p = params
         self.fs = fs_hz
         self.m = max(1, round(SUB_RATE_HZ / fs_hz))
-        h = 1.0 / (fs_hz * self.m)
-        s = spec
         k = np.zeros(kern.NK)
-        K = kern.K
-        k[K["H"]] = h
-        a_p, a_rod = math.pi / 4 * s.piston_diameter_m**2, math.pi / 4 * s.rod_diameter_m**2
-        a_g = math.pi / 4 * s.gas_piston_diameter_m**2
-        k[K["A_P"]], k[K["A_A"]], k[K["A_ROD"]], k[K["A_G"]] = a_p, a_p - a_rod, a_rod, a_g
-        k[K["L_COL"]] = s.oil_column_m
-        k[K["M_ROD"]] = s.piston_rod_mass_kg
-        rho = s.oil_density_kg_m3
-        k[K["RHO"]], k[K["V0"]] = rho, 1.0 / rho
-        k[K["TAIT_B"]] = kern.TAIT_C * p.oil_bulk_modulus_pa
-        self.p0 = s.gas_pressure_pa * p.gas_pressure_factor
-        k[K["P0"]] = self.p0
-        k[K["KAPPA"]] = p.air_polytropic_index
-        k[K["W_AIR"]] = 0.0
-        # air per kg of oil: α of the mixture's volume at the charge
-        v_liq0 = kern.specific_volume(k, self.p0)
-        k[K["W_AIR"]] = p.air_fraction / (1.0 - p.air_fraction) * v_liq0
-        k[K["VG0"]] = a_g * s.gas_length_m * p.gas_volume_factor
-        k[K["GAMMA"]], k[K["TAU_G"]] = p.gas_heat_capacity_ratio, p.gas_thermal_time_s
-        k[K["COUPLING"]] = p.gas_thermal_coupling
-        k[K["P_V"]] = p.release_pressure_pa
-        n_b = p.nuclei_per_cm3 * 1e6 * (a_p - a_rod) * s.oil_column_m
-        k[K["N_B"]] = n_b
-        k[K["V_N"]] = n_b * 4 / 3 * math.pi * p.nucleus_radius_m**3
-        k[K["C_NUC"]] = (36 * math.pi * n_b) ** (1 / 3)
-        k[K["U_DES"]], k[K["TAU_RES"]] = p.gas_desorption_m_s, p.gas_resorption_time_s
-        k[K["CD"]] = p.discharge_coefficient
-        k[K["NEEDLE_LAND"]], k[K["VALVE_LAND"]] = p.needle_land_m, p.valve_land_m
-        k[K["TAU_OPEN"]], k[K["TAU_CLOSE"]] = p.valve_open_time_s, p.valve_close_time_s
-        k[K["LEAK_G"]] = (
-            math.pi
-            * s.piston_diameter_m
-            * s.leak_gap_m**3
-            * (1 + 1.5 * LEAK_ECCENTRICITY**2)
-            / (12 * s.leak_land_length_m)
-        )
-        for tag, v in (("C", s.compression_valve), ("R", s.rebound_valve)):
-            k[K[f"K0_{tag}"]] = wedge_beam_stiffness(
-                v.n_shims,
-                v.thickness_m,
-                v.outer_diameter_m,
-                v.clamp_diameter_m,
-                v.youngs_modulus_pa,
-                v.poisson,
-            )
-            k[K[f"DISH_{tag}"]], k[K[f"T_{tag}"]] = v.preload_m, v.thickness_m
-            k[K[f"YMAX_{tag}"]], k[K[f"FACE_{tag}"]] = v.max_lift_m, v.face_area_m2
-            k[K[f"PERIM_{tag}"]] = math.pi * v.seat_diameter_m
-        k[K["PROG"]], k[K["STOP"]] = p.valve_progression, BACKING_STOP
-        k[K["MU40"]] = s.oil_viscosity_cst * 1e-6 * rho
-        if p.viscosity_at_100c_cst > 0:
-            if p.viscosity_at_100c_cst >= s.oil_viscosity_cst:
-                raise ConfigError(
-                    "plant.viscosity_at_100c_cst: must be below the spec's 40 °C viscosity "
-                    f"({s.oil_viscosity_cst:g} cSt), got {p.viscosity_at_100c_cst:g}"
-                )
-            k[K["WALTHER"]] = 1.0
-            k[K["WA"]], k[K["WB"]] = _walther(s.oil_viscosity_cst, p.viscosity_at_100c_cst)
-        k[K["FC"]], k[K["FB"]], k[K["VS"]] = s.friction_n, p.breakaway_n, p.stribeck_velocity_m_s
-        k[K["SIG0"]] = max(s.friction_n, 1.0) / p.seal_presliding_m
-        k[K["ZBA"]], k[K["LIP"]] = p.seal_elastic_share, p.lip_drag_n
-        k[K["XB"]], k[K["F10"]], k[K["LB"]] = (
-            p.bump_onset_m,
-            p.bump_force_at_10mm_n,
-            p.bump_length_m,
-        )
-        k[K["KM"]] = p.bump_loss_share * p.bump_force_at_10mm_n / 0.010
-        k[K["TAU_M"]] = p.bump_relaxation_time_s
-        k[K["C_O"]], k[K["C_B"]] = p.oil_heat_capacity_j_k, p.body_heat_capacity_j_k
-        k[K["G_OB"]], k[K["H_CONV"]] = p.oil_to_body_w_k, p.body_convection_w_k125
-        k[K["HEAT"]] = p.heating_factor
-        fs_sub = fs_hz * self.m
-        wn = 2 * math.pi * p.load_cell_hz
-        warped = 2 * fs_sub * math.tan(wn / (2 * fs_sub))  # the resonance where it is
-        b, a = signal.bilinear(
-            [warped**2], [1.0, 2 * p.load_cell_damping * warped, warped**2], fs=fs_sub
-        )
-        self._set_sos(k, "LC", signal.tf2sos(b, a)[0])
-        f_aa = min(p.anti_alias_hz, 0.45 * fs_sub)
-        aa = signal.bessel(4, f_aa, norm="mag", fs=fs_sub, output="sos")
-        self._set_sos(k, "AA0", aa[0])
-        self._set_sos(k, "AA1", aa[1])
-        k[K["SKEW"]] = p.force_skew_s * fs_sub
-        self.ring_size = math.ceil(p.force_skew_s * fs_sub) + 3
+        k[kern.K["H"]] = 1.0 / (fs_hz * self.m)
+        self.p0 = spec.gas_pressure_pa * params.gas_pressure_factor
+        _chamber_constants(k, spec, params, self.p0)
+        _flow_constants(k, spec, params)
+        _seal_bump_heat_constants(k, spec, params)
+        self.ring_size = _sensor_constants(k, params, fs_hz * self.m)
         self.k = k
         self.fixed = self._gap_table()
         # compile (or load the cache) now, not in the middle of a sweep's first batch
@@ -311,13 +338,6 @@ class ReferencePlant:
             self.initial(0.0, 40.0),
             40.0,
         )
-
-    @staticmethod
-    def _set_sos(k: FloatArray, tag: str, sec: FloatArray) -> None:
-        sec = np.asarray(sec, float) / float(sec[3])
-        base = kern.K[f"{tag}_B0"]
-        k[base : base + 3] = sec[:3]
-        k[base + 3 : base + 5] = sec[4:6]
 
     def _gap_table(self) -> dict[str, float]:
         s = self.spec
@@ -501,6 +521,56 @@ class PlantTruth:
     lowest_rebound_pa: float
 
 
+class _Carried:
+    """One damper carried through a sweep's moves: its state and clock, and the truth seen
+    so far (the most vapour, the lowest rebound pressure)."""
+
+    def __init__(self, plant: ReferencePlant, ambient_c: float) -> None:
+        self.plant = plant
+        self.ambient_c = ambient_c
+        self.state = plant.initial(0.0, ambient_c)
+        self.dt = 1.0 / plant.fs
+        self.clock = 0.0
+        self.vapour, self.lowest = 0.0, math.inf
+
+    def advance(
+        self, x: FloatArray, v: FloatArray, a: FloatArray, c: int
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The move's sensed force, position and body temperature."""
+        t = np.asarray(self.clock + self.dt * (1 + np.arange(x.size)), dtype=np.float64)
+        out, self.state = self.plant.run_detail(t, x, v, a, (c, 0), self.state, self.ambient_c)
+        self.vapour = max(self.vapour, float(np.max(out[6])))
+        self.lowest = min(self.lowest, float(np.min(out[5])))
+        self.clock = float(t[-1])
+        return out[1], out[2], out[3]
+
+
+def _to_mid_stroke(
+    last_x: float, sample_rate_hz: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """x, ẋ, ẍ of a 1 s half-cosine move from `last_x` to mid-stroke."""
+    dt = 1.0 / sample_rate_hz
+    s = np.arange(1, round(sample_rate_hz) + 1) * dt
+    move = last_x * (1 + np.cos(math.pi * s)) / 2
+    move_v = -last_x * math.pi / 2 * np.sin(math.pi * s)
+    move_a = -last_x * math.pi**2 / 2 * np.cos(math.pi * s)
+    return move, move_v, move_a
+
+
+def _ramped_sine(
+    k: NDArray[np.floating[Any]], dt: float, f: float, amplitude_m: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """x, ẋ, ẍ of a sine at times `k` (step `dt`), its amplitude ramped in."""
+    w = 2 * math.pi * f
+    # The ram starts from rest: a half-cosine ramp of the amplitude over the first
+    # warm-up cycle, so nothing jerks.
+    ramp = np.where(k < 1 / f, 0.5 - 0.5 * np.cos(math.pi * k * f), 1.0)
+    x = amplitude_m * ramp * np.sin(w * k)
+    v = np.asarray(np.gradient(x, dt), dtype=np.float64)
+    a = np.asarray(np.gradient(v, dt), dtype=np.float64)
+    return x, v, a
+
+
 def reference_sweep(
     spec: DamperSpec,
     params: PlantParams,
@@ -525,53 +595,29 @@ def reference_sweep(
     from shockdyno.record.types import TestData, TestMeta
 
     rng = np.random.default_rng(seed)
-    plant = ReferencePlant(spec, params, sample_rate_hz)
-    state = plant.initial(0.0, ambient_c)
+    run = _Carried(ReferencePlant(spec, params, sample_rate_hz), ambient_c)
     dt = 1.0 / sample_rate_hz
-    clock = 0.0
     tests: list[Any] = []
-    vapour, lowest, temps = 0.0, math.inf, []
+    temps: list[float] = []
     last_x = 0.0  # the rod is moved, never set: a jump would move no oil
-
-    def advance(
-        x: FloatArray, v: FloatArray, a: FloatArray, c: int
-    ) -> tuple[FloatArray, FloatArray, FloatArray]:
-        nonlocal state, clock, vapour, lowest
-        t = np.asarray(clock + dt * (1 + np.arange(x.size)), dtype=np.float64)
-        out, state = plant.run_detail(t, x, v, a, (c, 0), state, ambient_c)
-        vapour = max(vapour, float(np.max(out[6])))
-        lowest = min(lowest, float(np.min(out[5])))
-        clock = float(t[-1])
-        return out[1], out[2], out[3]
-
     for c in clicks:
         for f in frequencies_hz:
             if last_x != 0.0:  # back to mid-stroke (the last test ended at the bottom)
-                s = np.arange(1, round(sample_rate_hz) + 1) * dt  # 1 s half-cosine move
-                move = last_x * (1 + np.cos(math.pi * s)) / 2
-                move_v = -last_x * math.pi / 2 * np.sin(math.pi * s)
-                move_a = -last_x * math.pi**2 / 2 * np.cos(math.pi * s)
-                advance(move, move_v, move_a, c)
+                run.advance(*_to_mid_stroke(last_x, sample_rate_hz), c)
             rest = np.zeros(round(rest_s * sample_rate_hz))
-            advance(rest, rest, rest, c)
-            w = 2 * math.pi * f
+            run.advance(rest, rest, rest, c)
             n_warm = round((warmup_cycles + 0.75) / f * sample_rate_hz)
             n = round(cycles / f * sample_rate_hz)
             k = np.arange(n_warm + n + 1) * dt
-            # The ram starts from rest: a half-cosine ramp of the amplitude over the first
-            # warm-up cycle, so nothing jerks.
-            ramp = np.where(k < 1 / f, 0.5 - 0.5 * np.cos(math.pi * k * f), 1.0)
-            x = amplitude_m * ramp * np.sin(w * k)
-            v = np.asarray(np.gradient(x, dt), dtype=np.float64)
-            a = np.asarray(np.gradient(v, dt), dtype=np.float64)
-            vapour = 0.0 if not tests else vapour
-            f_s, x_s, temp = advance(x, v, a, c)
+            x, v, a = _ramped_sine(k, dt, f, amplitude_m)
+            run.vapour = 0.0 if not tests else run.vapour
+            f_s, x_s, temp = run.advance(x, v, a, c)
             last_x = float(x[-1])
             # Kept from the bottom of the stroke: a rig's recording starts anywhere but
             # exactly on a cycle's own up-crossing.
             first = n_warm
             keep = slice(first, first + n + 1)
-            temps.append(float(state.s[kern.TO]))
+            temps.append(float(run.state.s[kern.TO]))
             meta = TestMeta(
                 index=len(tests),
                 clicks=int(c),
@@ -590,5 +636,5 @@ def reference_sweep(
                     temperature=temp[keep] + rng.normal(0, temperature_noise_c, n + 1),
                 )
             )
-    truth = PlantTruth(vapour, (temps[0], temps[-1]), lowest)
+    truth = PlantTruth(run.vapour, (temps[0], temps[-1]), run.lowest)
     return tests, truth

@@ -12,19 +12,17 @@ import contextlib
 import copy
 import logging
 import math
-import os
 import threading
 import time
-import tty
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from pymodbus.constants import ExcCodes
 from pymodbus.framer import FramerType
 from pymodbus.server import ModbusTcpServer
-from pymodbus.simulator import DataType, SimData, SimDevice
+from pymodbus.simulator import DataType, SimAction, SimData, SimDevice
 
 from shockdyno import priority
 from shockdyno.errors import ConfigError, RigFault
@@ -35,6 +33,7 @@ from shockdyno.simrig.engine import CHUNK, SimEngine
 from shockdyno.simrig.faults import Fault
 from shockdyno.simrig.registers import DriveRegisters
 from shockdyno.simrig.scenario import Scenario, load_scenario
+from shockdyno.simrig.serial_stream import SerialStream
 from shockdyno.simrig.single_master import SingleMasterTcpServer
 from shockdyno.simrig.stepper import Stepper
 
@@ -42,38 +41,12 @@ from shockdyno.simrig.stepper import Stepper
 # pymodbus's error log would reach stderr through logging's last-resort handler as well.
 logging.getLogger("pymodbus").addHandler(logging.NullHandler())
 
-SINK_LIMIT = 1 << 20  # bytes queued for a slow reader before new frames are discarded
 SERVER_FAULTS = ("modbus_timeout", "daq_disconnect")  # faults of the wires, not the engine
 MAX_BATCH = 5000  # samples per engine step: keeps Modbus answers prompt when behind
 BEHIND_PAUSE_S = 0.002  # between batches when behind: the loop answers Modbus meanwhile
 WATCHDOG_PERIOD_S = 0.01  # the simulated drive's watchdog cycle (host time)
 LATE_S = 0.005  # a watchdog turn this much late: the loop was starved, not idle (_watchdog)
 STEP_WAIT_S = 2.0  # at close, the longest wait for the plant's step under way
-
-
-@dataclass
-class _PtySink:
-    master: int
-    slave: int
-    path: str
-    pending: bytearray = field(default_factory=bytearray)
-
-    def write(self, data: bytes) -> None:
-        if len(self.pending) < SINK_LIMIT:
-            self.pending += data
-        try:
-            n = os.write(self.master, self.pending)
-        except BlockingIOError:
-            return
-        except OSError:
-            self.pending.clear()
-            return
-        del self.pending[:n]
-
-    def close(self) -> None:
-        for fd in (self.master, self.slave):
-            with contextlib.suppress(OSError):
-                os.close(fd)
 
 
 class SimRig:
@@ -95,15 +68,7 @@ class SimRig:
         clock: Callable[[], float] = time.monotonic,
         single_master: bool = False,
     ) -> None:
-        if modbus not in ("tcp", "rtu"):
-            raise ConfigError(f"modbus must be tcp or rtu, got {modbus!r}")
-        if not (isinstance(speed, int | float) and math.isfinite(speed) and speed > 0):
-            raise ConfigError(f"speed must be a number > 0, got {speed}")
-        for name, port in (("modbus_port", modbus_port), ("serial_port", serial_port)):
-            if not 0 <= port <= 65535:
-                raise ConfigError(f"{name} must be 0-65535 (0: any free port), got {port}")
-        if serial not in ("socket", "pty", "both"):
-            raise ConfigError(f"serial must be socket, pty or both, got {serial!r}")
+        _check_options(modbus, speed, modbus_port, serial_port, serial)
         self.rig = rig
         self.spec = load_spec(spec_path)
         self.scenario = scenario
@@ -129,13 +94,11 @@ class SimRig:
         # first step is taken here, on a copy, before the servers start.
         copy.deepcopy(self.engine).advance(self.engine.min_batch)
         self.registers = DriveRegisters(self.engine, rig.registers, clock)
-        self._serial_mode = serial
+        self._serial = SerialStream(serial)
         self._modbus = modbus
         self._single_master = single_master
         self._ports = (modbus_port, serial_port)
         self._mute_until = -1.0  # clock time until which Modbus goes unanswered (inf: for good)
-        self._writers: list[asyncio.StreamWriter] = []
-        self._pty: _PtySink | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._thread: threading.Thread | None = None
         self._stop: asyncio.Event | None = None
@@ -203,23 +166,14 @@ class SimRig:
 
     async def _main(self) -> None:
         self._stop = asyncio.Event()
-        device = SimDevice(
-            id=self.rig.actuator.device_id,
-            simdata=[
-                SimData(
-                    self.registers.start,
-                    count=self.registers.count,
-                    values=0,
-                    datatype=DataType.REGISTERS,
-                )
-            ],
-            action=self._action,
+        server = _modbus_server(
+            self.registers,
+            self.rig.actuator.device_id,
+            self._action,
+            self._modbus,
+            self._ports[0],
+            self._single_master,
         )
-        # RTU framing is served over a TCP socket (an RTU line behind a serial server):
-        # the RTU driver reaches it as the pyserial URL socket://127.0.0.1:PORT.
-        framer = FramerType.RTU if self._modbus == "rtu" else FramerType.SOCKET
-        cls = SingleMasterTcpServer if self._single_master else ModbusTcpServer
-        server = cls(device, address=("127.0.0.1", self._ports[0]), framer=framer)
         self.modbus_server = server
         try:
             await server.serve_forever(background=True)
@@ -233,20 +187,8 @@ class SimRig:
             self.endpoints = [f"modbus rtu socket://127.0.0.1:{self.modbus_port}"]
         else:
             self.endpoints = [f"modbus tcp://127.0.0.1:{self.modbus_port}"]
-        serial_server: asyncio.Server | None = None
-        if self._serial_mode in ("socket", "both"):
-            serial_server = await asyncio.start_server(
-                self._serial_client, "127.0.0.1", self._ports[1]
-            )
-            self.serial_port = int(serial_server.sockets[0].getsockname()[1])
-            self.endpoints.append(f"serial socket://127.0.0.1:{self.serial_port}")
-        if self._serial_mode in ("pty", "both"):
-            master, slave = os.openpty()
-            tty.setraw(slave)
-            os.set_blocking(master, False)
-            self._pty = _PtySink(master, slave, os.ttyname(slave))
-            self.pty_path = self._pty.path
-            self.endpoints.append(f"serial {self.pty_path}")
+        self.endpoints += await self._serial.open(self._ports[1])
+        self.serial_port, self.pty_path = self._serial.port, self._serial.pty_path
         if self.engine.plant is not None:
             self._stepper = Stepper(self._nice_before)
         ticker = asyncio.create_task(self._tick())
@@ -264,44 +206,12 @@ class SimRig:
                 # not hold the rig's close (and its process's exit) for ever.
                 self._stepper.shutdown(STEP_WAIT_S)
             await server.shutdown()  # type: ignore[no-untyped-call]
-            if serial_server is not None:
-                serial_server.close()
-            for w in list(self._writers):
-                w.close()
-                with contextlib.suppress(Exception):
-                    await w.wait_closed()
-            if serial_server is not None:
-                await serial_server.wait_closed()
-            if self._pty is not None:
-                self._pty.close()
+            await self._serial.close()
             for task in asyncio.all_tasks():
                 if task is not asyncio.current_task():
                     task.cancel()
 
     # -- the DAQ stream ----------------------------------------------------------------
-    async def _serial_client(
-        self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
-    ) -> None:
-        self._writers.append(writer)
-        try:
-            while await reader.read(4096):
-                pass  # the DAQ ignores what the host sends
-        except (ConnectionError, asyncio.CancelledError):
-            pass
-        finally:
-            if writer in self._writers:
-                self._writers.remove(writer)
-            writer.close()
-
-    def _send(self, data: bytes) -> None:
-        for w in list(self._writers):
-            if w.is_closing():
-                self._writers.remove(w)
-            elif w.transport.get_write_buffer_size() < SINK_LIMIT:
-                w.write(data)
-        if self._pty is not None:
-            self._pty.write(data)
-
     async def _tick(self) -> None:
         fs = self.engine.fs
         wall0 = self.clock()
@@ -316,16 +226,15 @@ class SimRig:
                 self._watchdogs(now)
                 n = min(due, self.engine.max_batch)
                 if self._stepper is None:
-                    self._send(self.engine.advance(n))
+                    self._serial.send(self.engine.advance(n))
                 else:
                     loop = asyncio.get_running_loop()
                     self._stepping = self._stepper.submit(loop, self.engine.advance, n)
                     try:
-                        self._send(await self._stepping)
+                        self._serial.send(await self._stepping)
                     finally:
                         self._stepping = None
-            if self._pty is not None and self._pty.pending:
-                self._pty.write(b"")
+            self._serial.flush()
             # Behind schedule, still sleep a little: with sleep(0) every turn of the loop
             # ran a batch, and a Modbus request needs several turns (read, decode, answer),
             # so a plant slower than real time (the reference plant's stiff solver on a
@@ -375,12 +284,7 @@ class SimRig:
         if f.kind == "modbus_timeout":
             self._mute_until = now + f.duration_s if f.duration_s > 0 else float("inf")
         elif f.kind == "daq_disconnect":
-            for w in list(self._writers):
-                w.close()
-            self._writers.clear()
-            if self._pty is not None:
-                self._pty.close()
-                self._pty = None
+            self._serial.disconnect()
 
     async def _action(
         self,
@@ -459,6 +363,44 @@ class SimRig:
             return fn()
 
         return asyncio.run_coroutine_threadsafe(wrapped(), loop).result(5)
+
+
+def _check_options(
+    modbus: str, speed: float, modbus_port: int, serial_port: int, serial: str
+) -> None:
+    if modbus not in ("tcp", "rtu"):
+        raise ConfigError(f"modbus must be tcp or rtu, got {modbus!r}")
+    if not (isinstance(speed, int | float) and math.isfinite(speed) and speed > 0):
+        raise ConfigError(f"speed must be a number > 0, got {speed}")
+    for name, port in (("modbus_port", modbus_port), ("serial_port", serial_port)):
+        if not 0 <= port <= 65535:
+            raise ConfigError(f"{name} must be 0-65535 (0: any free port), got {port}")
+    if serial not in ("socket", "pty", "both"):
+        raise ConfigError(f"serial must be socket, pty or both, got {serial!r}")
+
+
+def _modbus_server(
+    registers: DriveRegisters,
+    device_id: int,
+    action: SimAction,
+    modbus: str,
+    port: int,
+    single_master: bool,
+) -> ModbusTcpServer:
+    """The drive's Modbus server on 127.0.0.1:`port` (0: any free one), not yet listening:
+    its register block, each request answered by `action`."""
+    device = SimDevice(
+        id=device_id,
+        simdata=[
+            SimData(registers.start, count=registers.count, values=0, datatype=DataType.REGISTERS)
+        ],
+        action=action,
+    )
+    # RTU framing is served over a TCP socket (an RTU line behind a serial server):
+    # the RTU driver reaches it as the pyserial URL socket://127.0.0.1:PORT.
+    framer = FramerType.RTU if modbus == "rtu" else FramerType.SOCKET
+    cls = SingleMasterTcpServer if single_master else ModbusTcpServer
+    return cls(device, address=("127.0.0.1", port), framer=framer)
 
 
 def start_sim_rig(

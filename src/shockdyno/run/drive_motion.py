@@ -148,8 +148,9 @@ class DriveMotion:
         self.safe_stop(ev.message)
         return ev
 
-    def safe_stop(self, reason: str) -> None:
-        """Controlled stop, ramp to centre, disable. Every step is tried; none may raise."""
+    def safe_stop(self, reason: str, then: State = State.IDLE) -> None:
+        """Controlled stop, ramp to centre, disable (the session `then` idle, or parked).
+        Every step is tried; none may raise."""
         sent = self.halt()
         self._log.note("stop", f"controlled stop: {reason}")
         steps: list[tuple[str, Callable[[], None]]] = [
@@ -165,7 +166,7 @@ class DriveMotion:
                 self._log.note("stop_step_failed", f"{name}: {exc}")
                 if name == "stop":
                     break  # a drive that will not stop must not be asked to move
-        self.disable(reason)
+        self.disable(reason, then)
 
     def _restore_watchdog(self) -> None:
         """If another master lengthened the watchdog, a host that dies mid-stop must still
@@ -206,10 +207,11 @@ class DriveMotion:
         if after.fault:
             raise RigFault(f"fault will not reset: {after.fault_text}")
 
-    def disable(self, reason: str) -> None:
-        """Disable the drive (the session is idle after it, whatever the drive answers)."""
+    def disable(self, reason: str, then: State = State.IDLE) -> None:
+        """Disable the drive; the session is `then` (idle, or parked) after it, whatever
+        the drive answers."""
         if not self._state.closed:
-            self._state.to(State.IDLE, reason)
+            self._state.to(then, reason)
         try:
             self._loop.act().control(enable=False)
             self._log.note("disable", "actuator disabled")

@@ -283,10 +283,9 @@ class RigSession:
         if was_armed:
             st = self._loop.act().status()
             if st.running:
-                self._motion.safe_stop(f"waiting for {why}")
+                self._motion.safe_stop(f"waiting for {why}", then=State.PARKED)
             else:
-                self._motion.disable(f"waiting for {why}")
-            self._state.to(State.PARKED)
+                self._motion.disable(f"waiting for {why}", then=State.PARKED)
         yield
         if was_armed:
             self._loop.catch_up(check=False)

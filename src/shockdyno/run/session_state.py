@@ -1,20 +1,19 @@
 """The session's state machine: the drive as this session left it, every transition in
 one table, and which of the session's calls each state allows.
 
-    idle ──enable──► enabled ──run──► moving ──done──► enabled
-     ▲  ▲             │   ▲              │
-     │  └──disable────┘   │ enable       │ a trip, a fault: the stop sequence
-     │         park│      │              ▼
-     │             ▼      │             idle
-     │            parked ─┘
-     └─ every state ──teardown──► closed (nothing is allowed after it)
+    idle, enabled, parked  ──enable──────────────►  enabled
+    enabled                ──a motion────────────►  moving  ──it ends──►  enabled
+    enabled                ──a wait on a person──►  parked
+    enabled, moving, parked, idle  ──a stop (disable)──►  idle
+    every state but closed  ──teardown──►  closed (nothing is allowed after it)
 
 `idle`: the drive is not enabled by this session (not yet, or disabled after a stop);
 `enabled`: enabled, the watchdog fed, the ram held; `moving`: a sine, hold, move or dwell
-runs; `parked`: disabled while a person (or the damper's temperature) is waited for, and
-enabled again after. A call its state does not allow (a sine before enabling, an enable
-after the close) is refused with a `StateError` naming the call and the state, before
-anything is sent to the drive.
+runs (or an exception cut it short: then only the teardown follows); `parked`: disabled
+while a person (or the damper's temperature) is waited for, and enabled again after.
+A call its state does not allow (a sine before enabling, an enable after the close) is
+refused with a `StateError` naming the call and the state, before anything is sent to
+the drive.
 """
 
 from __future__ import annotations
@@ -43,7 +42,7 @@ _I, _E, _M, _P, _C = State.IDLE, State.ENABLED, State.MOVING, State.PARKED, Stat
 # Every transition the session makes, from -> to. A stop (disable) may come from any open
 # state, and the teardown from every state but closed.
 TRANSITIONS: dict[State, frozenset[State]] = {
-    _I: frozenset({_I, _E, _P, _C}),
+    _I: frozenset({_I, _E, _C}),
     _E: frozenset({_I, _E, _M, _P, _C}),
     _M: frozenset({_I, _E, _C}),
     _P: frozenset({_I, _E, _C}),
@@ -56,7 +55,7 @@ ALLOWED: dict[str, frozenset[State]] = {
     "motion": frozenset({_E}),  # run_sine, hold_at, move_to, dwell
     "adjust": frozenset({_I, _E}),  # set_clicks, set_adjusters (parks the drive itself)
     "read": frozenset({_I, _E, _P}),  # read_temperature_c
-    "park": frozenset({_I, _E}),
+    "park": frozenset({_I, _E}),  # idle: nothing to disable, and nothing enabled after
 }
 
 
@@ -86,7 +85,8 @@ class SessionState:
             State.IDLE: "the actuator is not enabled"
             + (f" (disarmed by: {self.disarm_reason})" if self.disarm_reason else " yet"),
             State.ENABLED: "the actuator is enabled",
-            State.MOVING: "a motion is already running",
+            State.MOVING: "a motion is running, or an exception cut one short (its stop "
+            "command sent; only the close, which stops, centres and disables, may follow)",
             State.PARKED: f"the actuator is not enabled: parked{why}",
             State.CLOSED: f"the rig session is closed{why}",
         }[self.state]
@@ -101,12 +101,12 @@ class SessionState:
 
     @contextmanager
     def moving(self, call: str) -> Iterator[None]:
-        """A motion: allowed when enabled; enabled again after it unless its stop disabled
-        the drive (or an exception left it enabled, the stop command sent: as before)."""
+        """A motion: allowed when enabled, and enabled again when it ends, unless its stop
+        sequence disabled the drive (idle). An exception that leaves it (a signal, a
+        recording that failed, a trip of a move) leaves the session moving: the stop
+        command is on the wire, the ramp to centre and the disable are the teardown's."""
         self.require("motion", call)
         self.to(State.MOVING)
-        try:
-            yield
-        finally:
-            if self.state is State.MOVING:
-                self.to(State.ENABLED)
+        yield
+        if self.state is State.MOVING:
+            self.to(State.ENABLED)

@@ -14,11 +14,15 @@ from shockdyno.errors import RigFault
 from shockdyno.rig.actuator import ActuatorStatus
 from shockdyno.rig.config import WATCHDOG_FAULT, RigConfig
 from shockdyno.run.control_loop import ControlLoop
+from shockdyno.run.daq_stream import BlockSink
 from shockdyno.run.events import EventLog
 from shockdyno.run.safety import SafetyEvent, SafetyTrip
 from shockdyno.run.session_state import SessionState, State
 
 CENTRE_TOLERANCE_M = 0.001
+HOLD_TOLERANCE_M = 0.0005  # a hold has arrived when the DAQ's displacement is this close
+# (loose enough for a servo's steady error under the gas load; the rest itself is found
+# from the samples, run/gas_measure.py)
 
 
 class DriveMotion:
@@ -110,6 +114,37 @@ class DriveMotion:
             check=check,
         )
         return distance, arrived
+
+    def hold(
+        self, offset_m: float, velocity_m_s: float, dwell_s: float, on_block: BlockSink
+    ) -> tuple[float, float]:
+        """Move at `velocity_m_s` to `offset_m` from the stroke centre and hold still for
+        `dwell_s` of DAQ time, every sample to `on_block`: the DAQ times (arrived, end of
+        the hold). A trip or a fault makes the stop sequence and raises RigFault."""
+        loop, stream = self._loop, self._loop.stream
+        loop.act()  # not connected: refused here, before the stop a failed move makes
+        try:
+            # Unlike a sine's, the backlog goes to on_block: consecutive holds (the
+            # gas-force measurement's) then stream every sample between them too.
+            stream.on_block = on_block
+            loop.catch_up(check=True)
+            # Arrived when the drive says so and the DAQ's samples show it: at a fast
+            # simulated rig's speed the stream lags the drive by a good part of a second.
+            self.move(
+                self.rig.stroke_centre_m + offset_m,
+                check=True,
+                what=f"move to {offset_m * 1e3:+g} mm",
+                velocity_m_s=velocity_m_s,
+                settled=lambda: abs(stream.x - offset_m) < HOLD_TOLERANCE_M,
+            )
+            arrived = stream.t
+            loop.wait(lambda s: stream.t >= arrived + dwell_s, daq_budget_s=dwell_s + 2.0,
+                      what="hold")  # fmt: skip
+            return arrived, stream.t
+        except RigFault as exc:
+            raise RigFault(self.abort(exc).message) from None
+        finally:
+            stream.on_block = None
 
     # -- stopping ------------------------------------------------------------------------
     def halt(self) -> bool:

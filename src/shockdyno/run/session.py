@@ -55,10 +55,6 @@ from shockdyno.samples import SampleBlock
 
 __all__ = ["RigSession", "SineOutcome", "exit_reason"]
 
-HOLD_TOLERANCE_M = 0.0005  # a hold has arrived when the DAQ's displacement is this close
-# (loose enough for a servo's steady error under the gas load; the rest itself is found
-# from the samples, run/gas_measure.py)
-
 P = ParamSpec("P")
 R = TypeVar("R")
 
@@ -338,31 +334,8 @@ class RigSession:
         controlled stop and raises RigFault (the sweep stops, as after an aborted test).
         """
         velocity_m_s = check_hold(self.rig, offset_m, velocity_m_s, dwell_s)
-        loop, stream = self._loop, self._stream
         with self._state.moving("hold_at"):
-            loop.act()  # not connected: refused here, before the stop a failed move makes
-            try:
-                # Unlike a sine's, the backlog goes to on_block: consecutive holds (the
-                # gas-force measurement's) then stream every sample between them too.
-                stream.on_block = on_block
-                loop.catch_up(check=True)
-                # Arrived when the drive says so and the DAQ's samples show it: at a fast
-                # simulated rig's speed the stream lags the drive by a good part of a second.
-                self._motion.move(
-                    self.rig.stroke_centre_m + offset_m,
-                    check=True,
-                    what=f"move to {offset_m * 1e3:+g} mm",
-                    velocity_m_s=velocity_m_s,
-                    settled=lambda: abs(stream.x - offset_m) < HOLD_TOLERANCE_M,
-                )
-                arrived = stream.t
-                loop.wait(lambda s: stream.t >= arrived + dwell_s, daq_budget_s=dwell_s + 2.0,
-                          what="hold")  # fmt: skip
-                return arrived, stream.t
-            except RigFault as exc:
-                raise RigFault(self._motion.abort(exc).message) from None
-            finally:
-                stream.on_block = None
+            return self._motion.hold(offset_m, velocity_m_s, dwell_s, on_block)
 
     @_stops_on_interrupt
     def move_to(self, displacement_m: float) -> ActuatorStatus:

@@ -102,6 +102,9 @@ def test_calls_a_state_refuses_send_nothing_to_the_drive(sim_rig_factory) -> Non
     with pytest.raises(StateError, match="run_sine refused: the actuator is not enabled yet"):
         never.run_sine(0.01, 2.0, 0, 1, lambda b: None)
     with RigSession(rig, prompt=asked.append) as session:
+        with pytest.raises(StateError, match="entering the session refused: it is open already"):
+            session.__enter__()
+        assert session.state is State.ENABLED
         with session.parked("the damper's temperature"):
             words, events = len(sim.registers.control_log), len(session.events)
             assert session.state is State.PARKED and not session.enabled

@@ -168,8 +168,10 @@ class RigSession:
 
     # -- enter / exit ------------------------------------------------------------------
     def __enter__(self) -> RigSession:
-        if self._loop.actuator is not None or self._state.closed:
-            raise StateError(f"entering the session refused: it is already {self.state.value}")
+        if self._state.closed:
+            raise StateError(f"entering the session refused: {self._state.describe()}")
+        if self._loop.actuator is not None:
+            raise StateError("entering the session refused: it is open already")
         self._nice_before, nice = priority.raise_priority()
         loop = self._loop
         try:

@@ -39,3 +39,7 @@ class EventLog:
         self.events.append(ev)
         self._send(ev)
         return ev
+
+    def note(self, kind: str, message: str) -> SafetyEvent:
+        """Record an event at the session's DAQ time now."""
+        return self.record(SafetyEvent(self._now(), kind, message))

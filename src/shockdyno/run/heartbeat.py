@@ -1,7 +1,7 @@
 """The drive's watchdog as a proof of life of the control loop.
 
 The drive disables itself when no heartbeat arrives within its watchdog time. The beat is
-written by the loop that reads the DAQ's samples and checks the limits (`RigSession._pump`),
+written by the loop that reads the DAQ's samples and checks the limits (`ControlLoop.pump`),
 never by a thread of its own: a thread that beats on its own keeps the drive enabled while
 the main thread is blocked (an operator prompt, a file that never opens) and nothing
 watches the ram. So when the loop stops, the beats stop, and the drive stops the ram in

@@ -56,55 +56,24 @@ def _record_sweep(
 ) -> Any:
     """Run the plan on the rig into the recording; returns the SweepResult. `live` (a
     viewer, `sweep --live`) gets every call the recording gets, after it."""
-    from shockdyno.record import open_recording
     from shockdyno.run.fanout import Fanout
     from shockdyno.run.liveview import LiveView
-    from shockdyno.run.refusals import check_band, check_sine
     from shockdyno.run.session import RigSession, exit_reason
     from shockdyno.run.sweep import run_sweep
 
     console = console or Console()
-    done: set[PointKey] = set()
-    first_index = 0
     ident = identity(rig, plan)
     if resume:
-        if not output.is_file():
-            raise RecordingError(f"nothing to resume: {output} does not exist")
-        previous = open_recording(output).require_recording()
-        _check_resume_matches(previous.tests, plan, output)
-        _check_same_set(previous.metadata, metadata, output)
-        _check_same_identity(previous.identity, ident, output)
-        done = previous.completed_points()
-        first_index = len(previous.tests)
-        console.print(
-            f"resuming {output}: {len(done)} tests done, {len(plan.remaining(done))} to go"
-        )
+        done, first_index = _resumed(output, plan, metadata, ident, console)
     elif output.exists() and not overwrite:
         raise RecordingError(f"{output} exists: use --force to overwrite or --resume to continue")
+    else:
+        done, first_index = set(), 0
     todo = plan.remaining(done)
     if not todo:
         console.print("nothing left to run")
         return None
-    # Everything that can be refused is refused here, before the rig is touched.
-    for frequency in plan.frequencies_hz:
-        stroke = plan.stroke(frequency)
-        check_sine(rig, plan.amplitude_m, frequency, plan.warmup_cycles, plan.measured_cycles,
-                   None if stroke is None else stroke.velocity_m_s)  # fmt: skip
-    if plan.temperature_band_c is not None:
-        check_band(rig, plan.temperature_band_c)
-    if plan.adjust and rig.adjuster == "motorised":
-        for name, _ in plan.adjust:
-            if f"{name}_clicks" not in rig.registers.registers:
-                raise ConfigError(
-                    f"{rig.source}: the {name} adjuster is motorised (rig.adjuster) but the "
-                    f"register map has no {name}_clicks; add it, or set rig.adjuster = "
-                    '"operator"'
-                )
-    if rig.adjuster == "operator" and not sys.stdin.isatty():
-        raise ConfigError(
-            f"{rig.source}: the adjuster is set by an operator, who confirms each setting at a "
-            "terminal; run the sweep from a terminal (stdin is not one)"
-        )
+    _refuse_before_the_rig(rig, plan)
     try:
         output.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -144,6 +113,53 @@ def _record_sweep(
                 session.record_events(None)
     finally:
         _close_writer(writer, started, output, console)
+
+
+def _resumed(
+    output: Path,
+    plan: SweepPlan,
+    metadata: dict[str, str],
+    ident: dict[str, str],
+    console: Console,
+) -> tuple[set[PointKey], int]:
+    """A recording to resume, checked to be this plan's, this set's and this rig's: the
+    points it completed and the next test's index."""
+    from shockdyno.record import open_recording
+
+    if not output.is_file():
+        raise RecordingError(f"nothing to resume: {output} does not exist")
+    previous = open_recording(output).require_recording()
+    _check_resume_matches(previous.tests, plan, output)
+    _check_same_set(previous.metadata, metadata, output)
+    _check_same_identity(previous.identity, ident, output)
+    done = previous.completed_points()
+    console.print(f"resuming {output}: {len(done)} tests done, {len(plan.remaining(done))} to go")
+    return done, len(previous.tests)
+
+
+def _refuse_before_the_rig(rig: RigConfig, plan: SweepPlan) -> None:
+    """Everything that can be refused, refused before the rig is touched."""
+    from shockdyno.run.refusals import check_band, check_sine
+
+    for frequency in plan.frequencies_hz:
+        stroke = plan.stroke(frequency)
+        check_sine(rig, plan.amplitude_m, frequency, plan.warmup_cycles, plan.measured_cycles,
+                   None if stroke is None else stroke.velocity_m_s)  # fmt: skip
+    if plan.temperature_band_c is not None:
+        check_band(rig, plan.temperature_band_c)
+    if plan.adjust and rig.adjuster == "motorised":
+        for name, _ in plan.adjust:
+            if f"{name}_clicks" not in rig.registers.registers:
+                raise ConfigError(
+                    f"{rig.source}: the {name} adjuster is motorised (rig.adjuster) but the "
+                    f"register map has no {name}_clicks; add it, or set rig.adjuster = "
+                    '"operator"'
+                )
+    if rig.adjuster == "operator" and not sys.stdin.isatty():
+        raise ConfigError(
+            f"{rig.source}: the adjuster is set by an operator, who confirms each setting at a "
+            "terminal; run the sweep from a terminal (stdin is not one)"
+        )
 
 
 def _open_writer(

@@ -123,74 +123,15 @@ def run_sweep(
 ) -> SweepResult:
     result = SweepResult()
     index = first_index
-    current_clicks: tuple[int, int, tuple[tuple[str, int], ...]] | None = None
-    gas_force_n: float | None = None
-    good_gas: dict[int, float] = {}  # the last usable measurement per gas setting
+    setting = _Setting()
     last_t = [0.0]  # DAQ time of the newest sample: events are stamped on the rig's clock
     for point in plan.remaining(done or set()):
-        clicks_changed = current_clicks != (point.clicks, point.gas_clicks, point.adjusters)
-        if clicks_changed:
-            if point.adjusters:
-                session.set_adjusters(dict(point.adjusters), point.gas_clicks)
-            else:
-                session.set_clicks(point.clicks, point.gas_clicks)
-            current_clicks = (point.clicks, point.gas_clicks, point.adjusters)
-        if plan.temperature_band_c is not None:
-            wait_for_temperature(session, plan.temperature_band_c, temperature_timeout_s, log)
-        if clicks_changed and plan.measure_gas:
-            # At every click change, at the tests' temperature (run/gas_measure.py says why).
-            gas = measure_gas_force(session, writer.write_samples)  # samples outside any test
-            writer.write_event(gas.t_s, "gas_force", gas.message())
-            last_t[0] = gas.t_s
-            if gas.usable:
-                good_gas[point.gas_clicks] = round(gas.force_n, 2)
-            else:
-                log(f"clicks {point.clicks}: {gas.message()}")
-            gas_force_n = good_gas.get(point.gas_clicks)
+        setting.prepare(session, plan, point, writer, log, last_t, temperature_timeout_s)
         meta = _meta(index, point, plan, sample_rate_hz, session.read_temperature_c())
-        if gas_force_n is not None:
-            meta = replace(meta, gas_force_n=gas_force_n, gas_force_source="measured")
+        if setting.gas_force_n is not None:
+            meta = replace(meta, gas_force_n=setting.gas_force_n, gas_force_source="measured")
         index += 1
-        writer.begin_test(meta)
-        view.start_test(meta)
-
-        def on_block(block: SampleBlock) -> None:
-            writer.write_samples(block)
-            view.update(block)
-            if len(block):
-                last_t[0] = float(block.t_s[-1])
-
-        stroke = plan.stroke(point.frequency_hz)
-        # A sine is asked for as it always was (a Session without waveforms runs it).
-        shape = {} if stroke is None else {"waveform": stroke}
-        try:
-            outcome = session.run_sine(
-                plan.amplitude_m,
-                point.frequency_hz,
-                plan.warmup_cycles,
-                plan.measured_cycles,
-                on_block,
-                writer.write_actuator,  # type: ignore[arg-type]
-                **shape,
-            )
-        except BaseException as exc:  # Ctrl-C or a rig fault mid-test: keep what was recorded
-            final = replace(meta, status="aborted", abort_reason=_why(exc))
-            writer.write_event(last_t[0], "abort", f"test {meta.index} stopped: {_why(exc)}")
-            writer.end_test(final)
-            view.end_test(final)
-            result.aborted.append(final)
-            raise
-        final = replace(
-            meta,
-            status=outcome.status,
-            measured_start_s=outcome.measured_start_s,
-            measured_end_s=outcome.measured_end_s,
-            dropped_frames=outcome.dropped_frames,
-            corrupt_frames=outcome.corrupt_frames,
-            abort_reason=outcome.reason or None,
-        )
-        writer.end_test(final)
-        view.end_test(final)
+        final, outcome = _run_test(session, plan, meta, writer, view, result, last_t)
         if outcome.status == "degraded" and not outcome.stop_sweep:
             log(f"test {meta.index} degraded: {outcome.reason}")
             result.degraded.append(final)
@@ -201,6 +142,102 @@ def run_sweep(
             raise RigFault(f"test {meta.index} {outcome.status}: {outcome.reason}; sweep stopped")
         result.completed.append(final)
     return result
+
+
+@dataclass
+class _Setting:
+    """The adjusters as the sweep last set them, and the gas force measured at them."""
+
+    clicks: tuple[int, int, tuple[tuple[str, int], ...]] | None = None
+    gas_force_n: float | None = None
+    good_gas: dict[int, float] = field(default_factory=dict)  # the last usable per gas setting
+
+    def prepare(
+        self,
+        session: Session,
+        plan: SweepPlan,
+        point: SweepPoint,
+        writer: Writer,
+        log: Callable[[str], None],
+        last_t: list[float],
+        temperature_timeout_s: float,
+    ) -> None:
+        """The point's clicks set (when they change), the damper in its temperature band,
+        and the gas force measured at a click change."""
+        clicks_changed = self.clicks != (point.clicks, point.gas_clicks, point.adjusters)
+        if clicks_changed:
+            if point.adjusters:
+                session.set_adjusters(dict(point.adjusters), point.gas_clicks)
+            else:
+                session.set_clicks(point.clicks, point.gas_clicks)
+            self.clicks = (point.clicks, point.gas_clicks, point.adjusters)
+        if plan.temperature_band_c is not None:
+            wait_for_temperature(session, plan.temperature_band_c, temperature_timeout_s, log)
+        if clicks_changed and plan.measure_gas:
+            # At every click change, at the tests' temperature (run/gas_measure.py says why).
+            gas = measure_gas_force(session, writer.write_samples)  # samples outside any test
+            writer.write_event(gas.t_s, "gas_force", gas.message())
+            last_t[0] = gas.t_s
+            if gas.usable:
+                self.good_gas[point.gas_clicks] = round(gas.force_n, 2)
+            else:
+                log(f"clicks {point.clicks}: {gas.message()}")
+            self.gas_force_n = self.good_gas.get(point.gas_clicks)
+
+
+def _run_test(
+    session: Session,
+    plan: SweepPlan,
+    meta: TestMeta,
+    writer: Writer,
+    view: View,
+    result: SweepResult,
+    last_t: list[float],
+) -> tuple[TestMeta, _Outcome]:
+    """One test recorded from its start to its end: the metadata it ends with, and how
+    the session ran it. Ctrl-C or a fault mid-test: the test recorded as aborted, and the
+    exception goes on."""
+    writer.begin_test(meta)
+    view.start_test(meta)
+
+    def on_block(block: SampleBlock) -> None:
+        writer.write_samples(block)
+        view.update(block)
+        if len(block):
+            last_t[0] = float(block.t_s[-1])
+
+    stroke = plan.stroke(meta.frequency_hz)
+    # A sine is asked for as it always was (a Session without waveforms runs it).
+    shape = {} if stroke is None else {"waveform": stroke}
+    try:
+        outcome = session.run_sine(
+            plan.amplitude_m,
+            meta.frequency_hz,
+            plan.warmup_cycles,
+            plan.measured_cycles,
+            on_block,
+            writer.write_actuator,  # type: ignore[arg-type]
+            **shape,
+        )
+    except BaseException as exc:  # Ctrl-C or a rig fault mid-test: keep what was recorded
+        final = replace(meta, status="aborted", abort_reason=_why(exc))
+        writer.write_event(last_t[0], "abort", f"test {meta.index} stopped: {_why(exc)}")
+        writer.end_test(final)
+        view.end_test(final)
+        result.aborted.append(final)
+        raise
+    final = replace(
+        meta,
+        status=outcome.status,
+        measured_start_s=outcome.measured_start_s,
+        measured_end_s=outcome.measured_end_s,
+        dropped_frames=outcome.dropped_frames,
+        corrupt_frames=outcome.corrupt_frames,
+        abort_reason=outcome.reason or None,
+    )
+    writer.end_test(final)
+    view.end_test(final)
+    return final, outcome
 
 
 def _meta(

@@ -22,6 +22,7 @@ import numpy as np
 
 from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError, FitError
+from shockdyno.fit.forces import SavedForces
 from shockdyno.fit.result_doc import TestDoc, read_fit_doc
 from shockdyno.fit.trend import AreaTrend, nan
 from shockdyno.model.composite import DamperModel
@@ -129,6 +130,9 @@ class FitResult:
     # The folder of the fit JSON this was read from (None: made here): a relative
     # spec_path not found from the working folder is looked for beside the fit.
     origin: Path | None = field(default=None, compare=False, repr=False)
+    # The model's forces a report draws (fit/forces.py): made by the fit, read back from
+    # the file beside FIT.json; None: the report computes them from this result.
+    saved: SavedForces | None = field(default=None, compare=False, repr=False)
 
     @staticmethod
     def from_spec(spec_path: str | Path, clicks: Sequence[int]) -> FitResult:
@@ -267,6 +271,7 @@ class FitResult:
             tests=tests,
             info=info,
             terms=self.terms,
+            saved=self.saved,
         )
 
     def main_gas_clicks(self) -> int:

@@ -38,6 +38,8 @@ from shockdyno.fit.areas import (
     talbott_areas,
 )
 from shockdyno.fit.calibrate import Calibration, calibrate
+from shockdyno.fit.forces import TestForces, overlay_picks
+from shockdyno.fit.forces import build as build_saved
 from shockdyno.fit.ga import GaSettings, run_ga
 from shockdyno.fit.parameters import DEFAULT_GLOBALS, Parameter, global_parameters
 from shockdyno.fit.prepare import OBJECTIVE_RATE_HZ, PreparedTest, prepare_tests
@@ -45,7 +47,7 @@ from shockdyno.fit.problem import StackedProblem
 from shockdyno.fit.result import ClickFit, FitResult
 from shockdyno.fit.terms import TermSelection, parse_terms
 from shockdyno.fit.trend import AreaTrend, polynomial_trend
-from shockdyno.fit.validate import table4, validate_tests
+from shockdyno.fit.validate import model_forces, scores, table4
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, default_spec_path, load_spec
@@ -369,7 +371,18 @@ def fit_sweep(
         trend=trend,
         terms=estimates,
     )
-    result.tests = validate_tests(result.model(), result, pb.prepared)
+    forces = model_forces(result.model(), result, pb.prepared)
+    result.tests = scores(forces)
+    # What a report draws of the model, computed here once (fit/forces.py).
+    picks = overlay_picks(result, [p.data.meta for p in pb.prepared])
+    result.saved = build_saved(
+        result,
+        [
+            TestForces(f.test.meta.index, f.proposed, f.talbott)
+            for f in forces
+            if f.test.meta.index in picks
+        ],
+    )
     info = _fit_info(
         pb,
         cal,

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from shockdyno.errors import FitError
 from shockdyno.fit.metrics import error_metrics
-from shockdyno.fit.prepare import PreparedTest, prepare_tests
+from shockdyno.fit.prepare import PreparedTest
 from shockdyno.fit.problem import prepared_inputs
 from shockdyno.fit.result import FitResult, TestValidation
 from shockdyno.model.composite import DamperModel
@@ -71,18 +71,17 @@ def model_forces(
     return out
 
 
-def forces_for_tests(result: FitResult, tests: Sequence[TestData]) -> list[ModelForces]:
-    """Both models' forces for recorded tests (prepared as the fit prepared them)."""
-    prepared, _ = prepare_tests(tests)
-    return model_forces(result.model(), result, prepared)
-
-
 def validate_tests(
     model: DamperModel, result: FitResult, prepared: Sequence[PreparedTest]
 ) -> list[TestValidation]:
     """The `tests[]` entries of the fit JSON."""
+    return scores(model_forces(model, result, prepared))
+
+
+def scores(forces: Sequence[ModelForces]) -> list[TestValidation]:
+    """The `tests[]` entries of the fit JSON from both models' forces on each test."""
     rows = []
-    for mf in model_forces(model, result, prepared):
+    for mf in forces:
         d, m = mf.test, mf.test.meta
         scores: dict[str, dict[str, float]] = {}
         for name, f_model in (("proposed", mf.proposed), ("talbott", mf.talbott)):

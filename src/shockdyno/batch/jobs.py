@@ -111,6 +111,7 @@ def run_job(job: Job) -> dict[str, Any]:
 
 
 def _fit(job: Job, row: Row) -> None:
+    from shockdyno.fit import forces
     from shockdyno.fit.file import fit_file, result_json
 
     o = job.options
@@ -121,7 +122,10 @@ def _fit(job: Job, row: Row) -> None:
         seed=int(o.get("seed", 0)),
         terms=o.get("terms"),
     )
-    write_text_atomic(job.result_path, result_json(result))
+    text = result_json(result)
+    write_text_atomic(job.result_path, text)
+    if result.saved is not None:  # what `batch report` draws of the model, beside it
+        forces.write(forces.sidecar_path(job.result_path), result.saved, text)
     _from_tests(row, tests)
     row.damper_id = _damper_id(job.recording)
     e_t = [t.proposed.get("E_t") for t in result.tests]
@@ -161,6 +165,7 @@ def _diagnose(job: Job, row: Row) -> None:
 
 
 def _report(job: Job, row: Row) -> None:
+    from shockdyno.fit import forces
     from shockdyno.fit.result import FitResult
     from shockdyno.record import open_recording
     from shockdyno.report.build import build_report
@@ -171,6 +176,8 @@ def _report(job: Job, row: Row) -> None:
     tests = rec.load_all()
     fit_path = fit_for(job)
     fit = FitResult.load(fit_path).require_usable(f"--fit {fit_path}") if fit_path else None
+    if fit is not None and fit_path is not None:  # the page reads the forces the fit saved
+        forces.attach(fit, fit_path)  # none: computed from the fit, as before they were
     diag_path = Path(job.out_dir) / f"{job.name}.diag.json"
     diag = read_diagnosis(diag_path, "diagnose result") if diag_path.exists() else None
     out = Path(job.out_dir) / job.name

@@ -110,6 +110,7 @@ def _provenance(
 def run_report(args: argparse.Namespace) -> int:
     from rich.console import Console
 
+    from shockdyno.fit import forces
     from shockdyno.fit.result import FitResult
     from shockdyno.record import open_recording
     from shockdyno.report.build import build_report
@@ -121,6 +122,9 @@ def run_report(args: argparse.Namespace) -> int:
     inputs = [Path(p) for p in (args.recording, args.fit, args.diagnose, args.ride) if p]
     check_output_dir(out, inputs, args.force)
     fit = FitResult.load(args.fit).require_usable(f"--fit {args.fit}") if args.fit else None
+    # The model's forces the fit saved beside it: the page reads them.
+    if fit is not None and (note := forces.attach(fit, args.fit)):
+        print(f"report: note: {note}", file=sys.stderr)
     diagnose = read_diagnosis(args.diagnose, "--diagnose") if args.diagnose else None
     ride = read_ride(args.ride, "--ride") if args.ride else None
     provenance_rows = _provenance(args, fit, diagnose, ride)
@@ -167,5 +171,7 @@ def run_report(args: argparse.Namespace) -> int:
                 gas_given=given,
                 gas_limit=limit,
             )
+    if fit is not None and (note := forces.computed_note(fit, args.fit)):
+        print(f"report: note: {note}", file=sys.stderr)
     print(f"report: {out / 'index.html'}")
     return 0

@@ -185,9 +185,9 @@ def _report(job: Job, row: Row) -> None:
     metadata = {"recording": Path(job.recording).name, **rec.metadata}
     limit = limit_for(tests, job.options.get("spec"), rec.metadata, fit.spec() if fit else None)
     if fit is not None:  # a fit of another recording is refused, as by `report` (issue 46.7)
-        from shockdyno.record.identity import provenance, stored_sha256
+        from shockdyno.record.identity import provenance
 
-        stored = stored_sha256(fit.info, "recording", "sha256")
+        stored = fit.info.recording_sha256
         allow = bool(job.options.get("allow_other_recording", False))
         metadata["fit"] = provenance(stored, job.sha256, "the fit", "--fit", allow)
     with staged_dir(out) as folder:  # whole, or not at all: a killed worker leaves none

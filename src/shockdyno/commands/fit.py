@@ -226,12 +226,12 @@ def run_fit(args: argparse.Namespace) -> int:
     ident = sum(c.identifiable_bc + c.identifiable_bt for c in result.clicks)
     say = functools.partial(print, file=sys.stderr if out is None else sys.stdout)
     say(
-        f"fitted {len(result.clicks)} click settings from {info['n_tests']} tests in "
-        f"{info['wall_s']:.1f} s ({info['model_evaluations']} model evaluations); "
+        f"fitted {len(result.clicks)} click settings from {info.n_tests} tests in "
+        f"{info.wall_s or 0:.1f} s ({info.model_evaluations} model evaluations); "
         f"{ident} of {2 * len(result.clicks)} areas identifiable; "
         f"wrote {'stdout' if out is None else out}"
     )
-    for note in info.get("skipped", []):
+    for note in info.skipped or ():
         say(f"note: {note}" if note.endswith(FITTED_ANYWAY) else f"skipped {note}")
     if args.report:
         _write_report(args, result, tests, reference, console, say)

@@ -15,12 +15,12 @@ from shockdyno.record.identity import add_allow_argument
 from shockdyno.report import temperature
 from shockdyno.report.documents import (
     DiagnosisDoc,
-    RecordingRef,
     RideDoc,
     read_diagnosis,
     read_ride,
 )
 from shockdyno.report.gas import limit_for, parse_given
+from shockdyno.result_files import RecordingRef
 from shockdyno.units import add_argument as add_units_argument
 from shockdyno.units import get as get_units
 
@@ -85,11 +85,11 @@ def _provenance(
     """Each result given against the recording's hash: a page row each; a result of
     another recording (or of none it names) is refused unless --allow-other-recording
     (issue 46.7: --force used to waive it), and then said on the terminal as well."""
-    from shockdyno.record.identity import provenance, recording_sha256, stored_sha256
+    from shockdyno.record.identity import provenance, recording_sha256
 
     given = []  # (row, what, flag, the hash it stores)
     if fit is not None:
-        given.append(("fit", "the fit", "--fit", stored_sha256(fit.info, "recording", "sha256")))
+        given.append(("fit", "the fit", "--fit", fit.info.recording_sha256))
     if diagnose is not None:
         given.append(("diagnosis", "the diagnosis", "--diagnose", _sha256(diagnose.info.recording)))
     if ride is not None:

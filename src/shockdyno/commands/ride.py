@@ -18,6 +18,7 @@ from shockdyno.model.road import DEFAULT_BAND_RAD_M
 from shockdyno.outputs import check_output, check_report_dir, write_output
 from shockdyno.progress import StageProgress
 from shockdyno.ride.study import RideConfig, RideResult, run_study
+from shockdyno.schema import to_json
 
 T = TypeVar("T")
 
@@ -209,7 +210,8 @@ def handle(args: argparse.Namespace) -> int:
         result = run_study(config, fit, args.fit, progress=progress)
     doc = result.to_json()
     # The recording the fit came from, so a report can tell a ride of another damper.
-    doc["fit_recording"] = fit.info.get("recording") if fit is not None else None
+    ref = fit.info.recording if fit is not None else None
+    doc["fit_recording"] = to_json(ref) if ref is not None else None
     try:
         text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
     except ValueError as exc:

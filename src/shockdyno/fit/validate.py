@@ -20,6 +20,7 @@ from shockdyno.fit.metrics import error_metrics
 from shockdyno.fit.prepare import PreparedTest
 from shockdyno.fit.problem import prepared_inputs
 from shockdyno.fit.result import FitResult, TestValidation
+from shockdyno.fit.result_doc import Table4Doc
 from shockdyno.model.composite import DamperModel
 from shockdyno.record.types import TestData
 
@@ -121,14 +122,19 @@ class Table4Row:
     talbott: dict[str, float]
     enhancement_pct: dict[str, float]
 
-    def as_dict(self) -> dict[str, Any]:
-        return {
-            "frequency_hz": self.frequency_hz,
-            "n_tests": self.n_tests,
-            "proposed": self.proposed,
-            "talbott": self.talbott,
-            "enhancement_pct": self.enhancement_pct,
-        }
+    def doc(self) -> Table4Doc:
+        """FIT.json's `info.table4[]` entry (a number not finite written as null)."""
+
+        def safe(d: dict[str, float]) -> dict[str, float | None]:
+            return {k: v if math.isfinite(v) else None for k, v in d.items()}
+
+        return Table4Doc(
+            frequency_hz=self.frequency_hz,
+            n_tests=self.n_tests,
+            proposed=safe(self.proposed),
+            talbott=safe(self.talbott),
+            enhancement_pct=safe(self.enhancement_pct),
+        )
 
 
 def table4(result: FitResult) -> list[Table4Row]:

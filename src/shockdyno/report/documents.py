@@ -25,18 +25,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, TypeVar
 
-from shockdyno.result_files import read_result
+from shockdyno.result_files import RecordingRef, read_result
 from shockdyno.schema import OMITTED_AT_DEFAULT, Positive, convert, to_json
 
 T = TypeVar("T")
-
-
-@dataclass(frozen=True)
-class RecordingRef:
-    """A result's `info.recording` (or a ride's `fit_recording`): what it was made from."""
-
-    file: str
-    sha256: str
 
 
 # -- DIAG.json -------------------------------------------------------------------------

@@ -561,8 +561,8 @@ def test_ride_study_runs_on_a_fit_with_terms_and_drops_the_sensor_terms(
     )  # fmt: skip
     with_terms = run_study(config, stiction_fit)
     info = with_terms.damper_info
-    assert info["terms"] == ["friction"]
-    assert info["terms_dropped"] == ["sensor_lag"]
+    assert info.terms == ("friction",)
+    assert info.terms_dropped == ("sensor_lag",)
     plain = FitResult(stiction_fit.spec_path, stiction_fit.globals, stiction_fit.clicks)
     without = run_study(config, plain)
     for c in CLICKS:

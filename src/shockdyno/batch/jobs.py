@@ -14,12 +14,13 @@ import contextlib
 import json
 import os
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from shockdyno import __version__
 from shockdyno.atomic import staged_dir, write_text_atomic
+from shockdyno.batch.table import Row
 from shockdyno.errors import ConfigError, ShockdynoError
 
 if TYPE_CHECKING:  # the report package pulls in matplotlib: imported where it is used
@@ -52,31 +53,6 @@ class Job:
         return {"sha256": self.sha256, "options": self.options, "version": __version__}
 
 
-@dataclass
-class Row:
-    """One line of results.parquet / results.csv."""
-
-    path: str
-    name: str
-    sha256: str
-    kind: str
-    status: str  # done | skipped | failed
-    error: str = ""
-    damper_id: str = ""
-    clicks: str = ""
-    frequencies_hz: str = ""
-    e_t_before: float | None = None
-    e_t_after: float | None = None
-    physics: str = ""
-    calibration: str = ""
-    result: str = ""
-    wall_s: float = 0.0
-    version: str = __version__
-
-    def as_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-
 def done_already(job: Job) -> bool:
     """The result exists and was made from the same bytes, options and version."""
     try:
@@ -86,7 +62,7 @@ def done_already(job: Job) -> bool:
     return bool(stored == job.key() and job.result_path.exists())
 
 
-def run_job(job: Job) -> dict[str, Any]:
+def run_job(job: Job) -> Row:
     """The worker's task: the row of one recording (never raises for a bad recording)."""
     t0 = time.perf_counter()
     row = Row(job.recording, job.name, job.sha256, job.kind, "done")
@@ -94,7 +70,7 @@ def run_job(job: Job) -> dict[str, Any]:
         if done_already(job):
             row.status = "skipped"
             _describe(row, job)
-            return row.as_dict()
+            return row
         delay = float(os.environ.get(DELAY_ENV, "0") or 0)
         if delay > 0:
             time.sleep(delay)
@@ -107,7 +83,7 @@ def run_job(job: Job) -> dict[str, Any]:
         text = " ".join(str(exc).split())[:500]
         row.error = text if isinstance(exc, ShockdynoError) else f"{type(exc).__name__}: {text}"
     row.wall_s = time.perf_counter() - t0
-    return row.as_dict()
+    return row
 
 
 def _fit(job: Job, row: Row) -> None:

@@ -23,7 +23,6 @@ from __future__ import annotations
 import hashlib
 import io
 import os
-import tempfile
 import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -33,6 +32,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from shockdyno.atomic import write_bytes_atomic
 from shockdyno.errors import ConfigError, FitError
 from shockdyno.model.quarter_car import quasi_static_force
 from shockdyno.record import adjusters
@@ -201,15 +201,9 @@ def to_bytes(saved: SavedForces, fit_text: str) -> bytes:
 
 def write(path: Path, saved: SavedForces, fit_text: str) -> None:
     """Write the sidecar whole or not at all (the caller checked --force and inputs)."""
-    data = to_bytes(saved, fit_text)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
+        write_bytes_atomic(path, to_bytes(saved, fit_text))
     except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
         raise ConfigError(f"cannot write {path} ({exc.strerror})") from None
 
 

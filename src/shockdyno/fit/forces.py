@@ -34,9 +34,10 @@ from numpy.typing import NDArray
 
 from shockdyno.atomic import write_bytes_atomic
 from shockdyno.errors import ConfigError, FitError
+from shockdyno.model.composite import ModelInputs
 from shockdyno.model.quarter_car import quasi_static_force
 from shockdyno.record import adjusters
-from shockdyno.record.types import TestMeta
+from shockdyno.record.types import TestData, TestMeta
 from shockdyno.units import IMPERIAL, SI, signed_velocities
 
 if TYPE_CHECKING:  # result.py holds a SavedForces: no import cycle at run time
@@ -47,6 +48,9 @@ FloatArray = NDArray[np.float64]
 FORMAT = "shockdyno model forces 1"
 SUFFIX = ".forces.npz"
 MAX_BYTES = 256 << 20  # a few representative tests and a table: far below this
+# The temperature-corrected chart's default reference (report/temperature.py's
+# DEFAULT_REFERENCE_C, which is this): another --reference-temperature-c is computed.
+REFERENCE_C = 40.0
 
 
 # The velocity sets a report evaluates the characteristic at, exactly as it passes them
@@ -78,6 +82,10 @@ class SavedForces:
     areas_m2: FloatArray  # (N, 2): A_bc, A_bt of each characteristic row
     characteristic: dict[str, FloatArray]  # velocity set -> (N, V) forces, N
     tests: dict[int, TestForces]
+    # The temperature-corrected chart's (thermal fits): (N, 3) A_bc, A_bt, oil °C, and per
+    # velocity set the (N, 1 + V) forces at rest and at the velocities, at that temperature.
+    thermal_keys: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    thermal: dict[str, FloatArray] = field(default_factory=dict)
     computed: list[str] = field(default_factory=list)
 
     def at(self, a_bc: float, a_bt: float, velocities: Sequence[float]) -> FloatArray | None:
@@ -89,6 +97,20 @@ class SavedForces:
             self.computed.append(f"the characteristic at A_bc {a_bc:.6g}, A_bt {a_bt:.6g} m²")
             return None
         return np.array(self.characteristic[name][rows[0]], dtype=float)
+
+    def at_temperature(
+        self, a_bc: float, a_bt: float, temperature_c: float, velocities: Sequence[float]
+    ) -> FloatArray | None:
+        """The forces at rest and at `velocities` with the oil at `temperature_c`, or None
+        (counted): `report/temperature.py`'s `model_forces_at`."""
+        wanted = tuple(float(v) for v in velocities)
+        name = next((k for k, vs in VELOCITY_SETS.items() if vs == wanted), None)
+        k = self.thermal_keys
+        rows = np.flatnonzero((k[:, 0] == a_bc) & (k[:, 1] == a_bt) & (k[:, 2] == temperature_c))
+        if name is None or not rows.size or name not in self.thermal:
+            self.computed.append(f"the model at {temperature_c:.4g} °C")
+            return None
+        return np.array(self.thermal[name][rows[0]], dtype=float)
 
     def test(self, index: int, n_samples: int) -> TestForces | None:
         """Test `index`'s forces when saved for a test of `n_samples` samples, or None."""
@@ -165,9 +187,49 @@ def characteristic_areas(result: FitResult) -> list[tuple[float, float]]:
     return list(dict.fromkeys(out))
 
 
-def build(result: FitResult, tests: Sequence[TestForces]) -> SavedForces:
+def setting_temperatures(tests: Sequence[TestData]) -> dict[tuple[int, int], float]:
+    """Mean temperature over the measured cycles of each (clicks, gas clicks) setting's
+    complete tests (each test weighted alike, as the click chart averages them); settings
+    without a reading are left out. The temperature-corrected chart's (report/temperature.py)."""
+    per: dict[tuple[int, int], list[float]] = {}
+    for test in tests:
+        if test.meta.status != "complete":
+            continue
+        temp = test.measured().temperature
+        if temp is None or not np.any(np.isfinite(temp)):
+            continue
+        key = (test.meta.clicks, test.meta.gas_clicks)
+        per.setdefault(key, []).append(float(np.nanmean(temp)))
+    return {k: float(np.mean(v)) for k, v in per.items()}
+
+
+def thermal_points(result: FitResult, tests: Sequence[TestData]) -> list[tuple[float, ...]]:
+    """Every (A_bc, A_bt, oil °C) the temperature-corrected chart asks of a thermal fit
+    at the default reference temperature: each setting's mean temperature over the
+    recording's complete tests and REFERENCE_C, of the fit and of each adjuster's line."""
+    if "thermal" not in {t.name for t in result.model().vehicle().terms}:
+        return []
+    complete = [t for t in tests if t.meta.status == "complete"]
+    views = [(result, complete)]
+    views += [(result.for_adjuster(n), line) for n, line in adjusters.lines(complete).items()]
+    out: list[tuple[float, ...]] = []
+    for view, line in views:
+        for (clicks, gas), temp in setting_temperatures(line).items():
+            try:
+                a_bc, a_bt = view.areas(clicks, gas_clicks=gas)
+            except FitError:
+                continue
+            out += [(a_bc, a_bt, temp), (a_bc, a_bt, REFERENCE_C)]
+    return list(dict.fromkeys(out))
+
+
+def build(
+    result: FitResult, tests: Sequence[TestForces], recorded: Sequence[TestData] = ()
+) -> SavedForces:
     """What the report needs of a fit: the characteristic at every area pair the click
-    chart asks for, and `tests` (the overlays' tests), not yet bound to a FIT.json."""
+    chart asks for, `tests` (the overlays' tests) and, for a thermal fit, the corrected
+    chart's model values at the temperatures of the `recorded` tests; not yet bound to a
+    FIT.json."""
     car = result.model().vehicle()
     pairs = characteristic_areas(result)
     table: dict[str, FloatArray] = {}
@@ -177,7 +239,22 @@ def build(result: FitResult, tests: Sequence[TestForces]) -> SavedForces:
         rows = [quasi_static_force(car, zeros, v, zeros, a_bc, a_bt) for a_bc, a_bt in pairs]
         table[name] = np.array(rows, dtype=float).reshape(len(pairs), v.size)
     areas = np.array(pairs, dtype=float).reshape(len(pairs), 2)
-    return SavedForces("", areas, table, {t.index: t for t in tests})
+    points = thermal_points(result, recorded)
+    thermal: dict[str, FloatArray] = {}
+    for name, vs in VELOCITY_SETS.items():
+        if name == "rest" or not points:
+            continue
+        v = np.concatenate([[0.0], np.asarray(vs, dtype=float)])
+        zeros = np.zeros(v.size)
+        thermal[name] = np.array(
+            [
+                car.force(ModelInputs.points(zeros, v, zeros, np.full(v.size, t)), a_bc, a_bt)
+                for a_bc, a_bt, t in points
+            ],
+            dtype=float,
+        ).reshape(len(points), v.size)
+    keys = np.array(points, dtype=float).reshape(len(points), 3)
+    return SavedForces("", areas, table, {t.index: t for t in tests}, keys, thermal)
 
 
 def to_bytes(saved: SavedForces, fit_text: str) -> bytes:
@@ -190,6 +267,9 @@ def to_bytes(saved: SavedForces, fit_text: str) -> bytes:
     for name, forces in saved.characteristic.items():
         arrays[f"char_v_{name}"] = np.asarray(VELOCITY_SETS[name], dtype=float)
         arrays[f"char_f_{name}"] = forces
+    arrays["thermal_keys"] = saved.thermal_keys
+    for name, forces in saved.thermal.items():
+        arrays[f"thermal_f_{name}"] = forces
     arrays["test_index"] = np.array(sorted(saved.tests), dtype=np.int64)
     for i, t in sorted(saved.tests.items()):
         arrays[f"proposed_{i}"] = t.proposed
@@ -246,9 +326,15 @@ def read(fit_json: str | os.PathLike[str]) -> tuple[SavedForces | None, str]:
                 for i in z["test_index"]
             }
             areas = np.asarray(z["char_areas"], dtype=float).reshape(-1, 2)
+            keys = np.asarray(z["thermal_keys"], dtype=float).reshape(-1, 3)
+            thermal = {
+                k[len("thermal_f_") :]: np.asarray(z[k], dtype=float)
+                for k in z.files
+                if k.startswith("thermal_f_") and k[len("thermal_f_") :] in VELOCITY_SETS
+            }
     except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
         return None, f"{path.name} is not readable ({exc}){fallback}"
-    return SavedForces(text_sha256(text), areas, table, tests), ""
+    return SavedForces(text_sha256(text), areas, table, tests, keys, thermal), ""
 
 
 def attach(fit: FitResult, fit_json: str | os.PathLike[str]) -> str:

@@ -372,6 +372,7 @@ def fit_sweep(
             for f in forces
             if f.test.meta.index in picks
         ],
+        tests,
     )
     info = _fit_info(
         pb,

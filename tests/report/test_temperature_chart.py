@@ -240,3 +240,13 @@ def test_a_thermal_fits_report_reads_the_corrected_charts_model_values_it_saved(
     assert "click_chart_reference.csv" in names and names == sorted(p.name for p in saved.iterdir())
     for name in names:
         assert (saved / name).read_bytes() == (computed / name).read_bytes(), name
+
+
+def test_a_reference_the_fit_did_not_save_is_computed_and_said(
+    thermal: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    args = ["report", str(thermal["recording"]), "--fit", str(thermal["fit"])]
+    assert main([*args, "--reference-temperature-c", "60", "-o", str(tmp_path / "r")]) == 0
+    err = capsys.readouterr().err
+    assert "fit.forces.npz does not hold the model at 60 °C" in err
+    assert "computed from the fit" in err and len(err.strip().splitlines()) == 1

@@ -351,6 +351,6 @@ def computed_note(fit: FitResult, fit_json: str | os.PathLike[str]) -> str:
         return ""
     more = f" and {len(missed) - 1} more" if len(missed) > 1 else ""
     return (
-        f"{sidecar_path(fit_json).name} does not hold {missed[0]}{more} (a report of "
-        "another recording, or an older fit): computed from the fit"
+        f"{sidecar_path(fit_json).name} does not hold {missed[0]}{more} (another "
+        "--reference-temperature-c, a report of another recording): computed from the fit"
     )

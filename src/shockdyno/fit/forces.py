@@ -1,20 +1,23 @@
 """The model's forces a report draws, saved by `fit` beside FIT.json (docs/fit.md).
 
-A report shows the fitted model in two places: the click chart (the model at mid-stroke
-and zero acceleration at the standard velocities, SI or imperial, with each click's areas
-and at rest) and the fit's overlays of measured, proposed and Talbott on a few tests.
-`fit` computes both once, with the model it fitted, and writes them to `NAME.forces.npz`
-beside `NAME.json` (`sidecar_path`); the report reads them instead of evaluating the
-model again on the recording.
+A report shows the fitted model in three places: the click chart (the model at
+mid-stroke and zero acceleration at the standard velocities, SI or imperial, with each
+click's areas and at rest), the fit's overlays of measured, proposed and Talbott on a few
+tests, and for a thermal fit the temperature-corrected chart (the model at each setting's
+oil temperature and at the reference). `fit` computes them once, with the model it
+fitted, and writes them to `NAME.forces.npz` beside `NAME.json` (`sidecar_path`); the
+report reads them instead of evaluating the model again on the recording.
 
 The file is a NumPy .npz (read with `allow_pickle=False`): the SHA-256 of the FIT.json
 text it belongs to, the characteristic (`char_areas` (N, 2) by `char_v_<set>` and
-`char_f_<set>` (N, V) per velocity set) and each saved test's `proposed_<index>` and
-`talbott_<index>` on its measured cycles at the full rate. A file from another FIT.json
-(the fit written again, the sidecar left) is stale: not used, and said in one line.
+`char_f_<set>` (N, V) per velocity set), the corrected chart's (`thermal_keys` (M, 3):
+areas and °C, `thermal_f_<set>` (M, 1 + V): at rest, then the velocities) and each saved
+test's `proposed_<index>` and `talbott_<index>` on its measured cycles at the full rate.
+A file from another FIT.json (the fit written again, the sidecar left) is stale: not
+used, and said in one line.
 
-A value the file does not hold (a report of another recording, a click the fit did not
-save, a fit from before the file existed) is computed from the fit as before, and counted
+A value the file does not hold (a report of another recording, another reference
+temperature) is computed from the fit as before, and counted
 (`SavedForces.computed`) so the caller can say so.
 """
 

@@ -22,6 +22,7 @@ import numpy as np
 
 from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError, FitError
+from shockdyno.fit import forces
 from shockdyno.fit.forces import SavedForces
 from shockdyno.fit.result_doc import ClickDoc, EstimateDoc, FitDoc, FitInfo, TestDoc, read_fit_doc
 from shockdyno.fit.trend import AreaTrend, TrendDoc, nan
@@ -393,8 +394,12 @@ class FitResult:
         return out
 
     def save(self, path: str | Path) -> None:
-        """Write the JSON; `path` is replaced only once the new content is complete."""
-        write_text_atomic(Path(path), json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n")
+        """Write the JSON, and beside it the model's forces a report reads when the fit
+        made them (`saved`, fit/forces.py); each file is replaced only once complete."""
+        text = json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n"
+        write_text_atomic(Path(path), text)
+        if self.saved is not None:
+            forces.write(forces.sidecar_path(path), self.saved, text)
 
     @staticmethod
     def load(path: str | Path, flag: str = "--fit") -> FitResult:

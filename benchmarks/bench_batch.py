@@ -75,7 +75,7 @@ def serial_seconds(recs: list[Path], out: Path) -> float:
     jobs = plan_jobs("fit", recs, out, {"seed": 0})
     t0 = time.perf_counter()
     rows = [run_job(j) for j in jobs]
-    assert all(r["status"] == "done" for r in rows), rows
+    assert all(r.status == "done" for r in rows), rows
     return time.perf_counter() - t0
 
 
@@ -124,7 +124,7 @@ def main() -> None:
             on_cluster=lambda _: started.append(time.perf_counter()),
         )
         total = time.perf_counter() - t0
-        assert all(r["status"] == "done" for r in rows), rows
+        assert all(r.status == "done" for r in rows), rows
         run_s = time.perf_counter() - started[0]
         overhead = task_overhead(args.workers)
 

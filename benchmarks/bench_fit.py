@@ -63,9 +63,9 @@ def main() -> None:
     wall = time.perf_counter() - t0
     info = fit.info
     print(
-        f"[1] full 22x3 fit (default): {wall:.1f} s wall, {info['model_evaluations']} model "
-        f"evaluations ({info['model_samples_evaluated'] / 1e6:.1f} M samples, objective on "
-        f"{info['objective_samples']} samples at {info['objective_rate_hz']:g} Hz); "
+        f"[1] full 22x3 fit (default): {wall:.1f} s wall, {info.model_evaluations} model "
+        f"evaluations ({(info.model_samples_evaluated or 0) / 1e6:.1f} M samples, objective on "
+        f"{info.objective_samples} samples at {info.objective_rate_hz:g} Hz); "
         f"ratio to the {TARGET_S:g} s target: {wall / TARGET_S:.2f}"
     )
     worst_rel, worst_z, ident = 0.0, 0.0, 0
@@ -168,8 +168,9 @@ def main() -> None:
     tinfo = with_terms.info
     print(
         f"[4] full 22x3 fit with terms {TERMS}: {wall_terms:.1f} s wall, "
-        f"{tinfo['model_evaluations']} model evaluations "
-        f"({tinfo['model_samples_evaluated'] / 1e6:.1f} M samples); plain fit [1] {wall:.1f} s; "
+        f"{tinfo.model_evaluations} model evaluations "
+        f"({(tinfo.model_samples_evaluated or 0) / 1e6:.1f} M samples); "
+        f"plain fit [1] {wall:.1f} s; "
         f"ratio {wall_terms / wall:.2f}x (aim <= {TERMS_AIM:g}x)"
     )
     fitted = ", ".join(

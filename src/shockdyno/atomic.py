@@ -70,10 +70,15 @@ def atomic_dir(target: Path, force: bool) -> Iterator[Path]:
 
 def write_text_atomic(target: Path, text: str) -> None:
     """Replace `target` with `text` (UTF-8) only once the new content is complete."""
+    write_bytes_atomic(target, text.encode("utf-8"))
+
+
+def write_bytes_atomic(target: Path, data: bytes) -> None:
+    """Replace `target` with `data` only once the new content is complete."""
     fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes it private; outputs are not
         os.replace(tmp, target)
     except BaseException:

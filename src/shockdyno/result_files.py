@@ -11,12 +11,22 @@ from __future__ import annotations
 
 import json
 import re
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from shockdyno.errors import ConfigError
 
 MCAP_MAGIC = b"\x89MCAP"
+
+
+@dataclass(frozen=True)
+class RecordingRef:
+    """What a result was made from: FIT.json's and DIAG.json's `info.recording`, a
+    RIDE.json's `fit_recording` (`record.identity.recording_info`)."""
+
+    file: str
+    sha256: str
 
 
 def starts_as_mcap(path: Path) -> bool:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from shockdyno.errors import ConfigError
@@ -83,6 +84,11 @@ IMPERIAL = Units(
 )
 
 UNITS: dict[str, Units] = {"si": SI, "imperial": IMPERIAL}
+
+
+def signed_velocities(speeds: Sequence[float]) -> tuple[float, ...]:
+    """A click chart's columns: rebound (fastest first) then compression (slowest first)."""
+    return tuple([-s for s in sorted(speeds, reverse=True)] + sorted(speeds))
 
 
 # A force or speed inside a sentence the diagnosis wrote in SI (a finding's why_not,

@@ -55,10 +55,10 @@ def test_a_local_cluster_batch_is_the_single_command_and_resumes(
     out = tmp_path / "out"
     done = _cli("batch", "fit", str(recordings), "--out", str(out), "--workers", "2")
     assert done.returncode == 3, done.stderr  # the two bad files failed; the rest ran
-    rows = {r["name"]: r for r in read_table(out)}
+    rows = {r.name: r for r in read_table(out)}
     assert set(rows) == {"r0", "r1", "r2", "r3", "bad", "cut"}
     for name in ("r0", "r1", "r2", "r3"):
-        assert rows[name]["status"] == "done" and rows[name]["clicks"] == "0,21"
+        assert rows[name].status == "done" and rows[name].clicks == "0,21"
         assert json.loads((out / f"{name}.fit.json").read_text())["tests"]
     # The four differ only in their damper id: the first and the last against the single
     # command (each single fit is seconds of CPU on a suite that is CPU-bound).
@@ -69,25 +69,25 @@ def test_a_local_cluster_batch_is_the_single_command_and_resumes(
         batch_doc = json.loads((out / f"{name}.fit.json").read_text())
         assert _without_wall(batch_doc) == _without_wall(json.loads(single.read_text()))
     for name in ("bad", "cut"):
-        assert rows[name]["status"] == "failed"
-        assert rows[name]["error"] and "\n" not in rows[name]["error"]
-    assert "not an MCAP file" in rows["bad"]["error"]
+        assert rows[name].status == "failed"
+        assert rows[name].error and "\n" not in rows[name].error
+    assert "not an MCAP file" in rows["bad"].error
     csv = (out / "results.csv").read_text().splitlines()
     assert len(csv) == 7 and csv[0].startswith('"path","name","sha256"')
-    assert [rows[f"r{i}"]["damper_id"] for i in range(4)] == ["D0", "D1", "D2", "D3"]
+    assert [rows[f"r{i}"].damper_id for i in range(4)] == ["D0", "D1", "D2", "D3"]
     # A re-run skips every result made from the same bytes, options and version.
     mtimes = {p.name: p.stat().st_mtime_ns for p in out.glob("*.fit.json")}
     again = _cli("batch", "fit", str(recordings), "--out", str(out), "--workers", "2")
     assert again.returncode == 3
-    rows = {r["name"]: r for r in read_table(out)}
-    assert [rows[f"r{i}"]["status"] for i in range(4)] == ["skipped"] * 4
-    assert [rows[f"r{i}"]["damper_id"] for i in range(4)] == ["D0", "D1", "D2", "D3"]
+    rows = {r.name: r for r in read_table(out)}
+    assert [rows[f"r{i}"].status for i in range(4)] == ["skipped"] * 4
+    assert [rows[f"r{i}"].damper_id for i in range(4)] == ["D0", "D1", "D2", "D3"]
     assert {p.name: p.stat().st_mtime_ns for p in out.glob("*.fit.json")} == mtimes
     # Other options are another result: not skipped.
     other = _cli("batch", "fit", str(recordings / "r0.mcap"), "--out", str(out), "--workers",
                  "1", "--terms", "none")  # fmt: skip
     assert other.returncode == 0
-    rows = {r["name"]: r["status"] for r in read_table(out)}
+    rows = {r.name: r.status for r in read_table(out)}
     assert rows["r0"] == "done" and rows["r1"] == "skipped"  # the others' rows are kept
     # The README's second command into the same folder (issue 47.2: it rewrote the table
     # with its own rows): the fit rows stay, the diagnose row joins them, both with the
@@ -97,12 +97,12 @@ def test_a_local_cluster_batch_is_the_single_command_and_resumes(
     assert diag.returncode == 0, diag.stderr
     assert "(with 6 rows of earlier runs)" in diag.stdout
     rows = read_table(out)
-    assert [(r["name"], r["kind"]) for r in rows] == [
+    assert [(r.name, r.kind) for r in rows] == [
         ("bad", "fit"), ("cut", "fit"), ("r0", "fit"), ("r1", "fit"), ("r1", "diagnose"),
         ("r2", "fit"), ("r3", "fit"),
     ]  # fmt: skip
-    assert [r["damper_id"] for r in rows if r["name"] == "r1"] == ["D1", "D1"]
-    assert rows[4]["status"] == "done" and rows[4]["e_t_before"] is not None
+    assert [r.damper_id for r in rows if r.name == "r1"] == ["D1", "D1"]
+    assert rows[4].status == "done" and rows[4].e_t_before is not None
     csv = (out / "results.csv").read_text().splitlines()
     assert len(csv) == 8 and '"r1","' in csv[5] and '"diagnose"' in csv[5]
     assert "no NAME.fit.json" not in diag.stderr
@@ -183,8 +183,8 @@ def test_a_scheduler_with_two_workers_survives_a_killed_worker(
         stdout, stderr = batch.communicate(timeout=180)
         assert batch.returncode == 0, stderr
         rows = read_table(out)
-        assert sorted(r["name"] for r in rows) == ["r0", "r1", "r2", "r3"]
-        assert all(r["status"] == "done" for r in rows)
+        assert sorted(r.name for r in rows) == ["r0", "r1", "r2", "r3"]
+        assert all(r.status == "done" for r in rows)
         assert sorted(p.name for p in out.glob("*.fit.json")) == [
             f"r{i}.fit.json" for i in range(4)
         ]

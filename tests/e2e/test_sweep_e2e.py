@@ -295,6 +295,8 @@ def test_demo_writes_recording_fit_and_report(tmp_path):
         cwd=REPO, capture_output=True, text=True, timeout=110,
     )  # fmt: skip
     assert again.returncode == 0, again.stderr
+    # ... reading the model's forces the demo's fit saved beside it (fit/forces.py).
+    assert (tmp_path / "demo-fit.forces.npz").exists() and "note:" not in again.stderr
 
 
 def test_unreachable_rig_is_one_line_and_leaves_no_file(tmp_path):

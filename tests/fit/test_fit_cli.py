@@ -256,11 +256,13 @@ def test_the_globals_tables_force_delay_at_zero_reads_at_lower_bound() -> None:
     the bound 0, as the terms table says it; a real delay is printed in ms."""
     from shockdyno.fit.display import globals_rows
     from shockdyno.fit.result import FitResult
+    from shockdyno.fit.result_doc import CalibrationInfo
     from shockdyno.model import default_spec_path
 
     result = FitResult.from_spec(default_spec_path(), (0, 10))
     for delay, want in ((8.4e-19, "at lower bound (0 ms)"), (0.0021, "2.1")):
-        result.info["calibration"] = {"force_delay_s": delay, "force_delay_sd_s": 1e-5}
+        cal = CalibrationInfo(force_delay_s=delay, force_delay_sd_s=1e-5)
+        result.info = replace(result.info, calibration=cal)
         (row,) = [r for r in globals_rows(result)[1] if r[0] == "force delay"]
         assert row[1] == want, row
 

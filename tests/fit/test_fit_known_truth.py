@@ -44,7 +44,8 @@ def test_proposed_reaches_e_t_below_005_on_every_test(fit: FitResult) -> None:
 
 
 def test_globals_are_recovered(fit: FitResult) -> None:
-    sd = fit.info["calibration"]["globals_sd"]
+    assert fit.info.calibration is not None
+    sd = fit.info.calibration.globals_sd
     for key, value in TRUE_GLOBALS.items():
         got = fit.globals[key]
         assert got == pytest.approx(value, rel=0.02), key
@@ -114,7 +115,7 @@ def test_json_round_trip_rebuilds_the_fitted_damper(fit: FitResult, tmp_path: Pa
     assert spec.friction_n == pytest.approx(TRUE_GLOBALS["friction_n"], rel=0.02)
     assert spec.rebound_valve.preload_m == fit.globals["rebound_valve.preload_m"]
     assert back.areas(6) == (fit.clicks[2].a_bc_m2, fit.clicks[2].a_bt_m2)
-    assert back.info["table4"][0]["frequency_hz"] == 0.5
+    assert back.info.table4 is not None and back.info.table4[0].frequency_hz == 0.5
 
 
 def test_equal_areas_make_the_models_tie() -> None:
@@ -194,9 +195,10 @@ def test_channel_delay_is_calibrated() -> None:
     truth = true_spec()
     tests = synthetic_sweep(truth, [0, 4, 12], cycles=2, seed=8, force_delay_s=1e-3)
     fit = fit_sweep(tests)
-    cal = fit.info["calibration"]
-    assert cal["force_delay_s"] == pytest.approx(1e-3, rel=0.05)
-    assert abs(cal["force_delay_s"] - 1e-3) <= 4 * cal["force_delay_sd_s"] + 2e-5
+    cal = fit.info.calibration
+    assert cal is not None and cal.force_delay_s is not None and cal.force_delay_sd_s is not None
+    assert cal.force_delay_s == pytest.approx(1e-3, rel=0.05)
+    assert abs(cal.force_delay_s - 1e-3) <= 4 * cal.force_delay_sd_s + 2e-5
     for t in fit.tests:
         assert t.proposed["E_t"] <= 0.05
     for c in fit.clicks[1:]:

@@ -25,6 +25,7 @@ from rich.console import Console
 from shockdyno.fit import FitResult, fit_sweep
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.problem import prepared_inputs
+from shockdyno.fit.result_doc import CalibrationInfo
 from shockdyno.fit.synthetic import synthetic_sweep
 from shockdyno.model import load_spec
 from shockdyno.model.spec import default_spec_path
@@ -247,9 +248,9 @@ def test_compressibility_with_the_oil_modulus_held_is_no_worse_than_plain(
     c_oil = fit.terms["compressibility"]["oil_compressibility_per_gpa"]
     _note(
         f"clean + compressibility: air_fraction {alpha:.3g} ± {sd:.3g}, c_oil {c_oil.value:g} "
-        f"(held), start {fit.info['calibration']['start']}, E_t {_e_t(fit):.4f}"
+        f"(held), start {_cal(fit).start}, E_t {_e_t(fit):.4f}"
     )
-    assert fit.info["calibration"]["start"].startswith("plain fit")
+    assert _cal(fit).start.startswith("plain fit")
     assert c_oil.fixed and c_oil.value == 0.0
     # Freed from the plain fit (σ estimated), or the plain fit itself (at off, no σ).
     # (3σ of the measured scatter: the reported σ understates it, see UNDERSTATED.)
@@ -262,9 +263,13 @@ def test_compressibility_with_the_oil_modulus_held_is_no_worse_than_plain(
 def _no_worse(fit: FitResult, plain_fit: FitResult) -> None:
     """A fit with terms ends no worse than the paper's model alone (the same objective
     samples; a stateful term's off model runs at the full rate, hence the 0.1 %)."""
-    rms = fit.info["calibration"]["rms_residual_n"]
-    plain = plain_fit.info["calibration"]["rms_residual_n"]
-    assert rms <= 1.001 * plain, (rms, plain)
+    rms, plain = _cal(fit).rms_residual_n, _cal(plain_fit).rms_residual_n
+    assert rms is not None and plain is not None and rms <= 1.001 * plain, (rms, plain)
+
+
+def _cal(fit: FitResult) -> CalibrationInfo:
+    assert fit.info.calibration is not None
+    return fit.info.calibration
 
 
 def test_cavitation_on_a_recording_that_never_cavitates_is_not_measured(
@@ -556,8 +561,8 @@ def test_ride_study_runs_on_a_fit_with_terms_and_drops_the_sensor_terms(
     )  # fmt: skip
     with_terms = run_study(config, stiction_fit)
     info = with_terms.damper_info
-    assert info["terms"] == ["friction"]
-    assert info["terms_dropped"] == ["sensor_lag"]
+    assert info.terms == ("friction",)
+    assert info.terms_dropped == ("sensor_lag",)
     plain = FitResult(stiction_fit.spec_path, stiction_fit.globals, stiction_fit.clicks)
     without = run_study(config, plain)
     for c in CLICKS:

@@ -50,7 +50,8 @@ def test_ga_and_default_agree_within_uncertainty() -> None:
     tests = synthetic_sweep(true_spec(), [3, 12], frequencies_hz=(0.5, 1.5), cycles=1, seed=9)
     fast = fit_sweep(tests, objective_rate_hz=100.0)
     ga = fit_sweep(tests, optimizer="ga", seed=1, objective_rate_hz=100.0)
-    assert ga.info["ga"]["generations"] == 150 and ga.info["ga"]["population"] == 50
+    assert ga.info.ga is not None
+    assert ga.info.ga.generations == 150 and ga.info.ga.population == 50
     for f, g in zip(fast.clicks, ga.clicks, strict=True):
         for a_f, a_g, sd in (
             (f.a_bc_m2, g.a_bc_m2, f.a_bc_sd_m2),

@@ -168,3 +168,26 @@ def test_a_relative_spec_path_is_found_from_here_or_beside_the_fit(
     (elsewhere / "specs").mkdir()
     (elsewhere / "specs/mine.toml").write_text(text)
     assert FitResult.load(fit).spec_file() == Path("specs/mine.toml")
+
+
+def test_every_key_fit_writes_is_declared_by_its_typed_document(tmp_path: Path) -> None:
+    """FIT.json has one definition (fit/result_doc.py) that `fit` builds and every reader
+    reads: read strictly, an undeclared key anywhere in the file is an error, and the typed
+    document written again is the file, byte for byte."""
+    from shockdyno.cli import main
+    from shockdyno.fit.result_doc import FitDoc
+    from shockdyno.schema import convert, to_json
+
+    out = tmp_path / "example.json"
+    example = Path(__file__).parents[2] / "recordings" / "examples" / "example.mcap"
+    assert main(["fit", str(example), "--json", str(out), "--no-history"]) == 0
+    text = out.read_text()
+    doc = convert(json.loads(text), FitDoc, str(out))  # unknown keys refused
+    assert doc.info.calibration is not None and doc.info.table4 and doc.info.velocity_range
+    assert doc.info.recording is not None and doc.terms["sensor_lag"] and doc.trend
+    assert json.dumps(to_json(doc), indent=2, allow_nan=False) + "\n" == text
+    assert json.dumps(FitResult.load(out).to_json(), indent=2, allow_nan=False) + "\n" == text
+    raw = json.loads(text)
+    raw["info"]["calibration"]["prior"] = 1  # a key written untyped
+    with pytest.raises(ConfigError, match=r"info\.calibration\.prior"):
+        convert(raw, FitDoc, str(out))

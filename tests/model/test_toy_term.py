@@ -92,7 +92,7 @@ def test_a_term_registered_once_is_fitted_diagnosed_reported_and_driven(
         RideConfig(clicks=(4,), roads=("C",), speeds_kmh=(60.0,), duration_s=6.0, warmup_s=2.0),
         fit,
     )
-    assert ride.damper_info["terms"] == ["toy_mass"]
+    assert ride.damper_info.terms == ("toy_mass",)
 
 
 def test_a_registered_term_is_listed_in_fit_and_diagnose_help(

@@ -209,3 +209,44 @@ def test_a_thermal_term_that_moves_nothing_is_said_so() -> None:
     moved = {(3, 0): {0.1: 190.0, -0.1: -900.0}}
     far = temperature.CorrectedChart(90.0, (0.1, -0.1), {(3, 0): 41.0}, same, moved)
     assert [("49 K" in n) for n in temperature._caveats(far)] == [True]
+
+
+def test_a_thermal_fits_report_reads_the_corrected_charts_model_values_it_saved(
+    thermal: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """At the default reference temperature the fit saved the model at every setting's
+    temperature and at the reference (fit/forces.py): the report runs no model, and its
+    page and files are those it computes when the sidecar is away."""
+    from shockdyno.fit import forces
+    from shockdyno.model.composite import DamperModel
+
+    assert forces.REFERENCE_C == temperature.DEFAULT_REFERENCE_C
+    args = ["report", str(thermal["recording"]), "--fit", str(thermal["fit"])]
+    sidecar = forces.sidecar_path(thermal["fit"])
+    sidecar.rename(tmp_path / "away.npz")
+    try:
+        assert main([*args, "-o", str(tmp_path / "computed")]) == 0
+    finally:
+        (tmp_path / "away.npz").rename(sidecar)
+
+    def no_model(*_args: object, **_kw: object) -> np.ndarray:
+        raise AssertionError("the report ran the model")
+
+    with monkeypatch.context() as m:
+        m.setattr(DamperModel, "force", no_model)
+        assert main([*args, "-o", str(tmp_path / "saved")]) == 0
+    computed, saved = tmp_path / "computed", tmp_path / "saved"
+    names = sorted(p.name for p in computed.iterdir())
+    assert "click_chart_reference.csv" in names and names == sorted(p.name for p in saved.iterdir())
+    for name in names:
+        assert (saved / name).read_bytes() == (computed / name).read_bytes(), name
+
+
+def test_a_reference_the_fit_did_not_save_is_computed_and_said(
+    thermal: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    args = ["report", str(thermal["recording"]), "--fit", str(thermal["fit"])]
+    assert main([*args, "--reference-temperature-c", "60", "-o", str(tmp_path / "r")]) == 0
+    err = capsys.readouterr().err
+    assert "fit.forces.npz does not hold the model at 60 °C" in err
+    assert "computed from the fit" in err and len(err.strip().splitlines()) == 1

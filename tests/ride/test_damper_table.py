@@ -153,11 +153,11 @@ def test_rows_beyond_the_measured_velocities_are_marked(
     fitted_example: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     # Issue 47.5: the default grid runs to 1000 mm/s; the recording reached 188.5.
-    spans = FitResult.load(fitted_example).info["velocity_range"]
-    assert [(e["clicks"], e["gas_clicks"]) for e in spans] == [(0, 0), (21, 0)]
+    spans = FitResult.load(fitted_example).info.velocity_range or ()
+    assert [(e.clicks, e.gas_clicks) for e in spans] == [(0, 0), (21, 0)]
     for e in spans:  # the sine's own peak velocity, from its samples
-        assert e["compression_m_s"] == pytest.approx(PEAK_M_S, rel=2e-3)
-        assert -e["rebound_m_s"] == pytest.approx(PEAK_M_S, rel=2e-3)
+        assert e.compression_m_s == pytest.approx(PEAK_M_S, rel=2e-3)
+        assert -e.rebound_m_s == pytest.approx(PEAK_M_S, rel=2e-3)
     out = tmp_path / "tables"
     assert main(["export", str(fitted_example), "--damper-table", str(out)]) == 0
     said = capsys.readouterr().out

@@ -14,6 +14,8 @@ from shockdyno.cli import main
 from shockdyno.fit.result import FitResult
 from shockdyno.fit.trend import AreaTrend
 from shockdyno.model import default_spec_path
+from shockdyno.report.documents import RideDoc, ride_text
+from shockdyno.schema import convert
 
 FAST = ["--duration-s", "3", "--warmup-s", "1", "--dt-ms", "1"]
 
@@ -33,6 +35,10 @@ def test_ride_writes_the_documented_json_and_report(fit_file: Path, tmp_path: Pa
     )  # fmt: skip
     assert code == 0
     doc = json.loads(out.read_text())
+    # One definition (report/documents.py RideDoc): read strictly, every key the study
+    # wrote is declared, and the typed document written again is the file byte for byte.
+    typed = convert(doc, RideDoc, str(out))
+    assert ride_text(typed) == out.read_text() and typed.damper.settings and typed.roads
     lo, hi = doc["road_band_rad_per_m"]
     assert 0 < lo < hi
     assert doc["dt_s"] == 1e-3 and doc["duration_s"] == 3.0

@@ -72,8 +72,8 @@ def test_step_check_reports_a_small_change(true_fit: FitResult) -> None:
     )  # fmt: skip
     res = run_study(config, true_fit)
     check = res.step_check
-    assert check is not None and len(check["runs"]) == 2
-    assert check["max_relative_change"] < 1e-3
+    assert check is not None and len(check.runs) == 2
+    assert check.max_relative_change < 1e-3
 
 
 def test_bad_study_requests_are_config_errors(true_fit: FitResult) -> None:
@@ -105,10 +105,10 @@ def test_clicks_the_fit_did_not_measure_come_from_its_trend(true_fit: FitResult)
         step_check=False,
     )  # fmt: skip
     res = run_study(config, fit)
-    seven, ten = res.damper_info["settings"]
-    assert seven["source"] == "trend" and ten["source"] == "fit"
+    seven, ten = res.damper_info.settings
+    assert seven.source == "trend" and ten.source == "fit"
     true_bc7 = float(spec.bleed_areas(7)[0])
-    assert seven["A_bc_m2"] == pytest.approx(true_bc7, rel=0.05)
+    assert seven.A_bc_m2 == pytest.approx(true_bc7, rel=0.05)
     talbott = run_study(replace(config, clicks=(10,), model="talbott"), fit)
-    setting = talbott.damper_info["settings"][0]
-    assert setting["A_bc_m2"] == setting["A_bt_m2"] == true_fit.clicks[1].a_b_talbott_m2
+    setting = talbott.damper_info.settings[0]
+    assert setting.A_bc_m2 == setting.A_bt_m2 == true_fit.clicks[1].a_b_talbott_m2

@@ -14,12 +14,13 @@ import contextlib
 import json
 import os
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from shockdyno import __version__
 from shockdyno.atomic import staged_dir, write_text_atomic
+from shockdyno.batch.table import Row
 from shockdyno.errors import ConfigError, ShockdynoError
 
 if TYPE_CHECKING:  # the report package pulls in matplotlib: imported where it is used
@@ -52,31 +53,6 @@ class Job:
         return {"sha256": self.sha256, "options": self.options, "version": __version__}
 
 
-@dataclass
-class Row:
-    """One line of results.parquet / results.csv."""
-
-    path: str
-    name: str
-    sha256: str
-    kind: str
-    status: str  # done | skipped | failed
-    error: str = ""
-    damper_id: str = ""
-    clicks: str = ""
-    frequencies_hz: str = ""
-    e_t_before: float | None = None
-    e_t_after: float | None = None
-    physics: str = ""
-    calibration: str = ""
-    result: str = ""
-    wall_s: float = 0.0
-    version: str = __version__
-
-    def as_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-
 def done_already(job: Job) -> bool:
     """The result exists and was made from the same bytes, options and version."""
     try:
@@ -86,7 +62,7 @@ def done_already(job: Job) -> bool:
     return bool(stored == job.key() and job.result_path.exists())
 
 
-def run_job(job: Job) -> dict[str, Any]:
+def run_job(job: Job) -> Row:
     """The worker's task: the row of one recording (never raises for a bad recording)."""
     t0 = time.perf_counter()
     row = Row(job.recording, job.name, job.sha256, job.kind, "done")
@@ -94,7 +70,7 @@ def run_job(job: Job) -> dict[str, Any]:
         if done_already(job):
             row.status = "skipped"
             _describe(row, job)
-            return row.as_dict()
+            return row
         delay = float(os.environ.get(DELAY_ENV, "0") or 0)
         if delay > 0:
             time.sleep(delay)
@@ -107,10 +83,11 @@ def run_job(job: Job) -> dict[str, Any]:
         text = " ".join(str(exc).split())[:500]
         row.error = text if isinstance(exc, ShockdynoError) else f"{type(exc).__name__}: {text}"
     row.wall_s = time.perf_counter() - t0
-    return row.as_dict()
+    return row
 
 
 def _fit(job: Job, row: Row) -> None:
+    from shockdyno.fit import forces
     from shockdyno.fit.file import fit_file, result_json
 
     o = job.options
@@ -121,7 +98,10 @@ def _fit(job: Job, row: Row) -> None:
         seed=int(o.get("seed", 0)),
         terms=o.get("terms"),
     )
-    write_text_atomic(job.result_path, result_json(result))
+    text = result_json(result)
+    write_text_atomic(job.result_path, text)
+    if result.saved is not None:  # what `batch report` draws of the model, beside it
+        forces.write(forces.sidecar_path(job.result_path), result.saved, text)
     _from_tests(row, tests)
     row.damper_id = _damper_id(job.recording)
     e_t = [t.proposed.get("E_t") for t in result.tests]
@@ -161,6 +141,7 @@ def _diagnose(job: Job, row: Row) -> None:
 
 
 def _report(job: Job, row: Row) -> None:
+    from shockdyno.fit import forces
     from shockdyno.fit.result import FitResult
     from shockdyno.record import open_recording
     from shockdyno.report.build import build_report
@@ -171,6 +152,8 @@ def _report(job: Job, row: Row) -> None:
     tests = rec.load_all()
     fit_path = fit_for(job)
     fit = FitResult.load(fit_path).require_usable(f"--fit {fit_path}") if fit_path else None
+    if fit is not None and fit_path is not None:  # the page reads the forces the fit saved
+        forces.attach(fit, fit_path)  # none: computed from the fit, as before they were
     diag_path = Path(job.out_dir) / f"{job.name}.diag.json"
     diag = read_diagnosis(diag_path, "diagnose result") if diag_path.exists() else None
     out = Path(job.out_dir) / job.name
@@ -178,9 +161,9 @@ def _report(job: Job, row: Row) -> None:
     metadata = {"recording": Path(job.recording).name, **rec.metadata}
     limit = limit_for(tests, job.options.get("spec"), rec.metadata, fit.spec() if fit else None)
     if fit is not None:  # a fit of another recording is refused, as by `report` (issue 46.7)
-        from shockdyno.record.identity import provenance, stored_sha256
+        from shockdyno.record.identity import provenance
 
-        stored = stored_sha256(fit.info, "recording", "sha256")
+        stored = fit.info.recording_sha256
         allow = bool(job.options.get("allow_other_recording", False))
         metadata["fit"] = provenance(stored, job.sha256, "the fit", "--fit", allow)
     with staged_dir(out) as folder:  # whole, or not at all: a killed worker leaves none

@@ -19,13 +19,13 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TypeVar
 
-from shockdyno.batch.jobs import Job, Row, run_job
-from shockdyno.batch.table import earlier_rows, merged, write_table
+from shockdyno.batch.jobs import Job, run_job
+from shockdyno.batch.table import Row, earlier_rows, merged, write_table
 from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError, ShockdynoError
 from shockdyno.record.identity import recording_sha256
 
-Progress = Callable[[dict[str, Any], int, int], None]
+Progress = Callable[[Row, int, int], None]
 T = TypeVar("T")
 R = TypeVar("R")
 # The table is rewritten whole: at most this often while results arrive (thousands of rows
@@ -158,7 +158,7 @@ def run_batch(
     on_cluster: Callable[[str], None] | None = None,
     history: Path | None = None,
     warn: Callable[[str], None] | None = None,
-) -> list[dict[str, Any]]:
+) -> list[Row]:
     """Run every job; returns this run's rows. out_dir/results.parquet and .csv hold them
     with the rows of earlier runs whose (name, kind) this run did not touch. With
     `history`, each fit and diagnosis (done, or skipped as done before) is added to that
@@ -166,19 +166,18 @@ def run_batch(
     (one writer; an SQLite file on a cluster's shared storage is no place for many)."""
     earlier = earlier_rows(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    rows: dict[str, dict[str, Any]] = {}
+    rows: dict[str, Row] = {}
     last_write = -math.inf
     try:
         for job, got in map_tasks(
             run_job, jobs, scheduler=scheduler, workers=workers, on_cluster=on_cluster
         ):
             if isinstance(got, BaseException):
-                lost = Row(job.recording, job.name, job.sha256, job.kind, "failed")
-                lost.error = f"{type(got).__name__}: {' '.join(str(got).split())[:300]}"
-                row = lost.as_dict()
+                row = Row(job.recording, job.name, job.sha256, job.kind, "failed")
+                row.error = f"{type(got).__name__}: {' '.join(str(got).split())[:300]}"
             else:
                 row = got
-                if history is not None and row["status"] in ("done", "skipped"):
+                if history is not None and row.status in ("done", "skipped"):
                     _keep(history, job, row, warn)
             rows[job.name] = row
             now = time.monotonic()
@@ -192,15 +191,15 @@ def run_batch(
     return _ordered(rows, jobs)
 
 
-def _keep(history: Path, job: Job, row: dict[str, Any], warn: Callable[[str], None] | None) -> None:
+def _keep(history: Path, job: Job, row: Row, warn: Callable[[str], None] | None) -> None:
     from shockdyno.history import record_result_file
 
     try:
         record_result_file(history, Path(job.recording), job.kind, job.result_path, job.options)
     except (ShockdynoError, OSError) as exc:  # the result stands; the history says why not
         if warn is not None:
-            warn(f"history not updated for {row['name']}: {exc}")
+            warn(f"history not updated for {row.name}: {exc}")
 
 
-def _ordered(rows: dict[str, dict[str, Any]], jobs: list[Job]) -> list[dict[str, Any]]:
+def _ordered(rows: dict[str, Row], jobs: list[Job]) -> list[Row]:
     return [rows[j.name] for j in jobs if j.name in rows]

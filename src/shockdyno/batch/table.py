@@ -17,30 +17,43 @@ from __future__ import annotations
 
 import os
 import tempfile
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import Any
 
+from shockdyno import __version__
 from shockdyno.errors import ConfigError
 
 KINDS = ("fit", "diagnose", "report")  # the commands, in the order a row's name lists them
 
+
+@dataclass
+class Row:
+    """One line of results.parquet / results.csv: its one definition, which a batch task
+    fills (batch/jobs.py), this module writes and reads, and the command prints."""
+
+    path: str
+    name: str
+    sha256: str
+    kind: str
+    status: str  # done | skipped | failed
+    error: str = ""
+    damper_id: str = ""
+    clicks: str = ""
+    frequencies_hz: str = ""
+    e_t_before: float | None = None
+    e_t_after: float | None = None
+    physics: str = ""
+    calibration: str = ""
+    result: str = ""
+    wall_s: float = 0.0
+    version: str = __version__
+
+
+# The columns, in the table's order, and their Parquet types: Row's fields.
 COLUMNS: list[tuple[str, str]] = [
-    ("path", "string"),
-    ("name", "string"),
-    ("sha256", "string"),
-    ("kind", "string"),
-    ("status", "string"),
-    ("error", "string"),
-    ("damper_id", "string"),
-    ("clicks", "string"),
-    ("frequencies_hz", "string"),
-    ("e_t_before", "float64"),
-    ("e_t_after", "float64"),
-    ("physics", "string"),
-    ("calibration", "string"),
-    ("result", "string"),
-    ("wall_s", "float64"),
-    ("version", "string"),
+    (f.name, "string" if f.type == "str" else "float64") for f in fields(Row)
 ]
 
 
@@ -62,26 +75,29 @@ def _replace(target: Path, write: Any) -> None:
             os.unlink(tmp)
 
 
-def write_table(out_dir: Path, rows: list[dict[str, Any]]) -> None:
+def write_table(out_dir: Path, rows: Sequence[Row]) -> None:
     import pyarrow as pa
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
-    table = pa.Table.from_pylist(
-        [{name: r.get(name) for name, _ in COLUMNS} for r in rows], schema=_schema()
-    )
+    table = pa.Table.from_pylist([asdict(r) for r in rows], schema=_schema())
     _replace(out_dir / "results.parquet", lambda p: pq.write_table(table, p))
     _replace(out_dir / "results.csv", lambda p: pacsv.write_csv(table, p))
 
 
-def read_table(out_dir: Path) -> list[dict[str, Any]]:
+def read_table(out_dir: Path) -> list[Row]:
+    """The table's rows; a column this version does not know is left out, one it added
+    since (or a null) takes Row's default."""
     import pyarrow.parquet as pq
 
-    rows: list[dict[str, Any]] = pq.read_table(out_dir / "results.parquet").to_pylist()
-    return rows
+    known = {f.name for f in fields(Row)}
+    return [
+        Row(**{k: v for k, v in r.items() if k in known and v is not None})
+        for r in pq.read_table(out_dir / "results.parquet").to_pylist()
+    ]
 
 
-def earlier_rows(out_dir: Path) -> list[dict[str, Any]]:
+def earlier_rows(out_dir: Path) -> list[Row]:
     """The rows a DIR already holds (none without a table); a table that cannot be read
     is refused in one line before any work, never overwritten."""
     if not (out_dir / "results.parquet").exists():
@@ -95,11 +111,9 @@ def earlier_rows(out_dir: Path) -> list[dict[str, Any]]:
         ) from None
 
 
-def merged(earlier: list[dict[str, Any]], rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def merged(earlier: Sequence[Row], rows: Sequence[Row]) -> list[Row]:
     """The earlier rows with this run's rows in place of those of the same (name, kind)."""
-    by_key = {(r.get("name"), r.get("kind")): r for r in earlier}
-    by_key.update({(r["name"], r["kind"]): r for r in rows})
+    by_key = {(r.name, r.kind): r for r in earlier}
+    by_key.update({(r.name, r.kind): r for r in rows})
     order = {kind: i for i, kind in enumerate(KINDS)}
-    return sorted(
-        by_key.values(), key=lambda r: (str(r.get("name")), order.get(str(r.get("kind")), 99))
-    )
+    return sorted(by_key.values(), key=lambda r: (r.name, order.get(r.kind, 99)))

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from shockdyno.batch.table import KINDS
+from shockdyno.batch.table import KINDS, Row
 from shockdyno.commands.args import add_seed, add_spec
 from shockdyno.commands.history import add_history_argument, database
 from shockdyno.diagnose.workers import usable_cores
@@ -127,13 +127,13 @@ def run(args: argparse.Namespace) -> int:
     ) as bar:
         task = bar.add_task("batch", total=len(jobs), counts="")
 
-        def progress(row: dict[str, Any], n: int, total: int) -> None:
-            counts[row["status"]] = counts.get(row["status"], 0) + 1
+        def progress(row: Row, n: int, total: int) -> None:
+            counts[row.status] = counts.get(row.status, 0) + 1
             text = ", ".join(f"{v} {k}" for k, v in counts.items()) + f", {total - n} to go"
             bar.update(task, completed=n, counts=text)
             if not console.is_terminal:
-                line = f"batch: {n}/{total} {row['status']} {row['name']}"
-                print(line + (f": {row['error']}" if row["error"] else ""), file=sys.stderr)
+                line = f"batch: {n}/{total} {row.status} {row.name}"
+                print(line + (f": {row.error}" if row.error else ""), file=sys.stderr)
 
         def on_cluster(link: str) -> None:
             where = args.scheduler or f"local cluster, {args.workers or usable_cores()} workers"
@@ -155,8 +155,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _print_outcome(
     kind: str,
-    rows: list[dict[str, Any]],
-    kept: list[dict[str, Any]],
+    rows: list[Row],
+    kept: list[Row],
     counts: dict[str, int],
     n_jobs: int,
     out: Path,
@@ -165,17 +165,17 @@ def _print_outcome(
     """The batch's last lines: done, skipped and failed of all, where the table is (and
     how many rows of earlier runs it keeps), the history's additions, each failure; the
     exit code (3 when a recording failed)."""
-    failed = [r for r in rows if r["status"] == "failed"]
-    ran = {(r["name"], r["kind"]) for r in rows}
-    others = sum((r.get("name"), r.get("kind")) not in ran for r in kept)
+    failed = [r for r in rows if r.status == "failed"]
+    ran = {(r.name, r.kind) for r in rows}
+    others = sum((r.name, r.kind) not in ran for r in kept)
     print(
         f"batch {kind}: {counts['done']} done, {counts['skipped']} skipped, "
         f"{len(failed)} failed of {n_jobs}; table {out / 'results.parquet'} and .csv"
         + (f" (with {others} rows of earlier runs)" if others else "")
     )
     if history is not None:
-        added = sum(r["status"] in ("done", "skipped") for r in rows)
+        added = sum(r.status in ("done", "skipped") for r in rows)
         print(f"history: {added} results kept in {history}")
     for r in failed:
-        print(f"  failed {r['path']}: {r['error']}")
+        print(f"  failed {r.path}: {r.error}")
     return 3 if failed else 0

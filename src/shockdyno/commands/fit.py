@@ -171,6 +171,7 @@ def _globals_table(result: Any, units: Units = SI) -> Any:
 def run_fit(args: argparse.Namespace) -> int:
     from rich.console import Console
 
+    from shockdyno.fit import forces
     from shockdyno.fit.terms import parse_terms
     from shockdyno.fit.validate import table4_table
     from shockdyno.model import load_spec
@@ -182,6 +183,10 @@ def run_fit(args: argparse.Namespace) -> int:
     reference = reference_c(args.reference_temperature_c)
     inputs = [*set_paths(Path(args.recording)), *([args.spec] if args.spec else [])]
     out = check_output(args.json, force=args.force, inputs=inputs)
+    # The model's forces the report draws, beside the JSON (fit/forces.py; none on stdout)
+    sidecar = None if out is None else forces.sidecar_path(out)
+    if sidecar is not None:
+        check_output(sidecar, force=args.force, inputs=inputs, flag="--json's model forces")
     if args.report:
         check_report_dir(Path(args.report), inputs, args.force)
     load_spec(args.spec)  # a bad spec or term list fails now, not after reading
@@ -211,6 +216,8 @@ def run_fit(args: argparse.Namespace) -> int:
     human.print(_clicks_table(result, units))
     human.print(table4_table(result))
     write_output(args.json, text, force=args.force, inputs=inputs)
+    if sidecar is not None and result.saved is not None:
+        forces.write(sidecar, result.saved, text)
     from shockdyno.commands.history import keep
     from shockdyno.history import record_fit
 
@@ -219,12 +226,12 @@ def run_fit(args: argparse.Namespace) -> int:
     ident = sum(c.identifiable_bc + c.identifiable_bt for c in result.clicks)
     say = functools.partial(print, file=sys.stderr if out is None else sys.stdout)
     say(
-        f"fitted {len(result.clicks)} click settings from {info['n_tests']} tests in "
-        f"{info['wall_s']:.1f} s ({info['model_evaluations']} model evaluations); "
+        f"fitted {len(result.clicks)} click settings from {info.n_tests} tests in "
+        f"{info.wall_s or 0:.1f} s ({info.model_evaluations} model evaluations); "
         f"{ident} of {2 * len(result.clicks)} areas identifiable; "
         f"wrote {'stdout' if out is None else out}"
     )
-    for note in info.get("skipped", []):
+    for note in info.skipped or ():
         say(f"note: {note}" if note.endswith(FITTED_ANYWAY) else f"skipped {note}")
     if args.report:
         _write_report(args, result, tests, reference, console, say)

@@ -15,12 +15,12 @@ from shockdyno.record.identity import add_allow_argument
 from shockdyno.report import temperature
 from shockdyno.report.documents import (
     DiagnosisDoc,
-    RecordingRef,
     RideDoc,
     read_diagnosis,
     read_ride,
 )
 from shockdyno.report.gas import limit_for, parse_given
+from shockdyno.result_files import RecordingRef
 from shockdyno.units import add_argument as add_units_argument
 from shockdyno.units import get as get_units
 
@@ -85,11 +85,11 @@ def _provenance(
     """Each result given against the recording's hash: a page row each; a result of
     another recording (or of none it names) is refused unless --allow-other-recording
     (issue 46.7: --force used to waive it), and then said on the terminal as well."""
-    from shockdyno.record.identity import provenance, recording_sha256, stored_sha256
+    from shockdyno.record.identity import provenance, recording_sha256
 
     given = []  # (row, what, flag, the hash it stores)
     if fit is not None:
-        given.append(("fit", "the fit", "--fit", stored_sha256(fit.info, "recording", "sha256")))
+        given.append(("fit", "the fit", "--fit", fit.info.recording_sha256))
     if diagnose is not None:
         given.append(("diagnosis", "the diagnosis", "--diagnose", _sha256(diagnose.info.recording)))
     if ride is not None:
@@ -110,6 +110,7 @@ def _provenance(
 def run_report(args: argparse.Namespace) -> int:
     from rich.console import Console
 
+    from shockdyno.fit import forces
     from shockdyno.fit.result import FitResult
     from shockdyno.record import open_recording
     from shockdyno.report.build import build_report
@@ -121,6 +122,9 @@ def run_report(args: argparse.Namespace) -> int:
     inputs = [Path(p) for p in (args.recording, args.fit, args.diagnose, args.ride) if p]
     check_output_dir(out, inputs, args.force)
     fit = FitResult.load(args.fit).require_usable(f"--fit {args.fit}") if args.fit else None
+    # The model's forces the fit saved beside it: the page reads them.
+    if fit is not None and (note := forces.attach(fit, args.fit)):
+        print(f"report: note: {note}", file=sys.stderr)
     diagnose = read_diagnosis(args.diagnose, "--diagnose") if args.diagnose else None
     ride = read_ride(args.ride, "--ride") if args.ride else None
     provenance_rows = _provenance(args, fit, diagnose, ride)
@@ -167,5 +171,7 @@ def run_report(args: argparse.Namespace) -> int:
                 gas_given=given,
                 gas_limit=limit,
             )
+    if fit is not None and (note := forces.computed_note(fit, args.fit)):
+        print(f"report: note: {note}", file=sys.stderr)
     print(f"report: {out / 'index.html'}")
     return 0

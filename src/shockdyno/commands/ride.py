@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TypeVar
 
@@ -17,6 +17,7 @@ from shockdyno.model.quarter_car import QuarterCar
 from shockdyno.model.road import DEFAULT_BAND_RAD_M
 from shockdyno.outputs import check_output, check_report_dir, write_output
 from shockdyno.progress import StageProgress
+from shockdyno.report.documents import FlaggedRun, ride_text
 from shockdyno.ride.study import RideConfig, RideResult, run_study
 
 T = TypeVar("T")
@@ -153,15 +154,15 @@ def summary(result: RideResult) -> str:
     if result.step_check is not None:
         lines.append(
             f"step check: RMS changes by at most "
-            f"{result.step_check['max_relative_change']:.2e} at dt/2"
+            f"{result.step_check.max_relative_change:.2e} at dt/2"
         )
     return "\n".join(lines)
 
 
-def _runs(flagged: list[dict[str, object]]) -> str:
+def _runs(flagged: Sequence[FlaggedRun]) -> str:
     shown = [
-        f"{'linear' if r['clicks'] is None else str(r['clicks']) + ' clicks'} "
-        f"{r['road']} {r['speed_kmh']:g} km/h"
+        f"{'linear' if r.clicks is None else str(r.clicks) + ' clicks'} "
+        f"{r.road} {r.speed_kmh:g} km/h"
         for r in flagged[:4]
     ]
     more = f" and {len(flagged) - 4} more" if len(flagged) > 4 else ""
@@ -173,7 +174,7 @@ def warnings(result: RideResult) -> list[str]:
     flags = result.flags()
     out = []
     n = len(result.runs)
-    tyre, stroke = flags["tyre_leaves_road"], flags["stroke_exceeds_travel"]
+    tyre, stroke = flags.tyre_leaves_road, flags.stroke_exceeds_travel
     if tyre:
         out.append(
             f"warning: the tyre leaves the road in {len(tyre)} of {n} runs (the linear tyre "
@@ -184,8 +185,8 @@ def warnings(result: RideResult) -> list[str]:
             f"warning: the damper stroke exceeds its travel (±{result.config.travel_m * 1e3:g} "
             f"mm, --travel-mm) in {len(stroke)} of {n} runs: {_runs(stroke)}"
         )
-    if flags["interpolated_clicks"]:
-        clicks = ", ".join(map(str, flags["interpolated_clicks"]))
+    if flags.interpolated_clicks:
+        clicks = ", ".join(map(str, flags.interpolated_clicks))
         out.append(
             f"note: bleed areas at {clicks} clicks are interpolated from the fit's trend "
             "(no test at that setting)"
@@ -207,11 +208,10 @@ def handle(args: argparse.Namespace) -> int:
         fit = _adjuster_line(fit, args)
     with StageProgress("ride") as progress:
         result = run_study(config, fit, args.fit, progress=progress)
-    doc = result.to_json()
     # The recording the fit came from, so a report can tell a ride of another damper.
-    doc["fit_recording"] = fit.info.get("recording") if fit is not None else None
+    result.fit_recording = fit.info.recording if fit is not None else None
     try:
-        text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
+        text = ride_text(result.doc())
     except ValueError as exc:
         raise ConfigError(f"the ride result cannot be written as JSON ({exc})") from None
     write_output(args.json, text, force=args.force, inputs=inputs)

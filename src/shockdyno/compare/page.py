@@ -26,9 +26,8 @@ from shockdyno.compare.table import (
     differences,
 )
 from shockdyno.report import clickchart, gas, plots, repeatability
-from shockdyno.report.build import shown_path
 from shockdyno.report.clickplots import force_vs_clicks
-from shockdyno.report.html import Page
+from shockdyno.report.html import Page, shown_path
 from shockdyno.units import Units
 
 RULE = (

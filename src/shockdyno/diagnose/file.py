@@ -53,8 +53,9 @@ def diagnose_file(
     from shockdyno.model import load_spec
     from shockdyno.model.spec import spec_used
     from shockdyno.record import open_recording
-    from shockdyno.record.identity import provenance, recording_info, stored_sha256
-    from shockdyno.report.documents import RecordingRef, SpecUsed
+    from shockdyno.record.identity import provenance, recording_info
+    from shockdyno.report.documents import SpecUsed
+    from shockdyno.result_files import RecordingRef
 
     if not 0 < alpha < 1:
         raise ConfigError(f"--alpha must be between 0 and 1, got {alpha}")
@@ -65,7 +66,7 @@ def diagnose_file(
     info = recording_info(recording)
     fit_from = None
     if fit is not None:
-        stored = stored_sha256(fit.info, "recording", "sha256")
+        stored = fit.info.recording_sha256
         fit_from = provenance(stored, info["sha256"], "the fit", "--fit", allow_other_recording)
         if warn is not None and not fit_from.startswith("made from this recording"):
             warn(f"warning: {fit_from}")

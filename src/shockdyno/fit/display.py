@@ -111,13 +111,15 @@ def globals_rows(result: FitResult, units: Units = SI) -> tuple[list[str], list[
     from shockdyno.fit.parameters import spec_global  # the model's weight, only when drawn
     from shockdyno.model.terms import LIBRARY
 
-    cal = result.info.get("calibration", {})
-    nominal, sd = cal.get("globals_nominal", {}), cal.get("globals_sd", {})
+    cal = result.info.calibration
+    nominal = cal.globals_nominal if cal is not None else {}
+    sd = cal.globals_sd if cal is not None else {}
     header = ["parameter", "fitted", "±1σ", "spec", "unit", "change"]
     rows: list[list[str]] = []
     for key, value in result.globals.items():
-        base = nominal.get(key)
-        known = isinstance(base, int | float) and math.isfinite(base)
+        given = nominal.get(key)
+        base = given if given is not None and math.isfinite(given) else math.nan
+        known = math.isfinite(base)
         show = shown(unit_of_key(key), units, base if known else value)
         fitted = show.text(value)
         if known:
@@ -129,11 +131,12 @@ def globals_rows(result: FitResult, units: Units = SI) -> tuple[list[str], list[
         if known and base != 0:
             change = f"{100 * (value / base - 1):+.1f}%"
         spread = sd.get(key)
-        finite = isinstance(spread, int | float) and math.isfinite(spread)
-        sd_text = f"{show.spread(spread):.4g}" if finite else "?"
+        sd_text = (
+            f"{show.spread(spread):.4g}" if spread is not None and math.isfinite(spread) else "?"
+        )
         rows.append([key, fitted, sd_text, show.text(base) if known else "?", show.label, change])
-    if "force_delay_s" in cal:
-        delay, delay_sd = cal["force_delay_s"], cal.get("force_delay_sd_s")
+    if cal is not None and cal.force_delay_s is not None:
+        delay, delay_sd = cal.force_delay_s, cal.force_delay_sd_s
         ms = shown("s", units, 0.0)  # a delay: always ms
         sd_ms = ms.text(delay_sd) if isinstance(delay_sd, int | float) else "?"
         delay_p = next(q for q in LIBRARY["sensor_lag"].PARAMS if q.name == "delay_s")

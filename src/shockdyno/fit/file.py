@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from shockdyno.errors import FitError
+from shockdyno.fit.result_doc import VelocityReach
+from shockdyno.result_files import RecordingRef
 
 # Beyond these a recording is not of a damper on a dyno (a unit mix-up or a corrupt file).
 MAX_DISPLACEMENT_M = 1.0
@@ -39,7 +42,7 @@ def _peak(values: Any) -> float:
     return float(np.max(np.abs(values))) if values.size else 0.0
 
 
-def velocity_range(tests: list[Any]) -> list[dict[str, Any]]:
+def velocity_range(tests: list[Any]) -> tuple[VelocityReach, ...]:
     """The fastest compression and rebound velocity (m/s, signed) each click setting's
     tests reached over their measured cycles: the fit JSON's `info.velocity_range`, the
     span a damper table may call measured (ride/damper_table.py)."""
@@ -61,12 +64,10 @@ def velocity_range(tests: list[Any]) -> list[dict[str, Any]]:
         lo, hi = reached.get(key, (0.0, 0.0))
         reached[key] = (min(lo, float(np.nanmin(v))), max(hi, float(np.nanmax(v))))
     # a damper with several adjusters: each entry names every adjuster's clicks
-    return [
-        {"clicks": c, "gas_clicks": g}
-        | ({"adjusters": dict(s)} if s else {})
-        | {"compression_m_s": hi, "rebound_m_s": lo}
+    return tuple(
+        VelocityReach(clicks=c, gas_clicks=g, adjusters=dict(s), compression_m_s=hi, rebound_m_s=lo)
         for (c, g, s), (lo, hi) in sorted(reached.items())
-    ]
+    )
 
 
 def result_json(result: Any) -> str:
@@ -109,8 +110,10 @@ def fit_file(
         progress=progress,
         terms=parse_terms(terms),
     )
-    result.info["recording"] = recording_info(recording)
-    result.info["velocity_range"] = velocity_range(tests)
-    if loss:
-        result.info["recording_loss"] = loss
+    result.info = replace(
+        result.info,
+        recording=RecordingRef(**recording_info(recording)),
+        velocity_range=velocity_range(tests),
+        recording_loss=loss or None,
+    )
     return result, tests

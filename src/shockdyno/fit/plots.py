@@ -14,8 +14,10 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from shockdyno.fit.forces import representative
+from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.result import FitResult
-from shockdyno.fit.validate import ModelForces, forces_for_tests
+from shockdyno.fit.validate import ModelForces, model_forces
 from shockdyno.record.types import TestData
 from shockdyno.units import SI, Units
 
@@ -112,22 +114,6 @@ def _overlay_figure(mf: ModelForces, path: Path, units: Units = SI) -> str:
     return title
 
 
-def representative(forces: Sequence[ModelForces]) -> list[ModelForces]:
-    """Like the paper: lowest frequency near 5 clicks, middle near 10, highest near 15."""
-    freqs = sorted({round(f.test.meta.frequency_hz, 3) for f in forces})
-    if not freqs:
-        return []
-    picks: list[ModelForces] = []
-    targets = [5, 10, 15]
-    chosen_freqs = [freqs[0], freqs[len(freqs) // 2], freqs[-1]]
-    for target, freq in zip(targets, chosen_freqs, strict=True):
-        pool = [f for f in forces if round(f.test.meta.frequency_hz, 3) == freq]
-        best = min(pool, key=lambda f: abs(f.test.meta.clicks - target))
-        if all(best is not p for p in picks):
-            picks.append(best)
-    return picks
-
-
 def fit_figures(
     result: FitResult,
     tests: Sequence[TestData],
@@ -147,8 +133,23 @@ def fit_figures(
     figures.append(("Bleed areas against clicks with trend (Fig. 12 analogue)", path))
     keys = {(c.clicks, c.gas_clicks, c.setting) for c in result.clicks}
     usable = [t for t in tests if (t.meta.clicks, t.meta.gas_clicks, t.meta.setting) in keys]
-    for mf in representative(forces_for_tests(result, usable)):
+    for mf in overlay_forces(result, usable):
         m = mf.test.meta
         path = out / f"fit-overlay{tag}-{m.clicks}clicks-{m.frequency_hz:g}hz.png"
         figures.append((_overlay_figure(mf, path, units), path))
     return figures
+
+
+def overlay_forces(result: FitResult, tests: Sequence[TestData]) -> list[ModelForces]:
+    """Both models on the overlays' tests (`representative`): as the fit saved them
+    (`result.saved`, fit/forces.py), else computed from the fit."""
+    prepared, _ = prepare_tests(tests)
+    picks = representative([p.data.meta for p in prepared])
+    out = []
+    for p in (p for m in picks for p in prepared if p.data.meta is m):
+        saved = result.saved.test(p.data.meta.index, p.data.t.size) if result.saved else None
+        if saved is None:
+            out += model_forces(result.model(), result, [p])
+        else:
+            out.append(ModelForces(p.data, p.v, p.a, saved.proposed, saved.talbott))
+    return out

@@ -22,15 +22,17 @@ import numpy as np
 
 from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError, FitError
-from shockdyno.fit.result_doc import TestDoc, read_fit_doc
-from shockdyno.fit.trend import AreaTrend, nan
+from shockdyno.fit import forces
+from shockdyno.fit.forces import SavedForces
+from shockdyno.fit.result_doc import ClickDoc, EstimateDoc, FitDoc, FitInfo, TestDoc, read_fit_doc
+from shockdyno.fit.trend import AreaTrend, TrendDoc, nan
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, load_spec
 from shockdyno.model.terms import LIBRARY, make_term
 from shockdyno.record import adjusters
 from shockdyno.result_files import special_file
-from shockdyno.schema import check
+from shockdyno.schema import check, to_json
 
 # A damper spec is a few kB of TOML; a "spec" far larger is no spec (and is not read).
 MAX_SPEC_BYTES = 1 << 20
@@ -82,21 +84,20 @@ class TestValidation:
     talbott: dict[str, float]
     adjusters: dict[str, int] = field(default_factory=dict)
 
-    def to_json(self) -> dict[str, Any]:
-        return _with_adjusters(
-            self.adjusters,
-            {
-                "index": self.index,
-                "clicks": self.clicks,
-                "gas_clicks": self.gas_clicks,
-                "frequency_hz": self.frequency_hz,
-                "motion": self.motion,
-                "n_samples": self.n_samples,
-                "duration_s": self.duration_s,
-                "temperature_mean_C": self.temperature_mean_c,
-                "proposed": {k: _nan_to_none(v) for k, v in self.proposed.items()},
-                "talbott": {k: _nan_to_none(v) for k, v in self.talbott.items()},
-            },
+    def doc(self) -> TestDoc:
+        """FIT.json's `tests[]` entry."""
+        return TestDoc(
+            index=self.index,
+            clicks=self.clicks,
+            gas_clicks=self.gas_clicks,
+            adjusters=dict(self.adjusters),
+            frequency_hz=self.frequency_hz,
+            motion=self.motion,
+            n_samples=self.n_samples,
+            duration_s=self.duration_s,
+            temperature_mean_C=self.temperature_mean_c,
+            proposed={k: _nan_to_none(v) for k, v in self.proposed.items()},
+            talbott={k: _nan_to_none(v) for k, v in self.talbott.items()},
         )
 
     @staticmethod
@@ -123,12 +124,15 @@ class FitResult:
     clicks: list[ClickFit]
     trend: dict[str, AreaTrend] = field(default_factory=dict)
     tests: list[TestValidation] = field(default_factory=list)
-    info: dict[str, Any] = field(default_factory=dict)
+    info: FitInfo = field(default_factory=FitInfo)  # how it ran, what from (docs/fit.md)
     # Fitted physics terms: {term: {local parameter: Estimate}} (docs/fit.md).
     terms: dict[str, dict[str, Estimate]] = field(default_factory=dict)
     # The folder of the fit JSON this was read from (None: made here): a relative
     # spec_path not found from the working folder is looked for beside the fit.
     origin: Path | None = field(default=None, compare=False, repr=False)
+    # The model's forces a report draws (fit/forces.py): made by the fit, read back from
+    # the file beside FIT.json; None: the report computes them from this result.
+    saved: SavedForces | None = field(default=None, compare=False, repr=False)
 
     @staticmethod
     def from_spec(spec_path: str | Path, clicks: Sequence[int]) -> FitResult:
@@ -191,7 +195,8 @@ class FitResult:
         """
         terms = self.terms
         if not terms:
-            delay = self.info.get("calibration", {}).get("force_delay_s")
+            cal = self.info.calibration
+            delay = cal.force_delay_s if cal is not None else None
             if delay:
                 terms = {"sensor_lag": {"delay_s": Estimate(float(delay), float("nan"), "s")}}
         built = [make_term(name) for name in terms]
@@ -249,16 +254,17 @@ class FitResult:
                     gas_clicks=gas,
                     adjuster=name,
                 )
-        info = dict(self.info)
-        reached = info.get("velocity_range")
-        if isinstance(reached, list):  # each entry of the line, at the adjuster's clicks
-            info["velocity_range"] = [
-                e | {"clicks": e["adjusters"][name]}
-                for e in reached
-                if isinstance(e, dict)
-                and isinstance(e.get("adjusters"), dict)
-                and adjusters.on_line(e["adjusters"], name, at)
-            ]
+        info = self.info
+        reached = info.velocity_range
+        if reached is not None:  # each entry of the line, at the adjuster's clicks
+            info = replace(
+                info,
+                velocity_range=tuple(
+                    replace(e, clicks=e.adjusters[name])
+                    for e in reached
+                    if name in e.adjusters and adjusters.on_line(e.adjusters, name, at)
+                ),
+            )
         return FitResult(
             spec_path=self.spec_path,
             globals=self.globals,
@@ -267,6 +273,7 @@ class FitResult:
             tests=tests,
             info=info,
             terms=self.terms,
+            saved=self.saved,
         )
 
     def main_gas_clicks(self) -> int:
@@ -348,44 +355,51 @@ class FitResult:
             raise ConfigError(f"{label}: not a usable fit: {problem}")
         return self
 
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "spec_path": self.spec_path,
-            "globals": self.globals,
-            "clicks": [
-                _with_adjusters(
-                    c.adjusters,
-                    {
-                        "clicks": c.clicks,
-                        "gas_clicks": c.gas_clicks,
-                        "A_bc_m2": c.a_bc_m2,
-                        "A_bt_m2": c.a_bt_m2,
-                        "A_b_talbott_m2": c.a_b_talbott_m2,
-                        "A_bc_sd_m2": _nan_to_none(c.a_bc_sd_m2),
-                        "A_bt_sd_m2": _nan_to_none(c.a_bt_sd_m2),
-                        "A_b_talbott_sd_m2": _nan_to_none(c.a_b_talbott_sd_m2),
-                        "identifiable_bc": c.identifiable_bc,
-                        "identifiable_bt": c.identifiable_bt,
-                        "objective_n": _nan_to_none(c.objective_n),
-                        "objective_talbott_n": _nan_to_none(c.objective_talbott_n),
-                        "bleed_share_bc": _nan_to_none(c.bleed_share_bc),
-                        "bleed_share_bt": _nan_to_none(c.bleed_share_bt),
-                    },
+    def doc(self) -> FitDoc:
+        """FIT.json, as its typed document (fit/result_doc.py)."""
+        return FitDoc(
+            spec_path=self.spec_path,
+            globals=self.globals,
+            clicks=tuple(
+                ClickDoc(
+                    clicks=c.clicks,
+                    gas_clicks=c.gas_clicks,
+                    adjusters=dict(c.adjusters),
+                    A_bc_m2=c.a_bc_m2,
+                    A_bt_m2=c.a_bt_m2,
+                    A_b_talbott_m2=c.a_b_talbott_m2,
+                    A_bc_sd_m2=_nan_to_none(c.a_bc_sd_m2),
+                    A_bt_sd_m2=_nan_to_none(c.a_bt_sd_m2),
+                    A_b_talbott_sd_m2=_nan_to_none(c.a_b_talbott_sd_m2),
+                    identifiable_bc=c.identifiable_bc,
+                    identifiable_bt=c.identifiable_bt,
+                    objective_n=_nan_to_none(c.objective_n),
+                    objective_talbott_n=_nan_to_none(c.objective_talbott_n),
+                    bleed_share_bc=_nan_to_none(c.bleed_share_bc),
+                    bleed_share_bt=_nan_to_none(c.bleed_share_bt),
                 )
                 for c in self.clicks
-            ],
-            "terms": {
-                name: {k: est.to_json() for k, est in params.items()}
+            ),
+            terms={
+                name: {k: EstimateDoc.of(est) for k, est in params.items()}
                 for name, params in self.terms.items()
             },
-            "trend": {name: t.to_json() for name, t in self.trend.items()},
-            "tests": [t.to_json() for t in self.tests],
-            "info": self.info,
-        }
+            trend={name: TrendDoc.of(t) for name, t in self.trend.items()},
+            tests=tuple(t.doc() for t in self.tests),
+            info=self.info,
+        )
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = to_json(self.doc())
+        return out
 
     def save(self, path: str | Path) -> None:
-        """Write the JSON; `path` is replaced only once the new content is complete."""
-        write_text_atomic(Path(path), json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n")
+        """Write the JSON, and beside it the model's forces a report reads when the fit
+        made them (`saved`, fit/forces.py); each file is replaced only once complete."""
+        text = json.dumps(self.to_json(), indent=2, allow_nan=False) + "\n"
+        write_text_atomic(Path(path), text)
+        if self.saved is not None:
+            forces.write(forces.sidecar_path(path), self.saved, text)
 
     @staticmethod
     def load(path: str | Path, flag: str = "--fit") -> FitResult:
@@ -416,7 +430,7 @@ class FitResult:
             ],
             trend={k: t.trend() for k, t in d.trend.items()},
             tests=[TestValidation.from_doc(t) for t in d.tests],
-            info=dict(d.info),
+            info=d.info,
             terms={
                 name: {k: e.estimate() for k, e in params.items()}
                 for name, params in d.terms.items()
@@ -436,19 +450,6 @@ def _off(term: str, local: str) -> float:
         if p.name == local:
             return p.off
     return math.nan
-
-
-def _with_adjusters(adjusters: dict[str, int], d: dict[str, Any]) -> dict[str, Any]:
-    """A clicks or tests entry with its adjusters after `gas_clicks`, when it has some
-    (an entry of the one rod adjuster is written as it always was)."""
-    if not adjusters:
-        return d
-    out: dict[str, Any] = {}
-    for k, v in d.items():
-        out[k] = v
-        if k == "gas_clicks":
-            out["adjusters"] = dict(adjusters)
-    return out
 
 
 def _nan_to_none(v: float) -> float | None:

@@ -38,14 +38,17 @@ from shockdyno.fit.areas import (
     talbott_areas,
 )
 from shockdyno.fit.calibrate import Calibration, calibrate
+from shockdyno.fit.forces import TestForces, overlay_picks
+from shockdyno.fit.forces import build as build_saved
 from shockdyno.fit.ga import GaSettings, run_ga
 from shockdyno.fit.parameters import DEFAULT_GLOBALS, Parameter, global_parameters
 from shockdyno.fit.prepare import OBJECTIVE_RATE_HZ, PreparedTest, prepare_tests
 from shockdyno.fit.problem import StackedProblem
 from shockdyno.fit.result import ClickFit, FitResult
+from shockdyno.fit.result_doc import CalibrationInfo, FitInfo, GaInfo
 from shockdyno.fit.terms import TermSelection, parse_terms
 from shockdyno.fit.trend import AreaTrend, polynomial_trend
-from shockdyno.fit.validate import table4, validate_tests
+from shockdyno.fit.validate import model_forces, scores, table4
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, default_spec_path, load_spec
@@ -298,17 +301,6 @@ def calibrate_never_worse(
     return cal, cal.model(prob, base), start
 
 
-def _json_safe(obj: Any) -> Any:
-    """Non-finite floats become None (JSON has no NaN or infinity)."""
-    if isinstance(obj, dict):
-        return {k: _json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_json_safe(v) for v in obj]
-    if isinstance(obj, float | np.floating):
-        return float(obj) if math.isfinite(obj) else None
-    return obj
-
-
 def fit_sweep(
     tests: list[TestData],
     spec_path: str | Path | None = None,
@@ -369,7 +361,19 @@ def fit_sweep(
         trend=trend,
         terms=estimates,
     )
-    result.tests = validate_tests(result.model(), result, pb.prepared)
+    forces = model_forces(result.model(), result, pb.prepared)
+    result.tests = scores(forces)
+    # What a report draws of the model, computed here once (fit/forces.py).
+    picks = overlay_picks(result, [p.data.meta for p in pb.prepared])
+    result.saved = build_saved(
+        result,
+        [
+            TestForces(f.test.meta.index, f.proposed, f.talbott)
+            for f in forces
+            if f.test.meta.index in picks
+        ],
+        tests,
+    )
     info = _fit_info(
         pb,
         cal,
@@ -382,8 +386,7 @@ def fit_sweep(
         objective_rate_hz=objective_rate_hz,
         wall0=wall0,
     )
-    info["table4"] = [row.as_dict() for row in table4(result)]
-    result.info = _json_safe(info)
+    result.info = replace(info, table4=tuple(row.doc() for row in table4(result)))
     report("done", 1.0)
     return result
 
@@ -417,39 +420,42 @@ def _fit_info(
     seed: int,
     objective_rate_hz: float,
     wall0: float,
-) -> dict[str, Any]:
+) -> FitInfo:
     """The fit's `info` (docs/fit.md) but Table 4: how it ran (the wall time since
     `wall0`), what it cost, the calibration's start and residual, the tests used and
     skipped."""
     prob, selection = pb.prob, pb.selection
     delay = estimates.get("sensor_lag", {}).get("delay_s")
-    info: dict[str, Any] = {"ga": areas.ga_info} if areas.ga_info else {}
-    info.update(
-        {
-            "optimizer": optimizer,
-            "seed": seed,
-            "terms": list(selection.names),
-            "free_term_parameters": list(selection.free),
-            "wall_s": time.perf_counter() - wall0,
-            "model_evaluations": prob.evaluations,
-            "model_samples_evaluated": prob.samples_evaluated,
-            "objective_rate_hz": objective_rate_hz,
-            "objective_samples": prob.size,
-            "objective_n": float(np.sum(areas.objective)),
-            "objective_talbott_n": float(np.sum(obj_tal)),
-            "calibration": {
-                "least_squares_evaluations": cal.nfev,
-                "start": start,
-                "rms_residual_n": cal.cost_rms_n,
-                "residual_correlation_factor": cal.tau,
-                # Kept for readers of older results: the sensor_lag term's delay.
-                "force_delay_s": delay.value if delay is not None else 0.0,
-                "force_delay_sd_s": delay.sd if delay is not None else None,
-                "globals_nominal": {p.name: pb.model.spec.value(p.name) for p in pb.params},
-                "globals_sd": cal.globals_sd,
-            },
-            "n_tests": len(pb.prepared),
-            "skipped": pb.notes,
-        }
+    ga = areas.ga_info
+    return FitInfo(
+        ga=GaInfo(**ga) if ga else None,
+        optimizer=optimizer,
+        seed=seed,
+        terms=tuple(selection.names),
+        free_term_parameters=tuple(selection.free),
+        wall_s=_finite(time.perf_counter() - wall0),
+        model_evaluations=prob.evaluations,
+        model_samples_evaluated=prob.samples_evaluated,
+        objective_rate_hz=_finite(objective_rate_hz),
+        objective_samples=prob.size,
+        objective_n=_finite(np.sum(areas.objective)),
+        objective_talbott_n=_finite(np.sum(obj_tal)),
+        calibration=CalibrationInfo(
+            least_squares_evaluations=cal.nfev,
+            start=start,
+            rms_residual_n=_finite(cal.cost_rms_n),
+            residual_correlation_factor=_finite(cal.tau),
+            # Kept for readers of older results: the sensor_lag term's delay.
+            force_delay_s=_finite(delay.value) if delay is not None else 0.0,
+            force_delay_sd_s=_finite(delay.sd) if delay is not None else None,
+            globals_nominal={p.name: _finite(pb.model.spec.value(p.name)) for p in pb.params},
+            globals_sd={k: _finite(v) for k, v in cal.globals_sd.items()},
+        ),
+        n_tests=len(pb.prepared),
+        skipped=tuple(pb.notes),
     )
-    return info
+
+
+def _finite(v: float | np.floating[Any]) -> float | None:
+    """An info number as FIT.json holds it: null when not finite (JSON has no NaN)."""
+    return float(v) if math.isfinite(v) else None

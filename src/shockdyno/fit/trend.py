@@ -19,7 +19,7 @@ import numpy as np
 from msgspec import Meta
 from numpy.typing import ArrayLike
 
-from shockdyno.schema import convert
+from shockdyno.schema import OMITTED_AT_DEFAULT, convert, to_json
 
 MAX_DEGREE = 4
 
@@ -66,15 +66,9 @@ class AreaTrend:
         return float(np.polyval(self.coefficients, clicks))
 
     def to_json(self) -> dict[str, Any]:
-        return {
-            "degree": self.degree,
-            "coefficients": list(self.coefficients),
-            "clicks_used": list(self.clicks_used),
-            "rms_m2": self.rms_m2,
-            "r2": self.r2,
-            "selection": self.selection,
-            "gas_clicks": self.gas_clicks,
-        } | ({"adjuster": self.adjuster} if self.adjuster else {})
+        """FIT.json's entry (`TrendDoc`)."""
+        out: dict[str, Any] = to_json(TrendDoc.of(self))
+        return out
 
     @staticmethod
     def from_json(d: dict[str, Any]) -> AreaTrend:
@@ -87,16 +81,31 @@ def nan(v: float | None) -> float:
     return math.nan if v is None else float(v)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class TrendDoc:
-    coefficients: Annotated[list[float], Meta(min_length=1)]  # highest power first
+    """FIT.json's `trend.A_bc` / `trend.A_bt` (fit/result_doc.py): written in this order."""
+
     degree: int | None = None  # read for the record: the coefficients say it
+    coefficients: Annotated[list[float], Meta(min_length=1)]  # highest power first
     clicks_used: list[int] = field(default_factory=list)
     rms_m2: float | None = None
     r2: float | None = None
     selection: str = ""
     gas_clicks: int = 0
-    adjuster: str = ""
+    adjuster: str = field(default="", metadata=OMITTED_AT_DEFAULT)  # one adjuster's line
+
+    @staticmethod
+    def of(t: AreaTrend) -> TrendDoc:
+        return TrendDoc(
+            degree=t.degree,
+            coefficients=list(t.coefficients),
+            clicks_used=list(t.clicks_used),
+            rms_m2=t.rms_m2,
+            r2=t.r2,
+            selection=t.selection,
+            gas_clicks=t.gas_clicks,
+            adjuster=t.adjuster,
+        )
 
     def trend(self) -> AreaTrend:
         coef = tuple(float(c) for c in self.coefficients)

@@ -17,9 +17,10 @@ from numpy.typing import NDArray
 
 from shockdyno.errors import FitError
 from shockdyno.fit.metrics import error_metrics
-from shockdyno.fit.prepare import PreparedTest, prepare_tests
+from shockdyno.fit.prepare import PreparedTest
 from shockdyno.fit.problem import prepared_inputs
 from shockdyno.fit.result import FitResult, TestValidation
+from shockdyno.fit.result_doc import Table4Doc
 from shockdyno.model.composite import DamperModel
 from shockdyno.record.types import TestData
 
@@ -71,18 +72,17 @@ def model_forces(
     return out
 
 
-def forces_for_tests(result: FitResult, tests: Sequence[TestData]) -> list[ModelForces]:
-    """Both models' forces for recorded tests (prepared as the fit prepared them)."""
-    prepared, _ = prepare_tests(tests)
-    return model_forces(result.model(), result, prepared)
-
-
 def validate_tests(
     model: DamperModel, result: FitResult, prepared: Sequence[PreparedTest]
 ) -> list[TestValidation]:
     """The `tests[]` entries of the fit JSON."""
+    return scores(model_forces(model, result, prepared))
+
+
+def scores(forces: Sequence[ModelForces]) -> list[TestValidation]:
+    """The `tests[]` entries of the fit JSON from both models' forces on each test."""
     rows = []
-    for mf in model_forces(model, result, prepared):
+    for mf in forces:
         d, m = mf.test, mf.test.meta
         scores: dict[str, dict[str, float]] = {}
         for name, f_model in (("proposed", mf.proposed), ("talbott", mf.talbott)):
@@ -122,14 +122,19 @@ class Table4Row:
     talbott: dict[str, float]
     enhancement_pct: dict[str, float]
 
-    def as_dict(self) -> dict[str, Any]:
-        return {
-            "frequency_hz": self.frequency_hz,
-            "n_tests": self.n_tests,
-            "proposed": self.proposed,
-            "talbott": self.talbott,
-            "enhancement_pct": self.enhancement_pct,
-        }
+    def doc(self) -> Table4Doc:
+        """FIT.json's `info.table4[]` entry (a number not finite written as null)."""
+
+        def safe(d: dict[str, float]) -> dict[str, float | None]:
+            return {k: v if math.isfinite(v) else None for k, v in d.items()}
+
+        return Table4Doc(
+            frequency_hz=self.frequency_hz,
+            n_tests=self.n_tests,
+            proposed=safe(self.proposed),
+            talbott=safe(self.talbott),
+            enhancement_pct=safe(self.enhancement_pct),
+        )
 
 
 def table4(result: FitResult) -> list[Table4Row]:

@@ -84,7 +84,8 @@ def _made(kind: str, options: dict[str, Any], result_file: str, **fields: Any) -
 
 def fit_entry(result: Any, options: dict[str, Any], result_file: str) -> ResultEntry:
     """A FitResult: its areas per click, globals and term parameters with their σ, E_t."""
-    sd = result.info.get("calibration", {}).get("globals_sd", {}) or {}
+    cal = result.info.calibration
+    sd = cal.globals_sd if cal is not None else {}
     params = [
         ParameterEntry(k, float(v), _finite(sd.get(k)), _unit(k))
         for k, v in sorted(result.globals.items())
@@ -138,9 +139,9 @@ def fit_options(result: Any) -> dict[str, Any]:
     recording with the same settings are one result, however the options were spelt)."""
     info = result.info
     return {
-        "optimizer": info.get("optimizer"),
-        "seed": info.get("seed"),
-        "terms": info.get("terms"),
+        "optimizer": info.optimizer,
+        "seed": info.seed,
+        "terms": list(info.terms) if info.terms is not None else None,
         "spec": Path(result.spec_path).name,
     }
 

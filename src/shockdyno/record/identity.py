@@ -36,16 +36,6 @@ def recording_info(path: Path) -> dict[str, str]:
     return {"file": Path(path).name, "sha256": recording_sha256(path)}
 
 
-def stored_sha256(doc: Any, *keys: str) -> str | None:
-    """The hash a result document stores under the nested `keys`, if any."""
-    node = doc
-    for key in keys:
-        if not isinstance(node, dict):
-            return None
-        node = node.get(key)
-    return node if isinstance(node, str) and node else None
-
-
 ALLOW_FLAG = "--allow-other-recording"
 
 

@@ -37,7 +37,7 @@ from shockdyno.report import gas as gas_force
 from shockdyno.report.clickplots import force_vs_clicks
 from shockdyno.report.diagnose_section import render_diagnose, render_figures
 from shockdyno.report.documents import DiagnosisDoc, RideDoc, typed
-from shockdyno.report.html import SUMMARY_LEGEND, Page, summary_header, summary_row
+from shockdyno.report.html import SUMMARY_LEGEND, Page, shown_path, summary_header, summary_row
 from shockdyno.report.interactive import Interactive
 from shockdyno.report.ride_section import render_ride
 from shockdyno.report.summary import TestSummary, summarise
@@ -498,19 +498,6 @@ def _peaks_and_overlays(
         caption = f"{f:g} Hz: every click, named in the legend; complete tests."
         page.raw(live.figure(png.name, caption, live.overlay(group, gas_force_n)))
     page.close_details()
-
-
-def shown_path(text: str) -> str:
-    """A path as a page may show it: relative to the working directory when under it, else
-    its last two parts. A report is handed on; this machine's layout (/home/jd/...) is
-    not the reader's business. Anything that is not an absolute path is left as it is."""
-    if not text.startswith("/"):
-        return text
-    p = Path(text)
-    try:
-        return str(p.relative_to(Path.cwd()))
-    except ValueError:
-        return str(Path("…", *p.parts[-2:])) if len(p.parts) > 2 else text
 
 
 def _fit_section(

@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from shockdyno import units as units_mod
 from shockdyno.errors import FitError
 from shockdyno.model import DamperSpec, damper_force
 from shockdyno.model.kinematics import velocity
@@ -93,7 +94,7 @@ class ClickChart:
 
 def signed_velocities(speeds: Sequence[float] = STANDARD_VELOCITIES_M_S) -> tuple[float, ...]:
     """Rebound (fastest first) then compression (slowest first)."""
-    return tuple([-s for s in sorted(speeds, reverse=True)] + sorted(speeds))
+    return units_mod.signed_velocities(speeds)  # the order fit/forces.py saves too
 
 
 def branch_force(v: FloatArray, force: FloatArray, target_m_s: float) -> Reading:
@@ -212,22 +213,21 @@ def _branch_chart(
 def model_forces(
     fit: FitResult, clicks: int, targets: Sequence[float], gas_clicks: int | None = None
 ) -> dict[float, float]:
-    """The fitted model at mid-stroke, zero acceleration, at each signed velocity."""
+    """The fitted model at mid-stroke, zero acceleration, at each signed velocity: as the
+    fit saved it (`fit.saved`, fit/forces.py), else computed."""
     a_bc, a_bt = fit.areas(clicks, gas_clicks=gas_clicks)
-    v = np.asarray(targets, dtype=float)
-    zeros = np.zeros_like(v)
-    force = quasi_static_force(fit.model().vehicle(), zeros, v, zeros, a_bc, a_bt)
+    force = fit.saved.at(a_bc, a_bt, targets) if fit.saved is not None else None
+    if force is None:
+        v = np.asarray(targets, dtype=float)
+        zeros = np.zeros_like(v)
+        force = quasi_static_force(fit.model().vehicle(), zeros, v, zeros, a_bc, a_bt)
     return {t: float(f) for t, f in zip(targets, force, strict=True)}
 
 
 def static_force_n(fit: FitResult) -> float:
     """The model's force at rest at mid-stroke: the gas force on the rod."""
     first = fit.clicks[0] if fit.clicks else None
-    a_bc, a_bt = fit.areas(
-        first.clicks if first else 0, gas_clicks=first.gas_clicks if first else 0
-    )
-    car = fit.model().vehicle()
-    return float(np.asarray(quasi_static_force(car, 0.0, 0.0, 0.0, a_bc, a_bt)).reshape(-1)[0])
+    return model_static_force_n(fit, first.clicks if first else 0, first.gas_clicks if first else 0)
 
 
 def model_static_force_n(fit: FitResult, clicks: int, gas_clicks: int | None = None) -> float:

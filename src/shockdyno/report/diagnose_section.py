@@ -41,7 +41,7 @@ from shockdyno.report.documents import (
 )
 from shockdyno.report.findings_table import number_text as _num
 from shockdyno.report.findings_table import render_findings
-from shockdyno.report.html import Page
+from shockdyno.report.html import Page, shown_path
 from shockdyno.report.unexplained_section import render_unexplained
 from shockdyno.units import SI, Units
 
@@ -180,8 +180,6 @@ def _render_tests(page: Page, tests: tuple[ScoredTest, ...]) -> bool:
 def spec_shown(spec: SpecUsed) -> str:
     """The diagnosis's damper spec (``info.spec``) as a page shows it: never an absolute
     path of the machine that ran it. (A dict is read as DIAG.json would hold it.)"""
-    from shockdyno.report.build import shown_path
-
     text = f"{'built-in default ' if spec.default else ''}{shown_path(spec.path)} ({spec.name})"
     fit = spec.from_fit
     return f"{text}, the base spec of the fit {shown_path(fit)}" if fit else text

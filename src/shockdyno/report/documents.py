@@ -5,8 +5,8 @@ builds a `DiagnosisDoc` (`document`; docs/diagnose.md documents the keys) and
 `diagnosis_text` writes it, and the report, the history, `batch` and the commands read it
 with `read_diagnosis`. It lives in report/, not beside its writer in diagnose/, because
 report may not import diagnose (tests/test_layering.py) and diagnose, history and batch
-may all import report. RIDE.json's writer is `ride/study.py` (`RideResult.to_json`,
-docs/ride.md); only the keys the page shows are described here.
+may all import report. RIDE.json is defined here whole for the same reason: its writer
+`ride/study.py` (`RideResult.doc`, docs/ride.md) may import report, report not ride.
 
 A result file gains keys over versions and must still be read when old, so keys not named
 here are skipped (`schema.convert(..., unknown_keys=True)`), and a key a writer added
@@ -25,18 +25,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, TypeVar
 
-from shockdyno.result_files import read_result
+from shockdyno.result_files import RecordingRef, read_result
 from shockdyno.schema import OMITTED_AT_DEFAULT, Positive, convert, to_json
 
 T = TypeVar("T")
-
-
-@dataclass(frozen=True)
-class RecordingRef:
-    """A result's `info.recording` (or a ride's `fit_recording`): what it was made from."""
-
-    file: str
-    sha256: str
 
 
 # -- DIAG.json -------------------------------------------------------------------------
@@ -275,9 +267,16 @@ class DiagnosisDoc:
 
 
 # -- RIDE.json -------------------------------------------------------------------------
+#
+# Written by `ride/study.py` (`RideResult.doc`) and `commands/ride.py` (which names the
+# fit's recording), read by the report's ride section. Every key in the order the writer
+# writes it; the keys the first ride study wrote and the report shows (`rms`, `flags`,
+# `quarter_car`, `damper`) are required, the rest default to what a hand-written sample
+# leaves out. A key written only for one kind of damper (linear or fitted) is `_OMIT` at
+# None: a fitted damper's empty list of terms is still written as [].
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RunRms:
     """A run of `rms[]`: one click setting (null: the linear damper), road and speed."""
 
@@ -287,27 +286,107 @@ class RunRms:
     rms_ms2: float
     rms_wk_ms2: float
     paper_rms_ms2: float | None  # the paper's Table 7 value, where it has the run
+    road_rms_m: float | None = None
+    max_abs_stroke_m: float | None = None
+    max_abs_stroke_velocity_m_s: float | None = None
     tyre_leaves_road: bool
     stroke_exceeds_travel: bool
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class ClickSetting:
+    """`damper.settings[]`: a click setting of the fitted damper and its bleed areas."""
+
     clicks: int
+    A_bc_m2: float | None = None
+    A_bt_m2: float | None = None
     source: str  # "fit", "fit (flagged not identifiable)" or "trend"
+    secant_rate_0p1_ns_m: float | None = None  # the damper's secant at ±0.1 m/s
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
+class DamperTable:
+    """`damper.table`: the force table the runs were integrated on (model/quarter_car.py)."""
+
+    stroke_range_m: tuple[float, float]
+    velocity_range_m_s: tuple[float, float]
+    max_error_n: float
+    runs_outside_table: int | None = field(default=None, metadata=_OMIT)
+
+
+@dataclass(frozen=True, kw_only=True)
 class Damper:
-    settings: tuple[ClickSetting, ...] = ()  # none for a linear damper
+    """`damper`: the linear damper (`kind`, `c_ns_m`) or the fitted model's."""
+
+    kind: str = ""
+    c_ns_m: float | None = field(default=None, metadata=_OMIT)  # linear
+    spec: str | None = field(default=None, metadata=_OMIT)  # the spec's name
+    spec_path: str | None = field(default=None, metadata=_OMIT)
+    globals: dict[str, float] | None = field(default=None, metadata=_OMIT)
+    terms: tuple[str, ...] | None = field(default=None, metadata=_OMIT)  # in the car
+    terms_dropped: tuple[str, ...] | None = field(default=None, metadata=_OMIT)  # sensor's
+    settings: tuple[ClickSetting, ...] = field(default=(), metadata=_OMIT)  # none: linear
+    force_at_rest_n: float | None = field(default=None, metadata=_OMIT)
+    moving_mass_kg: float | None = field(default=None, metadata=_OMIT)
+    table: DamperTable | None = field(default=None, metadata=_OMIT)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
+class RoadLength:
+    """`roads[]`: the synthesised road of one speed."""
+
+    speed_kmh: float
+    length_m: float
+    n_harmonics: int
+    harmonic_spacing_rad_per_m: float
+    frequency_band_hz: tuple[float, float]
+
+
+@dataclass(frozen=True, kw_only=True)
+class StepRun:
+    clicks: int | None
+    road: str
+    speed_kmh: float
+    rms_dt_ms2: float
+    rms_half_dt_ms2: float
+    relative_change: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class StepCheck:
+    """`step_check`: the extreme runs again at dt and dt / 2 (null: --no-step-check)."""
+
+    dt_s: float
+    half_dt_s: float
+    duration_s: float
+    warmup_s: float
+    max_relative_change: float
+    runs: tuple[StepRun, ...]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Psd:
+    method: str
+    segment_s: float
+    max_hz: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class FlaggedRun:
+    clicks: int | None
+    road: str
+    speed_kmh: float
+
+
+@dataclass(frozen=True, kw_only=True)
 class Flags:
     travel_m: float  # the --travel-mm the runs were flagged against
+    tyre_leaves_road: tuple[FlaggedRun, ...] = ()
+    stroke_exceeds_travel: tuple[FlaggedRun, ...] = ()
+    interpolated_clicks: tuple[int, ...] = ()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Car:
     """`quarter_car`: the paper's Table 5 terms."""
 
@@ -317,12 +396,27 @@ class Car:
     tyre_n_m: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RideDoc:
+    schema: str = ""
+    fit: str | None = None  # the --fit path as given (null: a linear damper)
+    damper: Damper
+    quarter_car: Car
+    road_band_rad_per_m: tuple[float, float] | None = None
+    waviness: float | None = None
+    seed: int | None = None
+    road_classes: dict[str, float] = field(default_factory=dict)  # A_g by class, m³
+    roads: tuple[RoadLength, ...] = ()
+    dt_s: float | None = None
+    duration_s: float | None = None
+    warmup_s: float | None = None
+    integrator: str = ""
+    stable_step_s: float | None = None
+    step_check: StepCheck | None = None
+    psd: Psd | None = None
     rms: tuple[RunRms, ...]
     flags: Flags
-    quarter_car: Car
-    damper: Damper
+    wall_time_s: float | None = None
     fit_recording: RecordingRef | None = None  # null for a linear damper or an older fit
 
 
@@ -344,6 +438,11 @@ def read_ride(path: str | Path, flag: str) -> RideDoc:
     """The RIDE.json at `path`, given as `flag`; else one ConfigError line."""
     doc = read_result(path, flag, "ride")
     return convert(doc, RideDoc, f"{flag}: {path}", unknown_keys=True)
+
+
+def ride_text(doc: RideDoc) -> str:
+    """RIDE.json's text: the document `ride/study.py` built, as JSON."""
+    return json.dumps(to_json(doc), indent=2, allow_nan=False) + "\n"
 
 
 def typed(value: T | Mapping[str, Any], cls: type[T], source: str) -> T:

@@ -6,6 +6,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from html import escape
+from pathlib import Path
 
 from shockdyno.report.summary import TestSummary
 from shockdyno.units import SI, Units
@@ -242,3 +243,16 @@ class Page:
             f"<script>{PRINT_SCRIPT}</script></head>\n"
             f"<body><h1>{escape(self.title)}</h1>\n<nav>{nav}</nav>\n{body}\n</body></html>\n"
         )
+
+
+def shown_path(text: str) -> str:
+    """A path as a page may show it: relative to the working directory when under it, else
+    its last two parts. A report is handed on; this machine's layout (/home/jd/...) is
+    not the reader's business. Anything that is not an absolute path is left as it is."""
+    if not text.startswith("/"):
+        return text
+    p = Path(text)
+    try:
+        return str(p.relative_to(Path.cwd()))
+    except ValueError:
+        return str(Path("…", *p.parts[-2:])) if len(p.parts) > 2 else text

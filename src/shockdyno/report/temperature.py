@@ -92,16 +92,11 @@ def setting_temperatures(tests: Sequence[TestData]) -> dict[Setting, float]:
     """Mean temperature over the measured cycles of each setting's complete tests (each
     test weighted alike, as the click chart averages them); settings without a reading
     are left out."""
-    per: dict[Setting, list[float]] = {}
-    for test in tests:
-        if test.meta.status != "complete":
-            continue
-        temp = test.measured().temperature
-        if temp is None or not np.any(np.isfinite(temp)):
-            continue
-        key = (test.meta.clicks, test.meta.gas_clicks)
-        per.setdefault(key, []).append(float(np.nanmean(temp)))
-    return {k: float(np.mean(v)) for k, v in per.items()}
+    # Here: the fit package loads only when a fit is drawn; the fit saves the model at
+    # the same temperatures (fit/forces.py), so this is its one definition.
+    from shockdyno.fit.forces import setting_temperatures as of_settings
+
+    return of_settings(tests)
 
 
 def why_not(tests: Sequence[TestData], fit: FitResult | None) -> str:
@@ -121,12 +116,17 @@ def model_forces_at(
     fit: FitResult, key: Setting, velocities: Sequence[float], temperature_c: float
 ) -> tuple[float, np.ndarray]:
     """(static force G, forces F at the velocities) of the car's model at one oil
-    temperature: mid-stroke, zero acceleration, each point its own state."""
+    temperature: mid-stroke, zero acceleration, each point its own state. As the fit saved
+    them (`fit.saved`, fit/forces.py: the recording's temperatures and the default
+    reference), else computed."""
     a_bc, a_bt = fit.areas(key[0], gas_clicks=key[1])
-    v = np.concatenate([[0.0], np.asarray(velocities, dtype=float)])
-    zeros = np.zeros(v.size)
-    inputs = ModelInputs.points(zeros, v, zeros, np.full(v.size, float(temperature_c)))
-    force = fit.model().vehicle().force(inputs, a_bc, a_bt)
+    t = float(temperature_c)
+    force = fit.saved.at_temperature(a_bc, a_bt, t, velocities) if fit.saved else None
+    if force is None:
+        v = np.concatenate([[0.0], np.asarray(velocities, dtype=float)])
+        zeros = np.zeros(v.size)
+        inputs = ModelInputs.points(zeros, v, zeros, np.full(v.size, t))
+        force = fit.model().vehicle().force(inputs, a_bc, a_bt)
     return float(force[0]), np.asarray(force[1:], dtype=float)
 
 

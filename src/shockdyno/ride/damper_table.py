@@ -162,16 +162,12 @@ def measured_spans(fit: FitResult) -> dict[int, Span]:
     `info.velocity_range` (empty when the fit does not record it)."""
     gas = fit.main_gas_clicks()
     spans: dict[int, Span] = {}
-    entries = fit.info.get("velocity_range")
-    for e in entries if isinstance(entries, list) else []:
-        try:
-            if int(e["gas_clicks"]) != gas:
-                continue
-            span = (-float(e["rebound_m_s"]), float(e["compression_m_s"]))
-        except (KeyError, TypeError, ValueError):
-            continue  # info is free-form: an entry this code cannot read marks nothing
+    for e in fit.info.velocity_range or ():
+        if e.gas_clicks != gas:
+            continue
+        span = (-e.rebound_m_s, e.compression_m_s)
         if all(math.isfinite(x) and x >= 0 for x in span):
-            spans[int(e["clicks"])] = span
+            spans[e.clicks] = span
     return spans
 
 

@@ -15,7 +15,6 @@ from matplotlib.figure import Figure
 
 from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError
-from shockdyno.report.documents import RideDoc, typed
 from shockdyno.report.ride_section import FLAG_LEGEND, PAPER_EXPLANATION, paper_ratios
 from shockdyno.ride.study import RideResult, Run, paper_rms
 
@@ -136,7 +135,7 @@ def table7_markdown(result: RideResult) -> str:
             lines.append(f"| {v:g} | {_label(c)} | " + " | ".join(cells) + " |")
     if tyre.any() or stroke.any():
         lines += ["", FLAG_LEGEND.replace("its travel", f"±{result.config.travel_m * 1e3:g} mm")]
-    doc = typed(result.to_json(), RideDoc, "ride")
+    doc = result.doc()
     ratios = paper_ratios(doc.rms)
     if ratios:
         lines += [
@@ -197,7 +196,7 @@ def write_report(result: RideResult, directory: str | Path) -> list[Path]:
         [],
         out,
         title="shockdyno ride study",
-        ride=typed(result.to_json(), RideDoc, "ride"),
+        ride=result.doc(),
         extra_sections=[("Ride figures", list(zip(captions, files[:4], strict=True)))],
     )
     return [index, *files]

@@ -37,6 +37,9 @@ from shockdyno.model.quarter_car import (
     stable_step,
 )
 from shockdyno.model.road import DEFAULT_BAND_RAD_M, RoadProfile, class_psd, synthesize_road
+from shockdyno.report import documents as docs
+from shockdyno.result_files import RecordingRef
+from shockdyno.schema import to_json
 
 FloatArray = NDArray[np.float64]
 
@@ -164,11 +167,14 @@ class RideResult:
     psd_hz: FloatArray
     psd_m2_s4_hz: FloatArray  # (n_runs, n_freq), Welch, up to psd_max_hz
     roads: dict[tuple[str, float], RoadProfile]
-    damper_info: dict[str, Any]
-    step_check: dict[str, Any] | None
+    damper_info: docs.Damper
+    step_check: docs.StepCheck | None
     stable_step_s: float
     wall_time_s: float
     fit_path: str | None = None
+    # The recording the fit came from (commands/ride.py), so a report can tell a ride of
+    # another damper; None for a linear damper or an older fit.
+    fit_recording: RecordingRef | None = None
 
     def run_index(self, clicks: int | None, road: str, speed_kmh: float) -> int:
         return self.runs.index(Run(clicks, road, float(speed_kmh)))
@@ -196,108 +202,106 @@ class RideResult:
 
     def interpolated_clicks(self) -> list[int]:
         """Click settings whose bleed areas come from the fit's trend, not a fitted click."""
-        return [
-            int(s["clicks"])
-            for s in self.damper_info.get("settings", [])
-            if s.get("source") == "trend"
-        ]
+        return [s.clicks for s in self.damper_info.settings if s.source == "trend"]
 
-    def flags(self) -> dict[str, Any]:
+    def flags(self) -> docs.Flags:
         """Runs outside the model's validity, for the console, the JSON and the report."""
         tyre, stroke = self.tyre_leaves_road(), self.stroke_exceeds_travel()
 
-        def listed(mask: NDArray[np.bool_]) -> list[dict[str, Any]]:
-            return [
-                {"clicks": r.clicks, "road": r.road, "speed_kmh": r.speed_kmh}
+        def listed(mask: NDArray[np.bool_]) -> tuple[docs.FlaggedRun, ...]:
+            return tuple(
+                docs.FlaggedRun(clicks=r.clicks, road=r.road, speed_kmh=r.speed_kmh)
                 for r, m in zip(self.runs, mask, strict=True)
                 if m
-            ]
+            )
 
-        return {
-            "travel_m": self.config.travel_m,
-            "tyre_leaves_road": listed(tyre),
-            "stroke_exceeds_travel": listed(stroke),
-            "interpolated_clicks": self.interpolated_clicks(),
-        }
+        return docs.Flags(
+            travel_m=self.config.travel_m,
+            tyre_leaves_road=listed(tyre),
+            stroke_exceeds_travel=listed(stroke),
+            interpolated_clicks=tuple(self.interpolated_clicks()),
+        )
 
-    def to_json(self) -> dict[str, Any]:
+    def doc(self) -> docs.RideDoc:
+        """RIDE.json, as its typed document (report/documents.py; docs/ride.md)."""
         cfg = self.config
-        car = asdict(cfg.car)
         traj = self.trajectory
         tyre, stroke = self.tyre_leaves_road(), self.stroke_exceeds_travel()
         entries = []
         for i, run in enumerate(self.runs):
             road = self.roads[(run.road, run.speed_kmh)]
             entries.append(
-                {
-                    "clicks": run.clicks,
-                    "road": run.road,
-                    "speed_kmh": run.speed_kmh,
-                    "rms_ms2": float(self.rms_m_s2[i]),
-                    "rms_wk_ms2": float(self.rms_wk_m_s2[i]),
-                    "paper_rms_ms2": paper_rms(run.clicks, run.road, run.speed_kmh),
-                    "road_rms_m": road.rms_m(),
-                    "max_abs_stroke_m": float(np.max(np.abs(traj.stroke_m[i]))),
-                    "max_abs_stroke_velocity_m_s": float(
-                        np.max(np.abs(traj.stroke_velocity_m_s[i]))
-                    ),
-                    "tyre_leaves_road": bool(tyre[i]),
-                    "stroke_exceeds_travel": bool(stroke[i]),
-                }
+                docs.RunRms(
+                    clicks=run.clicks,
+                    road=run.road,
+                    speed_kmh=run.speed_kmh,
+                    rms_ms2=float(self.rms_m_s2[i]),
+                    rms_wk_ms2=float(self.rms_wk_m_s2[i]),
+                    paper_rms_ms2=paper_rms(run.clicks, run.road, run.speed_kmh),
+                    road_rms_m=road.rms_m(),
+                    max_abs_stroke_m=float(np.max(np.abs(traj.stroke_m[i]))),
+                    max_abs_stroke_velocity_m_s=float(np.max(np.abs(traj.stroke_velocity_m_s[i]))),
+                    tyre_leaves_road=bool(tyre[i]),
+                    stroke_exceeds_travel=bool(stroke[i]),
+                )
             )
-        speeds = sorted(set(cfg.speeds_kmh))
         road_lengths = []
-        for v in speeds:
+        for v in sorted(set(cfg.speeds_kmh)):
             prof = self.roads[(cfg.roads[0], v)]
             omega = prof.omega_rad_m
             road_lengths.append(
-                {
-                    "speed_kmh": v,
-                    "length_m": prof.length_m,
-                    "n_harmonics": int(prof.harmonic.size),
-                    "harmonic_spacing_rad_per_m": 2 * math.pi / prof.length_m,
-                    "frequency_band_hz": [
+                docs.RoadLength(
+                    speed_kmh=v,
+                    length_m=prof.length_m,
+                    n_harmonics=int(prof.harmonic.size),
+                    harmonic_spacing_rad_per_m=2 * math.pi / prof.length_m,
+                    frequency_band_hz=(
                         float(omega[0]) * v / 3.6 / (2 * math.pi),
                         float(omega[-1]) * v / 3.6 / (2 * math.pi),
-                    ],
-                }
+                    ),
+                )
             )
-        return {
-            "schema": SCHEMA,
-            "fit": self.fit_path,
-            "damper": self.damper_info,
-            "quarter_car": car,
-            "road_band_rad_per_m": [float(cfg.band_rad_m[0]), float(cfg.band_rad_m[1])],
-            "waviness": cfg.waviness,
-            "seed": cfg.seed,
-            "road_classes": {r: class_psd(r) for r in cfg.roads},
-            "roads": road_lengths,
-            "dt_s": cfg.dt_s,
-            "duration_s": cfg.duration_s,
-            "warmup_s": cfg.warmup_s,
-            "integrator": "classical Runge-Kutta (RK4), fixed step, all runs at once",
-            "stable_step_s": self.stable_step_s,
-            "step_check": self.step_check,
-            "psd": {
-                "method": "Welch, Hann window, 50 % overlap",
-                "segment_s": min(cfg.psd_segment_s, cfg.duration_s),
-                "max_hz": cfg.psd_max_hz,
-            },
-            "rms": entries,
-            "flags": self.flags(),
-            "wall_time_s": self.wall_time_s,
-        }
+        return docs.RideDoc(
+            schema=SCHEMA,
+            fit=self.fit_path,
+            damper=self.damper_info,
+            quarter_car=docs.Car(**asdict(cfg.car)),
+            road_band_rad_per_m=(float(cfg.band_rad_m[0]), float(cfg.band_rad_m[1])),
+            waviness=cfg.waviness,
+            seed=cfg.seed,
+            road_classes={r: class_psd(r) for r in cfg.roads},
+            roads=tuple(road_lengths),
+            dt_s=cfg.dt_s,
+            duration_s=cfg.duration_s,
+            warmup_s=cfg.warmup_s,
+            integrator="classical Runge-Kutta (RK4), fixed step, all runs at once",
+            stable_step_s=self.stable_step_s,
+            step_check=self.step_check,
+            psd=docs.Psd(
+                method="Welch, Hann window, 50 % overlap",
+                segment_s=min(cfg.psd_segment_s, cfg.duration_s),
+                max_hz=cfg.psd_max_hz,
+            ),
+            rms=tuple(entries),
+            flags=self.flags(),
+            wall_time_s=self.wall_time_s,
+            fit_recording=self.fit_recording,
+        )
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = to_json(self.doc())
+        return out
 
 
 def _build_damper(
     config: RideConfig, fit: FitResult | None, runs: list[Run]
-) -> tuple[SuspensionDamper, float, dict[str, Any], FloatArray]:
+) -> tuple[SuspensionDamper, float, docs.Damper, FloatArray]:
     """The damper of every run, its steepest slope, its description, start rates."""
     n = len(runs)
     if config.linear_damper_ns_m is not None:
         c = config.linear_damper_ns_m
-        info: dict[str, Any] = {"kind": "linear", "c_ns_m": c}
-        return LinearDamper(np.full(n, c)), c, info, np.full(n, max(c, 1.0))
+        linear = docs.Damper(kind="linear", c_ns_m=c)
+        return LinearDamper(np.full(n, c)), c, linear, np.full(n, max(c, 1.0))
     if fit is None:
         raise ConfigError("a fit result (--fit) is needed unless the damper is linear")
     model = fit.model()
@@ -316,31 +320,31 @@ def _build_damper(
         for s in range(len(settings))
     ]
     start = np.array([secant[i] for i in row])
-    info = {
-        "kind": f"fitted damper model ({config.model})",
-        "spec": spec.name,
-        "spec_path": fit.spec_path,
-        "globals": fit.globals,
-        "terms": [t.name for t in table.model.terms],
-        "terms_dropped": [t.name for t in model.terms if not t.vehicle_ok()],
-        "settings": [
-            {
-                "clicks": c,
-                "A_bc_m2": a,
-                "A_bt_m2": b,
-                "source": _source(fit, c),
-                "secant_rate_0p1_ns_m": s,
-            }
+    info = docs.Damper(
+        kind=f"fitted damper model ({config.model})",
+        spec=spec.name,
+        spec_path=fit.spec_path,
+        globals=fit.globals,
+        terms=tuple(t.name for t in table.model.terms),
+        terms_dropped=tuple(t.name for t in model.terms if not t.vehicle_ok()),
+        settings=tuple(
+            docs.ClickSetting(
+                clicks=c,
+                A_bc_m2=a,
+                A_bt_m2=b,
+                source=_source(fit, c),
+                secant_rate_0p1_ns_m=s,
+            )
             for c, (a, b), s in zip(settings, areas, secant, strict=True)
-        ],
-        "force_at_rest_n": table.force_at_rest_n,
-        "moving_mass_kg": table.added_mass_kg,
-        "table": {
-            "stroke_range_m": [-table.x_max_m, table.x_max_m],
-            "velocity_range_m_s": [-table.v_max_m_s, table.v_max_m_s],
-            "max_error_n": table.max_error_n,
-        },
-    }
+        ),
+        force_at_rest_n=table.force_at_rest_n,
+        moving_mass_kg=table.added_mass_kg,
+        table=docs.DamperTable(
+            stroke_range_m=(-table.x_max_m, table.x_max_m),
+            velocity_range_m_s=(-table.v_max_m_s, table.v_max_m_s),
+            max_error_n=table.max_error_n,
+        ),
+    )
     return table, table.max_slope_ns_m, info, start
 
 
@@ -381,7 +385,7 @@ def _integrate(
 
 def _step_check(
     config: RideConfig, damper: SuspensionDamper, runs: list[Run], start_c: FloatArray
-) -> dict[str, Any]:
+) -> docs.StepCheck:
     """Repeat the extreme runs (smoothest road at the lowest speed, roughest at the
     highest, each click) over a shorter record at dt and dt / 2; compare their RMS.
 
@@ -396,31 +400,29 @@ def _step_check(
     # Both steps start from the same state and see the same road, so a short warm-up
     # serves: the check compares the integrators, not the record with the study's.
     warmup = min(config.warmup_s, 1.0)
-    out = []
     rms: list[FloatArray] = []
     for dt in (config.dt_s, config.dt_s / 2):
         traj, _ = _integrate(config, sub_damper, sub, start_c[pick], dt, duration, warmup)
         rms.append(np.sqrt(np.mean(traj.sprung_accel_m_s2**2, axis=1)))
     change = np.abs(rms[1] / rms[0] - 1)
-    for r, a, b, c in zip(sub, rms[0], rms[1], change, strict=True):
-        out.append(
-            {
-                "clicks": r.clicks,
-                "road": r.road,
-                "speed_kmh": r.speed_kmh,
-                "rms_dt_ms2": float(a),
-                "rms_half_dt_ms2": float(b),
-                "relative_change": float(c),
-            }
-        )
-    return {
-        "dt_s": config.dt_s,
-        "half_dt_s": config.dt_s / 2,
-        "duration_s": duration,
-        "warmup_s": warmup,
-        "max_relative_change": float(np.max(change)),
-        "runs": out,
-    }
+    return docs.StepCheck(
+        dt_s=config.dt_s,
+        half_dt_s=config.dt_s / 2,
+        duration_s=duration,
+        warmup_s=warmup,
+        max_relative_change=float(np.max(change)),
+        runs=tuple(
+            docs.StepRun(
+                clicks=r.clicks,
+                road=r.road,
+                speed_kmh=r.speed_kmh,
+                rms_dt_ms2=float(a),
+                rms_half_dt_ms2=float(b),
+                relative_change=float(c),
+            )
+            for r, a, b, c in zip(sub, rms[0], rms[1], change, strict=True)
+        ),
+    )
 
 
 def _subset(damper: SuspensionDamper, pick: list[int]) -> SuspensionDamper:
@@ -469,13 +471,11 @@ def run_study(
     traj, roads = _integrate(
         config, damper, runs, start_c, config.dt_s, config.duration_s, config.warmup_s
     )
-    if isinstance(damper, TabulatedDamper):
-        info["table"]["runs_outside_table"] = int(
-            np.sum(
-                (np.max(np.abs(traj.stroke_m), axis=1) > damper.x_max_m)
-                | (np.max(np.abs(traj.stroke_velocity_m_s), axis=1) > damper.v_max_m_s)
-            )
+    if isinstance(damper, TabulatedDamper) and info.table is not None:
+        outside = (np.max(np.abs(traj.stroke_m), axis=1) > damper.x_max_m) | (
+            np.max(np.abs(traj.stroke_velocity_m_s), axis=1) > damper.v_max_m_s
         )
+        info = replace(info, table=replace(info.table, runs_outside_table=int(np.sum(outside))))
     report("RMS, Wk RMS and spectra", 0.8)
     acc = traj.sprung_accel_m_s2
     rms = np.sqrt(np.mean(acc**2, axis=1))

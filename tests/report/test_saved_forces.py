@@ -1,0 +1,116 @@
+"""The report reads the model's forces `fit` saved beside FIT.json (fit/forces.py), and
+does not run the model: the page is the one it makes when it computes them."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from report_helpers import sweep_tests, write_recording
+from shockdyno.cli import main
+from shockdyno.fit import forces
+from shockdyno.fit.plots import overlay_forces
+from shockdyno.fit.result import FitResult
+from shockdyno.model.composite import DamperModel
+from shockdyno.record import open_recording
+
+
+@pytest.fixture(scope="module")
+def fitted(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """A recording of two click settings at two frequencies, and `fit`'s FIT.json of it."""
+    d = tmp_path_factory.mktemp("saved")
+    rec = write_recording(d / "sweep.mcap", sweep_tests((0, 21), (1.0, 1.5)), {})
+    fit = d / "sweep.fit.json"
+    assert main(["fit", str(rec), "--json", str(fit), "--no-history"]) == 0
+    return rec, fit
+
+
+def _page(folder: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()}
+
+
+def _no_model(*_args: object, **_kw: object) -> np.ndarray:
+    raise AssertionError("the report ran the model")
+
+
+@pytest.mark.parametrize("units", ["si", "imperial"])
+def test_the_report_reads_the_saved_forces_and_draws_what_it_computed(
+    fitted: tuple[Path, Path],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    units: str,
+) -> None:
+    rec, fit = fitted
+    sidecar = forces.sidecar_path(fit)
+    assert sidecar.name == "sweep.fit.forces.npz" and sidecar.is_file()
+    args = ["report", str(rec), "--fit", str(fit), "--units", units]
+    # Computed, as the report did before the fit saved them: the sidecar moved away.
+    moved = tmp_path / "away.npz"
+    sidecar.rename(moved)
+    try:
+        assert main([*args, "-o", str(tmp_path / "computed")]) == 0
+    finally:
+        moved.rename(sidecar)
+    err = capsys.readouterr().err
+    assert "sweep.fit.forces.npz not found beside sweep.fit.json" in err
+    assert "computed from the fit instead" in err
+
+    with monkeypatch.context() as m:
+        m.setattr(DamperModel, "force", _no_model)
+        assert main([*args, "-o", str(tmp_path / "saved")]) == 0
+    assert "report: note" not in capsys.readouterr().err
+    computed, saved = _page(tmp_path / "computed"), _page(tmp_path / "saved")
+    assert computed.keys() == saved.keys()
+    assert any(n.startswith("fit-overlay") for n in saved)  # the overlays were drawn
+    for name in computed:  # the page, its CSV and every figure, byte for byte
+        assert saved[name] == computed[name], name
+    assert "Fitted model (" in saved["index.html"].decode()
+
+
+def test_the_saved_overlay_forces_are_the_models_on_the_same_tests(
+    fitted: tuple[Path, Path],
+) -> None:
+    rec, fit_path = fitted
+    tests = open_recording(rec).load_all()
+    fit = FitResult.load(fit_path)
+    assert forces.attach(fit, fit_path) == ""
+    assert fit.saved is not None and len(fit.saved.tests) >= 2  # the overlays of the paper's picks
+    saved = overlay_forces(fit, tests)
+    fit.saved = None
+    computed = overlay_forces(fit, tests)
+    assert [m.test.meta.index for m in saved] == [m.test.meta.index for m in computed]
+    for a, b in zip(saved, computed, strict=True):
+        assert np.array_equal(a.proposed, b.proposed) and np.array_equal(a.talbott, b.talbott)
+        assert np.ptp(a.proposed) > 100  # a damper's force, not zeros
+
+
+def test_a_stale_sidecar_is_said_and_not_used(
+    fitted: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    rec, fit = fitted
+    other = tmp_path / "edited.json"
+    doc = json.loads(fit.read_text())
+    doc["globals"] = {k: 1.01 * v for k, v in doc["globals"].items()}  # another fit
+    other.write_text(json.dumps(doc, indent=2) + "\n")
+    forces.sidecar_path(other).write_bytes(forces.sidecar_path(fit).read_bytes())
+    assert main(["report", str(rec), "--fit", str(other), "-o", str(tmp_path / "r")]) == 0
+    err = capsys.readouterr().err
+    assert "edited.forces.npz belongs to another version of edited.json" in err
+    loaded = FitResult.load(other)
+    assert "stale" in forces.attach(loaded, other) and loaded.saved is None
+
+
+def test_fit_refuses_to_overwrite_a_sidecar_without_force(
+    fitted: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    rec, _ = fitted
+    out = tmp_path / "new.json"
+    forces.sidecar_path(out).write_bytes(b"mine")
+    assert main(["fit", str(rec), "--json", str(out), "--no-history"]) != 0
+    err = capsys.readouterr().err
+    assert "new.forces.npz exists (use --force" in err and not out.exists()
+    assert forces.sidecar_path(out).read_bytes() == b"mine"

@@ -235,3 +235,11 @@ def test_a_carried_state_is_taken_up_as_written_out(states: int) -> None:
     assert kernel_args[6]  # use_carry
     for a, b in zip(got, reference_run(*kernel_args), strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+def test_the_record_and_what_the_type_checker_sees_name_the_same_fields() -> None:
+    """`Constants` (typing only) must name the `CONSTANTS` record's fields: a field added
+    to one alone would be read by the kernels unchecked, or checked and never there."""
+    assert list(C.Constants.__annotations__) == list(C.CONSTANTS.names)
+    k = C.constants(air0=2.0, has_floor=True)
+    assert (k.air0, k.has_floor, k.valves.shape, k.gas_n) == (2.0, True, (2, 5), 0.0)

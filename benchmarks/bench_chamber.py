@@ -1,6 +1,6 @@
 """The chamber kernel (model/chamber.py) against an earlier revision of itself, in one run.
 
-Run: .venv/bin/python benchmarks/bench_chamber.py [--baseline REV] [--reps N]
+Run: .venv/bin/python benchmarks/bench_chamber.py [--baseline REV] [--reps N] [--compile-runs N]
 
 The baseline is model/chamber.py as it was at REV (default f4c5eca: the kernels of 23-31
 scalars, before issue 48 put the chamber's constants in one record and split `_step` and
@@ -218,6 +218,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--baseline", default="f4c5eca", help="git revision of the baseline")
     parser.add_argument("--reps", type=int, default=7, help="interleaved repetitions per call")
+    parser.add_argument(
+        "--compile-runs", type=int, default=1, help="first compilations of each kernel, in turn"
+    )
     opts = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -256,25 +259,29 @@ def main() -> None:
             f"  ratio {total_now / total_old:5.3f} (time now / baseline; < 1: faster)"
         )
         print(f"bit identity (every output of every call): {'yes' if identical else 'NO'}")
-        compile_report(folder, old)
+        compile_report(folder, old, opts.compile_runs)
 
 
-def compile_report(folder: Path, old: ModuleType) -> None:
+def compile_report(folder: Path, old: ModuleType, runs: int) -> None:
+    """The first compilation of each kernel, `runs` times in turn, each on an empty cache
+    and then again from it in a second process."""
     calls = captured("air + vapour, 1 kHz")
-    for label, path in (("now", None), ("baseline", Path(old.__file__ or ""))):
-        cache = folder / f"cache-{label}"
-        cache.mkdir()
-        with open(cache / "calls.pkl", "wb") as f:
-            pickle.dump(calls, f)
-        cold = first_compile(path, cache)
-        warm = first_compile(path, cache)
-        print(
-            f"first calls, {label:8s}: empty numba cache {cold['first_s']:6.2f} s CPU "
-            f"({cold['first_wall_s']:.2f} s wall; again {cold['again_s']:.3f} s; _run's cache "
-            f"misses {cold['misses']}, hits {cold['hits']}); second process "
-            f"{warm['first_s']:.3f} s (again {warm['again_s']:.3f} s; misses {warm['misses']}, "
-            f"hits {warm['hits']})"
-        )
+    with open(folder / "calls.pkl", "wb") as f:
+        pickle.dump(calls, f)
+    for run_no in range(runs):
+        for label, path in (("now", None), ("baseline", Path(old.__file__ or ""))):
+            cache = folder / f"cache-{label}-{run_no}"
+            cache.mkdir()
+            (cache / "calls.pkl").write_bytes((folder / "calls.pkl").read_bytes())
+            cold = first_compile(path, cache)
+            warm = first_compile(path, cache)
+            print(
+                f"first calls, {label:8s}: empty numba cache {cold['first_s']:6.2f} s CPU "
+                f"({cold['first_wall_s']:.2f} s wall; again {cold['again_s']:.3f} s; _run's "
+                f"cache misses {cold['misses']}, hits {cold['hits']}); second process "
+                f"{warm['first_s']:.3f} s (again {warm['again_s']:.3f} s; misses "
+                f"{warm['misses']}, hits {warm['hits']})"
+            )
 
 
 if __name__ == "__main__":

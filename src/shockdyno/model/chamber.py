@@ -224,7 +224,8 @@ def linearised() -> Iterator[dict[Any, Any]]:
 # hands the next. The parts `_run` is split into are inlined into it (inline="always", in
 # numba's own IR): compiled apart, each layer's LLVM module was optimised again with all
 # it calls, and the first compilation took 8.2 s of CPU where the unsplit kernel's took
-# 5.0 (inlined: 6.6).
+# 5.0; inlined in a chain (run > segment > pass > sub-step), 6.6-7.7; inlined with the
+# chain cut short (the parts called from `_run` and `_step` themselves), 5.7-5.9.
 class Samples(NamedTuple):
     """The per-sample inputs of an integration, one array each."""
 
@@ -440,31 +441,13 @@ def _start(smp: Samples, i0: int, carry: FloatArray, use_carry: bool, k: Constan
 
 
 @njit(cache=True, inline="always")
-def _segment(
-    smp: Samples,
-    out: Out,
-    seg: Segment,
-    passes: int,
-    use_carry: bool,
-    guide: Guide,
-    st: State,
-    k: Constants,
-) -> tuple[State, int]:
-    """A segment's passes (periodic: until one ends where it began), from state st: the
-    state at its end and the passes it took."""
-    used = 0
-    for it in range(passes):
-        start = st
-        along = guide.pre if seg.preroll and it == 0 else guide.fin
-        st = _pass(smp, out, seg, it, use_carry, along, st, k)
-        used = it + 1
-        if seg.guided:
-            continue
-        if it + 1 < passes and not (seg.preroll and it == 0):
-            close = abs(st.p - start.p) <= 1.0e-6 * (abs(start.p) + 1.0e3)
-            if close and abs(st.vv - start.vv) <= 1.0e-12:
-                break
-    return st, used
+def _done(seg: Segment, it: int, passes: int, start: State, st: State) -> bool:
+    """Whether a segment's pass `it` (from `start` to `st`) is its last: a periodic pass
+    that ends where it began (not the preroll's part pass, nor a guided segment's)."""
+    if seg.guided or it + 1 >= passes or (seg.preroll and it == 0):
+        return False
+    close = abs(st.p - start.p) <= 1.0e-6 * (abs(start.p) + 1.0e3)
+    return close and abs(st.vv - start.vv) <= 1.0e-12
 
 
 @njit(cache=True)
@@ -482,7 +465,8 @@ def _run(
 ]:
     """(Δp, vapour, p_c, final state) per sample, and the trajectory a later call may be
     guided by (`linearised`): the chamber pressure per sample in a periodic segment's
-    first (part) pass and in its last pass, and the passes each segment took. With a
+    first (part) pass and in its last pass, and the passes each segment took (periodic:
+    until one ends where it began). With a
     guide (guide.used not empty), a segment whose guide took as many passes as this one
     would at the least takes them, each step one Newton step from the guide's pressure
     where the balance is smooth about it."""
@@ -499,7 +483,15 @@ def _run(
         passes_of_guide = guide.used[j] if guide.used.size == nseg else -1
         seg, passes = _layout(lo, hi, dt_s[j], periodic, use_carry, passes_of_guide)
         st = _start(smp, seg.i0, carry, use_carry, k)
-        st, used[j] = _segment(smp, out, seg, passes, use_carry, guide, st, k)
+        # The passes here, not in a part of their own: numba copies an inlined part's
+        # code into each caller, so a chain of them copies the innermost over and over.
+        for it in range(passes):
+            start = st
+            along = guide.pre if seg.preroll and it == 0 else guide.fin
+            st = _pass(smp, out, seg, it, use_carry, along, st, k)
+            used[j] = it + 1
+            if _done(seg, it, passes, start, st):
+                break
         state[0] = st.p
         state[1] = st.vv
         state[2] = st.d

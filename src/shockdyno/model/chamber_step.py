@@ -304,24 +304,34 @@ def _step(p_guess: float, s: Step, k: Constants) -> tuple[float, float, float]:
     that (the chamber falls below the floor, R_e > 0) or less (it rises above,
     condensing what is left at R_c).
     """
+    # The parts are called from here, not from each other: numba copies an inlined
+    # part's code into each caller, so a chain of them copies the innermost over and over.
     tol = _tolerance(s)
     lo, hi = -math.inf, math.inf
     if k.has_floor:
-        there, lo, hi, vv, pc = _at_floor(tol, s, k)
-        if there:
+        where, lo, hi, rest, pc = _at_floor(s, k)
+        if where == AT_FLOOR_AS_BEFORE:
+            return k.floor, s.vap_old, pc
+        if where == AT_FLOOR:
+            vv, pc = _floor_vapour(rest, tol, s, k)
             return k.floor, vv, pc
     if not math.isfinite(lo) and not math.isfinite(hi) and k.air0 > 0.0:
         lo = MIN_PRESSURE_PA  # the air takes any volume as p falls to nothing: F < 0
-    return _newton(p_guess, lo, hi, tol, s, k)
+    p, lo, lo_open, hi, hi_open, r = _bracket(p_guess, lo, hi, s, k)
+    return _iterate(p, lo, lo_open, hi, hi_open, r, tol, s, k)
+
+
+OFF_FLOOR, AT_FLOOR_AS_BEFORE, AT_FLOOR = 0, 1, 2  # where a step ends (`_at_floor`)
 
 
 @njit(cache=True, inline="always")
-def _at_floor(tol: float, s: Step, k: Constants) -> tuple[bool, float, float, float, float]:
-    """(whether the step ends at the floor, the bracket on p if not, the vapour and p_c if
-    so). The vapour at the floor is any amount with instant rates (R_e = R_c = 0, a hard
+def _at_floor(s: Step, k: Constants) -> tuple[int, float, float, float, float]:
+    """(where the step ends, the bracket on p off the floor, `rest` of `_floor_balance`,
+    p_c). The vapour at the floor is any amount with instant rates (R_e = R_c = 0, a hard
     floor), no less than before with a finite condensation, no more with a finite
     formation: G(V) rises in V (`_floor_balance`); its root in [v_min, v_max] is the
-    vapour at the floor, unless G has one sign there."""
+    vapour at the floor (AT_FLOOR: `_floor_vapour`; AT_FLOOR_AS_BEFORE: v_min = v_max, the
+    old vapour), unless G has one sign there (OFF_FLOOR)."""
     lo, hi = -math.inf, math.inf
     vap_old = s.vap_old
     v_min = vap_old if k.r_cond > 0.0 else 0.0
@@ -337,19 +347,18 @@ def _at_floor(tol: float, s: Step, k: Constants) -> tuple[bool, float, float, fl
     elif math.isfinite(v_max) and g_max < 0.0:
         hi = k.floor  # more than they can form: the chamber falls below its floor
     elif math.isfinite(v_max):
-        return True, lo, hi, vap_old, pc  # v_min = v_max = the old vapour closes it
+        return AT_FLOOR_AS_BEFORE, lo, hi, rest, pc  # v_min = v_max = the old vapour
     else:
-        vv, pc = _floor_vapour(v_min, rest, tol, s, k)
-        return True, lo, hi, vv, pc
-    return False, lo, hi, 0.0, pc
+        return AT_FLOOR, lo, hi, rest, pc
+    return OFF_FLOOR, lo, hi, rest, pc
 
 
 @njit(cache=True, inline="always")
-def _floor_vapour(
-    v_min: float, rest: float, tol: float, s: Step, k: Constants
-) -> tuple[float, float]:
+def _floor_vapour(rest: float, tol: float, s: Step, k: Constants) -> tuple[float, float]:
     """(vapour, p_c) at the floor with no upper limit on the vapour: G's root above v_min
-    by a safeguarded Newton iteration, from an upper bound found by doubling."""
+    (`_at_floor`'s) by a safeguarded Newton iteration, from an upper bound found by
+    doubling."""
+    v_min = s.vap_old if k.r_cond > 0.0 else 0.0
     v_lo, v_hi = v_min, max(v_min, rest + s.dt * abs(s.q_demand), 1.0e-15)
     for _ in range(200):
         if _floor_balance(v_hi, rest, s, k)[0] >= 0.0:
@@ -380,11 +389,12 @@ def _floor_vapour(
 
 
 @njit(cache=True, inline="always")
-def _newton(
-    p_guess: float, lo: float, hi: float, tol: float, s: Step, k: Constants
-) -> tuple[float, float, float]:
-    """The balance's root within [lo, hi] (either may be infinite: no bound yet), from
-    p_guess: (p, vapour, p_c).
+def _bracket(
+    p_guess: float, lo: float, hi: float, s: Step, k: Constants
+) -> tuple[float, float, bool, float, bool, Reach]:
+    """Where `_iterate` starts from p_guess to find the balance's root within [lo, hi]
+    (either may be infinite: no bound yet): (p, lo, lo still open, hi, hi still open, the
+    open bounds' reach).
 
     A lower bound (F < 0) where there is none yet, and an upper one (F > 0), by doubling
     from p_guess. Each is found only when the iteration needs it: Newton's steps from
@@ -408,7 +418,7 @@ def _newton(
         lo, hi = _pinned(lo, lo_open, hi, hi_open, r, s, k)
         lo_open = hi_open = False
         p = 0.5 * (lo + hi)
-    return _iterate(p, lo, lo_open, hi, hi_open, r, tol, s, k)
+    return p, lo, lo_open, hi, hi_open, r
 
 
 @njit(cache=True, inline="always")
@@ -423,7 +433,8 @@ def _iterate(
     s: Step,
     k: Constants,
 ) -> tuple[float, float, float]:
-    """`_newton`'s iteration from p within its bracket (a bound still open: `r`)."""
+    """The balance's root from p within its bracket (`_bracket`; a bound still open: `r`),
+    by a safeguarded Newton iteration: (p, vapour, p_c)."""
     vv, pc = 0.0, s.base
     settled = False
     moved = math.inf  # the last step's length (the safeguard below)

@@ -19,7 +19,6 @@ import numpy as np
 import pytest
 
 from shockdyno.model import chamber as C
-from shockdyno.model import chamber_step as S
 from shockdyno.model.spec import load_spec
 
 SPEC = load_spec()
@@ -29,7 +28,7 @@ def reference_run(
     smp: C.Samples,
     starts: np.ndarray,
     dt_s: np.ndarray,
-    k: S.Constants,
+    k: C.Constants,
     periodic: bool,
     carry: np.ndarray,
     use_carry: bool,
@@ -82,21 +81,21 @@ def reference_run(
 
                     vol = k.a_r * max(k.length + at(smp.x), 0.05 * k.length)
                     h = dt / m
-                    occ_old = S._occupied(p, vol, k)[0]
+                    occ_old = C._occupied(p, vol, k)[0]
                     guess = p
                     if vv == 0.0 and vv_prev == 0.0 and math.isfinite(p_prev):
-                        occ_m = S._occupied(p_prev, vol, k)[0]
+                        occ_m = C._occupied(p_prev, vol, k)[0]
                         h, occ_old = 2.0 * h / 3.0, occ_old + (occ_old - occ_m) / 3.0
                         guess = 2.0 * p - p_prev
                     p_prev, vv_prev = p, vv
-                    s = S.Step(
+                    s = C.Step(
                         occ_old, vv, at(smp.p_c), k.a_q * at(smp.v), h, vol, smp.a_bc[i],
                         smp.a_bt[i], smp.k_leak[i], smp.lam[i], smp.sc[i], at(smp.gas_volume),
                     )  # fmt: skip
                     solve = True
                     g = along[i] + off if guided else math.nan
                     if guided and not (k.has_floor and (vv != 0.0 or not g > k.floor)):
-                        f, df, pc_g, vv_g, dpc = S._balance(g, s, k)
+                        f, df, pc_g, vv_g, dpc = C._balance(g, s, k)
                         delta = f / df if df > 0.0 else math.nan
                         reach = C.GUIDE_REACH * abs(delta)
                         if (
@@ -110,7 +109,7 @@ def reference_run(
                     if solve and guided and math.isfinite(g):
                         guess = g
                     if solve:
-                        p, vv, pci = S._step(guess, s, k)
+                        p, vv, pci = C._step(guess, s, k)
                     d = pci - p
                     if guided:
                         off = p - along[i]
@@ -241,6 +240,6 @@ def test_a_carried_state_is_taken_up_as_written_out(states: int) -> None:
 def test_the_record_and_what_the_type_checker_sees_name_the_same_fields() -> None:
     """`Constants` (typing only) must name the `CONSTANTS` record's fields: a field added
     to one alone would be read by the kernels unchecked, or checked and never there."""
-    assert list(S.Constants.__annotations__) == list(S.CONSTANTS.names)
-    k = S.constants(air0=2.0, has_floor=True)
+    assert list(C.Constants.__annotations__) == list(C.CONSTANTS.names)
+    k = C.constants(air0=2.0, has_floor=True)
     assert (k.air0, k.has_floor, k.valves.shape, k.gas_n) == (2.0, True, (2, 5), 0.0)

@@ -18,7 +18,6 @@ import pytest
 from scipy.optimize import brentq
 
 from shockdyno.model import chamber as C
-from shockdyno.model import chamber_step as S
 from shockdyno.model.spec import load_spec
 
 VALVES = np.array(
@@ -29,8 +28,8 @@ VALVES = np.array(
 )
 
 
-def constants(air0: float, c_oil: float) -> S.Constants:
-    return S.constants(
+def constants(air0: float, c_oil: float) -> C.Constants:
+    return C.constants(
         valves=VALVES,
         c=0.03395498750508662,  # C_d √(2/ρ)
         air0=air0,  # air at p₀
@@ -43,7 +42,7 @@ def constants(air0: float, c_oil: float) -> S.Constants:
 
 
 P_GUESS = 1721498.585692132  # the step before's pressure
-AT_REVERSAL = S.Step(
+AT_REVERSAL = C.Step(
     occ_old=1.5029332772631335e-06,
     vap_old=0.0,
     base=1726561.3757165684,  # p_c
@@ -61,13 +60,13 @@ AIR0 = 1.7658941993065827e-06
 C_OIL = 6.666666666666666e-10
 
 
-def _root(s: S.Step, k: S.Constants) -> float:
-    return float(brentq(lambda p: S._balance(p, s, k)[0], 1.0e6, 3.0e6, xtol=1e-9, rtol=1e-15))
+def _root(s: C.Step, k: C.Constants) -> float:
+    return float(brentq(lambda p: C._balance(p, s, k)[0], 1.0e6, 3.0e6, xtol=1e-9, rtol=1e-15))
 
 
 def test_the_step_at_reversal_ends_at_its_root() -> None:
     k = constants(AIR0, C_OIL)
-    p, _, pc = S._step(P_GUESS, AT_REVERSAL, k)
+    p, _, pc = C._step(P_GUESS, AT_REVERSAL, k)
     root = _root(AT_REVERSAL, k)
     assert p == pytest.approx(root, abs=1e-6)
     assert pc - p == pytest.approx(40.708, abs=0.01)  # was 404.05: a 2-cycle's end
@@ -79,7 +78,7 @@ def test_dp_moves_smoothly_with_the_air() -> None:
     at 1e-6; a jump between the cycle's ends would be 360 Pa on a first of 0.17 Pa)."""
     for rel in (1e-9, 1e-8, 1e-7, 1e-6):
         ends = [
-            S._step(P_GUESS, AT_REVERSAL, constants(AIR0 * (1 + j * rel), C_OIL))
+            C._step(P_GUESS, AT_REVERSAL, constants(AIR0 * (1 + j * rel), C_OIL))
             for j in range(-5, 6)
         ]
         dp = np.array([pc - p for p, _, pc in ends])
@@ -99,16 +98,16 @@ def test_steps_near_reversal_end_at_their_roots(air: float) -> None:
     vol = spec.annulus_area_m2 * 0.11
     p0 = spec.gas_pressure_pa
     c_oil = 1.0 / 1.5e9
-    k = S.constants(
+    k = C.constants(
         valves=valves, c=c, air0=air * vol, p0=p0, c_oil=c_oil, floor=-1.0e300, gas_n=1.0
     )
     for _ in range(300):
         base = p0 * rng.uniform(0.9, 1.2)
         p_old = base + rng.normal(0.0, 2e3)
-        occ_old, _ = S._occupied(p_old, vol, k)
-        s = S.Step(
+        occ_old, _ = C._occupied(p_old, vol, k)
+        s = C.Step(
             occ_old, 0.0, base, rng.normal(0.0, 2e-6), rng.choice([2e-4, 6.667e-4, 1e-3]), vol,
             rng.uniform(1e-7, 6e-6), rng.uniform(1e-7, 6e-6), 4.7e-13, 0.0, 1.0, 5.8e-5,
         )  # fmt: skip
-        p, _, _ = S._step(p_old, s, k)
+        p, _, _ = C._step(p_old, s, k)
         assert p == pytest.approx(_root(s, k), abs=1e-6), s[2:5]

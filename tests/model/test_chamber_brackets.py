@@ -17,18 +17,18 @@ from shockdyno.model import chamber as C
 from shockdyno.model.spec import load_spec
 
 
-def eager_step(p_guess: float, args: tuple) -> tuple[float, float, float]:  # type: ignore[type-arg]
+def eager_step(p_guess: float, s: C.Step, k: C.Constants) -> tuple[float, float, float]:
     """The step with both bounds found by doubling first, then Newton (a step must halve
     the last; one taken after a Newton step whose length and rate put its end within
     tolerance ends the iteration unconfirmed), then one more call if none settled."""
     lo, hi = -math.inf, math.inf
-    if args[13] > 0.0:  # air0: the air takes any volume as p falls to nothing
+    if k.air0 > 0.0:  # air0: the air takes any volume as p falls to nothing
         lo = C.MIN_PRESSURE_PA
     width = max(abs(p_guess) * 0.1, 1.0e3)
     if not math.isfinite(lo):
         lo = min(p_guess, hi) - width
         for _ in range(200):
-            if C._balance(lo, *args)[0] < 0.0:
+            if C._balance(lo, s, k)[0] < 0.0:
                 break
             width *= 2.0
             lo -= width
@@ -36,18 +36,18 @@ def eager_step(p_guess: float, args: tuple) -> tuple[float, float, float]:  # ty
         width = max(abs(p_guess) * 0.1, 1.0e3)
         hi = max(p_guess, lo) + width
         for _ in range(200):
-            if C._balance(hi, *args)[0] > 0.0:
+            if C._balance(hi, s, k)[0] > 0.0:
                 break
             width *= 2.0
             hi += width
     p = min(max(p_guess, lo), hi)
     if not lo < p < hi:
         p = 0.5 * (lo + hi)
-    tol = 1.0e-12 * (abs(args[3]) * args[4] + 1.0e-12) + 1.0e-22
-    tol += C.CONTENTS_ULPS * C.EPS * (abs(args[1]) + abs(args[0]) + abs(args[3]) * args[4])
+    tol = 1.0e-12 * (abs(s.q_demand) * s.dt + 1.0e-12) + 1.0e-22
+    tol += C.CONTENTS_ULPS * C.EPS * (abs(s.occ_old) + abs(s.vap_old) + abs(s.q_demand) * s.dt)
     moved = newton = math.inf
     for _ in range(C.MAX_NEWTON):
-        f, df, pc, _, dpc = C._balance(p, *args)
+        f, df, pc, _, dpc = C._balance(p, s, k)
         if abs(f) <= tol:
             break
         if f > 0.0:
@@ -66,7 +66,7 @@ def eager_step(p_guess: float, args: tuple) -> tuple[float, float, float]:  # ty
         p = step
         if hi - lo <= 1.0e-12 * (abs(p) + 1.0):
             break
-    _, _, pc, vv, _ = C._balance(p, *args)
+    _, _, pc, vv, _ = C._balance(p, s, k)
     return p, vv, pc
 
 
@@ -91,16 +91,18 @@ def test_a_lazy_bracket_gives_the_eager_step_bit_for_bit(air: float) -> None:
         # first doubling's reach and the bounds must be found.
         p_guess = base * rng.uniform(-2.0, 3.0) if rng.random() < 0.5 else base * 0.98
         p_old = base * rng.uniform(0.5, 1.2)
-        occ_old, _ = C._occupied(p_old, vol, air0, p0, c_oil)
+        k = C.constants(
+            valves=valves, c=c, air0=air0, p0=p0, c_oil=c_oil, floor=-1.0e300, gas_n=1.0
+        )
+        occ_old, _ = C._occupied(p_old, vol, k)
         area = rng.choice([1.0e-7, 1.0e-6, 5.0e-6])
-        args = (
-            0.0, occ_old, base, q, dt, vol, area, area * rng.uniform(0.3, 3.0), 1.0e-12,
-            rng.uniform(0.0, 1.0), 1.0, valves, c, air0, p0, c_oil, -1.0e300, False, 0.0, 0.0,
-            0.0, 1.0,
+        s = C.Step(
+            occ_old, 0.0, base, q, dt, vol, area, area * rng.uniform(0.3, 3.0), 1.0e-12,
+            rng.uniform(0.0, 1.0), 1.0, 0.0,
         )  # fmt: skip
-        want = eager_step(p_guess, args)
-        got = C._step(p_guess, occ_old, *args[:1], *args[2:])
-        assert got == want, (p_guess, args[2:6], got, want)
+        want = eager_step(p_guess, s, k)
+        got = C._step(p_guess, s, k)
+        assert got == want, (p_guess, s[2:5], got, want)
         width = max(abs(p_guess) * 0.1, 1.0e3)
         far += not (p_guess - width < want[0] < p_guess + width)
     assert far > 50  # the lazy bounds were needed, not just never asked for

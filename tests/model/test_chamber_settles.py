@@ -26,50 +26,48 @@ VALVES = np.array(
         [0.10053096491487339, 0.00016003757991667908, 182.71808128500487, 1141780.5180952973, 4e-4],
     ]
 )
-AT_REVERSAL = (
-    1721498.585692132,  # p_guess: the step before's pressure
-    1.5029332772631335e-06,  # occ_old
-    0.0,  # vapour
-    1726561.3757165684,  # p_c
-    7.489582251532782e-07,  # flow demand, m³/s
-    0.000666666666660376,  # dt (BDF2's 2/3 of a 1 ms step)
-    0.00012129137885999485,  # the chamber's volume
-    4.868633804273402e-06,  # A_bc
-    9.627307175103726e-07,  # A_bt
-    4.724988950920478e-13,  # leak
-    0.0,  # laminar land
-    1.0,  # Δp scale
-    VALVES,
-    0.03395498750508662,  # C_d √(2/ρ)
-    1.7658941993065827e-06,  # air at p₀
-    1599689.856274119,  # p₀
-    6.666666666666666e-10,  # oil compressibility
-    -1.0e300,  # no floor
-    False,
-    0.0,
-    0.0,
-    5.8214481561219004e-05,  # gas column
-    1.0,
+
+
+def constants(air0: float, c_oil: float) -> C.Constants:
+    return C.constants(
+        valves=VALVES,
+        c=0.03395498750508662,  # C_d √(2/ρ)
+        air0=air0,  # air at p₀
+        p0=1599689.856274119,
+        c_oil=c_oil,
+        floor=-1.0e300,  # no floor
+        has_floor=False,
+        gas_n=1.0,
+    )
+
+
+P_GUESS = 1721498.585692132  # the step before's pressure
+AT_REVERSAL = C.Step(
+    occ_old=1.5029332772631335e-06,
+    vap_old=0.0,
+    base=1726561.3757165684,  # p_c
+    q_demand=7.489582251532782e-07,  # m³/s
+    dt=0.000666666666660376,  # BDF2's 2/3 of a 1 ms step
+    vol=0.00012129137885999485,  # the chamber's volume
+    a_bc=4.868633804273402e-06,
+    a_bt=9.627307175103726e-07,
+    k_leak=4.724988950920478e-13,
+    lam=0.0,  # laminar land
+    sc=1.0,  # Δp scale
+    gas_volume=5.8214481561219004e-05,
 )
+AIR0 = 1.7658941993065827e-06
+C_OIL = 6.666666666666666e-10
 
 
-def _balance(p: float, step: tuple) -> float:  # type: ignore[type-arg]
-    return float(C._balance(p, step[2], step[1], *step[3:])[0])
-
-
-def _root(step: tuple) -> float:  # type: ignore[type-arg]
-    return float(brentq(lambda p: _balance(p, step), 1.0e6, 3.0e6, xtol=1e-9, rtol=1e-15))
-
-
-def _with_air(factor: float) -> tuple:  # type: ignore[type-arg]
-    s = list(AT_REVERSAL)
-    s[14] = AT_REVERSAL[14] * factor
-    return tuple(s)
+def _root(s: C.Step, k: C.Constants) -> float:
+    return float(brentq(lambda p: C._balance(p, s, k)[0], 1.0e6, 3.0e6, xtol=1e-9, rtol=1e-15))
 
 
 def test_the_step_at_reversal_ends_at_its_root() -> None:
-    p, _, pc = C._step(*AT_REVERSAL)
-    root = _root(AT_REVERSAL)
+    k = constants(AIR0, C_OIL)
+    p, _, pc = C._step(P_GUESS, AT_REVERSAL, k)
+    root = _root(AT_REVERSAL, k)
     assert p == pytest.approx(root, abs=1e-6)
     assert pc - p == pytest.approx(40.708, abs=0.01)  # was 404.05: a 2-cycle's end
 
@@ -79,7 +77,10 @@ def test_dp_moves_smoothly_with_the_air() -> None:
     a smooth curve, no jump (second differences are the curvature's: 0.2 % of the first
     at 1e-6; a jump between the cycle's ends would be 360 Pa on a first of 0.17 Pa)."""
     for rel in (1e-9, 1e-8, 1e-7, 1e-6):
-        ends = [C._step(*_with_air(1 + k * rel)) for k in range(-5, 6)]
+        ends = [
+            C._step(P_GUESS, AT_REVERSAL, constants(AIR0 * (1 + j * rel), C_OIL))
+            for j in range(-5, 6)
+        ]
         dp = np.array([pc - p for p, _, pc in ends])
         first, second = np.diff(dp), np.diff(dp, 2)
         assert np.all(first < 0), (rel, dp)  # more air, less Δp here: monotone
@@ -97,14 +98,16 @@ def test_steps_near_reversal_end_at_their_roots(air: float) -> None:
     vol = spec.annulus_area_m2 * 0.11
     p0 = spec.gas_pressure_pa
     c_oil = 1.0 / 1.5e9
+    k = C.constants(
+        valves=valves, c=c, air0=air * vol, p0=p0, c_oil=c_oil, floor=-1.0e300, gas_n=1.0
+    )
     for _ in range(300):
         base = p0 * rng.uniform(0.9, 1.2)
         p_old = base + rng.normal(0.0, 2e3)
-        occ_old, _ = C._occupied(p_old, vol, air * vol, p0, c_oil)
-        step = (
-            p_old, occ_old, 0.0, base, rng.normal(0.0, 2e-6), rng.choice([2e-4, 6.667e-4, 1e-3]),
-            vol, rng.uniform(1e-7, 6e-6), rng.uniform(1e-7, 6e-6), 4.7e-13, 0.0, 1.0, valves, c,
-            air * vol, p0, c_oil, -1.0e300, False, 0.0, 0.0, 5.8e-5, 1.0,
+        occ_old, _ = C._occupied(p_old, vol, k)
+        s = C.Step(
+            occ_old, 0.0, base, rng.normal(0.0, 2e-6), rng.choice([2e-4, 6.667e-4, 1e-3]), vol,
+            rng.uniform(1e-7, 6e-6), rng.uniform(1e-7, 6e-6), 4.7e-13, 0.0, 1.0, 5.8e-5,
         )  # fmt: skip
-        p, _, _ = C._step(*step)
-        assert p == pytest.approx(_root(step), abs=1e-6), step[3:6]
+        p, _, _ = C._step(p_old, s, k)
+        assert p == pytest.approx(_root(s, k), abs=1e-6), s[2:5]

@@ -44,7 +44,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple, Protocol, cast
 
 import numpy as np
 from numba import njit
@@ -61,6 +61,7 @@ MIN_PRESSURE_PA = 1.0  # absolute: air cannot be compressed to nothing nor stret
 MAX_NEWTON = 100
 EPS = 2.220446049250313e-16  # machine epsilon of a double (numpy.finfo(float).eps)
 CONTENTS_ULPS = 16.0  # the balance's rounding, in ulps of the contents it subtracts
+GAS_CAP = 0.9  # the contents may take at most this share of the gas column (beyond any damper)
 # A guided step (`linearised`) is one Newton step where the flow law is smooth over this
 # many times the step: the step's error, its square times the law's curvature (√Δp's:
 # 1/(4Δp)), is then at most 1/400000 of it. 1000 left column errors of 1e-3 of the
@@ -69,7 +70,6 @@ CONTENTS_ULPS = 16.0  # the balance's rounding, in ulps of the contents it subtr
 GUIDE_REACH = 1.0e5
 PERIODIC_PASSES = 4
 MAX_STEP_S = 1.0e-3  # the chamber's own step, whatever the samples' spacing
-GAS_CAP = 0.9  # the contents may take at most this share of the gas column (beyond any damper)
 
 
 @dataclass(frozen=True)
@@ -98,6 +98,15 @@ class Chamber:
 
 def _valve_row(v: ShimStack) -> list[float]:
     return [v.perimeter_m, v.face_area_m2, v.preload_n, v.stiffness_n_per_m, v.max_lift_m]
+
+
+def _per_sample(a: FloatArray, n: int) -> FloatArray:
+    """`a` as the kernels take it: n contiguous, writable doubles (a read-only array would
+    be another type to numba, and another compilation)."""
+    out = np.ascontiguousarray(a, dtype=float)
+    if out.shape != (n,):
+        return np.array(np.broadcast_to(out, (n,)))
+    return out if out.flags.writeable else out.copy()
 
 
 def integrate(
@@ -150,38 +159,32 @@ def integrate(
     layout = (x.size, np.asarray(starts).tobytes(), np.asarray(dt_s).tobytes(), periodic)
     guide = guides.get(layout) if guides is not None and not use_carry else None
     g_pre, g_fin, g_used = guide if guide is not None else (_NONE, _NONE, _NO_PASSES)
+    k = constants(
+        valves=valves,
+        c=c,
+        a_q=a_q,
+        a_r=spec.annulus_area_m2,
+        length=chamber.length_m,
+        air0=chamber.air_fraction * spec.annulus_area_m2 * chamber.length_m,
+        p0=chamber.charge_pa,
+        c_oil=chamber.oil_compressibility_per_pa,
+        floor=floor if math.isfinite(floor) else -1.0e300,
+        has_floor=math.isfinite(floor),
+        r_form=chamber.form_resistance_pa_s_m3,
+        r_cond=chamber.condense_resistance_pa_s_m3,
+        gas_n=gas_index,
+    )
+    arrays = (x, v, p_c, dp_static, bleed_compression_m2, bleed_rebound_m2, k_leak, lam, sc, gas)
+    smp = Samples(*(_per_sample(a, x.size) for a in arrays))
     dp, vap, pce, state, p_pre, p_fin, used = _recent_run(
-        np.ascontiguousarray(x, dtype=float),
-        np.ascontiguousarray(v, dtype=float),
-        np.ascontiguousarray(p_c, dtype=float),
-        np.ascontiguousarray(dp_static, dtype=float),
-        np.ascontiguousarray(bleed_compression_m2, dtype=float),
-        np.ascontiguousarray(bleed_rebound_m2, dtype=float),
-        np.ascontiguousarray(k_leak, dtype=float),
-        np.ascontiguousarray(np.broadcast_to(lam, x.shape), dtype=float),
-        np.ascontiguousarray(np.broadcast_to(sc, x.shape), dtype=float),
-        np.ascontiguousarray(np.broadcast_to(gas, x.shape), dtype=float),
-        gas_index,
+        smp,
         np.ascontiguousarray(starts, dtype=np.int64),
         np.ascontiguousarray(dt_s, dtype=float),
-        valves,
-        c,
-        a_q,
-        spec.annulus_area_m2,
-        chamber.length_m,
-        chamber.air_fraction,
-        chamber.charge_pa,
-        chamber.oil_compressibility_per_pa,
-        floor if math.isfinite(floor) else -1.0e300,
-        math.isfinite(floor),
-        chamber.form_resistance_pa_s_m3,
-        chamber.condense_resistance_pa_s_m3,
+        k,
         periodic,
         cin,
         use_carry,
-        g_pre,
-        g_fin,
-        g_used,
+        Guide(g_pre, g_fin, g_used),
     )
     if guides is not None and guide is None and not use_carry:
         guides[layout] = (p_pre, p_fin, used)
@@ -215,6 +218,82 @@ def linearised() -> Iterator[dict[Any, Any]]:
         yield guides  # empty after the block when no chamber integration was guided
     finally:
         _GUIDES.reset(token)
+
+
+# The chamber's constants (what a whole integration holds fixed) are one record of the
+# `CONSTANTS` dtype (a NumPy structured scalar, typed by numba as a record and passed by
+# reference; `Constants` is what the type checker sees of it), not a dozen scalars each
+# kernel takes. A jitclass would do as well in the loop, but numba cannot cache a
+# function that takes one, and every process would compile the chamber anew. `Step` is
+# what one implicit step adds (its inputs, interpolated between samples), a named tuple
+# of floats built in the loop. The parts `_step` is split into are inlined into it
+# (inline="always", in numba's own IR): compiled apart, each layer's LLVM module is
+# optimised again with all it calls. They stay in this file with the loop: numba's cache
+# of `_run` is invalidated by changes to this file only, not to a file it calls into.
+CONSTANTS = np.dtype(
+    [
+        ("valves", np.float64, (2, 5)),  # compression, rebound: `_valve_row`
+        ("c", np.float64),  # C_d √(2/ρ)
+        ("a_q", np.float64),  # the annulus less the Couette drag area
+        ("a_r", np.float64),  # the rebound chamber's area: V(x) = A_r (L + x)
+        ("length", np.float64),  # L
+        ("air0", np.float64),  # the air's volume at p₀
+        ("p0", np.float64),  # the charge, absolute
+        ("c_oil", np.float64),
+        ("floor", np.float64),  # the release pressure (-1e300 when there is none)
+        ("has_floor", np.bool_),
+        ("r_form", np.float64),  # R_e, R_c: `_vapour_at`
+        ("r_cond", np.float64),
+        ("gas_n", np.float64),  # the gas column's polytropic index
+    ],
+    align=True,
+)
+
+
+class Constants(Protocol):
+    """A `CONSTANTS` record's fields as the kernels read them (what the type checker sees
+    of the NumPy structured scalar)."""
+
+    valves: FloatArray
+    c: float
+    a_q: float
+    a_r: float
+    length: float
+    air0: float
+    p0: float
+    c_oil: float
+    floor: float
+    has_floor: bool
+    r_form: float
+    r_cond: float
+    gas_n: float
+
+
+def constants(**fields: Any) -> Constants:
+    """A `CONSTANTS` record with these fields (the others zero): a NumPy record, whose
+    fields Python reads by name as the kernels do (numba types it as the structured
+    scalar it is)."""
+    rec = np.zeros((), dtype=CONSTANTS)
+    for name, value in fields.items():
+        rec[name] = value
+    return cast("Constants", rec.view(np.recarray)[()])
+
+
+class Step(NamedTuple):
+    """One implicit step's inputs beyond the chamber's constants."""
+
+    occ_old: float  # the contents it starts from (`_step`)
+    vap_old: float  # the vapour it starts with
+    base: float  # p_c of the algebraic solve
+    q_demand: float  # A_q ẋ, m³/s
+    dt: float
+    vol: float  # the chamber's volume
+    a_bc: float
+    a_bt: float
+    k_leak: float
+    lam: float  # the bleed's laminar land
+    sc: float  # the Δp scale of a term (1: none)
+    gas_volume: float  # the gas column's volume (0: p_c as given)
 
 
 @njit(cache=True)
@@ -251,66 +330,51 @@ def _flow(
 
 
 @njit(cache=True)
-def _signed_flow(
-    d: float,
-    a_bc: float,
-    a_bt: float,
-    valves: FloatArray,
-    c: float,
-    k_leak: float,
-    lam: float,
-    sc: float,
-) -> tuple[float, float]:
+def _signed_flow(d: float, s: Step, k: Constants) -> tuple[float, float]:
     """q and dq/dd through the piston at drop d, the flow law taken at d / sc: a term
     that scales the algebraic solve's Δp by sc (the oil's temperature) scales the drop
     each flow needs by the same."""
+    sc = s.sc
     if sc == 1.0:  # as a rule: no term scaled the solve
         if d >= 0.0:
-            return _flow(d, a_bc, valves[0], c, k_leak, lam)
-        q, slope = _flow(-d, a_bt, valves[1], c, k_leak, lam)
+            return _flow(d, s.a_bc, k.valves[0], k.c, s.k_leak, s.lam)
+        q, slope = _flow(-d, s.a_bt, k.valves[1], k.c, s.k_leak, s.lam)
         return -q, slope
     e = d / sc
     if e >= 0.0:
-        q, slope = _flow(e, a_bc, valves[0], c, k_leak, lam)
+        q, slope = _flow(e, s.a_bc, k.valves[0], k.c, s.k_leak, s.lam)
         return q, slope / sc
-    q, slope = _flow(-e, a_bt, valves[1], c, k_leak, lam)
+    q, slope = _flow(-e, s.a_bt, k.valves[1], k.c, s.k_leak, s.lam)
     return -q, slope / sc
 
 
 @njit(cache=True)
-def _occupied(p: float, vol: float, air0: float, p0: float, c_oil: float) -> tuple[float, float]:
+def _occupied(p: float, vol: float, k: Constants) -> tuple[float, float]:
     """Volume the chamber's oil and air take up at pressure p (up to a constant), and its
     derivative (negative: compliance). The air is a fixed amount, air0 of volume at p0
     (isothermal), so its part is an exact differential: a cycle returns every bubble to
     its size and pumps no oil (an air volume scaled with the chamber's, V(x) α p₀/p²,
     does not: around a loop in x and p it moves oil through the piston every cycle)."""
+    air0 = k.air0
     pe = max(p, MIN_PRESSURE_PA)
     oil = max(vol - air0, 0.0)
-    occ = air0 * p0 / pe - oil * c_oil * p
-    docc = -(air0 * p0 / (pe * pe) + oil * c_oil)
+    occ = air0 * k.p0 / pe - oil * k.c_oil * p
+    docc = -(air0 * k.p0 / (pe * pe) + oil * k.c_oil)
     return occ, docc
 
 
 @njit(cache=True)
 def _gas(
-    base: float,
-    occ_now: float,
-    docc: float,
-    vapour: float,
-    vol: float,
-    gas_volume: float,
-    air0: float,
-    p0: float,
-    c_oil: float,
-    n: float,
+    occ_now: float, docc: float, vapour: float, s: Step, k: Constants
 ) -> tuple[float, float, float]:
     """(p_c, dp_c/dp, dp_c/dV_vap) with the contents at occ_now (their slope docc): the
     chamber's contents beyond the rigid oil's volume (air expanded below the charge,
     vapour) are oil the rebound chamber did not take, so the gas column is that much
     shorter and p_c = base (V_g / (V_g - ΔV))^n. No gas column given: p_c = base."""
+    base, gas_volume, n = s.base, s.gas_volume, k.gas_n
     if gas_volume <= 0.0:
         return base, 0.0, 0.0
-    occ_ref, _ = _occupied(p0, vol, air0, p0, c_oil)
+    occ_ref, _ = _occupied(k.p0, s.vol, k)
     grow = occ_now - occ_ref + vapour
     cap = GAS_CAP * gas_volume
     if grow >= cap:  # beyond any damper: held, so the balance stays monotone
@@ -322,15 +386,14 @@ def _gas(
 
 
 @njit(cache=True)
-def _vapour_at(
-    p: float, vap_old: float, floor: float, dt: float, r_form: float, r_cond: float
-) -> tuple[float, float]:
+def _vapour_at(p: float, vap_old: float, dt: float, k: Constants) -> tuple[float, float]:
     """(vapour at the step's end, its derivative in p) when the chamber ends the step at
     p, off its floor. Below it vapour forms at (p_v - p)/R_e (R_e > 0 there: with none the
     chamber never sits below), above it condenses at (p - p_v)/R_c while there is any
     (R_c = 0: at once)."""
+    floor, r_cond = k.floor, k.r_cond
     if p < floor:
-        return vap_old + dt * (floor - p) / r_form, -dt / r_form
+        return vap_old + dt * (floor - p) / k.r_form, -dt / k.r_form
     if r_cond <= 0.0:
         return 0.0, 0.0
     g = vap_old - dt * (p - floor) / r_cond
@@ -340,54 +403,42 @@ def _vapour_at(
 
 
 @njit(cache=True)
-def _balance(
-    p: float,
-    vap_old: float,
-    occ_old: float,
-    base: float,
-    q_demand: float,
-    dt: float,
-    vol: float,
-    a_bc: float,
-    a_bt: float,
-    k_leak: float,
-    lam: float,
-    sc: float,
-    valves: FloatArray,
-    c: float,
-    air0: float,
-    p0: float,
-    c_oil: float,
-    floor: float,
-    has_floor: bool,
-    r_form: float,
-    r_cond: float,
-    gas_volume: float,
-    gas_n: float,
-) -> tuple[float, float, float, float, float]:
+def _balance(p: float, s: Step, k: Constants) -> tuple[float, float, float, float, float]:
     """(F, dF/dp, p_c, vapour, dp_c/dp) of a step ending at chamber pressure p (off the floor):
     F = V_vap,old + dt (Q - q(p_c - p)) - occ(p) + occ(p_old) - V_vap(p), the volume the
     step leaves unaccounted for. It rises strictly with p: q falls as p rises and p_c
     falls, the contents shrink, and less vapour forms or more condenses."""
     g, dg = 0.0, 0.0
-    if has_floor:
-        g, dg = _vapour_at(p, vap_old, floor, dt, r_form, r_cond)
-    occ, docc = _occupied(p, vol, air0, p0, c_oil)
-    pc, dpc_dp, dpc_dv = _gas(base, occ, docc, g, vol, gas_volume, air0, p0, c_oil, gas_n)
-    q, dq = _signed_flow(pc - p, a_bc, a_bt, valves, c, k_leak, lam, sc)
-    f = vap_old + dt * (q_demand - q) - occ + occ_old - g
+    if k.has_floor:
+        g, dg = _vapour_at(p, s.vap_old, s.dt, k)
+    occ, docc = _occupied(p, s.vol, k)
+    pc, dpc_dp, dpc_dv = _gas(occ, docc, g, s, k)
+    q, dq = _signed_flow(pc - p, s, k)
+    f = s.vap_old + s.dt * (s.q_demand - q) - occ + s.occ_old - g
     dpc = dpc_dp + dpc_dv * dg
-    df = -dt * dq * (dpc - 1.0) - docc - dg
+    df = -s.dt * dq * (dpc - 1.0) - docc - dg
     return f, df, pc, g, dpc
 
 
+class Reach(NamedTuple):
+    """Where each bound of a step's bracket is looked for while it is open: `_bound`
+    doubles `width` from `lo_from` down (from `hi_from` up), and the bound it finds lies
+    beyond `lo_at` (`hi_at`), the first doubling's reach."""
+
+    lo_from: float
+    lo_at: float
+    hi_from: float
+    hi_at: float
+    width: float
+
+
 @njit(cache=True)
-def _bound(start: float, direction: float, width: float, args: tuple[Any, ...]) -> float:
+def _bound(start: float, direction: float, width: float, s: Step, k: Constants) -> float:
     """From `start` in `direction` (+1 up, -1 down) by doubling steps until the balance
     has that sign: an upper bound (F > 0) or a lower one (F < 0)."""
     at = start + direction * width
     for _ in range(200):
-        f = _balance(at, *args)[0]
+        f = _balance(at, s, k)[0]
         if direction * f > 0.0:
             break
         width *= 2.0
@@ -397,191 +448,192 @@ def _bound(start: float, direction: float, width: float, args: tuple[Any, ...]) 
 
 @njit(cache=True)
 def _pinned(
-    lo: float,
-    lo_open: bool,
-    lo_from: float,
-    hi: float,
-    hi_open: bool,
-    hi_from: float,
-    width: float,
-    args: tuple[Any, ...],
+    lo: float, lo_open: bool, hi: float, hi_open: bool, r: Reach, s: Step, k: Constants
 ) -> tuple[float, float]:
     """The bracket with each bound still open found by its doubling."""
     if lo_open:
-        lo = _bound(lo_from, -1.0, width, args)
+        lo = _bound(r.lo_from, -1.0, r.width, s, k)
     if hi_open:
-        hi = _bound(hi_from, 1.0, width, args)
+        hi = _bound(r.hi_from, 1.0, r.width, s, k)
     return lo, hi
 
 
 @njit(cache=True)
-def _floor_balance(
-    vv: float,
-    rest: float,
-    base: float,
-    floor: float,
-    q_demand: float,
-    dt: float,
-    vol: float,
-    a_bc: float,
-    a_bt: float,
-    k_leak: float,
-    lam: float,
-    sc: float,
-    valves: FloatArray,
-    c: float,
-    air0: float,
-    p0: float,
-    c_oil: float,
-    gas_volume: float,
-    gas_n: float,
-) -> tuple[float, float, float]:
+def _floor_balance(vv: float, rest: float, s: Step, k: Constants) -> tuple[float, float, float]:
     """(G, dG/dV, p_c) of a step ending at the floor with vapour V:
     G(V) = V - rest - dt (Q - q(p_c(floor, V) - floor)), the volume left unaccounted for.
     It rises in V: more vapour shortens the gas column, p_c rises and so does the outflow."""
-    occ, docc = _occupied(floor, vol, air0, p0, c_oil)
-    pc, _, dpc_dv = _gas(base, occ, docc, vv, vol, gas_volume, air0, p0, c_oil, gas_n)
-    q, dq = _signed_flow(pc - floor, a_bc, a_bt, valves, c, k_leak, lam, sc)
-    return vv - rest - dt * (q_demand - q), 1.0 + dt * dq * dpc_dv, pc
+    floor = k.floor
+    occ, docc = _occupied(floor, s.vol, k)
+    pc, _, dpc_dv = _gas(occ, docc, vv, s, k)
+    q, dq = _signed_flow(pc - floor, s, k)
+    return vv - rest - s.dt * (s.q_demand - q), 1.0 + s.dt * dq * dpc_dv, pc
+
+
+@njit(cache=True, inline="always")
+def _tolerance(s: Step) -> float:
+    """Settled within 1e-12 of the step's flow, or within what the arithmetic resolves: the
+    balance subtracts the chamber's contents (occ, of the order of the air's volume),
+    which it cannot know better than a few ulps of them. At reversal (no flow) the first
+    bound alone was below that rounding, so no iterate could meet it."""
+    tol = 1.0e-12 * (abs(s.q_demand) * s.dt + 1.0e-12) + 1.0e-22
+    tol += CONTENTS_ULPS * EPS * (abs(s.occ_old) + abs(s.vap_old) + abs(s.q_demand) * s.dt)
+    return tol
 
 
 @njit(cache=True)
-def _step(
-    p_guess: float,
-    occ_old: float,
-    vap_old: float,
-    base: float,
-    q_demand: float,
-    dt: float,
-    vol: float,
-    a_bc: float,
-    a_bt: float,
-    k_leak: float,
-    lam: float,
-    sc: float,
-    valves: FloatArray,
-    c: float,
-    air0: float,
-    p0: float,
-    c_oil: float,
-    floor: float,
-    has_floor: bool,
-    r_form: float,
-    r_cond: float,
-    gas_volume: float,
-    gas_n: float,
-) -> tuple[float, float, float]:
+def _step(p_guess: float, s: Step, k: Constants) -> tuple[float, float, float]:
     """One implicit step: (chamber pressure p, vapour volume, p_c) at its end.
 
-    `occ_old`: the contents the step starts from, occ(p_old) for backward Euler over dt;
+    `s.occ_old`: the contents the step starts from, occ(p_old) for backward Euler over dt;
     occ(p_old) + (occ(p_old) - occ(p_older))/3 with dt two thirds of the step for BDF2
     (the history enters the balance only as this constant, so both are one solve).
 
     Solved in p, with p_c(p, V_vap) the gas the contents compress (`_gas`) and V_vap(p)
     the vapour the step's rates leave (`_vapour_at`), so the chamber, its vapour and the
     gas are one implicit step whose balance (`_balance`) rises strictly with p. At the
-    floor itself the vapour is whatever closes the balance within what the rates allow:
-    any amount with instant rates (R_e = R_c = 0, a hard floor), no less than before
-    with a finite condensation, no more with a finite formation. Its root is the step's
-    end unless the balance needs more vapour than that (the chamber falls below the
-    floor, R_e > 0) or less (it rises above, condensing what is left at R_c).
+    floor itself the vapour is whatever closes the balance within what the rates allow
+    (`_at_floor`). Its root is the step's end unless the balance needs more vapour than
+    that (the chamber falls below the floor, R_e > 0) or less (it rises above,
+    condensing what is left at R_c).
     """
-    # Settled within 1e-12 of the step's flow, or within what the arithmetic resolves: the
-    # balance subtracts the chamber's contents (occ, of the order of the air's volume),
-    # which it cannot know better than a few ulps of them. At reversal (no flow) the first
-    # bound alone was below that rounding, so no iterate could meet it.
-    tol = 1.0e-12 * (abs(q_demand) * dt + 1.0e-12) + 1.0e-22
-    tol += CONTENTS_ULPS * EPS * (abs(occ_old) + abs(vap_old) + abs(q_demand) * dt)
+    # The parts are called from here, not from each other: numba copies an inlined
+    # part's code into each caller, so a chain of them copies the innermost over and over.
+    tol = _tolerance(s)
     lo, hi = -math.inf, math.inf
-    if has_floor:
-        # G(V) rises in V (`_floor_balance`); its root in [v_min, v_max] is the vapour at
-        # the floor.
-        v_min = vap_old if r_cond > 0.0 else 0.0
-        v_max = vap_old if r_form > 0.0 else math.inf
-        occ_f, _ = _occupied(floor, vol, air0, p0, c_oil)
-        rest = vap_old - occ_f + occ_old
-        fargs = (
-            rest, base, floor, q_demand, dt, vol, a_bc, a_bt, k_leak, lam, sc, valves, c,
-            air0, p0, c_oil, gas_volume, gas_n,
-        )  # fmt: skip
-        g_min, _, pc = _floor_balance(v_min, *fargs)
-        g_max = -1.0
-        if g_min <= 0.0 and math.isfinite(v_max):
-            g_max, _, pc = _floor_balance(v_max, *fargs)
-        if g_min > 0.0:
-            lo = floor  # the balance needs less vapour than the rates leave: above
-        elif math.isfinite(v_max) and g_max < 0.0:
-            hi = floor  # more than they can form: the chamber falls below its floor
-        elif math.isfinite(v_max):
-            return floor, vap_old, pc  # v_min = v_max = the old vapour closes it
-        else:
-            v_lo, v_hi = v_min, max(v_min, rest + dt * abs(q_demand), 1.0e-15)
-            for _ in range(200):
-                if _floor_balance(v_hi, *fargs)[0] >= 0.0:
-                    break
-                v_hi *= 2.0
-            vv = min(max(vap_old, v_lo), v_hi)
-            settled = False
-            moved = math.inf  # the last step's length (the safeguard below)
-            for _ in range(MAX_NEWTON):
-                f, df, pc = _floor_balance(vv, *fargs)
-                if abs(f) <= tol:
-                    settled = True
-                    break
-                if f > 0.0:
-                    v_hi = vv
-                else:
-                    v_lo = vv
-                step = vv - f / df
-                if (
-                    not (v_lo < step < v_hi)
-                    or not math.isfinite(step)
-                    or abs(step - vv) > 0.5 * moved
-                ):
-                    step = 0.5 * (v_lo + v_hi)
-                moved = abs(step - vv)
-                vv = step
-                if v_hi - v_lo <= 1.0e-12 * (vv + 1.0e-15):
-                    break
-            if not settled:
-                _, _, pc = _floor_balance(vv, *fargs)
-            return floor, vv, pc
-    # What the balance needs beyond p, the same for every trial pressure of this step.
-    args = (
-        vap_old, occ_old, base, q_demand, dt, vol, a_bc, a_bt, k_leak, lam, sc, valves, c,
-        air0, p0, c_oil, floor, has_floor, r_form, r_cond, gas_volume, gas_n,
-    )  # fmt: skip
-    if not math.isfinite(lo) and not math.isfinite(hi) and air0 > 0.0:
+    if k.has_floor:
+        where, lo, hi, rest, pc = _at_floor(s, k)
+        if where == AT_FLOOR_AS_BEFORE:
+            return k.floor, s.vap_old, pc
+        if where == AT_FLOOR:
+            vv, pc = _floor_vapour(rest, tol, s, k)
+            return k.floor, vv, pc
+    if not math.isfinite(lo) and not math.isfinite(hi) and k.air0 > 0.0:
         lo = MIN_PRESSURE_PA  # the air takes any volume as p falls to nothing: F < 0
-    # A lower bound (F < 0) where there is none yet, and an upper one (F > 0), by doubling
-    # from p_guess. Each is found only when the iteration needs it: Newton's steps from
-    # p_guess rarely leave the first doubling's reach (lo_at < p < hi_at), and within it
-    # every decision below is the same whatever the bound, so the result is the one the
-    # bounds found first would give, for two evaluations fewer a step. The old order
-    # pinned both first; the lazy one is compared with it bit for bit
-    # (tests/model/test_chamber_brackets.py).
+    p, lo, lo_open, hi, hi_open, r = _bracket(p_guess, lo, hi, s, k)
+    return _iterate(p, lo, lo_open, hi, hi_open, r, tol, s, k)
+
+
+OFF_FLOOR, AT_FLOOR_AS_BEFORE, AT_FLOOR = 0, 1, 2  # where a step ends (`_at_floor`)
+
+
+@njit(cache=True, inline="always")
+def _at_floor(s: Step, k: Constants) -> tuple[int, float, float, float, float]:
+    """(where the step ends, the bracket on p off the floor, `rest` of `_floor_balance`,
+    p_c). The vapour at the floor is any amount with instant rates (R_e = R_c = 0, a hard
+    floor), no less than before with a finite condensation, no more with a finite
+    formation: G(V) rises in V (`_floor_balance`); its root in [v_min, v_max] is the
+    vapour at the floor (AT_FLOOR: `_floor_vapour`; AT_FLOOR_AS_BEFORE: v_min = v_max, the
+    old vapour), unless G has one sign there (OFF_FLOOR)."""
+    lo, hi = -math.inf, math.inf
+    vap_old = s.vap_old
+    v_min = vap_old if k.r_cond > 0.0 else 0.0
+    v_max = vap_old if k.r_form > 0.0 else math.inf
+    occ_f, _ = _occupied(k.floor, s.vol, k)
+    rest = vap_old - occ_f + s.occ_old
+    g_min, _, pc = _floor_balance(v_min, rest, s, k)
+    g_max = -1.0
+    if g_min <= 0.0 and math.isfinite(v_max):
+        g_max, _, pc = _floor_balance(v_max, rest, s, k)
+    if g_min > 0.0:
+        lo = k.floor  # the balance needs less vapour than the rates leave: above
+    elif math.isfinite(v_max) and g_max < 0.0:
+        hi = k.floor  # more than they can form: the chamber falls below its floor
+    elif math.isfinite(v_max):
+        return AT_FLOOR_AS_BEFORE, lo, hi, rest, pc  # v_min = v_max = the old vapour
+    else:
+        return AT_FLOOR, lo, hi, rest, pc
+    return OFF_FLOOR, lo, hi, rest, pc
+
+
+@njit(cache=True, inline="always")
+def _floor_vapour(rest: float, tol: float, s: Step, k: Constants) -> tuple[float, float]:
+    """(vapour, p_c) at the floor with no upper limit on the vapour: G's root above v_min
+    (`_at_floor`'s) by a safeguarded Newton iteration, from an upper bound found by
+    doubling."""
+    v_min = s.vap_old if k.r_cond > 0.0 else 0.0
+    v_lo, v_hi = v_min, max(v_min, rest + s.dt * abs(s.q_demand), 1.0e-15)
+    for _ in range(200):
+        if _floor_balance(v_hi, rest, s, k)[0] >= 0.0:
+            break
+        v_hi *= 2.0
+    vv = min(max(s.vap_old, v_lo), v_hi)
+    settled = False
+    moved = math.inf  # the last step's length (the safeguard below)
+    for _ in range(MAX_NEWTON):
+        f, df, pc = _floor_balance(vv, rest, s, k)
+        if abs(f) <= tol:
+            settled = True
+            break
+        if f > 0.0:
+            v_hi = vv
+        else:
+            v_lo = vv
+        step = vv - f / df
+        if not (v_lo < step < v_hi) or not math.isfinite(step) or abs(step - vv) > 0.5 * moved:
+            step = 0.5 * (v_lo + v_hi)
+        moved = abs(step - vv)
+        vv = step
+        if v_hi - v_lo <= 1.0e-12 * (vv + 1.0e-15):
+            break
+    if not settled:
+        _, _, pc = _floor_balance(vv, rest, s, k)
+    return vv, pc
+
+
+@njit(cache=True, inline="always")
+def _bracket(
+    p_guess: float, lo: float, hi: float, s: Step, k: Constants
+) -> tuple[float, float, bool, float, bool, Reach]:
+    """Where `_iterate` starts from p_guess to find the balance's root within [lo, hi]
+    (either may be infinite: no bound yet): (p, lo, lo still open, hi, hi still open, the
+    open bounds' reach).
+
+    A lower bound (F < 0) where there is none yet, and an upper one (F > 0), by doubling
+    from p_guess. Each is found only when the iteration needs it: Newton's steps from
+    p_guess rarely leave the first doubling's reach (lo_at < p < hi_at), and within it
+    every decision below is the same whatever the bound, so the result is the one the
+    bounds found first would give, for two evaluations fewer a step. The old order
+    pinned both first; the lazy one is compared with it bit for bit
+    (tests/model/test_chamber_brackets.py)."""
     width = max(abs(p_guess) * 0.1, 1.0e3)
     lo_open = not math.isfinite(lo)  # lo is the doubling's, not evaluated yet
     lo_from = min(p_guess, hi)
-    lo_at = lo_from - width  # the doubling's bound is at or below this
     hi_open = not math.isfinite(hi)
     # Had lo been pinned first it would sit below p_guess, so the upper doubling starts
     # at p_guess either way.
     hi_from = p_guess if lo_open else max(p_guess, lo)
-    hi_at = hi_from + width
+    r = Reach(lo_from, lo_from - width, hi_from, hi_from + width, width)
     p = p_guess if lo_open else max(p_guess, lo)
     if not hi_open:
         p = min(p, hi)
     if (not lo_open and not lo < p) or (not hi_open and not p < hi):
-        lo, hi = _pinned(lo, lo_open, lo_from, hi, hi_open, hi_from, width, args)
+        lo, hi = _pinned(lo, lo_open, hi, hi_open, r, s, k)
         lo_open = hi_open = False
         p = 0.5 * (lo + hi)
-    vv, pc = 0.0, base
+    return p, lo, lo_open, hi, hi_open, r
+
+
+@njit(cache=True, inline="always")
+def _iterate(
+    p: float,
+    lo: float,
+    lo_open: bool,
+    hi: float,
+    hi_open: bool,
+    r: Reach,
+    tol: float,
+    s: Step,
+    k: Constants,
+) -> tuple[float, float, float]:
+    """The balance's root from p within its bracket (`_bracket`; a bound still open: `r`),
+    by a safeguarded Newton iteration: (p, vapour, p_c)."""
+    vv, pc = 0.0, s.base
     settled = False
     moved = math.inf  # the last step's length (the safeguard below)
     newton = math.inf  # the last step's length if it was Newton's, else inf
     for _ in range(MAX_NEWTON):
-        f, df, pc, vv, dpc = _balance(p, *args)
+        f, df, pc, vv, dpc = _balance(p, s, k)
         if abs(f) <= tol:
             settled = True
             break
@@ -598,13 +650,13 @@ def _step(
         # by the parity of the count, which the ninth digit of the air fraction decided.
         inside = math.isfinite(step) and abs(step - p) <= 0.5 * moved
         if inside:
-            if lo_open and not step > lo_at:
-                lo, lo_open = _bound(lo_from, -1.0, width, args), False
-            if hi_open and not step < hi_at:
-                hi, hi_open = _bound(hi_from, 1.0, width, args), False
+            if lo_open and not step > r.lo_at:
+                lo, lo_open = _bound(r.lo_from, -1.0, r.width, s, k), False
+            if hi_open and not step < r.hi_at:
+                hi, hi_open = _bound(r.hi_from, 1.0, r.width, s, k), False
             inside = (lo_open or lo < step) and (hi_open or step < hi)
         if not inside:
-            lo, hi = _pinned(lo, lo_open, lo_from, hi, hi_open, hi_from, width, args)
+            lo, hi = _pinned(lo, lo_open, hi, hi_open, r, s, k)
             lo_open = hi_open = False
             step = 0.5 * (lo + hi)
         elif newton < math.inf and abs(step - p) ** 2 * df <= tol * newton:
@@ -615,24 +667,87 @@ def _step(
             # where that took 3.1); p_c to first order in the step (its error is the
             # step's square), the vapour at the end exactly.
             pc += dpc * (step - p)
-            if has_floor:
-                vv = _vapour_at(step, vap_old, floor, dt, r_form, r_cond)[0]
-            p = step
-            settled = True
-            break
+            if k.has_floor:
+                vv = _vapour_at(step, s.vap_old, s.dt, k)[0]
+            return step, vv, pc
         newton = abs(step - p) if inside else math.inf
         moved = abs(step - p)
         p = step
         # The bracket is at least this wide while a bound is still open.
-        gap = (hi_at if hi_open else hi) - (lo_at if lo_open else lo)
+        gap = (r.hi_at if hi_open else hi) - (r.lo_at if lo_open else lo)
         if gap <= 1.0e-12 * (abs(p) + 1.0):
-            lo, hi = _pinned(lo, lo_open, lo_from, hi, hi_open, hi_from, width, args)
+            lo, hi = _pinned(lo, lo_open, hi, hi_open, r, s, k)
             lo_open = hi_open = False
             if hi - lo <= 1.0e-12 * (abs(p) + 1.0):
                 break
     if not settled:  # else pc and vv are the settled pressure's already
-        _, _, pc, vv, _ = _balance(p, *args)
+        _, _, pc, vv, _ = _balance(p, s, k)
     return p, vv, pc
+
+
+# The loop's kernels take a few bundles, not two dozen scalars each: the chamber's
+# constants one record (`CONSTANTS`) and, as named tuples (numba types them by
+# their fields), `Samples` the per-sample inputs, `Guide` a trajectory from `linearised`,
+# `Out` the per-sample results, `Segment` one segment's layout and `State` what one step
+# hands the next. The parts `_run` is split into are inlined into it (inline="always", in
+# numba's own IR): compiled apart, each layer's LLVM module was optimised again with all
+# it calls, and the first compilation took 8.2 s of CPU where the unsplit kernel's took
+# 5.0; inlined in a chain (run > segment > pass > sub-step), 6.6-7.7; inlined with the
+# chain cut short (the parts called from `_run` and `_step` themselves), 5.7-5.9.
+class Samples(NamedTuple):
+    """The per-sample inputs of an integration, one array each."""
+
+    x: FloatArray
+    v: FloatArray
+    p_c: FloatArray
+    dp_static: FloatArray
+    a_bc: FloatArray
+    a_bt: FloatArray
+    k_leak: FloatArray
+    lam: FloatArray
+    sc: FloatArray
+    gas_volume: FloatArray
+
+
+class Guide(NamedTuple):
+    """A first integration's trajectory (`linearised`): the chamber pressure per sample
+    in a periodic segment's first (part) pass and in its last, and each segment's passes.
+    Empty: no guide."""
+
+    pre: FloatArray
+    fin: FloatArray
+    used: NDArray[np.int64]
+
+
+class Out(NamedTuple):
+    """Per sample: Δp, vapour, p_c, and the pressures a guide is made of."""
+
+    dp: FloatArray
+    vap: FloatArray
+    pce: FloatArray
+    p_pre: FloatArray
+    p_fin: FloatArray
+
+
+class Segment(NamedTuple):
+    lo: int
+    hi: int
+    i0: int  # the first sample integrated (a periodic segment's preroll starts later)
+    m: int  # chamber steps a sample
+    dt: float  # between samples
+    preroll: bool
+    guided: bool
+
+
+class State(NamedTuple):
+    """What a step hands the next."""
+
+    p: float
+    vv: float  # vapour
+    d: float  # Δp
+    p_prev: float  # the step before's p and vapour, for BDF2 (NaN: none, Euler's next)
+    vv_prev: float
+    off: float  # guided: the departure from the guide's pressure
 
 
 @njit(cache=True)
@@ -649,182 +764,208 @@ def _smooth_around(d: float, reach: float, sc: float, valves: FloatArray) -> boo
     return bool(abs(e - crack) > r and abs(e - full) > r)
 
 
+@njit(cache=True, inline="always")
+def _guided(g: float, s: Step, k: Constants) -> tuple[bool, float, float, float]:
+    """One Newton step from the guide's pressure g: (whether it stands, p, vapour, p_c).
+    It stands where it is small and the balance smooth about it (no kink within
+    GUIDE_REACH of its length), off the floor and with no vapour."""
+    f, df, pc_g, vv_g, dpc = _balance(g, s, k)
+    delta = f / df if df > 0.0 else math.nan
+    reach = GUIDE_REACH * abs(delta)
+    if (
+        math.isfinite(delta)
+        and abs(delta) <= 1.0e-4 * (abs(g) + 1.0e3)
+        and _smooth_around(pc_g - g, reach, s.sc, k.valves)
+        and (not k.has_floor or (s.vap_old == 0.0 and g - reach > k.floor))
+    ):
+        return True, g - delta, vv_g, pc_g - dpc * delta
+    return False, math.nan, math.nan, math.nan
+
+
+@njit(cache=True, inline="always")
+def _substep(
+    smp: Samples,
+    i: int,
+    k0: int,
+    w: float,
+    h: float,
+    st: State,
+    guided: bool,
+    g0: float,
+    k: Constants,
+) -> tuple[State, float]:
+    """One chamber step of length h to the fraction w of the way from sample k0 to
+    sample i (inputs interpolated linearly, the step's own at i): the state at its end,
+    and p_c. BDF2 where the two steps before held no vapour, else backward Euler.
+    Guided (`g0`: the guide's pressure at i), one Newton step from the guide's pressure
+    moved as this state departs from the guide's, where that stands (`_guided`)."""
+    xi = smp.x[k0] + w * (smp.x[i] - smp.x[k0])
+    vi = smp.v[k0] + w * (smp.v[i] - smp.v[k0])
+    base = smp.p_c[k0] + w * (smp.p_c[i] - smp.p_c[k0])
+    vol = k.a_r * max(k.length + xi, 0.05 * k.length)
+    gv = smp.gas_volume[k0] + w * (smp.gas_volume[i] - smp.gas_volume[k0])
+    p, vv = st.p, st.vv
+    occ_old, _ = _occupied(p, vol, k)
+    guess = p
+    if vv == 0.0 and st.vv_prev == 0.0 and math.isfinite(st.p_prev):
+        occ_m, _ = _occupied(st.p_prev, vol, k)
+        h, occ_old = 2.0 * h / 3.0, occ_old + (occ_old - occ_m) / 3.0
+        # Newton's start on the line through the last two steps' ends (they are a step
+        # apart) rather than at the last: 3.1 balances a step where it took 3.6
+        # (aerated-oil sweep, 1.5 Hz).
+        guess = 2.0 * p - st.p_prev
+    s = Step(
+        occ_old, vv, base, k.a_q * vi, h, vol, smp.a_bc[i], smp.a_bt[i], smp.k_leak[i],
+        smp.lam[i], smp.sc[i], gv,
+    )  # fmt: skip
+    solve = True
+    p_new, vv_new, pci = math.nan, math.nan, math.nan
+    # Off the floor (and no vapour) only: the balance below the floor is a finite
+    # formation's, or none. A shift common to both chambers (a gas charge's) moves p with
+    # the drop unchanged, and the Newton step is then that departure's change, not the
+    # whole shift.
+    g = g0 + st.off if guided else math.nan
+    if guided and not (k.has_floor and (vv != 0.0 or not g > k.floor)):
+        stands, p_new, vv_new, pci = _guided(g, s, k)
+        solve = not stands
+    if solve and guided and math.isfinite(g):
+        guess = g
+    if solve:
+        p_new, vv_new, pci = _step(guess, s, k)
+    off = p_new - g0 if guided else st.off
+    return State(p_new, vv_new, pci - p_new, p, vv, off), pci
+
+
+@njit(cache=True, inline="always")
+def _pass(
+    smp: Samples,
+    out: Out,
+    seg: Segment,
+    it: int,
+    use_carry: bool,
+    guide: FloatArray,
+    st: State,
+    k: Constants,
+) -> State:
+    """Pass `it` over a segment's samples from state st (the first pass from seg.i0):
+    their results into `out`, and the state at the segment's end. Sub-steps of at most
+    MAX_STEP_S between samples: a vapour volume's refill ends within a millisecond, which
+    a fit's 5 ms samples would place a whole step late. The first sample of a periodic
+    pass follows the segment's last; of a carried call, the last call's (inputs held)."""
+    for i in range(seg.i0 if it == 0 else seg.lo, seg.hi):
+        if i == seg.i0 and it == 0 and not use_carry:
+            out.dp[i] = st.d  # the initial state is the first sample's
+            out.vap[i] = st.vv
+            out.pce[i] = smp.p_c[i]
+            out.p_pre[i] = st.p
+            out.p_fin[i] = st.p
+            if seg.guided:
+                st = State(st.p, st.vv, st.d, st.p_prev, st.vv_prev, st.p - guide[i])
+            continue
+        k0 = i - 1 if i > seg.lo else (seg.hi - 1 if it > 0 else i)
+        g0 = guide[i] if seg.guided else math.nan
+        pci = math.nan
+        for j in range(1, seg.m + 1):
+            st, pci = _substep(smp, i, k0, j / seg.m, seg.dt / seg.m, st, seg.guided, g0, k)
+        out.dp[i] = st.d
+        out.vap[i] = st.vv
+        out.pce[i] = pci
+        if seg.preroll and it == 0:
+            out.p_pre[i] = st.p
+        out.p_fin[i] = st.p
+    return st
+
+
+@njit(cache=True, inline="always")
+def _layout(
+    lo: int, hi: int, dt: float, periodic: bool, use_carry: bool, guide_passes: int
+) -> tuple[Segment, int]:
+    """A segment's layout, and the passes it may take. A periodic segment first runs its
+    last quarter from that sample's static state (the chamber forgets in far less than a
+    quarter cycle), so the full passes start from nearly the state the segment ends in:
+    one full pass where that holds. Guided (`guide_passes`: the guide's, -1: none), the
+    guide's passes where they are the least this segment takes (the part pass and one
+    full), at one step a sample."""
+    preroll = periodic and not use_carry and hi - lo >= 8
+    i0 = hi - (hi - lo) // 4 if preroll else lo
+    m = max(1, int(math.ceil(dt / MAX_STEP_S - 1e-9)))  # noqa: RUF046 (numba)
+    least = 2 if preroll else 1
+    guided = guide_passes == least and m == 1
+    passes = (PERIODIC_PASSES + (1 if preroll else 0)) if periodic else 1
+    if guided:
+        passes = least
+    return Segment(lo, hi, i0, m, dt, preroll, guided), passes
+
+
+@njit(cache=True, inline="always")
+def _start(smp: Samples, i0: int, carry: FloatArray, use_carry: bool, k: Constants) -> State:
+    """A segment's first state: the carried one, or sample i0's static state (no vapour)."""
+    if use_carry:
+        return State(carry[0], carry[1], carry[2], carry[3], carry[4], 0.0)
+    p = smp.p_c[i0] - smp.dp_static[i0]
+    if k.has_floor and p < k.floor:
+        p = k.floor
+    return State(p, 0.0, smp.p_c[i0] - p, math.nan, math.nan, 0.0)
+
+
+@njit(cache=True, inline="always")
+def _done(seg: Segment, it: int, passes: int, start: State, st: State) -> bool:
+    """Whether a segment's pass `it` (from `start` to `st`) is its last: a periodic pass
+    that ends where it began (not the preroll's part pass, nor a guided segment's)."""
+    if seg.guided or it + 1 >= passes or (seg.preroll and it == 0):
+        return False
+    close = abs(st.p - start.p) <= 1.0e-6 * (abs(start.p) + 1.0e3)
+    return close and abs(st.vv - start.vv) <= 1.0e-12
+
+
 @njit(cache=True)
 def _run(
-    x: FloatArray,
-    v: FloatArray,
-    p_c: FloatArray,
-    dp_static: FloatArray,
-    a_bc: FloatArray,
-    a_bt: FloatArray,
-    k_leak: FloatArray,
-    lam: FloatArray,
-    sc: FloatArray,
-    gas_vol: FloatArray,
-    gas_n: float,
+    smp: Samples,
     starts: NDArray[np.int64],
     dt_s: FloatArray,
-    valves: FloatArray,
-    c: float,
-    a_q: float,
-    a_r: float,
-    length: float,
-    alpha: float,
-    p0: float,
-    c_oil: float,
-    floor: float,
-    has_floor: bool,
-    r_form: float,
-    r_cond: float,
+    k: Constants,
     periodic: bool,
     carry: FloatArray,
     use_carry: bool,
-    guide_pre: FloatArray,
-    guide_fin: FloatArray,
-    guide_used: NDArray[np.int64],
+    guide: Guide,
 ) -> tuple[
     FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.int64]
 ]:
     """(Δp, vapour, p_c, final state) per sample, and the trajectory a later call may be
     guided by (`linearised`): the chamber pressure per sample in a periodic segment's
-    first (part) pass and in its last pass, and the passes each segment took. With a
-    guide (guide_used not empty), a segment whose guide took as many passes as this one
+    first (part) pass and in its last pass, and the passes each segment took (periodic:
+    until one ends where it began). With a
+    guide (guide.used not empty), a segment whose guide took as many passes as this one
     would at the least takes them, each step one Newton step from the guide's pressure
     where the balance is smooth about it."""
-    n = x.size
-    air0 = alpha * a_r * length  # the air at p0: α of the chamber's mid-stroke volume
-    dp = np.empty(n)
-    vap = np.empty(n)
-    pce = np.empty(n)
-    p_pre = np.full(n, math.nan)
-    p_fin = np.full(n, math.nan)
+    n = smp.x.size
+    out = Out(np.empty(n), np.empty(n), np.empty(n), np.full(n, math.nan), np.full(n, math.nan))
     nseg = starts.size
     used = np.zeros(nseg, dtype=np.int64)
     state = np.zeros(5)
-    for k in range(nseg):
-        lo = starts[k]
-        hi = starts[k + 1] if k + 1 < nseg else n
+    for j in range(nseg):
+        lo = starts[j]
+        hi = starts[j + 1] if j + 1 < nseg else n
         if hi <= lo:
             continue
-        dt = dt_s[k]
-        # A periodic segment first runs its last quarter from that sample's static state
-        # (the chamber forgets in far less than a quarter cycle), so the full passes start
-        # from nearly the state the segment ends in: one full pass where that holds.
-        preroll = periodic and not use_carry and hi - lo >= 8
-        i0 = hi - (hi - lo) // 4 if preroll else lo
-        m = max(1, int(math.ceil(dt / MAX_STEP_S - 1e-9)))  # noqa: RUF046 (numba)
-        # Guided: the guide's passes, the least this segment takes (the part pass and one
-        # full), at one step a sample.
-        least = 2 if preroll else 1
-        guided = guide_used.size == nseg and guide_used[k] == least and m == 1
-        # The step before's state, for BDF2 (NaN: none yet, the next step is Euler's).
-        p_prev, vv_prev = math.nan, math.nan
-        if use_carry:
-            p, vv = carry[0], carry[1]
-            d = carry[2]
-            p_prev, vv_prev = carry[3], carry[4]
-        else:
-            p, vv = p_c[i0] - dp_static[i0], 0.0
-            if has_floor and p < floor:
-                p = floor
-            d = p_c[i0] - p
-        pci = p_c[i0]
-        passes = (PERIODIC_PASSES + (1 if preroll else 0)) if periodic else 1
-        if guided:
-            passes = least
-        off = 0.0  # guided: the state's departure from the guide's at the step before
+        passes_of_guide = guide.used[j] if guide.used.size == nseg else -1
+        seg, passes = _layout(lo, hi, dt_s[j], periodic, use_carry, passes_of_guide)
+        st = _start(smp, seg.i0, carry, use_carry, k)
+        # The passes here, not in a part of their own: numba copies an inlined part's
+        # code into each caller, so a chain of them copies the innermost over and over.
         for it in range(passes):
-            p_start, v_start = p, vv
-            guide = guide_pre if preroll and it == 0 else guide_fin
-            for i in range(i0 if it == 0 else lo, hi):
-                if i == i0 and it == 0 and not use_carry:
-                    dp[i] = d  # the initial state is the first sample's
-                    vap[i] = vv
-                    pce[i] = p_c[i]
-                    p_pre[i] = p
-                    p_fin[i] = p
-                    if guided:
-                        off = p - guide[i]
-                    continue
-                # Sub-steps of at most MAX_STEP_S between samples, inputs interpolated
-                # linearly: a vapour volume's refill ends within a millisecond, which a
-                # fit's 5 ms samples would place a whole step late. The first sample of
-                # a periodic pass follows the segment's last; of a carried call, the last
-                # call's (inputs held).
-                for j in range(1, m + 1):
-                    w = j / m
-                    k0 = i - 1 if i > lo else (hi - 1 if it > 0 else i)
-                    xi = x[k0] + w * (x[i] - x[k0])
-                    vi = v[k0] + w * (v[i] - v[k0])
-                    base = p_c[k0] + w * (p_c[i] - p_c[k0])
-                    vol = a_r * max(length + xi, 0.05 * length)
-                    gv = gas_vol[k0] + w * (gas_vol[i] - gas_vol[k0])
-                    h = dt / m
-                    occ_old, _ = _occupied(p, vol, air0, p0, c_oil)
-                    guess = p
-                    if vv == 0.0 and vv_prev == 0.0 and math.isfinite(p_prev):
-                        occ_m, _ = _occupied(p_prev, vol, air0, p0, c_oil)
-                        h, occ_old = 2.0 * h / 3.0, occ_old + (occ_old - occ_m) / 3.0
-                        # Newton's start on the line through the last two steps' ends
-                        # (they are a step apart) rather than at the last: 3.1 balances
-                        # a step where it took 3.6 (aerated-oil sweep, 1.5 Hz).
-                        guess = 2.0 * p - p_prev
-                    p_prev, vv_prev = p, vv
-                    args = (
-                        vv, occ_old, base, a_q * vi, h, vol, a_bc[i], a_bt[i], k_leak[i],
-                        lam[i], sc[i], valves, c, air0, p0, c_oil, floor, has_floor, r_form,
-                        r_cond, gv, gas_n,
-                    )  # fmt: skip
-                    solve = True
-                    # Off the floor (and no vapour) only: the balance below the floor is
-                    # a finite formation's, or none.
-                    g = guide[i] + off if guided else math.nan
-                    if guided and not (has_floor and (vv != 0.0 or not g > floor)):
-                        # From the guide's pressure moved as this state departs from the
-                        # guide's: a shift common to both chambers (a gas charge's) moves
-                        # p with the drop unchanged, and Newton's step is then that
-                        # departure's change, not the whole shift.
-                        f, df, pc_g, vv_g, dpc = _balance(g, *args)
-                        delta = f / df if df > 0.0 else math.nan
-                        reach = GUIDE_REACH * abs(delta)
-                        if (
-                            math.isfinite(delta)
-                            and abs(delta) <= 1.0e-4 * (abs(g) + 1.0e3)
-                            and _smooth_around(pc_g - g, reach, sc[i], valves)
-                            and (not has_floor or (vv == 0.0 and g - reach > floor))
-                        ):
-                            p, vv, pci = g - delta, vv_g, pc_g - dpc * delta
-                            solve = False
-                    if solve and guided and math.isfinite(g):
-                        guess = g
-                    if solve:
-                        p, vv, pci = _step(
-                            guess, occ_old, vv, base, a_q * vi, h, vol, a_bc[i], a_bt[i],
-                            k_leak[i], lam[i], sc[i], valves, c, air0, p0, c_oil, floor,
-                            has_floor, r_form, r_cond, gv, gas_n,
-                        )  # fmt: skip
-                    d = pci - p
-                    if guided:
-                        off = p - guide[i]
-                dp[i] = d
-                vap[i] = vv
-                pce[i] = pci
-                if preroll and it == 0:
-                    p_pre[i] = p
-                p_fin[i] = p
-            used[k] = it + 1
-            if guided:
-                continue
-            if it + 1 < passes and not (preroll and it == 0):
-                close = abs(p - p_start) <= 1.0e-6 * (abs(p_start) + 1.0e3)
-                if close and abs(vv - v_start) <= 1.0e-12:
-                    break
-        state[0] = p
-        state[1] = vv
-        state[2] = d
-        state[3] = p_prev
-        state[4] = vv_prev
-    return dp, vap, pce, state, p_pre, p_fin, used
+            start = st
+            along = guide.pre if seg.preroll and it == 0 else guide.fin
+            st = _pass(smp, out, seg, it, use_carry, along, st, k)
+            used[j] = it + 1
+            if _done(seg, it, passes, start, st):
+                break
+        state[0] = st.p
+        state[1] = st.vv
+        state[2] = st.d
+        state[3] = st.p_prev
+        state[4] = st.vv_prev
+    return out.dp, out.vap, out.pce, state, out.p_pre, out.p_fin, used
 
 
 # A Jacobian column of a parameter that acts after the chamber repeats its inputs exactly,

@@ -30,6 +30,8 @@ def _fingerprint(args: tuple[Any, ...]) -> tuple[Any, ...]:
             flat = a if a.ndim == 1 else a.reshape(-1)
             step = max(1, flat.size // SAMPLES)
             out.append((a.dtype, a.shape, flat[::step].tobytes()))
+        elif isinstance(a, tuple):  # a named tuple of arrays: each is fingerprinted
+            out.append(_fingerprint(a))
         else:
             out.append(a)
     return tuple(out)
@@ -42,6 +44,9 @@ def _same(a: tuple[Any, ...], b: tuple[Any, ...]) -> bool:
             if same is None:
                 same = bool(np.array_equal(x, y, equal_nan=x.dtype.kind == "f"))
             if not same:
+                return False
+        elif isinstance(x, tuple):
+            if not _same(x, y):
                 return False
         elif not (x == y or (x != x and y != y)):  # NaN scalars alike
             return False
@@ -60,21 +65,26 @@ def _bitwise(x: np.ndarray, y: np.ndarray) -> bool | None:
 
 
 def _nbytes(values: tuple[Any, ...]) -> int:
-    return sum(v.nbytes for v in values if isinstance(v, np.ndarray))
+    return sum(
+        v.nbytes if isinstance(v, np.ndarray) else _nbytes(v) if isinstance(v, tuple) else 0
+        for v in values
+    )
 
 
 def _copy(values: Any) -> Any:
     if isinstance(values, np.ndarray):
         return values.copy()
     if isinstance(values, tuple):
-        return tuple(_copy(v) for v in values)
+        copied = (_copy(v) for v in values)
+        # a named tuple keeps its class (numba types it by the class)
+        return type(values)(*copied) if hasattr(values, "_fields") else tuple(copied)
     return values
 
 
 class Recent:
-    """Up to `size` calls of `kernel` (positional arguments: arrays and scalars), the most
-    recent first, holding at most `max_bytes` of inputs and results. Results are copied in
-    and out, so a caller that edits one in place changes no other's."""
+    """Up to `size` calls of `kernel` (positional arguments: arrays, scalars and tuples of
+    them), the most recent first, holding at most `max_bytes` of inputs and results.
+    Results are copied in and out, so a caller that edits one in place changes no other's."""
 
     def __init__(self, kernel: Callable[..., Any], size: int = 8, max_bytes: int = 64 << 20):
         self.kernel = kernel

@@ -258,9 +258,11 @@ def try_candidate(
         new_cols += [i for i, k in enumerate(fitted.globals) if k in extra]
     means, _ = binned_means(data, fitted.residual)
     lr = float(np.sum(base_means**2) - np.sum(means**2))
-    jac, _ = binned_jacobian(data, fitted)
-    null_cols = np.array([i for i in range(jac.shape[1]) if i not in set(new_cols)], dtype=int)
-    p = lr_bootstrap(lr, jac[:, null_cols], jac, noise) if lr > 0 else 1.0
+    p = 1.0  # a refit that explains no more than the baseline: no Jacobian needed
+    if lr > 0:
+        jac, _ = binned_jacobian(data, fitted)
+        null = np.array([i for i in range(jac.shape[1]) if i not in set(new_cols)], dtype=int)
+        p = lr_bootstrap(lr, jac[:, null], jac, noise)
     effect = float(np.sqrt(np.mean((fitted.force - base.force) ** 2)))
     change = data.bin_matrix((fitted.force - base.force)[:, None])[:, 0]
     peak = float(np.max(np.abs(change))) if change.size else 0.0

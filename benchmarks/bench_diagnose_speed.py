@@ -13,7 +13,8 @@ sweep and round to round, so a machine whose load drifts favours neither). Print
 sweep: wall time and CPU time (the command and its worker processes) of each, their
 ratios, and each verdict (the physics claimed, the calibrations that moved, the
 unexplained regions) with whether they agree and how far the claimed parameters and the
-calibrated values moved in units of their σ; then the geometric means of the ratios.
+calibrated values moved in units of their σ, and the final model's E_t (mean over the
+tests) of each; then the geometric means of the ratios.
 
 Sweeps:
 - the held-out plant's (benchmarks/holdout: clicks 2, 5, 10, 15, 20 x 0.5 / 1 / 1.5 Hz,
@@ -73,11 +74,12 @@ def holdout_recording(name: str, seed: int, cache: Path) -> Path:
     return rec
 
 
-def simrig_recording(name: str, seed: int, cache: Path) -> Path:
-    """bench_diagnose's sim-rig sweep of case `name` (e.g. compressibility#2)."""
+def simrig_recording(name: str, seed: int, cache: Path) -> tuple[Path, int]:
+    """bench_diagnose's sim-rig sweep of case `name` (e.g. compressibility#2) and its seed
+    (make_cases draws seeds `seed`..`seed` + 2; the last of the name's is recorded)."""
     cases = {c.name.split(" ")[0]: c for c in bd.make_cases(False, seed)}
     case = cases[name]
-    return bd.record(case, cache, f"sim-{name.replace('#', '-')}-s{case.seed}")
+    return bd.record(case, cache, f"sim-{name.replace('#', '-')}-s{case.seed}"), case.seed
 
 
 def diagnose(venv: Path, rec: Path, out: Path, workers: int) -> Run:
@@ -157,12 +159,23 @@ def figures_moved(a: dict[str, Any], b: dict[str, Any]) -> float:
     return worst
 
 
+def mean_e_t_after(d: dict[str, Any]) -> float:
+    """The final model's E_t, the mean over the tests (what the diagnosis left)."""
+    got = [t["E_t_after"] for t in d.get("tests") or [] if t.get("E_t_after") is not None]
+    return sum(got) / len(got) if got else math.nan
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--before", type=Path, required=True, help="the checkout to compare with")
     ap.add_argument("--cases", default=DEFAULT_CASES, help="held-out plant cases (a,b,...)")
     ap.add_argument("--sim-rig", default="", help="bench_diagnose cases (compressibility#2,..)")
-    ap.add_argument("--seed", type=int, default=0, help="held-out plant seed (sim-rig: +1)")
+    ap.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="held-out plant seed (sim-rig: make_cases from +1, i.e. seed + 3)",
+    )
     ap.add_argument("--workers", type=int, default=2, help="diagnose --workers (default 2)")
     ap.add_argument("--rounds", type=int, default=1, help="timings per sweep and checkout")
     ap.add_argument("--cache", type=Path, help="keep the recordings here (reused)")
@@ -177,9 +190,8 @@ def main() -> None:
     for name in filter(None, args.cases.split(",")):
         sweeps.append((f"holdout {name} s{args.seed}", holdout_recording(name, args.seed, cache)))
     for name in filter(None, args.sim_rig.split(",")):
-        sweeps.append(
-            (f"sim-rig {name} s{args.seed + 1}", simrig_recording(name, args.seed + 1, cache))
-        )
+        rec, seed = simrig_recording(name, args.seed + 1, cache)
+        sweeps.append((f"sim-rig {name} s{seed}", rec))
     print(
         f"diagnose --workers {args.workers}, whole library; before = {args.before}, after = "
         f"{venv_after.parent}; {len(sweeps)} sweeps x {args.rounds} rounds; cpus "
@@ -209,6 +221,7 @@ def main() -> None:
                 f"{rw:6.3f} {rc:6.3f}  {short(b.diag)} | {short(a.diag)} "
                 f"({'same' if same else 'DIFFERENT'}"
                 + (f", figures within {moved:.2f} σ" if same else "")
+                + f"; E_t after {mean_e_t_after(b.diag):.4f}/{mean_e_t_after(a.diag):.4f}"
                 + f"; {'/'.join(order)}, load {b.load:.1f}/{a.load:.1f})",
                 flush=True,
             )

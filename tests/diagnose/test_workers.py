@@ -97,9 +97,10 @@ def test_the_diagnosis_is_the_same_with_two_workers() -> None:
         doc["info"].pop("wall_s")
         docs.append(json.dumps(doc, sort_keys=True))
     found = json.loads(docs[0])["findings"]
-    # Refits in the workers: three candidates, and two of them scored held out.
+    # Refits in the workers: three candidates, and the claimed one's folds (a round scores
+    # held out only the candidates whose gain decides something: engine._score_heldout).
     assert len(found) == 3
-    assert sum(f["heldout_gain"] is not None for f in found) >= 2
+    assert any(f["claimed"] and f["heldout_gain"] is not None for f in found)
     assert docs[1] == docs[0]
 
 

@@ -258,9 +258,11 @@ def try_candidate(
         new_cols += [i for i, k in enumerate(fitted.globals) if k in extra]
     means, _ = binned_means(data, fitted.residual)
     lr = float(np.sum(base_means**2) - np.sum(means**2))
-    jac, _ = binned_jacobian(data, fitted)
-    null_cols = np.array([i for i in range(jac.shape[1]) if i not in set(new_cols)], dtype=int)
-    p = lr_bootstrap(lr, jac[:, null_cols], jac, noise) if lr > 0 else 1.0
+    p = 1.0  # a refit that explains no more than the baseline: no Jacobian needed
+    if lr > 0:
+        jac, _ = binned_jacobian(data, fitted)
+        null = np.array([i for i in range(jac.shape[1]) if i not in set(new_cols)], dtype=int)
+        p = lr_bootstrap(lr, jac[:, null], jac, noise)
     effect = float(np.sqrt(np.mean((fitted.force - base.force) ** 2)))
     change = data.bin_matrix((fitted.force - base.force)[:, None])[:, 0]
     peak = float(np.max(np.abs(change))) if change.size else 0.0
@@ -529,6 +531,54 @@ def _fold_task(
     return fold_outcome(fold, cand, max_nfev)
 
 
+class HeldOut:
+    """The held-out scores of a round's candidates beside `base`, asked for in batches
+    (the search scores a candidate only when its gain could decide something: engine's
+    `_round`). The baseline's structure on each fold (and on each halves split some
+    candidate is judged on) is refitted once, the first time it is needed, and shared by
+    every batch after: a candidate's score is the same whether it is asked for alone or
+    with others (each refit is a pure function of its fold and its start)."""
+
+    def __init__(
+        self, fold_list: Sequence[Fold], base: Fitted, max_nfev: int, workers: Workers = SERIAL
+    ) -> None:
+        self.fold_list = list(fold_list)
+        self.base = base
+        self.max_nfev = max_nfev
+        self.workers = workers
+        self._whole: list[FloatArray] | None = None
+        self._halves: list[FloatArray | None] = [None] * len(self.fold_list)
+
+    def gains(self, cands: Sequence[Candidate]) -> list[tuple[float, str]]:
+        """`heldout_gain` of each of `cands`: every (candidate, fold) refit, and the
+        baseline's on each fold the first time, items of one map (as many items as folds
+        times candidates, so the workers stay busy where one candidate's folds one after
+        another kept a worker waiting); then the baseline on each halves split some
+        candidate is judged on and no earlier batch needed."""
+        if not cands:
+            return []
+        nf = len(self.fold_list)
+        items: list[tuple[Fold, Candidate | None]] = []
+        if self._whole is None:
+            items += [(f, None) for f in self.fold_list]
+        items += [(f, c) for c in cands for f in self.fold_list]
+        shared = (self.base, self.max_nfev)
+        got = self.workers.map(_fold_task, shared, items)
+        if self._whole is None:
+            self._whole = [cast(FloatArray, g) for g in got[:nf]]
+            got = got[nf:]
+        outcomes = [cast(list[FoldOutcome], got[i * nf : (i + 1) * nf]) for i in range(len(cands))]
+        need = [
+            i for i in range(nf) if self._halves[i] is None and any(o[i].halves for o in outcomes)
+        ]
+        split = self.workers.map(
+            _fold_task, shared, [(cast(Fold, self.fold_list[i].halves), None) for i in need]
+        )
+        for i, h in zip(need, split, strict=True):
+            self._halves[i] = cast(FloatArray, h)
+        return [judge(o, self._whole, self._halves) for o in outcomes]
+
+
 def heldout_gains(
     fold_list: Sequence[Fold],
     base: Fitted,
@@ -536,26 +586,8 @@ def heldout_gains(
     max_nfev: int,
     workers: Workers = SERIAL,
 ) -> list[tuple[float, str]]:
-    """`heldout_gain` of each candidate beside `base`, every (candidate, fold) refit and
-    the baseline's on each fold an item of one map (then the baseline on each halves split
-    some candidate is judged on): as many items as folds times candidates, so the workers
-    stay busy where one candidate's folds one after another kept a worker waiting."""
-    items: list[tuple[Fold, Candidate | None]] = [(f, None) for f in fold_list]
-    items += [(f, c) for c in cands for f in fold_list]
-    got = workers.map(_fold_task, (base, max_nfev), items)
-    nf = len(fold_list)
-    whole = [cast(FloatArray, g) for g in got[:nf]]
-    outcomes = [
-        cast(list[FoldOutcome], got[nf + i * nf : nf + (i + 1) * nf]) for i in range(len(cands))
-    ]
-    need = [i for i in range(nf) if any(o[i].halves for o in outcomes)]
-    split = workers.map(
-        _fold_task, (base, max_nfev), [(cast(Fold, fold_list[i].halves), None) for i in need]
-    )
-    halves: list[FloatArray | None] = [None] * nf
-    for i, h in zip(need, split, strict=True):
-        halves[i] = cast(FloatArray, h)
-    return [judge(o, whole, halves) for o in outcomes]
+    """`heldout_gain` of each candidate beside `base` (HeldOut, all in one batch)."""
+    return HeldOut(fold_list, base, max_nfev, workers).gains(cands)
 
 
 def median_gain(reaching: Sequence[float], elsewhere: Sequence[float]) -> float:

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 from shockdyno.diagnose.candidates import (
     Candidate,
     Fold,
+    HeldOut,
     binned_means,
     folds,
     heldout_gains,
@@ -288,7 +289,7 @@ def _calibration_idle(c: Candidate, min_effect_n: float) -> str:
 
 def why_not(
     c: Candidate,
-    scored: dict[str, tuple[float, str]],
+    scored: dict[str, tuple[float, str]] | None,
     s: Settings,
     min_effect_n: float,
     shapes: Sequence[tuple[str, FloatArray]] = (),
@@ -298,7 +299,9 @@ def why_not(
     """Why a candidate is not claimable ("" when it is). `shapes`: what each claimed term
     explained; a later term that explains the same shape again refines that physics (a
     lag model's residual looks like more lag), it is not a second one. `refused`: what a
-    consistency check (consistency.py) found against a candidate."""
+    consistency check (consistency.py) found against a candidate. `scored` None: every
+    rule but the held-out gain's (what `_round` asks before it scores a candidate held
+    out: a candidate one of them refuses is refused whatever its gain)."""
     if refused and refused.get(c.name):
         return refused[c.name]
     for name, shape in shapes:
@@ -329,13 +332,21 @@ def why_not(
             return f"not an estimate: {pinned}"
     if c.p_value >= s.alpha:
         return f"p = {c.p_value:.3g} ≥ {s.alpha:g}"
+    if scored is None:
+        return _too_small(c, min_effect_n)
     if c.name not in scored:
+        if s.heldout_top is None:  # _score_heldout: one that explained more was claimable
+            return "not scored held out: a term that explained more was claimable"
         return f"not scored held out: {s.heldout_top} candidates explained more"
     gain = scored[c.name][0]
     need = s.min_gain_joining if shapes else s.min_gain
     if not gain >= need:
         joining = " (to join a claimed term)" if shapes else ""
         return f"held-out gain {gain:.2g} < {need:g}{joining}"
+    return _too_small(c, min_effect_n)
+
+
+def _too_small(c: Candidate, min_effect_n: float) -> str:
     if c.effect_peak_n < min_effect_n:
         return f"effect {c.effect_peak_n:.2g} N too small to matter"
     return ""
@@ -555,17 +566,8 @@ def _round(
     screened = sorted(
         (c for c in cands if c.p_value < s.screen_alpha and c.lr > 0), key=lambda c: -c.lr
     )
-    scored: dict[str, tuple[float, str]] = {}
     top = [c for c in screened if c.p_value < s.alpha][: s.heldout_top]
-    if top and fold_list:
-        report(f"round {rnd}: held out, {len(top)} candidates", 0.1 + 0.8 * (rnd - 0.3) / rounds)
-        gains = heldout_gains(fold_list, base, top, s.fold_nfev, workers)
-        scored = {c.name: g for c, g in zip(top, gains, strict=True)}
-    elif top:
-        scored = {c.name: (0.0, "no held-out split") for c in top}
-
     limit = _effect_limit(binned, force_peak, s)
-
     x = search.prob.inputs.x
     refused = {
         c.name: alike(c.fitted, s.sensor_delay_min_shift_s)
@@ -577,23 +579,15 @@ def _round(
         for c in top
         if c.name == SENSOR
     }
+    scored = _score_heldout(
+        top, cands, base, rnd, s, limit, shapes, x, refused, fold_list, report, workers
+    )
     # Each candidate's reason not to be claimed ("" when it is claimable), judged once.
     reasons = {c.name: why_not(c, scored, s, limit, shapes, x, refused) for c in cands}
-    passing = [c for c in screened if not reasons[c.name]]
-    named = [c for c in passing if c.name != OPEN_SET]
-    pool = named or passing
-    # Of the claimable, the one the full refit says explains most (its LR): held-out
-    # gains of near-tied candidates come from short refits and are noisier.
-    best = max(pool, key=lambda c: c.lr) if pool else None
+    best, pool, alike_with = decide(cands, screened, scored, reasons, s)
     for c in cands:
         gain, detail = scored.get(c.name, (math.nan, ""))
-        amb: list[str] = []
-        if best is not None and c is not best and c.p_value < s.alpha:
-            # Alike: the same shape explained, and held out it leaves about as much.
-            rest, rest_best = 1 - gain, 1 - scored[best.name][0]
-            same = _cosine(c.explained, best.explained) > s.alike_cosine
-            if same and rest <= s.alike_rest_ratio * rest_best + s.alike_rest_margin:
-                amb.append(best.name)
+        amb = alike_with.get(c.name, [])
         found.append(
             Trial(
                 physics=c.name,
@@ -611,6 +605,104 @@ def _round(
             )
         )
     return found, best, [c.name for c in pool]
+
+
+def decide(
+    cands: Sequence[Candidate],
+    screened: Sequence[Candidate],
+    scored: Mapping[str, tuple[float, str]],
+    reasons: Mapping[str, str],
+    s: Settings,
+) -> tuple[Candidate | None, list[Candidate], dict[str, list[str]]]:
+    """A round's outcome from its candidates' reasons (why_not, "" when claimable) and
+    held-out scores: the claimed candidate (None: none), the claimable ones it was chosen
+    from, and per candidate the claimed one when the verdict cannot tell them apart."""
+    passing = [c for c in screened if not reasons[c.name]]
+    named = [c for c in passing if c.name != OPEN_SET]
+    pool = named or passing
+    # Of the claimable, the one the full refit says explains most (its LR): held-out
+    # gains of near-tied candidates come from short refits and are noisier.
+    best = max(pool, key=lambda c: c.lr) if pool else None
+    alike_with: dict[str, list[str]] = {}
+    for c in cands:
+        if best is not None and c is not best and c.p_value < s.alpha:
+            # Alike: the same shape explained, and held out it leaves about as much.
+            gain = scored.get(c.name, (math.nan, ""))[0]
+            rest, rest_best = 1 - gain, 1 - scored[best.name][0]
+            same = _cosine(c.explained, best.explained) > s.alike_cosine
+            if same and rest <= s.alike_rest_ratio * rest_best + s.alike_rest_margin:
+                alike_with[c.name] = [best.name]
+    return best, pool, alike_with
+
+
+def _score_heldout(
+    top: Sequence[Candidate],
+    cands: Sequence[Candidate],
+    base: Fitted,
+    rnd: int,
+    s: Settings,
+    limit: float,
+    shapes: Sequence[tuple[str, FloatArray]],
+    x: FloatArray,
+    refused: Mapping[str, str],
+    fold_list: list[Fold],
+    report: Progress,
+    workers: Workers,
+) -> dict[str, tuple[float, str]]:
+    """The held-out gains (and folds in words) of the candidates of `top` (p < alpha,
+    largest LR first) whose gain decides something, scored in that order, and only those:
+    a fold refit is most of a round's work (five refits a candidate, beside 14 candidate
+    refits in all), and most candidates are refused on their full fit alone.
+
+    What the gain decides, and so what is scored:
+    - whether a candidate is claimable: only for one every other rule lets pass (why_not
+      with scored=None). A candidate another rule refuses is refused whatever its gain;
+    - which is claimed: the claimable one with the largest LR (a named term before the
+      open set's). So the candidates every other rule lets pass are scored in LR order
+      until one passes; those below it cannot be claimed this round. When that one is a
+      calibration, every physics term that could pass is scored too (a physics term that
+      passed but lost to a calibration gets the next round: `gated`'s `outranked`);
+    - which candidates the verdict cannot tell from the claimed one: those whose explained
+      shape has a cosine above alike_cosine with its, each scored.
+    So the claim, the groups, `passed` and every claimed figure are those of scoring them
+    all; a candidate left unscored has no gain (None in DIAG.json) and its first reason.
+    Each candidate's gain is the same asked alone or with others (HeldOut)."""
+    if not top:
+        return {}
+    if not fold_list:
+        return {c.name: (0.0, "no held-out split") for c in top}
+    held = HeldOut(fold_list, base, s.fold_nfev, workers)
+    scored: dict[str, tuple[float, str]] = {}
+
+    def score(batch: Sequence[Candidate]) -> None:
+        batch = [c for c in batch if c.name not in scored]
+        if batch:
+            names = ", ".join(c.name for c in batch)
+            report(f"round {rnd}: held out, {names}", 0.1 + 0.8 * (rnd - 0.3) / s.max_rounds)
+            scored.update(zip((c.name for c in batch), held.gains(batch), strict=True))
+
+    def claimable(c: Candidate) -> bool:
+        return not why_not(c, scored, s, limit, shapes, x, refused)
+
+    could = [c for c in top if not why_not(c, None, s, limit, shapes, x, refused)]
+    best = None
+    named = [c for c in could if c.name != OPEN_SET]
+    for group in (named, [c for c in could if c.name == OPEN_SET]):
+        for c in group:
+            score([c])
+            if claimable(c):
+                best = c
+                break
+        if best is not None:
+            break
+    if best is None:
+        return scored
+    if best.name in CALIBRATIONS:
+        score([c for c in could if c.name not in CALIBRATIONS and c.name != OPEN_SET])
+    score(
+        [c for c in top if c is not best and _cosine(c.explained, best.explained) > s.alike_cosine]
+    )
+    return scored
 
 
 def chamber_term(name: str) -> bool:

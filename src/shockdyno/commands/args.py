@@ -10,7 +10,9 @@ from pathlib import Path
 
 from shockdyno.errors import ConfigError, RigFault
 from shockdyno.lists import seed_arg
+from shockdyno.model.terms import LIBRARY
 from shockdyno.result_files import not_a_recording
+from shockdyno.rig.config import load_rig
 
 
 def add_rig(p: argparse._ActionsContainer) -> None:
@@ -29,8 +31,6 @@ def add_seed(p: argparse._ActionsContainer, of: str) -> None:
 
 def add_term_list(p: argparse.ArgumentParser) -> None:
     """The physics term library, one line a term from the term's own `summary`."""
-    from shockdyno.model.terms import LIBRARY
-
     lines = [f"{name}: {cls.summary}" for name, cls in LIBRARY.items()]
     p.add_argument_group("physics terms (--terms)", "\n".join(lines))
 
@@ -57,8 +57,6 @@ def require_recording(path: str | Path, instead: str = "") -> None:
 def unreachable_hint(rig_path: Path) -> str:
     """What to try when the rig file's drive or DAQ cannot be reached: the simulated rig
     (a rig file with a [simulation] table) may simply not be running."""
-    from shockdyno.rig.config import load_rig
-
     try:
         simulated = bool(load_rig(rig_path).simulation)
     except ConfigError:

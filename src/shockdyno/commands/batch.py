@@ -7,11 +7,18 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from shockdyno.batch.table import KINDS, Row
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+from shockdyno.batch.jobs import missing_fits
+from shockdyno.batch.runner import collect, plan_jobs, run_batch
+from shockdyno.batch.table import KINDS, Row, earlier_rows
 from shockdyno.commands.args import add_seed, add_spec
 from shockdyno.commands.history import add_history_argument, database
+from shockdyno.diagnose.file import parse_candidates
 from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError
+from shockdyno.fit.terms import parse_terms
 from shockdyno.record.identity import add_allow_argument
 
 
@@ -57,8 +64,6 @@ def register(sub: Any) -> None:
 
 
 def _options(args: argparse.Namespace) -> dict[str, Any]:
-    from shockdyno.fit.terms import parse_terms
-
     opts: dict[str, Any] = {"seed": args.seed}
     if args.spec:
         opts["spec"] = str(Path(args.spec).resolve())
@@ -72,8 +77,6 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
             parse_terms(args.terms)  # refused now, not once per recording
             opts["terms"] = args.terms
     if args.kind == "diagnose":
-        from shockdyno.diagnose.file import parse_candidates
-
         if not 0 < args.alpha < 1:
             raise ConfigError(f"--alpha must be between 0 and 1, got {args.alpha}")
         opts["alpha"] = args.alpha
@@ -83,13 +86,6 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
-
-    from shockdyno.batch.jobs import missing_fits
-    from shockdyno.batch.runner import collect, plan_jobs, run_batch
-    from shockdyno.batch.table import earlier_rows
-
     if args.workers is not None and args.workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {args.workers}")
     out: Path = args.out

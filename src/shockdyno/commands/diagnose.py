@@ -7,18 +7,27 @@ import math
 import sys
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
+
+from rich.console import Console
+from rich.table import Table
 
 from shockdyno import units as units_mod
+from shockdyno.atomic import staged_dir
 from shockdyno.commands.args import add_seed, add_spec, add_term_list, require_recording
+from shockdyno.commands.history import add_history_argument, keep
 from shockdyno.diagnose.file import diagnose_file, parse_candidates
 from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError
+from shockdyno.history import record_diagnosis
+from shockdyno.model import load_spec
+from shockdyno.model.spec import spec_line
+from shockdyno.outputs import check_output, check_report_dir, write_output
+from shockdyno.progress import StageProgress, table_console
 from shockdyno.record.identity import add_allow_argument
+from shockdyno.record.layout import set_paths
 from shockdyno.report.documents import DiagnosisDoc, Finding, diagnosis_text
-
-if TYPE_CHECKING:  # rich is imported when a command prints
-    from rich.console import Console
+from shockdyno.report.findings_table import finding_cells
 
 
 def register(sub: Any) -> None:
@@ -69,17 +78,11 @@ def register(sub: Any) -> None:
     )
     add_allow_argument(p, "a --fit")
     units_mod.add_argument(p, "the terminal text, table and --report page")
-    from shockdyno.commands.history import add_history_argument
-
     add_history_argument(p)
     p.set_defaults(func=run_diagnose)
 
 
 def _summary(findings: tuple[Finding, ...], units: units_mod.Units = units_mod.SI) -> Any:
-    from rich.table import Table
-
-    from shockdyno.report.findings_table import finding_cells
-
     table = Table(title="Candidate physics (refitted with globals and areas)")
     effect = f"peak effect {units.force_label}"
     for name in ("round", "physics", "claimed", "p", "held-out gain", effect, "note"):
@@ -96,9 +99,6 @@ def _nan(x: float | None) -> float:
 
 
 def run_diagnose(args: argparse.Namespace) -> int:
-    from shockdyno.outputs import write_output
-    from shockdyno.progress import StageProgress, table_console
-
     inputs, out, workers = _checked_arguments(args)
     with StageProgress("diagnose") as progress:
         d, doc = diagnose_file(
@@ -114,6 +114,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
             workers=workers,
         )
     if args.report:  # DIAG.json names the figures drawn below, for `report --diagnose`
+        # Imported when used: +620 ms CPU at start-up (matplotlib).
         from shockdyno.diagnose.report import figure_paths
 
         figures = figure_paths(Path(args.report), args.json)
@@ -122,9 +123,6 @@ def run_diagnose(args: argparse.Namespace) -> int:
     text = diagnosis_text(doc)
     # Written before the figures are drawn: a plotting failure must not lose the diagnosis.
     write_output(args.json, text, force=args.force, inputs=inputs)
-    from shockdyno.commands.history import keep
-    from shockdyno.history import record_diagnosis
-
     keep(
         args,
         lambda db: record_diagnosis(
@@ -136,8 +134,7 @@ def run_diagnose(args: argparse.Namespace) -> int:
     units = units_mod.get(args.units)
     _print_diagnosis(shown, doc, units)
     if args.report:
-        from shockdyno.atomic import staged_dir
-        from shockdyno.diagnose.report import write_report
+        from shockdyno.diagnose.report import write_report  # +620 ms at start-up, as above
 
         with staged_dir(Path(args.report)) as folder:  # whole, or not at all
             write_report(d, doc, folder, units)
@@ -150,10 +147,6 @@ def run_diagnose(args: argparse.Namespace) -> int:
 def _checked_arguments(args: argparse.Namespace) -> tuple[list[str | Path], Path | None, int]:
     """The command's inputs (never written over), its output (None: standard output) and
     its worker count; a bad option, spec or term list fails here, before any reading."""
-    from shockdyno.model import load_spec
-    from shockdyno.outputs import check_output, check_report_dir
-    from shockdyno.record.layout import set_paths
-
     require_recording(args.recording)
     inputs = [
         *set_paths(Path(args.recording)),
@@ -178,8 +171,6 @@ def _print_diagnosis(shown: Console, doc: DiagnosisDoc, units: units_mod.Units) 
     """The terminal's diagnosis: the spec used, the mismatch and its noise, the candidates'
     table (when the mismatch is significant) and the verdict; short tests warned of on
     standard error."""
-    from shockdyno.model.spec import spec_line
-
     used = doc.info.spec
     assert used is not None  # diagnose_file says which spec
     via = f", the base spec of {used.from_fit}" if used.from_fit is not None else ""

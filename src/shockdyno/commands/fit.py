@@ -10,9 +10,13 @@ import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
+
+from rich.console import Console
+from rich.table import Table
 
 from shockdyno import units as units_mod
+from shockdyno.atomic import staged_dir, write_text_atomic
 from shockdyno.commands.args import (
     add_force,
     add_seed,
@@ -20,18 +24,26 @@ from shockdyno.commands.args import (
     add_term_list,
     require_recording,
 )
-from shockdyno.commands.history import add_history_argument
+from shockdyno.commands.history import add_history_argument, keep
+from shockdyno.fit import forces
 from shockdyno.fit.display import Shown, bound_hit, bound_text, globals_rows, shown
 from shockdyno.fit.file import fit_file, result_json
 from shockdyno.fit.prepare import FITTED_ANYWAY
+from shockdyno.fit.result import FitResult
+from shockdyno.fit.terms import parse_terms
+from shockdyno.fit.validate import table4_rows, table4_table
+from shockdyno.history import record_fit
+from shockdyno.model import load_spec
+from shockdyno.model.spec import spec_line, spec_used
+from shockdyno.model.terms import LIBRARY
 from shockdyno.outputs import check_output, check_report_dir, write_output
+from shockdyno.progress import StageProgress, table_console
+from shockdyno.record import open_recording
+from shockdyno.record.layout import set_paths
+from shockdyno.record.types import TestData
+from shockdyno.report.temperature import add_argument as add_reference_temperature
+from shockdyno.report.temperature import reference_c
 from shockdyno.units import SI, Units
-
-if TYPE_CHECKING:
-    from rich.console import Console
-
-    from shockdyno.fit.result import FitResult
-    from shockdyno.record.types import TestData
 
 
 def register(sub: Any) -> None:
@@ -56,9 +68,6 @@ def register(sub: Any) -> None:
         help="also write DIR/index.html: the report page with the fit (figures, Table 4, "
         "click chart), and table4.csv beside it",
     )
-    from shockdyno.model.terms import LIBRARY
-    from shockdyno.report.temperature import add_argument as add_reference_temperature
-
     add_reference_temperature(p)
     p.add_argument(
         "--raw-force",
@@ -93,10 +102,6 @@ def register(sub: Any) -> None:
 def terms_table(terms: dict[str, Any], units: Units = SI) -> Any:
     """Fitted term parameters: value ± σ in display units; held ones, and those pressed
     against a bound ("at lower bound (0 ms)" in place of the value), marked."""
-    from rich.table import Table
-
-    from shockdyno.model.terms import LIBRARY
-
     table = Table(title="Physics terms (±1σ)")
     for name in ("term", "parameter", "value", "±1σ", "unit", "note"):
         table.add_column(name, justify="left" if name in ("term", "parameter", "note") else "right")
@@ -136,8 +141,6 @@ def _area(value: float, sd: float, show: Shown) -> str:
 
 
 def _clicks_table(result: Any, units: Units = SI) -> Any:
-    from rich.table import Table
-
     show = shown("m²", units)
     table = Table(title=f"Bleed areas per click ({show.label}, ±1σ)")
     names = result.adjuster_names()  # a damper with several: a column each, not "clicks"
@@ -157,8 +160,6 @@ def _clicks_table(result: Any, units: Units = SI) -> Any:
 
 
 def _globals_table(result: Any, units: Units = SI) -> Any:
-    from rich.table import Table
-
     header, rows = globals_rows(result, units)
     table = Table(title="Calibrated globals (±1σ)")
     for name in header:
@@ -169,16 +170,6 @@ def _globals_table(result: Any, units: Units = SI) -> Any:
 
 
 def run_fit(args: argparse.Namespace) -> int:
-    from rich.console import Console
-
-    from shockdyno.fit import forces
-    from shockdyno.fit.terms import parse_terms
-    from shockdyno.fit.validate import table4_table
-    from shockdyno.model import load_spec
-    from shockdyno.progress import StageProgress, table_console
-    from shockdyno.record.layout import set_paths
-    from shockdyno.report.temperature import reference_c
-
     require_recording(args.recording)
     reference = reference_c(args.reference_temperature_c)
     inputs = [*set_paths(Path(args.recording)), *([args.spec] if args.spec else [])]
@@ -205,8 +196,6 @@ def run_fit(args: argparse.Namespace) -> int:
     text = result_json(result)  # a result that cannot be written fails before anything is
     # With --json -, stdout carries only the JSON; the human summary goes to stderr.
     human = table_console(stderr=out is None)
-    from shockdyno.model.spec import spec_line, spec_used
-
     # The JSON keeps the spec as `spec_path`; the terminal says which one it was.
     human.print(spec_line(spec_used(args.spec)), soft_wrap=True, highlight=False, markup=False)
     units = units_mod.get(args.units)
@@ -218,9 +207,6 @@ def run_fit(args: argparse.Namespace) -> int:
     write_output(args.json, text, force=args.force, inputs=inputs)
     if sidecar is not None and result.saved is not None:
         forces.write(sidecar, result.saved, text)
-    from shockdyno.commands.history import keep
-    from shockdyno.history import record_fit
-
     keep(args, lambda db: record_fit(db, Path(args.recording), result, args.json, tests), "the fit")
     info = result.info
     ident = sum(c.identifiable_bc + c.identifiable_bt for c in result.clicks)
@@ -247,9 +233,7 @@ def _write_report(
     say: Callable[[str], None],
 ) -> None:
     """--report DIR: the report page with the fit, and table4.csv beside it."""
-    from shockdyno.atomic import staged_dir, write_text_atomic
-    from shockdyno.fit.validate import table4_rows
-    from shockdyno.record import open_recording
+    # Imported when used: +460 ms CPU at start-up (matplotlib).
     from shockdyno.report.build import build_report
 
     report = Path(args.report)

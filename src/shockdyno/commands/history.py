@@ -14,8 +14,22 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+from rich.table import Table
+
 from shockdyno.errors import ConfigError
+from shockdyno.history import DEFAULT, ENV, default_path, store
+from shockdyno.history.view import (
+    CHANGED,
+    K_SIGMA,
+    MIN_SHARE,
+    UNJUDGED,
+    diagnosis_text,
+    gas_text,
+    plot,
+    series,
+)
 from shockdyno.outputs import check_output, write_output
+from shockdyno.progress import table_console
 
 
 def register(sub: Any) -> None:
@@ -40,8 +54,6 @@ def register(sub: Any) -> None:
 
 
 def add_history_argument(p: argparse.ArgumentParser, reading: bool = False) -> None:
-    from shockdyno.history import DEFAULT, ENV
-
     p.add_argument(
         "--history",
         metavar="DB",
@@ -57,8 +69,6 @@ def add_history_argument(p: argparse.ArgumentParser, reading: bool = False) -> N
 
 
 def database(args: argparse.Namespace) -> Path:
-    from shockdyno.history import default_path
-
     return Path(args.history) if args.history is not None else default_path()
 
 
@@ -78,8 +88,6 @@ def keep(args: argparse.Namespace, add: Any, what: str) -> None:
 
 
 def run_history(args: argparse.Namespace) -> int:
-    from shockdyno.history import store
-
     db = database(args)
     if not db.exists():
         raise ConfigError(
@@ -116,27 +124,12 @@ def run_history(args: argparse.Namespace) -> int:
         write_output(args.json, json.dumps(doc, indent=2, allow_nan=False) + "\n",
                      force=args.force, inputs=[db], flag="--json")  # fmt: skip
     if args.plot is not None:
-        from shockdyno.history.view import plot, series
-
         plot(visits, series(visits), args.damper, Path(args.plot))
         print(f"plot: {args.plot}", file=sys.stderr if args.json == "-" else sys.stdout)
     return 0
 
 
 def _print(damper: str, visits: list[Any], db: Path, to_stderr: bool) -> None:
-    from rich.table import Table
-
-    from shockdyno.history.view import (
-        CHANGED,
-        K_SIGMA,
-        MIN_SHARE,
-        UNJUDGED,
-        diagnosis_text,
-        gas_text,
-        series,
-    )
-    from shockdyno.progress import table_console
-
     console = table_console(stderr=to_stderr)
     console.print(f"history of damper {damper}: {len(visits)} recordings in {db}")
     table = Table(title="Recordings, oldest first")

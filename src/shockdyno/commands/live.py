@@ -12,7 +12,8 @@ from rich.console import Console
 from rich.markup import escape
 
 from shockdyno.errors import ConfigError
-from shockdyno.live.server import DEFAULT_HOST, DEFAULT_PORT
+from shockdyno.live.publisher import LivePublisher
+from shockdyno.live.server import DEFAULT_HOST, DEFAULT_PORT, LiveServer
 
 REPO = Path(__file__).resolve().parents[3]
 LAYOUT = REPO / "recordings" / "foxglove-live-layout.json"  # docs/live.md
@@ -50,9 +51,6 @@ def live_view(
                 raise ConfigError(f"{flag} is for the live view: add --live")
         yield None
         return
-    from shockdyno.live.publisher import LivePublisher
-    from shockdyno.live.server import LiveServer
-
     server = LiveServer(args.live_host, args.live_port)
 
     def warn(text: str) -> None:

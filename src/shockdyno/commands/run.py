@@ -9,19 +9,27 @@ import time
 from collections import deque
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from rich.console import Console
+from rich.table import Table
 
 from shockdyno import __version__
 from shockdyno import units as units_mod
 from shockdyno.commands.args import add_force, add_rig, add_seed, hint_unreachable
 from shockdyno.commands.live import add_live_arguments, live_view
 from shockdyno.errors import ConfigError, RecordingError, RigFault
+from shockdyno.fit.file import fit_file
+from shockdyno.fit.validate import table4_rows
 from shockdyno.lists import parse_clicks, parse_frequencies
 from shockdyno.model.spec import DamperSpec, default_spec_path, load_spec
 from shockdyno.model.stroke import CONSTANT_VELOCITY, WAVEFORMS, Stroke
 from shockdyno.outputs import refuse_inputs
+from shockdyno.record import open_recording
+from shockdyno.record.lock import recording_lock
+from shockdyno.report.clickchart import spec_static_force_n
+from shockdyno.rig.config import RigConfig, load_rig
+from shockdyno.run.liveview import LiveView
 from shockdyno.run.plan import (
     DESIGNS,
     SweepPlan,
@@ -35,9 +43,8 @@ from shockdyno.run.plan import (
 from shockdyno.run.recording import record_sweep
 from shockdyno.run.refusals import MIN_FREQUENCY_HZ
 from shockdyno.run.signals import stop_on_signals
-
-if TYPE_CHECKING:
-    from shockdyno.rig.config import RigConfig
+from shockdyno.run.table import click_table
+from shockdyno.simrig import start_sim_rig
 
 REPO = Path(__file__).resolve().parents[3]
 
@@ -390,16 +397,12 @@ def _metadata(args: argparse.Namespace, rig: RigConfig, spec: str) -> dict[str, 
 
 @hint_unreachable
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from shockdyno.rig.config import load_rig
-
     console = Console()
     # No file the sweep reads may become its recording, --force or not.
     spec_path = Path(args.spec) if args.spec else default_spec_path()
     read = [args.rig, spec_path, *([args.scenario] if args.scenario else [])]
     refuse_inputs(Path(args.output), read, flag="-o")
     if args.start_sim or args.live:  # refused before the sim or the live view starts
-        from shockdyno.record.lock import recording_lock
-
         with recording_lock(Path(args.output)):  # another writer is named first
             if Path(args.output).exists() and not (args.force or args.resume):
                 raise RecordingError(
@@ -413,8 +416,6 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         live = stack.enter_context(live_view(args, console))  # before any rig: a busy port
         spec_used = ""  # a real rig's damper is whatever is mounted
         if args.start_sim:
-            from shockdyno.simrig import start_sim_rig
-
             sim = stack.enter_context(
                 start_sim_rig(
                     rig,
@@ -442,9 +443,6 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from shockdyno.record import open_recording
-    from shockdyno.run.liveview import LiveView
-
     if not args.speed > 0:
         raise ConfigError(f"--speed must be > 0, got {args.speed:g}; --fast plays without waiting")
     rec = open_recording(args.recording).require_recording()
@@ -513,14 +511,10 @@ def cmd_demo(args: argparse.Namespace) -> int:
     spec_path = default_spec_path()
     spec = load_spec(spec_path)
     if args.table:
-        from shockdyno.run.table import click_table
-
         Console(width=max(console.width, 120)).print(click_table(spec))
         return 0
-    from shockdyno.record import open_recording
+    # Imported when run: +460 ms CPU at start-up (matplotlib).
     from shockdyno.report import build_report
-    from shockdyno.rig.config import load_rig
-    from shockdyno.simrig import start_sim_rig
 
     out: Path = args.out_dir
     rec_path = out / "demo.mcap"
@@ -556,19 +550,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _static_force(spec: Any) -> float:
-    from shockdyno.report.clickchart import spec_static_force_n
-
     return spec_static_force_n(spec)
 
 
 def _demo_fit(rec_path: Path, spec_path: Path, out: Path, seed: int, console: Console) -> Any:
     """`shockdyno fit` of the demo's recording: the result names it (info.recording), so
     `report demo.mcap --fit demo-fit.json` and `diagnose --fit` accept it."""
-    from rich.table import Table
-
-    from shockdyno.fit.file import fit_file
-    from shockdyno.fit.validate import table4_rows
-
     console.rule("fit: globals, bleed areas per click, trend, validation")
     t0 = time.perf_counter()
     result, _ = fit_file(rec_path, spec=str(spec_path), optimizer="fast", seed=seed)

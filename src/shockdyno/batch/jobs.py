@@ -16,15 +16,20 @@ import os
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from shockdyno import __version__
 from shockdyno.atomic import staged_dir, write_text_atomic
 from shockdyno.batch.table import Row
+from shockdyno.diagnose.file import diagnose_file
 from shockdyno.errors import ConfigError, ShockdynoError
-
-if TYPE_CHECKING:  # the report package pulls in matplotlib: imported where it is used
-    from shockdyno.report.documents import DiagnosisDoc
+from shockdyno.fit import forces
+from shockdyno.fit.file import fit_file, result_json
+from shockdyno.fit.result import FitResult
+from shockdyno.record import open_recording
+from shockdyno.record.identity import provenance
+from shockdyno.report.documents import DiagnosisDoc, diagnosis_text, read_diagnosis
+from shockdyno.report.gas import limit_for
 
 SUFFIX = {"fit": ".fit.json", "diagnose": ".diag.json", "report": "/index.html"}
 # Test-only: seconds a task waits before its work, so a test can kill a worker while it
@@ -87,9 +92,6 @@ def run_job(job: Job) -> Row:
 
 
 def _fit(job: Job, row: Row) -> None:
-    from shockdyno.fit import forces
-    from shockdyno.fit.file import fit_file, result_json
-
     o = job.options
     result, tests = fit_file(
         Path(job.recording),
@@ -112,10 +114,10 @@ def _fit(job: Job, row: Row) -> None:
 
 
 def _diagnose(job: Job, row: Row) -> None:
-    from shockdyno.diagnose.file import diagnose_file
+    # The figures' modules are imported when drawn: matplotlib would add 620 ms CPU to
+    # every command's start-up (commands/batch.py imports this module; measured).
     from shockdyno.diagnose.plots import loops, residual_maps
     from shockdyno.diagnose.report import FIGURES, figure_paths
-    from shockdyno.report.documents import diagnosis_text
 
     o = job.options
     d, doc = diagnose_file(
@@ -141,12 +143,7 @@ def _diagnose(job: Job, row: Row) -> None:
 
 
 def _report(job: Job, row: Row) -> None:
-    from shockdyno.fit import forces
-    from shockdyno.fit.result import FitResult
-    from shockdyno.record import open_recording
-    from shockdyno.report.build import build_report
-    from shockdyno.report.documents import read_diagnosis
-    from shockdyno.report.gas import limit_for
+    from shockdyno.report.build import build_report  # matplotlib: +460 ms, as above
 
     rec = open_recording(job.recording).require_recording()
     tests = rec.load_all()
@@ -161,8 +158,6 @@ def _report(job: Job, row: Row) -> None:
     metadata = {"recording": Path(job.recording).name, **rec.metadata}
     limit = limit_for(tests, job.options.get("spec"), rec.metadata, fit.spec() if fit else None)
     if fit is not None:  # a fit of another recording is refused, as by `report` (issue 46.7)
-        from shockdyno.record.identity import provenance
-
         stored = fit.info.recording_sha256
         allow = bool(job.options.get("allow_other_recording", False))
         metadata["fit"] = provenance(stored, job.sha256, "the fit", "--fit", allow)
@@ -198,15 +193,11 @@ def missing_fits(jobs: list[Job]) -> list[str]:
 
 def _damper_id(recording: str) -> str:
     """The damper id the recording's metadata holds (`sweep --damper-id`, `import --meta`)."""
-    from shockdyno.record import open_recording
-
     return open_recording(recording).metadata.get("damper_id", "")
 
 
 def _describe(row: Row, job: Job) -> None:
     """A skipped row still says what the result holds."""
-    from shockdyno.report.documents import read_diagnosis
-
     if not job.result_path.exists():
         return
     with contextlib.suppress(ShockdynoError):  # the row is still a skip without it

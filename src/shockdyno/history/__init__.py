@@ -17,8 +17,9 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+from shockdyno.fit.result import FitResult
 from shockdyno.history import store
 from shockdyno.history.entries import (
     diagnosis_entry,
@@ -28,9 +29,7 @@ from shockdyno.history.entries import (
     recording_entry,
 )
 from shockdyno.history.schema import VERSION
-
-if TYPE_CHECKING:  # the report package pulls in matplotlib: imported where it is used
-    from shockdyno.report.documents import DiagnosisDoc
+from shockdyno.report.documents import DiagnosisDoc, read_diagnosis
 
 ENV = "SHOCKDYNO_HISTORY"
 DEFAULT = Path("recordings") / "history.sqlite"
@@ -75,12 +74,8 @@ def record_result_file(
     """Add the result a batch task wrote (NAME.fit.json, NAME.diag.json; `options` the
     batch's); None for a kind the history does not keep (report)."""
     if kind == "fit":
-        from shockdyno.fit.result import FitResult
-
         return record_fit(db, recording, FitResult.load(result), str(result))
     if kind == "diagnose":
-        from shockdyno.report.documents import read_diagnosis
-
         doc = read_diagnosis(result, "diagnose result")
         alpha, seed = float(options.get("alpha", 0.01)), int(options.get("seed", 0))
         terms = str(options.get("terms", "all"))

@@ -19,6 +19,9 @@ from shockdyno.history.store import (
     RecordingEntry,
     ResultEntry,
 )
+from shockdyno.record import open_recording
+from shockdyno.record.identity import recording_sha256
+from shockdyno.report.gas import gas_forces, limit_for
 
 # A spec global's unit by its name's ending (the fit JSON's globals are SI by name).
 UNITS = (("_pa", "Pa"), ("_n", "N"), ("_m2", "m²"), ("_m", "m"), ("_kg", "kg"),
@@ -37,10 +40,6 @@ def _unit(name: str) -> str:
 def recording_entry(path: Path, tests: list[Any] | None = None) -> RecordingEntry:
     """The recording at `path`: its SHA-256, metadata, click settings and gas force (the
     report's: measured, else estimated within the charge of the spec it names)."""
-    from shockdyno.record import open_recording
-    from shockdyno.record.identity import recording_sha256
-    from shockdyno.report.gas import gas_forces, limit_for
-
     rec = open_recording(path)
     if tests is None:
         tests = rec.load_all()

@@ -15,6 +15,7 @@ from matplotlib.figure import Figure
 
 from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError
+from shockdyno.report.build import build_report
 from shockdyno.report.ride_section import FLAG_LEGEND, PAPER_EXPLANATION, paper_ratios
 from shockdyno.ride.study import RideResult, Run, paper_rms
 
@@ -184,7 +185,6 @@ def write_report(result: RideResult, directory: str | Path) -> list[Path]:
     write_text_atomic(out / "table7.md", table7_markdown(result))
     write_psd_csv(result, out / "psd.csv")
     files += [out / n for n in ("fig19_psd.png", "fig20_rms_vs_speed.png", "table7.md", "psd.csv")]
-    from shockdyno.report.build import build_report
 
     captions = [
         f"Sprung-mass acceleration, {speeds[0]:g} km/h (Fig. 17 analogue)",

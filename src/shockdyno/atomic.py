@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import os
 import shutil
+import signal
 import tempfile
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -136,9 +138,6 @@ def _merge_into(old: Path, new: Path) -> None:
 def _signals_held() -> Iterator[None]:
     """Ctrl-C, SIGTERM or SIGHUP during a few renames waits until they are done (main
     thread only: elsewhere Python cannot take signals at all)."""
-    import signal
-    import threading
-
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -167,9 +166,6 @@ class Stopped(KeyboardInterrupt):
 def _stops_unwind() -> Iterator[None]:
     """SIGTERM and SIGHUP raise Stopped instead of ending the process on the spot, where
     no handler of their own is installed (main thread only)."""
-    import signal
-    import threading
-
     if threading.current_thread() is not threading.main_thread():
         yield
         return

@@ -12,6 +12,7 @@ the flag and the item, one line, so the CLI prints it without a traceback.
 
 from __future__ import annotations
 
+import argparse
 import math
 import re
 from collections.abc import Callable
@@ -124,8 +125,6 @@ MAX_SEED = 2**32 - 1
 
 def seed_arg(text: str) -> int:
     """argparse type of every --seed: a whole number 0..2³²-1 (NumPy's seeds)."""
-    import argparse
-
     try:
         value = int(text)
     except ValueError:

@@ -19,6 +19,7 @@ import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 
+from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError
 from shockdyno.result_files import starts_as_mcap
 
@@ -193,8 +194,6 @@ def write_output(
         sys.stdout.write(text)
         sys.stdout.flush()
         return None
-    from shockdyno.atomic import write_text_atomic
-
     try:
         write_text_atomic(out, text)
     except OSError as exc:

@@ -16,7 +16,7 @@ import os
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TypedDict
 
 from shockdyno import __version__
 from shockdyno.atomic import staged_dir, write_text_atomic
@@ -28,6 +28,7 @@ from shockdyno.fit.file import fit_file, result_json
 from shockdyno.fit.result import FitResult
 from shockdyno.record import open_recording
 from shockdyno.record.identity import provenance
+from shockdyno.record.types import TestData
 from shockdyno.report.documents import DiagnosisDoc, diagnosis_text, read_diagnosis
 from shockdyno.report.gas import limit_for
 
@@ -37,6 +38,27 @@ SUFFIX = {"fit": ".fit.json", "diagnose": ".diag.json", "report": "/index.html"}
 DELAY_ENV = "SHOCKDYNO_BATCH_TEST_DELAY_S"
 
 
+class Options(TypedDict, total=False):
+    """A batch's options, as the command gives them (commands/batch.py) and a task's key
+    stores them: only those given are present."""
+
+    seed: int
+    spec: str
+    fit: str
+    allow_other_recording: bool
+    optimizer: str
+    terms: str
+    alpha: float
+
+
+class Key(TypedDict):
+    """`.batch/NAME.KIND.json`: what the result was made from."""
+
+    sha256: str
+    options: Options
+    version: str
+
+
 @dataclass(frozen=True)
 class Job:
     kind: str
@@ -44,7 +66,7 @@ class Job:
     name: str  # the result's file name stem in the output folder
     sha256: str
     out_dir: str
-    options: dict[str, Any] = field(default_factory=dict)
+    options: Options = field(default_factory=Options)
 
     @property
     def result_path(self) -> Path:
@@ -54,7 +76,7 @@ class Job:
     def key_path(self) -> Path:
         return Path(self.out_dir) / ".batch" / f"{self.name}.{self.kind}.json"
 
-    def key(self) -> dict[str, Any]:
+    def key(self) -> Key:
         return {"sha256": self.sha256, "options": self.options, "version": __version__}
 
 
@@ -208,7 +230,7 @@ def _describe(row: Row, job: Job) -> None:
             _from_diag(row, read_diagnosis(job.result_path, "diagnose result"))
 
 
-def _from_tests(row: Row, tests: list[Any]) -> None:
+def _from_tests(row: Row, tests: list[TestData]) -> None:
     metas = [t.meta for t in tests]
     row.clicks = ",".join(str(c) for c in sorted({m.clicks for m in metas}))
     row.frequencies_hz = ",".join(f"{f:g}" for f in sorted({m.frequency_hz for m in metas}))

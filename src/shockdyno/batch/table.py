@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import os
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -61,14 +61,14 @@ COLUMNS: list[tuple[str, str]] = [
 # add 40-70 ms CPU to every command's start-up (pyarrow, .parquet, .csv; measured).
 
 
-def _schema() -> Any:
+def _schema() -> Any:  # Any: a pyarrow.Schema (pyarrow has no type information)
     import pyarrow as pa
 
     types = {"string": pa.string(), "float64": pa.float64()}
     return pa.schema([(name, types[t]) for name, t in COLUMNS])
 
 
-def _replace(target: Path, write: Any) -> None:
+def _replace(target: Path, write: Callable[[str], object]) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     os.close(fd)
     try:

@@ -5,15 +5,14 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
 
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
-from shockdyno.batch.jobs import missing_fits
+from shockdyno.batch.jobs import Options, missing_fits
 from shockdyno.batch.runner import collect, plan_jobs, run_batch
 from shockdyno.batch.table import KINDS, Row, earlier_rows
-from shockdyno.commands.args import add_seed, add_spec
+from shockdyno.commands.args import Subparsers, add_seed, add_spec
 from shockdyno.commands.history import add_history_argument, database
 from shockdyno.diagnose.file import parse_candidates
 from shockdyno.diagnose.workers import usable_cores
@@ -22,7 +21,7 @@ from shockdyno.fit.terms import parse_terms
 from shockdyno.record.identity import add_allow_argument
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     p = sub.add_parser(
         "batch",
         help="fit, diagnose or report many recordings on Dask (local cluster or a scheduler)",
@@ -63,8 +62,8 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _options(args: argparse.Namespace) -> dict[str, Any]:
-    opts: dict[str, Any] = {"seed": args.seed}
+def _options(args: argparse.Namespace) -> Options:
+    opts: Options = {"seed": args.seed}
     if args.spec:
         opts["spec"] = str(Path(args.spec).resolve())
     if args.fit:

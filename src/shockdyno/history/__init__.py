@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
 
 from shockdyno.fit.result import FitResult
 from shockdyno.history import store
@@ -29,6 +28,7 @@ from shockdyno.history.entries import (
     recording_entry,
 )
 from shockdyno.history.schema import VERSION
+from shockdyno.record.types import TestData
 from shockdyno.report.documents import DiagnosisDoc, read_diagnosis
 
 ENV = "SHOCKDYNO_HISTORY"
@@ -44,7 +44,11 @@ def default_path() -> Path:
 
 
 def record_fit(
-    db: Path, recording: Path, result: Any, result_file: str, tests: list[Any] | None = None
+    db: Path,
+    recording: Path,
+    result: FitResult,
+    result_file: str,
+    tests: list[TestData] | None = None,
 ) -> store.RecordingEntry:
     """Add a fit of `recording` (a FitResult) to the history at `db`."""
     rec = recording_entry(recording, tests)
@@ -69,15 +73,20 @@ def record_diagnosis(
 
 
 def record_result_file(
-    db: Path, recording: Path, kind: str, result: Path, options: dict[str, Any]
+    db: Path,
+    recording: Path,
+    kind: str,
+    result: Path,
+    *,
+    alpha: float = 0.01,
+    seed: int = 0,
+    terms: str = "all",
 ) -> store.RecordingEntry | None:
-    """Add the result a batch task wrote (NAME.fit.json, NAME.diag.json; `options` the
-    batch's); None for a kind the history does not keep (report)."""
+    """Add the result a batch task wrote (NAME.fit.json, NAME.diag.json; a diagnosis's
+    alpha, seed and terms the batch's); None for a kind the history does not keep (report)."""
     if kind == "fit":
         return record_fit(db, recording, FitResult.load(result), str(result))
     if kind == "diagnose":
         doc = read_diagnosis(result, "diagnose result")
-        alpha, seed = float(options.get("alpha", 0.01)), int(options.get("seed", 0))
-        terms = str(options.get("terms", "all"))
         return record_diagnosis(db, recording, doc, str(result), alpha, seed, terms)
     return None

@@ -9,9 +9,9 @@ import statistics
 import time
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
 
 from shockdyno import __version__
+from shockdyno.fit.result import FitResult
 from shockdyno.history.store import (
     AreaEntry,
     GasEntry,
@@ -21,6 +21,8 @@ from shockdyno.history.store import (
 )
 from shockdyno.record import open_recording
 from shockdyno.record.identity import recording_sha256
+from shockdyno.record.types import TestData
+from shockdyno.report.documents import DiagnosisDoc
 from shockdyno.report.gas import gas_forces, limit_for
 
 # A spec global's unit by its name's ending (the fit JSON's globals are SI by name).
@@ -37,7 +39,7 @@ def _unit(name: str) -> str:
     return matches[-1] if matches else ""
 
 
-def recording_entry(path: Path, tests: list[Any] | None = None) -> RecordingEntry:
+def recording_entry(path: Path, tests: list[TestData] | None = None) -> RecordingEntry:
     """The recording at `path`: its SHA-256, metadata, click settings and gas force (the
     report's: measured, else estimated within the charge of the spec it names)."""
     rec = open_recording(path)
@@ -76,12 +78,7 @@ def _mean(values: list[float | None]) -> float | None:
     return statistics.fmean(ok) if ok else None
 
 
-def _made(kind: str, options: dict[str, Any], result_file: str, **fields: Any) -> ResultEntry:
-    """A result made now, by this version."""
-    return ResultEntry(kind, options, now_utc(), result_file, __version__, **fields)
-
-
-def fit_entry(result: Any, options: dict[str, Any], result_file: str) -> ResultEntry:
+def fit_entry(result: FitResult, options: dict[str, object], result_file: str) -> ResultEntry:
     """A FitResult: its areas per click, globals and term parameters with their σ, E_t."""
     cal = result.info.calibration
     sd = cal.globals_sd if cal is not None else {}
@@ -103,10 +100,12 @@ def fit_entry(result: Any, options: dict[str, Any], result_file: str) -> ResultE
                   _finite(c.a_bc_sd_m2), _finite(c.a_bt_sd_m2))
         for c in clicks
     ]  # fmt: skip
-    return _made(
+    return ResultEntry(  # made now, by this version
         "fit",
         options,
+        now_utc(),
         result_file,
+        __version__,
         e_t=_mean([t.proposed.get("E_t") for t in result.tests]),
         physics=",".join(sorted(result.terms)),
         areas=tuple(areas),
@@ -114,17 +113,19 @@ def fit_entry(result: Any, options: dict[str, Any], result_file: str) -> ResultE
     )
 
 
-def diagnosis_entry(doc: Any, options: dict[str, Any], result_file: str) -> ResultEntry:
+def diagnosis_entry(doc: DiagnosisDoc, options: dict[str, object], result_file: str) -> ResultEntry:
     """A DiagnosisDoc: the physics claimed, the verdict, E_t before and after, and the spec
     values it calibrated."""
     params = [
         ParameterEntry(c.parameter, _finite(c.fitted), _finite(c.sd), c.unit)
         for c in doc.verdict.calibration
     ]
-    return _made(
+    return ResultEntry(  # made now, by this version
         "diagnose",
         options,
+        now_utc(),
         result_file,
+        __version__,
         e_t=_mean([t.E_t_after for t in doc.tests]),
         e_t_before=_mean([t.E_t_before for t in doc.tests]),
         physics=",".join(doc.verdict.physics),
@@ -133,7 +134,7 @@ def diagnosis_entry(doc: Any, options: dict[str, Any], result_file: str) -> Resu
     )
 
 
-def fit_options(result: Any) -> dict[str, Any]:
+def fit_options(result: FitResult) -> dict[str, object]:
     """What shapes a fit, as its result records it (so `fit` and `batch fit` of the same
     recording with the same settings are one result, however the options were spelt)."""
     info = result.info
@@ -145,7 +146,7 @@ def fit_options(result: Any) -> dict[str, Any]:
     }
 
 
-def diagnosis_options(doc: Any, alpha: float, seed: int, terms: str) -> dict[str, Any]:
+def diagnosis_options(doc: DiagnosisDoc, alpha: float, seed: int, terms: str) -> dict[str, object]:
     """What shapes a diagnosis: its significance, seed, candidate terms and spec."""
     spec = doc.info.spec.path if doc.info.spec is not None else ""
     named = sorted({t.strip() for t in terms.split(",") if t.strip()})

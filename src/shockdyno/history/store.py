@@ -15,7 +15,6 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from shockdyno.errors import ConfigError
 from shockdyno.history.schema import open_db
@@ -65,7 +64,7 @@ class ParameterEntry:
 @dataclass(frozen=True)
 class ResultEntry:
     kind: str  # "fit" | "diagnose"
-    options: dict[str, Any]
+    options: dict[str, object]  # a JSON object: stored as text, compared whole
     made_utc: str
     result_file: str = ""
     version: str = ""

@@ -7,12 +7,17 @@ import argparse
 import functools
 from collections.abc import Callable
 from pathlib import Path
+from typing import TypeAlias
 
 from shockdyno.errors import ConfigError, RigFault
 from shockdyno.lists import seed_arg
 from shockdyno.model.terms import LIBRARY
 from shockdyno.result_files import not_a_recording
 from shockdyno.rig.config import load_rig
+
+# What `register(subparsers)` of each command module is given (argparse names no public
+# class for it; a string, as the class is generic only to the type checker).
+Subparsers: TypeAlias = "argparse._SubParsersAction[argparse.ArgumentParser]"
 
 
 def add_rig(p: argparse._ActionsContainer) -> None:

@@ -6,17 +6,16 @@ import argparse
 import json
 import sys
 from pathlib import Path
-from typing import Any
 
 from shockdyno import units as units_mod
 from shockdyno.atomic import staged_dir
-from shockdyno.commands.args import add_gas_arguments
+from shockdyno.commands.args import Subparsers, add_gas_arguments
 from shockdyno.errors import ConfigError
 from shockdyno.outputs import check_output, check_report_dir, write_output
 from shockdyno.report.gas import parse_given, warnings
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     p = sub.add_parser(
         "compare",
         help="recordings and fits side by side: overlays, click charts, a difference table",

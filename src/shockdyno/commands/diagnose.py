@@ -7,14 +7,13 @@ import math
 import sys
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 from rich.console import Console
 from rich.table import Table
 
 from shockdyno import units as units_mod
 from shockdyno.atomic import staged_dir
-from shockdyno.commands.args import add_seed, add_spec, add_term_list, require_recording
+from shockdyno.commands.args import Subparsers, add_seed, add_spec, add_term_list, require_recording
 from shockdyno.commands.history import add_history_argument, keep
 from shockdyno.diagnose.file import diagnose_file, parse_candidates
 from shockdyno.diagnose.workers import usable_cores
@@ -30,7 +29,7 @@ from shockdyno.report.documents import DiagnosisDoc, Finding, diagnosis_text
 from shockdyno.report.findings_table import finding_cells
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     p = sub.add_parser(
         "diagnose",
         help="find where model and recording differ, name the missing physics, refit",
@@ -82,7 +81,7 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run_diagnose)
 
 
-def _summary(findings: tuple[Finding, ...], units: units_mod.Units = units_mod.SI) -> Any:
+def _summary(findings: tuple[Finding, ...], units: units_mod.Units = units_mod.SI) -> Table:
     table = Table(title="Candidate physics (refitted with globals and areas)")
     effect = f"peak effect {units.force_label}"
     for name in ("round", "physics", "claimed", "p", "held-out gain", effect, "note"):

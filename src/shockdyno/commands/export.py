@@ -11,13 +11,12 @@ import math
 import sys
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from shockdyno import __version__
-from shockdyno.commands.args import add_force, require_recording
+from shockdyno.commands.args import Subparsers, add_force, require_recording
 from shockdyno.errors import ConfigError
 from shockdyno.fit.file import MAX_FORCE_N
 from shockdyno.fit.result import FitResult
@@ -31,6 +30,7 @@ from shockdyno.result_files import starts_as_mcap
 from shockdyno.ride.damper_table import (
     IMPERIAL_SPEEDS_M_S,
     UNITS,
+    ClickTable,
     click_tables,
     notes,
     write_tables,
@@ -39,7 +39,7 @@ from shockdyno.ride.damper_table import (
 MAX_BAND_MM_S = 100.0  # wider would smooth away the bleed's own low-speed damping
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "export",
         help="export a recording to CSV, or a fit to damper tables for vehicle simulation",
@@ -142,7 +142,7 @@ def _load_fit(path: Path) -> FitResult:
     return FitResult.load(path)
 
 
-def _check_tables(tables: list[Any], source: Path) -> None:
+def _check_tables(tables: list[ClickTable], source: Path) -> None:
     """Refuse a damper no dyno measures (issue 46.11: a fit with a gas pressure of 1e300 Pa
     was written out as a table of 1.5e296 N): every force finite and within MAX_FORCE_N,
     the bound a recording's forces are held to (fit/file.py)."""
@@ -157,7 +157,7 @@ def _check_tables(tables: list[Any], source: Path) -> None:
             )
 
 
-def _said(t: Any) -> str:
+def _said(t: ClickTable) -> str:
     """A table on the terminal: 'clicks 12', or 'compression 12 clicks (rebound at 10)'."""
     return t.label if t.adjuster else f"clicks {t.clicks}"
 

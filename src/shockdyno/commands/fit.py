@@ -10,7 +10,6 @@ import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 from rich.console import Console
 from rich.table import Table
@@ -18,6 +17,7 @@ from rich.table import Table
 from shockdyno import units as units_mod
 from shockdyno.atomic import staged_dir, write_text_atomic
 from shockdyno.commands.args import (
+    Subparsers,
     add_force,
     add_seed,
     add_spec,
@@ -34,6 +34,7 @@ from shockdyno.fit.terms import parse_terms
 from shockdyno.fit.validate import table4_rows, table4_table
 from shockdyno.history import record_fit
 from shockdyno.model import load_spec
+from shockdyno.model.params import Estimate
 from shockdyno.model.spec import spec_line, spec_used
 from shockdyno.model.terms import LIBRARY
 from shockdyno.outputs import check_output, check_report_dir, write_output
@@ -46,7 +47,7 @@ from shockdyno.report.temperature import reference_c
 from shockdyno.units import SI, Units
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     p = sub.add_parser(
         "fit",
         help="fit globals and bleed areas per click to a recording; validate (Table 4)",
@@ -99,7 +100,7 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run_fit)
 
 
-def terms_table(terms: dict[str, Any], units: Units = SI) -> Any:
+def terms_table(terms: dict[str, dict[str, Estimate]], units: Units = SI) -> Table:
     """Fitted term parameters: value ± σ in display units; held ones, and those pressed
     against a bound ("at lower bound (0 ms)" in place of the value), marked."""
     table = Table(title="Physics terms (±1σ)")
@@ -140,7 +141,7 @@ def _area(value: float, sd: float, show: Shown) -> str:
     return text + f" ±{show.spread(sd):.1g}"
 
 
-def _clicks_table(result: Any, units: Units = SI) -> Any:
+def _clicks_table(result: FitResult, units: Units = SI) -> Table:
     show = shown("m²", units)
     table = Table(title=f"Bleed areas per click ({show.label}, ±1σ)")
     names = result.adjuster_names()  # a damper with several: a column each, not "clicks"
@@ -159,7 +160,7 @@ def _clicks_table(result: Any, units: Units = SI) -> Any:
     return table
 
 
-def _globals_table(result: Any, units: Units = SI) -> Any:
+def _globals_table(result: FitResult, units: Units = SI) -> Table:
     header, rows = globals_rows(result, units)
     table = Table(title="Calibrated globals (±1σ)")
     for name in header:

@@ -10,14 +10,16 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Callable
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any
 
 from rich.table import Table
 
+from shockdyno.commands.args import Subparsers
 from shockdyno.errors import ConfigError
 from shockdyno.history import DEFAULT, ENV, default_path, store
+from shockdyno.history.store import RecordingEntry, Visit
 from shockdyno.history.view import (
     CHANGED,
     K_SIGMA,
@@ -32,7 +34,7 @@ from shockdyno.outputs import check_output, write_output
 from shockdyno.progress import table_console
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     p = sub.add_parser(
         "history",
         help="how a damper changed: its recordings, fitted areas, parameters, diagnoses",
@@ -72,7 +74,7 @@ def database(args: argparse.Namespace) -> Path:
     return Path(args.history) if args.history is not None else default_path()
 
 
-def keep(args: argparse.Namespace, add: Any, what: str) -> None:
+def keep(args: argparse.Namespace, add: Callable[[Path], RecordingEntry], what: str) -> None:
     """Run `add(db)` unless --no-history; its result is written already, so a history that
     cannot take it is a warning line, not the command's failure."""
     if getattr(args, "no_history", False):
@@ -129,7 +131,7 @@ def run_history(args: argparse.Namespace) -> int:
     return 0
 
 
-def _print(damper: str, visits: list[Any], db: Path, to_stderr: bool) -> None:
+def _print(damper: str, visits: list[Visit], db: Path, to_stderr: bool) -> None:
     console = table_console(stderr=to_stderr)
     console.print(f"history of damper {damper}: {len(visits)} recordings in {db}")
     table = Table(title="Recordings, oldest first")

@@ -6,7 +6,6 @@ import argparse
 import contextlib
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 from rich.console import Console
 from rich.markup import escape
@@ -39,7 +38,7 @@ def add_live_arguments(p: argparse.ArgumentParser, what: str) -> None:
 @contextlib.contextmanager
 def live_view(
     args: argparse.Namespace, console: Console, *, blocking: bool = False
-) -> Iterator[Any]:
+) -> Iterator[LivePublisher | None]:
     """The live view's publisher while the block runs (None without --live), the server
     closed after it. A server that cannot start is a ConfigError before anything else."""
     if not getattr(args, "live", False):

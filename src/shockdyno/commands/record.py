@@ -5,9 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import Any
 
-from shockdyno.commands.args import add_force, require_recording
+from shockdyno.commands.args import Subparsers, add_force, require_recording
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.outputs import check_output, is_stdout, write_output
 from shockdyno.progress import StageProgress
@@ -26,7 +25,7 @@ from shockdyno.record.reader import open_recording
 from shockdyno.result_files import starts_as_mcap
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "info",
         help="summarise a recording (tests, durations, dropped frames, faults)",

@@ -5,12 +5,11 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
 
 from rich.console import Console
 
 from shockdyno.atomic import staged_dir
-from shockdyno.commands.args import add_gas_arguments, require_recording
+from shockdyno.commands.args import Subparsers, add_gas_arguments, require_recording
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.fit import forces
 from shockdyno.fit.result import FitResult
@@ -36,7 +35,7 @@ from shockdyno.units import add_argument as add_units_argument
 from shockdyno.units import get as get_units
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     p = sub.add_parser(
         "report",
         help="one HTML page for a recording: click chart, loops, and fit/diagnose/ride if given",
@@ -88,7 +87,10 @@ def _sha256(ref: RecordingRef | None) -> str | None:
 
 
 def _provenance(
-    args: argparse.Namespace, fit: Any, diagnose: DiagnosisDoc | None, ride: RideDoc | None
+    args: argparse.Namespace,
+    fit: FitResult | None,
+    diagnose: DiagnosisDoc | None,
+    ride: RideDoc | None,
 ) -> dict[str, str]:
     """Each result given against the recording's hash: a page row each; a result of
     another recording (or of none it names) is refused unless --allow-other-recording

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import TypeVar
 
 from shockdyno.atomic import staged_dir
-from shockdyno.commands.args import add_force, add_seed
+from shockdyno.commands.args import Subparsers, add_force, add_seed
 from shockdyno.errors import ConfigError
 from shockdyno.fit.result import FitResult
 from shockdyno.lists import parse_floats, parse_ints, parse_letters
@@ -24,7 +24,7 @@ from shockdyno.ride.study import RideConfig, RideResult, run_study
 T = TypeVar("T")
 
 
-def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "ride",
         help="quarter car with the fitted damper on ISO 8608 roads (RMS, Wk RMS, PSD)",

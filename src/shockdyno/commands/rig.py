@@ -11,11 +11,10 @@ import json
 import math
 import sys
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from shockdyno.commands.args import add_force, add_rig, hint_unreachable
+from shockdyno.commands.args import Subparsers, add_force, add_rig, hint_unreachable
 from shockdyno.errors import ConfigError, RigFault
 from shockdyno.outputs import check_output, write_output
 from shockdyno.rig.actuator import ModbusActuator
@@ -45,7 +44,7 @@ def _mm(text: str) -> float:
     return value
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     r = sub.add_parser(
         "rig",
         help="first contact with a rig: check (read only), jog, tare the load cell",

@@ -9,24 +9,27 @@ import time
 from collections import deque
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 from rich.console import Console
 from rich.table import Table
 
 from shockdyno import __version__
 from shockdyno import units as units_mod
-from shockdyno.commands.args import add_force, add_rig, add_seed, hint_unreachable
+from shockdyno.commands.args import Subparsers, add_force, add_rig, add_seed, hint_unreachable
 from shockdyno.commands.live import add_live_arguments, live_view
 from shockdyno.errors import ConfigError, RecordingError, RigFault
 from shockdyno.fit.file import fit_file
+from shockdyno.fit.result import FitResult
 from shockdyno.fit.validate import table4_rows
 from shockdyno.lists import parse_clicks, parse_frequencies
+from shockdyno.live.publisher import LivePublisher
 from shockdyno.model.spec import DamperSpec, default_spec_path, load_spec
 from shockdyno.model.stroke import CONSTANT_VELOCITY, WAVEFORMS, Stroke
 from shockdyno.outputs import refuse_inputs
 from shockdyno.record import open_recording
 from shockdyno.record.lock import recording_lock
+from shockdyno.record.reader import Recording
+from shockdyno.record.types import TestMeta
 from shockdyno.report.clickchart import spec_static_force_n
 from shockdyno.rig.config import RigConfig, load_rig
 from shockdyno.run.liveview import LiveView
@@ -81,13 +84,13 @@ def _band(text: str) -> tuple[float, float]:
     return lo, hi
 
 
-def register(sub: Any) -> None:
+def register(sub: Subparsers) -> None:
     _register_demo(sub)
     _register_sweep(sub)
     _register_replay(sub)
 
 
-def _register_demo(sub: Any) -> None:
+def _register_demo(sub: Subparsers) -> None:
     d = sub.add_parser(
         "demo",
         help="sweep the simulated rig, fit the model, write the recording and the report",
@@ -104,7 +107,7 @@ def _register_demo(sub: Any) -> None:
     d.set_defaults(func=cmd_demo)
 
 
-def _register_sweep(sub: Any) -> None:
+def _register_sweep(sub: Subparsers) -> None:
     s = sub.add_parser(
         "sweep",
         help="run a click sweep on a rig and record it to MCAP",
@@ -188,7 +191,7 @@ def _add_start_sim(s: argparse.ArgumentParser) -> None:
     add_seed(s, "the simulated rig's noise, with --start-sim")
 
 
-def _register_replay(sub: Any) -> None:
+def _register_replay(sub: Subparsers) -> None:
     r = sub.add_parser("replay", help="play a recording through the live view")
     r.add_argument("recording", type=Path)
     r.add_argument("--speed", type=float, default=1.0, help="x real time: recorded seconds per "
@@ -379,7 +382,7 @@ def _plan(
     )
 
 
-def _click_ranges(spec: Any) -> tuple[int, int]:
+def _click_ranges(spec: DamperSpec) -> tuple[int, int]:
     return int(spec.compression_bleed.max_clicks), int(spec.max_gas_clicks)
 
 
@@ -483,17 +486,19 @@ class _ReplayRecords:
     """The recording's test records, actuator records and events, sent to the live view
     in step with the samples (replay --live)."""
 
-    def __init__(self, rec: Any, live: Any) -> None:
+    def __init__(self, rec: Recording, live: LivePublisher | None) -> None:
         self.live = live
         self.actuator = deque(sorted(rec.actuator, key=lambda r: r[0]))
         self.events = deque(sorted(rec.events, key=lambda r: r[0]))
 
-    def begin(self, meta: Any, t_s: float) -> None:
+    def begin(self, meta: TestMeta, t_s: float) -> None:
         if self.live is not None:
             self.until(t_s)
             self.live.begin_test(replace(meta, status="running"))
 
     def until(self, t_s: float) -> None:
+        if self.live is None:  # called only with a live view
+            return
         while self.actuator and self.actuator[0][0] <= t_s:
             t, fields = self.actuator.popleft()
             kept = {k: v for k, v in fields.items() if k not in ("t_s", "test")}
@@ -501,7 +506,7 @@ class _ReplayRecords:
         while self.events and self.events[0][0] <= t_s:
             self.live.write_event(*self.events.popleft())
 
-    def end(self, meta: Any) -> None:
+    def end(self, meta: TestMeta) -> None:
         if self.live is not None:
             self.live.end_test(meta)
 
@@ -549,16 +554,17 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
-def _static_force(spec: Any) -> float:
+def _static_force(spec: DamperSpec) -> float:
     return spec_static_force_n(spec)
 
 
-def _demo_fit(rec_path: Path, spec_path: Path, out: Path, seed: int, console: Console) -> Any:
+def _demo_fit(rec_path: Path, spec_path: Path, out: Path, seed: int, console: Console) -> FitResult:
     """`shockdyno fit` of the demo's recording: the result names it (info.recording), so
     `report demo.mcap --fit demo-fit.json` and `diagnose --fit` accept it."""
     console.rule("fit: globals, bleed areas per click, trend, validation")
     t0 = time.perf_counter()
-    result, _ = fit_file(rec_path, spec=str(spec_path), optimizer="fast", seed=seed)
+    fitted, _ = fit_file(rec_path, spec=str(spec_path), optimizer="fast", seed=seed)
+    result: FitResult = fitted  # fit_file is typed Any (fit/)
     fit_path = out / "demo-fit.json"
     result.save(fit_path)
     console.print(f"fit done in {time.perf_counter() - t0:.1f} s: {fit_path}", soft_wrap=True)

@@ -7,14 +7,14 @@ import math
 import sys
 import time
 
-from shockdyno.commands.args import add_seed, add_spec
+from shockdyno.commands.args import Subparsers, add_seed, add_spec
 from shockdyno.errors import ConfigError
 from shockdyno.rig.config import default_rig_path, load_rig
 from shockdyno.simrig.faults import parse_fault
 from shockdyno.simrig.server import start_sim_rig
 
 
-def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+def register(subparsers: Subparsers) -> None:
     p = subparsers.add_parser(
         "sim-rig",
         help="run the simulated rig (Modbus drive + serial DAQ on 127.0.0.1)",

@@ -18,14 +18,15 @@ import math
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import SupportsFloat, cast
 
 import msgspec
 import numpy as np
+from numpy.typing import ArrayLike
 
-from shockdyno.live.cycles import Cycle, CycleCutter, Stretch
+from shockdyno.live.cycles import Cycle, CycleCutter, FloatArray, Stretch
 from shockdyno.live.server import TOPIC_CYCLE, TOPIC_POSITION, LiveServer
 from shockdyno.record import schemas as s
 from shockdyno.record.types import TestMeta
@@ -75,7 +76,8 @@ class LivePublisher:
         self._max_samples = max_samples
         self._max_items = max_items
         self._blocking = blocking
-        self._queue: deque[tuple[str, tuple[Any, ...]]] = deque()
+        # (operation, its arguments): each `_on_<operation>`'s own, in one queue
+        self._queue: deque[tuple[str, tuple[object, ...]]] = deque()
         # Each counter is written by one thread only: queued by the caller, sent by the thread.
         self._queued_samples = 0
         self._sent_samples = 0
@@ -123,7 +125,7 @@ class LivePublisher:
         """n more samples would be more than the queue holds."""
         return self._queued_samples - self._sent_samples + n > self._max_samples
 
-    def _put(self, op: str, args: tuple[Any, ...]) -> None:
+    def _put(self, op: str, args: tuple[object, ...]) -> None:
         if op != "samples" and (self._failed or len(self._queue) >= self._max_items):
             self.counts.refused_calls += 1
             return
@@ -153,10 +155,11 @@ class LivePublisher:
         return said
 
     # -- the thread ----------------------------------------------------------------------
-    def _drop(self, op: str, args: tuple[Any, ...]) -> None:
+    def _drop(self, op: str, args: tuple[object, ...]) -> None:
         if op == "samples":
-            self.counts.lost_samples += len(args[0])
-            self._sent_samples += len(args[0])
+            n = len(cast(SampleBlock, args[0]))  # write_samples queued it
+            self.counts.lost_samples += n
+            self._sent_samples += n
         else:
             self.counts.lost_calls += 1
 
@@ -201,7 +204,7 @@ class LivePublisher:
             return time.time_ns()
         return self._origin_ns + round(t_s * 1e9)
 
-    def _send_json(self, topic: str, t_s: float, obj: dict[str, Any]) -> None:
+    def _send_json(self, topic: str, t_s: float, obj: Mapping[str, object]) -> None:
         if self.server.watched(topic):
             data = _JSON.encode(obj)
             self.server.send(topic, self._log_time(t_s), data)
@@ -228,7 +231,7 @@ class LivePublisher:
 
     def _on_actuator(self, t_s: float, fields: dict[str, float | int | bool | str]) -> None:
         self._cutter.actuator(fields)
-        obj: dict[str, Any] = {"t_s": float(t_s), "test": self._test_field}
+        obj: dict[str, object] = {"t_s": float(t_s), "test": self._test_field}
         for k, v in fields.items():
             obj.setdefault(k, str(v) if isinstance(v, float) and not np.isfinite(v) else v)
         self._send_json(s.TOPIC_ACTUATOR, t_s, obj)
@@ -255,7 +258,7 @@ class LivePublisher:
         for cycle in cycles:
             self._send_json(TOPIC_CYCLE, cycle.t_start_s, self._cycle(cycle))
 
-    def _cycle(self, c: Cycle) -> dict[str, Any]:
+    def _cycle(self, c: Cycle) -> dict[str, object]:
         m = self._open
         assert m is not None
         f, v = c.force_n, c.velocity_m_s
@@ -280,18 +283,18 @@ class LivePublisher:
         }
 
 
-def _list(a: np.ndarray[Any, Any]) -> list[float]:
+def _list(a: ArrayLike) -> list[float]:
     """JSON numbers (msgspec writes NaN, a velocity that cannot be had, as null)."""
     return list(np.asarray(a, dtype=float).tolist())
 
 
-def _peak(a: np.ndarray[Any, Any], pick: Callable[[Any], Any]) -> float | None:
+def _peak(a: FloatArray, pick: Callable[[FloatArray], SupportsFloat]) -> float | None:
     finite = a[np.isfinite(a)]
     return float(pick(finite)) if finite.size else None
 
 
-def _position(test: int | None, st: Stretch) -> dict[str, Any]:
-    obj: dict[str, Any] = {
+def _position(test: int | None, st: Stretch) -> dict[str, object]:
+    obj: dict[str, object] = {
         "test": test,
         "t_s": _list(st.t_s),
         "displacement_m": _list(st.displacement_m),
@@ -303,7 +306,7 @@ def _position(test: int | None, st: Stretch) -> dict[str, Any]:
     return obj
 
 
-def _plain(v: Any) -> Any:
+def _plain(v: object) -> object:
     if isinstance(v, np.generic):
         return v.item()
     raise NotImplementedError(f"{type(v).__name__} is not JSON")

@@ -16,10 +16,14 @@ from __future__ import annotations
 import json
 import threading
 import time
-from typing import Any
+from typing import TYPE_CHECKING
 
 from shockdyno.errors import ConfigError
 from shockdyno.record import schemas as s
+
+if TYPE_CHECKING:  # for the types only: foxglove is imported where it is used (below)
+    import foxglove
+    from foxglove.websocket import ServerListener
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765  # Foxglove's own default for a WebSocket connection
@@ -30,7 +34,9 @@ TOPIC_CYCLE = "/live/cycle"
 _NUMS = {"type": "array", "items": {"type": ["number", "null"]}}
 
 
-def _schema(title: str, description: str, properties: dict[str, Any], required: list[str]) -> bytes:
+def _schema(
+    title: str, description: str, properties: dict[str, object], required: list[str]
+) -> bytes:
     doc = {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "title": title,
@@ -116,7 +122,7 @@ class LiveServer:
             raise ConfigError(_bind_error(host, port, str(exc))) from None
         self.host = host
         self.port = int(self._server.port)
-        self._channels: dict[str, Any] = {}
+        self._channels: dict[str, foxglove.Channel] = {}
         for topic, (name, encoding, data, message_encoding) in CHANNELS.items():
             schema = foxglove.Schema(name=name, encoding=encoding, data=data)
             self._channels[topic] = foxglove.Channel(
@@ -163,7 +169,7 @@ class LiveServer:
         self._server.stop()
 
 
-def _subscriptions() -> tuple[Any, threading.Event]:
+def _subscriptions() -> tuple[ServerListener, threading.Event]:
     """A ServerListener noting the first subscription (the SDK itself sends a channel
     only to its subscribers; every other callback is the protocol's own no-op), and the
     event it sets. foxglove is imported here, not by every command's start (see above)."""

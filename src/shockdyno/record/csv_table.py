@@ -13,7 +13,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,6 +25,15 @@ from shockdyno.record.plausible import (
 from shockdyno.samples import SampleBlock
 from shockdyno.units import M_PER_IN
 from shockdyno.units import N_PER_LBF as LBF_N
+
+
+class _Rows(Protocol):
+    """What csv.reader gives: rows of text, and the line the last one ended on."""
+
+    line_num: int
+
+    def __iter__(self) -> Iterator[list[str]]: ...
+
 
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "in": M_PER_IN}
 FORCE_UNITS = {"N": 1.0, "kN": 1e3, "lbf": LBF_N}
@@ -172,7 +181,7 @@ class CsvTable:
             )
         return True
 
-    def _keep_rows(self, reader: Any) -> None:
+    def _keep_rows(self, reader: _Rows) -> None:
         lines: list[int] = []
         for row in reader:
             if self._check_width(row, reader.line_num):
@@ -181,7 +190,7 @@ class CsvTable:
         self.lines = lines
         self.count = len(self.rows)
 
-    def _convert(self, reader: Any, wanted: dict[int, str]) -> None:
+    def _convert(self, reader: _Rows, wanted: dict[int, str]) -> None:
         lines = array("i")
         nums = {c: array("d") for c, k in wanted.items() if k != "time_iso"}
         texts: dict[int, list[str]] = {c: [] for c, k in wanted.items() if k == "time_iso"}

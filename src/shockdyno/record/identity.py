@@ -6,9 +6,9 @@ recognised instead of being shown as that recording's (docs/fit.md, `info.record
 
 from __future__ import annotations
 
+import argparse
 import hashlib
 from pathlib import Path
-from typing import Any
 
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.record.layout import set_paths
@@ -57,7 +57,7 @@ def provenance(stored: str | None, actual: str, what: str, flag: str, allow: boo
     return f"NOT CHECKED AGAINST THIS RECORDING: {line}; shown because of {ALLOW_FLAG}"
 
 
-def add_allow_argument(p: Any, what: str) -> None:
+def add_allow_argument(p: argparse._ActionsContainer, what: str) -> None:
     """The one flag that accepts a result of another recording, in every command."""
     p.add_argument(
         ALLOW_FLAG,

@@ -21,7 +21,6 @@ from collections import deque
 from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
-from typing import Any
 
 from shockdyno import priority
 from shockdyno.errors import RecordingError
@@ -38,7 +37,7 @@ class QueuedWriter:
     ) -> None:
         self.writer = writer
         self.max_pending_samples = max_pending_samples
-        self._queue: deque[tuple[Callable[..., Any], tuple[Any, ...], int] | None] = deque()
+        self._queue: deque[tuple[Callable[..., object], tuple[object, ...], int] | None] = deque()
         self._cv = threading.Condition()
         self._pending = 0  # samples queued and not yet written
         self._busy = False
@@ -107,7 +106,7 @@ class QueuedWriter:
         self.close()
 
     # -- the thread ----------------------------------------------------------------------
-    def _put(self, fn: Callable[..., Any], *args: Any, samples: int = 0) -> None:
+    def _put(self, fn: Callable[..., object], *args: object, samples: int = 0) -> None:
         self._raise()
         if self._closed:
             raise RecordingError(f"{self.path} is closed")

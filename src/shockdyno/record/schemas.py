@@ -164,8 +164,8 @@ def display_velocity(
     return out
 
 
-def _json_schema(title: str, properties: dict[str, Any], **more: Any) -> bytes:
-    schema: dict[str, Any] = {
+def _json_schema(title: str, properties: dict[str, object], **more: object) -> bytes:
+    schema: dict[str, object] = {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "title": title,
     }
@@ -239,7 +239,7 @@ EVENT_SCHEMA = _json_schema(
 _ONLY_WHEN_SET = ("target_velocity_m_s", "reversal_accel_m_s2")
 
 
-def meta_to_json(meta: TestMeta) -> dict[str, Any]:
+def meta_to_json(meta: TestMeta) -> dict[str, object]:
     d = asdict(meta)
     d["cycle_start_s"] = [float(v) for v in meta.cycle_start_s]
     for key in _ONLY_WHEN_SET:
@@ -269,12 +269,12 @@ _TEXTS = ("motion", "status")
 _OPTIONAL_TEXTS = ("abort_reason", "gas_force_source")
 
 
-def _check_types(kw: dict[str, Any]) -> None:
-    def is_int(v: Any) -> bool:
+def _check_types(kw: dict[str, object]) -> None:
+    def is_int(v: object) -> bool:
         return isinstance(v, int) and not isinstance(v, bool)
 
-    def is_number(v: Any) -> bool:
-        return (is_int(v) or isinstance(v, float)) and math.isfinite(v)
+    def is_number(v: object) -> bool:
+        return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
 
     rules = (
         (_INTS, is_int, False, "a whole number"),
@@ -292,19 +292,18 @@ def _check_types(kw: dict[str, Any]) -> None:
                 raise RecordingError(f"bad test record: {name} must be {what}, got {kw[name]!r}")
 
 
-def _adjusters(value: Any) -> dict[str, int]:
-    ok = isinstance(value, dict) and all(
+def _adjusters(value: object) -> dict[str, int]:
+    if not isinstance(value, dict) or not all(
         isinstance(k, str) and isinstance(v, int) and not isinstance(v, bool) and v >= 0
         for k, v in value.items()
-    )
-    if not ok:
+    ):
         raise RecordingError(
             f"bad test record: adjusters must map names to clicks >= 0, got {value!r}"
         )
     return dict(value)
 
 
-def meta_from_json(d: dict[str, Any]) -> TestMeta:
+def meta_from_json(d: dict[str, Any]) -> TestMeta:  # Any: json.loads's, checked here
     """TestMeta from a /dyno/test record; unknown keys (newer writers) are ignored, a
     field of the wrong type is a RecordingError."""
     kw = {k: v for k, v in d.items() if k in _META_FIELDS}

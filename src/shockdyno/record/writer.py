@@ -28,11 +28,11 @@ import signal
 import threading
 import time
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 from pathlib import Path
 from types import TracebackType
-from typing import IO, Any, ParamSpec, TypeVar
+from typing import IO, ParamSpec, TypeVar
 
 import numpy as np
 from mcap.well_known import MessageEncoding, SchemaEncoding
@@ -266,7 +266,7 @@ class RecordingWriter:
         self._mcap.add_message(channel, log_time, data, log_time, self._seq)
         self._seq += 1
 
-    def _emit_json(self, channel: int, t_s: float, obj: dict[str, Any]) -> None:
+    def _emit_json(self, channel: int, t_s: float, obj: Mapping[str, object]) -> None:
         try:
             data = json.dumps(obj, allow_nan=False).encode()
         except ValueError as exc:  # NaN or infinity in a metadata field
@@ -354,7 +354,7 @@ class RecordingWriter:
     @_whole_records
     def write_actuator(self, t_s: float, fields: dict[str, float | int | bool | str]) -> None:
         self._check_open()
-        obj: dict[str, Any] = {"t_s": float(t_s), "test": self._test_field}
+        obj: dict[str, object] = {"t_s": float(t_s), "test": self._test_field}
         for k, v in fields.items():
             if k in obj:
                 raise RecordingError(f"actuator field {k!r} is reserved")

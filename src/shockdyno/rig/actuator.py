@@ -15,10 +15,10 @@ import threading
 from collections.abc import Callable, Iterable, Mapping
 from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, field
-from typing import Any
 
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.exceptions import ModbusException
+from pymodbus.pdu import ModbusPDU
 
 from shockdyno.errors import RigFault
 from shockdyno.rig.config import RigConfig
@@ -123,7 +123,9 @@ class ModbusActuator:
         with self._lock:
             self._client.close()  # type: ignore[no-untyped-call]
 
-    def _call(self, what: str, fn: Any, *args: Any, **kw: Any) -> Any:
+    def _call(
+        self, what: str, fn: Callable[..., ModbusPDU], *args: object, **kw: object
+    ) -> ModbusPDU:
         with self._lock, self._guard():
             try:
                 rr = fn(*args, device_id=self._device, **kw)

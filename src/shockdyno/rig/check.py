@@ -14,7 +14,6 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -44,7 +43,7 @@ class Finding:
     ok: bool = True
     note: str = ""
 
-    def as_dict(self) -> dict[str, Any]:  # Any: a JSON object's values (`rig check --json`)
+    def as_dict(self) -> dict[str, object]:  # `rig check --json`
         return {"what": self.what, "value": self.value, "ok": self.ok, "note": self.note}
 
 
@@ -77,7 +76,7 @@ class CheckResult:
     def ok(self) -> bool:
         return not self.problems
 
-    def as_dict(self) -> dict[str, Any]:  # Any: a JSON object's values (`rig check --json`)
+    def as_dict(self) -> dict[str, object]:  # `rig check --json`
         return {
             "rig": self.rig,
             "source": self.source,

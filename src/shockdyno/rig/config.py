@@ -314,7 +314,7 @@ class _RigFile:
     simulation: dict[str, Any] = field(default_factory=dict)  # SimParams.from_rig reads it
 
 
-def _transport(act: dict[str, Any], src: str) -> ModbusTransport:
+def _transport(act: dict[str, Any], src: str) -> ModbusTransport:  # Any: TOML values
     keys = {k: v for k, v in act.items() if k != "registers"}
     if "kind" in keys:
         raise fail(src, "actuator.kind", "unknown key (did you mean transport?)")
@@ -403,7 +403,7 @@ def _register_map(tables: Any, src: str) -> RegisterMap:  # Any: a TOML value, c
     )
 
 
-def _daq(doc: dict[str, Any], limits: Limits, centre: float, src: str) -> DaqConfig:
+def _daq(doc: dict[str, Any], limits: Limits, centre: float, src: str) -> DaqConfig:  # TOML
     daq = convert(doc, DaqConfig, src, "daq")
     bits_per_s = daq.sample_rate_hz * 18 * 10  # 18-byte frames, 10 bits per byte on the wire
     if not daq.url.startswith(("socket://", "loop://")) and bits_per_s > daq.baudrate:

@@ -16,7 +16,7 @@ from __future__ import annotations
 import copy
 import math
 from dataclasses import dataclass, field
-from typing import Annotated, Any
+from typing import Annotated
 
 import numpy as np
 from msgspec import Meta
@@ -121,7 +121,8 @@ class _State:
     areas: tuple[float, float] = (0.0, 0.0)
     temperature_c: float = 40.0
     plant: PlantState | None = None
-    extra: dict[str, Any] = field(default_factory=dict)
+    # faults of the wires, for the server to act on ("server_faults")
+    extra: dict[str, list[Fault]] = field(default_factory=dict)
 
 
 class SimEngine:
@@ -277,7 +278,8 @@ class SimEngine:
     def _compute(
         self, n: int
     ) -> tuple[
-        tuple[NDArray[np.int64], FloatArray, FloatArray, FloatArray, NDArray[np.uint16]], Any
+        tuple[NDArray[np.int64], FloatArray, FloatArray, FloatArray, NDArray[np.uint16]],
+        tuple[int, int] | None,
     ]:
         st = self.state
         p = self.params

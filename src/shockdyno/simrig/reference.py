@@ -152,7 +152,7 @@ class PlantParams:
     force_skew_s: NonNegative = 0.0
 
     @staticmethod
-    def from_table(table: dict[str, Any], source: str, at: str = "plant") -> PlantParams:
+    def from_table(table: dict[str, Any], source: str, at: str = "plant") -> PlantParams:  # TOML
         return convert({k: v for k, v in table.items() if k != "kind"}, PlantParams, source, at)
 
 
@@ -560,7 +560,10 @@ def _to_mid_stroke(
 
 
 def _ramped_sine(
-    k: NDArray[np.floating[Any]], dt: float, f: float, amplitude_m: float
+    k: NDArray[np.floating[Any]],  # Any: numpy's precision parameter (the caller's)
+    dt: float,
+    f: float,
+    amplitude_m: float,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """x, ẋ, ẍ of a sine at times `k` (step `dt`), its amplitude ramped in."""
     w = 2 * math.pi * f
@@ -589,7 +592,7 @@ def reference_sweep(
     load_noise_n: float = 2.0,
     temperature_noise_c: float = 0.02,
     seed: int = 0,
-) -> tuple[list[Any], PlantTruth]:
+) -> tuple[list[TestData], PlantTruth]:
     """A click sweep of the reference plant as a rig would record it, offline (no sockets:
     for benchmarks and tests): tests in order on one damper, its state (and its heat)
     carried from test to test, a rest at mid-stroke between tests, warm-up cycles not
@@ -597,7 +600,7 @@ def reference_sweep(
     rng = np.random.default_rng(seed)
     run = _Carried(ReferencePlant(spec, params, sample_rate_hz), ambient_c)
     dt = 1.0 / sample_rate_hz
-    tests: list[Any] = []
+    tests: list[TestData] = []
     temps: list[float] = []
     last_x = 0.0  # the rod is moved, never set: a jump would move no oil
     for c in clicks:

@@ -67,7 +67,7 @@ class _ScenarioFile:
     plant: dict[str, Any] | None = None  # PlantParams, checked on its own
 
 
-def _term(t: dict[str, Any], src: str, at: str, values: dict[str, float]) -> Term:
+def _term(t: dict[str, Any], src: str, at: str, values: dict[str, float]) -> Term:  # TOML
     """A [[term]] table: `kind` and the term's own parameters within their bounds."""
     if "kind" not in t:
         raise fail(src, f"{at}.kind", "missing")

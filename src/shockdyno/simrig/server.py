@@ -17,8 +17,9 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TypeVar
 
+from numpy.typing import ArrayLike
 from pymodbus.constants import ExcCodes
 from pymodbus.framer import FramerType
 from pymodbus.server import ModbusTcpServer
@@ -36,6 +37,8 @@ from shockdyno.simrig.scenario import Scenario, load_scenario
 from shockdyno.simrig.serial_stream import SerialStream
 from shockdyno.simrig.single_master import SingleMasterTcpServer
 from shockdyno.simrig.stepper import Stepper
+
+T = TypeVar("T")
 
 # The server reports its own failures as one-line RigFaults; without a handler of its own,
 # pymodbus's error log would reach stderr through logging's last-resort handler as well.
@@ -335,7 +338,7 @@ class SimRig:
             rig = replace(rig, actuator=act)
         return rig
 
-    def true_bleed_areas(self, clicks: Any, gas_clicks: Any = 0) -> tuple[float, float]:
+    def true_bleed_areas(self, clicks: ArrayLike, gas_clicks: ArrayLike = 0) -> tuple[float, float]:
         a_bc, a_bt = self.spec.bleed_areas(clicks, gas_clicks)
         return float(a_bc), float(a_bt)
 
@@ -353,13 +356,13 @@ class SimRig:
 
         loop.call_soon_threadsafe(apply)
 
-    def call(self, fn: Callable[[], Any]) -> Any:
+    def call(self, fn: Callable[[], T]) -> T:
         """Run fn on the sim-rig's loop and return its result (to inspect state safely)."""
         loop = self._loop
         if loop is None or loop.is_closed():
             raise RigFault("sim-rig is not running")
 
-        async def wrapped() -> Any:
+        async def wrapped() -> T:
             return fn()
 
         return asyncio.run_coroutine_threadsafe(wrapped(), loop).result(5)

@@ -46,7 +46,7 @@ class _OneMasterHandler(ServerRequestHandler):
 
 
 class SingleMasterTcpServer(ModbusTcpServer):
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
+    def __init__(self, *args: Any, **kwargs: Any) -> None:  # Any: ModbusTcpServer's own
         super().__init__(*args, **kwargs)
         self.master: _OneMasterHandler | None = None
         self.refused = 0  # writes answered "busy"

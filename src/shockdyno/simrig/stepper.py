@@ -21,7 +21,10 @@ from shockdyno import priority
 
 T = TypeVar("T")
 
-_Job = tuple[asyncio.AbstractEventLoop, "asyncio.Future[Any]", Callable[..., Any], tuple[Any, ...]]
+# Any: one queue holds jobs of every result type, and a Future is invariant in it.
+_Job = tuple[
+    asyncio.AbstractEventLoop, "asyncio.Future[Any]", Callable[..., object], tuple[object, ...]
+]
 
 
 class Stepper:
@@ -33,7 +36,7 @@ class Stepper:
         self._thread.start()
 
     def submit(
-        self, loop: asyncio.AbstractEventLoop, fn: Callable[..., T], *args: Any
+        self, loop: asyncio.AbstractEventLoop, fn: Callable[..., T], *args: object
     ) -> asyncio.Future[T]:
         fut: asyncio.Future[T] = loop.create_future()
         self._jobs.put((loop, fut, fn, args))
@@ -60,7 +63,7 @@ class Stepper:
                 loop.call_soon_threadsafe(_settle, fut, result, error)
 
 
-def _settle(fut: asyncio.Future[Any], result: Any, error: BaseException | None) -> None:
+def _settle(fut: asyncio.Future[Any], result: object, error: BaseException | None) -> None:
     if fut.done():  # cancelled by a loop that stopped waiting
         return
     if error is not None:

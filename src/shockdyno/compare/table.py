@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 from shockdyno.compare.inputs import Input, Setting
 from shockdyno.units import SI, Units
@@ -91,7 +90,7 @@ class Row:
             return f"{head}: {change}, beyond the scatter but under the practical floor"
         return f"{head}: {change}, not judged ({self.why})"
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, object]:
         def num(v: float) -> float | None:
             return round(v, 4) if math.isfinite(v) else None
 
@@ -185,7 +184,7 @@ def differences(rows: list[Row], units: Units = SI) -> list[str]:
     return lines
 
 
-def bleed_rows(inputs: list[Input]) -> tuple[list[str], list[list[str]], list[dict[str, Any]]]:
+def bleed_rows(inputs: list[Input]) -> tuple[list[str], list[list[str]], list[dict[str, object]]]:
     """The fitted bleed areas (mm²) of every fit input per click setting: header, rows, JSON."""
     fits = [i for i in inputs if i.fit is not None]
     keys = sorted({(c.clicks, c.gas_clicks) for i in fits for c in i.fit.clicks})  # type: ignore[union-attr]
@@ -194,10 +193,11 @@ def bleed_rows(inputs: list[Input]) -> tuple[list[str], list[list[str]], list[di
         header += [f"A_bc {i.label} (mm²)", f"A_bt {i.label} (mm²)"]
     for i in fits[1:]:
         header += [f"A_bc {i.label} vs {fits[0].label} (%)", f"A_bt {i.label} (%)"]
-    rows, doc = [], []
+    rows: list[list[str]] = []
+    doc: list[dict[str, object]] = []
     for key in keys:
         cells = [str(key[0]), str(key[1])]
-        entry: dict[str, Any] = {"clicks": key[0], "gas_clicks": key[1], "areas": {}}
+        areas: dict[str, dict[str, float]] = {}
         for i in fits:
             assert i.fit is not None
             c = next((c for c in i.fit.clicks if (c.clicks, c.gas_clicks) == key), None)
@@ -205,21 +205,21 @@ def bleed_rows(inputs: list[Input]) -> tuple[list[str], list[list[str]], list[di
                 cells += ["–", "–"]
                 continue
             cells += [f"{c.a_bc_m2 * 1e6:.3f}", f"{c.a_bt_m2 * 1e6:.3f}"]
-            entry["areas"][i.label] = {"A_bc_m2": c.a_bc_m2, "A_bt_m2": c.a_bt_m2}
-        first = entry["areas"].get(fits[0].label)
+            areas[i.label] = {"A_bc_m2": c.a_bc_m2, "A_bt_m2": c.a_bt_m2}
+        first = areas.get(fits[0].label)
         for i in fits[1:]:
-            other = entry["areas"].get(i.label)
+            other = areas.get(i.label)
             for name in ("A_bc_m2", "A_bt_m2"):
                 if first is None or other is None or not first[name] > 0:
                     cells.append("–")
                     continue
                 cells.append(f"{100 * (other[name] / first[name] - 1):+.1f}")
         rows.append(cells)
-        doc.append(entry)
+        doc.append({"clicks": key[0], "gas_clicks": key[1], "areas": areas})
     return header, rows, doc
 
 
-def to_json(inputs: list[Input], rows: list[Row]) -> dict[str, Any]:
+def to_json(inputs: list[Input], rows: list[Row]) -> dict[str, object]:
     """The `--json` document (SI; docs/compare.md)."""
     _, _, bleed = bleed_rows(inputs)
     return {

@@ -44,7 +44,7 @@ KINDS: dict[str, tuple[str, tuple[str, ...]]] = {
 }
 
 
-def kind_of(doc: Any) -> str | None:
+def kind_of(doc: object) -> str | None:
     """Which result a parsed JSON document is, if any."""
     if not isinstance(doc, dict):
         return None
@@ -69,7 +69,7 @@ def special_file(path: Path) -> bool:
     return path.exists() and not path.is_dir() and not path.is_file()
 
 
-def read_result(path: str | Path, flag: str, expected: str) -> dict[str, Any]:
+def read_result(path: str | Path, flag: str, expected: str) -> dict[str, Any]:  # json.loads's
     """The JSON document at `path`, checked to be the `expected` kind of result; else a
     one-line ConfigError naming `flag`, the file, what it is and what was expected."""
     p = Path(path)

@@ -35,6 +35,8 @@ from shockdyno.errors import ConfigError
 from shockdyno.result_files import special_file, what_bytes_are
 
 T = TypeVar("T")
+# Any in this module: a file's parsed TOML or JSON before it is checked (tomllib, json and
+# msgspec give Any), and the type forms msgspec checks a value against (_py).
 
 # Constraints written once, on the type. (msgspec has no "finite": non-finite numbers
 # are refused for every field before conversion.)
@@ -55,7 +57,7 @@ def fail(source: str, key: str, text: str) -> ConfigError:
     return ConfigError(f"{source}: {key}: {text}" if key else f"{source}: {text}")
 
 
-def dotted(at: str, key: Any) -> str:
+def dotted(at: str, key: object) -> str:
     """`at.key`, the key quoted where it is empty or holds a dot or a space (TOML's own
     quoting): `rig."a.b"` is not `rig.a.b`."""
     k = str(key)
@@ -121,7 +123,7 @@ def convert(data: Any, cls: type[T], source: str, at: str = "", *, unknown_keys:
 OMITTED_AT_DEFAULT = {"omitted_at_default": True}
 
 
-def to_json(doc: Any) -> Any:
+def to_json(doc: object) -> Any:  # Any: a JSON value, for json.dumps
     """A typed document (dataclasses, tuples, dicts, numbers, text) as the JSON value its
     file holds, for `json.dumps`: the keys in their fields' order, a field marked
     OMITTED_AT_DEFAULT left out at its default. `convert` reads it back."""
@@ -144,7 +146,7 @@ def _default(f: Field[Any]) -> Any:
     return f.default_factory() if f.default_factory is not MISSING else f.default
 
 
-def check(obj: Any, source: str) -> None:
+def check(obj: object, source: str) -> None:
     """`obj` (a dataclass built in code, e.g. a spec with fitted values) against the
     constraints of its own field types, as its file would be read."""
     convert(msgspec.to_builtins(obj), type(obj), source)
@@ -236,7 +238,7 @@ def _steps(path: str) -> list[str | int]:
     return out
 
 
-def _py(t: mi.Type) -> Any:
+def _py(t: mi.Type) -> Any:  # Any: a type form built at run time, for msgspec.convert
     """The Python type msgspec would check a value against (to find a dict's bad key)."""
     if isinstance(t, mi.DataclassType | mi.StructType):
         return t.cls
@@ -258,7 +260,7 @@ def _py(t: mi.Type) -> Any:
     return simple.get(type(t), Any)
 
 
-def _bad_key(data: dict[Any, Any], value_type: mi.Type) -> Any:
+def _bad_key(data: dict[Any, Any], value_type: mi.Type) -> object:
     """The first key of `data` whose value fails its type."""
     py = _py(value_type)
     for key, value in data.items():
@@ -277,7 +279,7 @@ def _walk(data: Any, t: mi.Type, steps: list[str | int]) -> tuple[Any, mi.Type, 
             inner = [x for x in t.types if not isinstance(x, mi.NoneType)]
             t = inner[0] if len(inner) == 1 else mi.AnyType()
         known = _fields(t)
-        step: Any = s
+        step: object = s
         if known is not None and isinstance(s, str) and s in known:
             t = known[s].type
         elif isinstance(t, mi.DictType):
@@ -293,7 +295,7 @@ def _walk(data: Any, t: mi.Type, steps: list[str | int]) -> tuple[Any, mi.Type, 
             t = t.item_types[s]
         else:
             t = mi.AnyType()
-        named.append(step)
+        named.append(s)  # step is s here: only a dict's key is renamed (above)
         try:
             data = data[step]
         except (KeyError, IndexError, TypeError):
@@ -312,7 +314,7 @@ def _dotted(steps: list[str | int], at: str) -> str:
     return out
 
 
-def shown(value: Any) -> str:
+def shown(value: object) -> str:
     """A bad value as the user wrote it (TOML/JSON spelling: true, null), cut short."""
     if isinstance(value, bool):
         return "true" if value else "false"

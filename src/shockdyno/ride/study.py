@@ -19,7 +19,6 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from itertools import product
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -288,8 +287,8 @@ class RideResult:
             fit_recording=self.fit_recording,
         )
 
-    def to_json(self) -> dict[str, Any]:
-        out: dict[str, Any] = to_json(self.doc())
+    def to_json(self) -> dict[str, object]:
+        out: dict[str, object] = to_json(self.doc())
         return out
 
 

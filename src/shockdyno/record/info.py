@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections import Counter
-from typing import Any
+from typing import NotRequired, TypedDict
 
 from shockdyno.record.reader import Recording
 from shockdyno.record.types import TestMeta
@@ -11,12 +11,85 @@ from shockdyno.record.types import TestMeta
 SCHEMA_VERSION = 1
 
 
-def _test_row(rec: Recording, meta: TestMeta) -> dict[str, Any]:
+class InfoTest(TypedDict):
+    index: int
+    clicks: int
+    gas_clicks: int
+    frequency_hz: float
+    amplitude_m: float
+    motion: str
+    status: str
+    damage: str | None
+    samples: int
+    sample_rate_hz: float
+    t_start_s: float | None
+    t_end_s: float | None
+    duration_s: float | None
+    dropped_frames: int | None
+    corrupt_frames: int | None
+    gas_force_n: float | None
+    gas_force_source: str | None
+    target_velocity_m_s: float | None
+    reversal_accel_m_s2: float | None
+    adjusters: NotRequired[dict[str, int]]  # a damper with several adjusters only
+
+
+class FileRow(TypedDict):
+    path: str
+    size_bytes: int
+    truncated: bool
+    problem: str | None
+    bad_chunks: int
+    bad_messages: int
+
+
+class ForeignPart(TypedDict):
+    path: str
+    why: str
+
+
+class Totals(TypedDict):
+    tests: int
+    complete: int
+    aborted: int
+    damaged: int
+    interrupted: int
+    samples: int
+    duration_s: float
+    dropped_frames: int
+    corrupt_frames: int
+
+
+class Event(TypedDict):
+    t_s: float
+    kind: str
+    message: str
+
+
+class Info(TypedDict):
+    """The `info --json` document (recordings/FORMAT.md)."""
+
+    schema_version: int
+    path: str
+    truncated: bool
+    files: list[FileRow]
+    metadata: dict[str, str]
+    identity: dict[str, str]
+    foreign_parts: list[ForeignPart]
+    rig_file_attached: bool
+    totals: Totals
+    tests: list[InfoTest]
+    interrupted: list[InfoTest]
+    event_counts: dict[str, int]
+    events: list[Event]
+
+
+def _test_row(rec: Recording, meta: TestMeta) -> InfoTest:
     block = rec.samples(meta)
     n = len(block)
     t0 = float(block.t_s[0]) if n else None
     t1 = float(block.t_s[-1]) if n else None
-    return {
+    row: InfoTest = {
         "index": meta.index,
         "clicks": meta.clicks,
         "gas_clicks": meta.gas_clicks,
@@ -38,10 +111,13 @@ def _test_row(rec: Recording, meta: TestMeta) -> dict[str, Any]:
         # A constant-velocity test's (motion triangle | trapezoid); None for a sine.
         "target_velocity_m_s": meta.target_velocity_m_s,
         "reversal_accel_m_s2": meta.reversal_accel_m_s2,
-    } | ({"adjusters": dict(meta.adjusters)} if meta.adjusters else {})
+    }
+    if meta.adjusters:  # the last key, as before
+        row["adjusters"] = dict(meta.adjusters)
+    return row
 
 
-def summarise(rec: Recording) -> dict[str, Any]:
+def summarise(rec: Recording) -> Info:
     """The `info --json` document (documented in recordings/FORMAT.md)."""
     tests = [_test_row(rec, m) for m in rec.tests]
     interrupted = [_test_row(rec, m) for m in rec.interrupted]
@@ -87,7 +163,7 @@ def _opt(v: int | None) -> str:
     return "-" if v is None else str(v)
 
 
-def format_text(doc: dict[str, Any], max_events: int = 20) -> str:
+def format_text(doc: Info, max_events: int = 20) -> str:
     lines = [f"recording {doc['path']}"]
     for f in doc["files"]:
         state = "TRUNCATED: " + (f["problem"] or "") if f["truncated"] else "complete file"
@@ -96,8 +172,8 @@ def format_text(doc: dict[str, Any], max_events: int = 20) -> str:
         if f["bad_messages"]:
             state += f"; {f['bad_messages']} messages could not be read"
         lines.append(f"  file {f['path']}: {f['size_bytes']} bytes, {state}")
-    for f in doc["foreign_parts"]:
-        lines.append(f"  NOT PART OF THIS RECORDING, not read: {f['path']} ({f['why']})")
+    for part in doc["foreign_parts"]:
+        lines.append(f"  NOT PART OF THIS RECORDING, not read: {part['path']} ({part['why']})")
     for k, v in doc["metadata"].items():
         lines.append(f"  {k}: {v}")
     lines.append(f"  rig file attached: {'yes' if doc['rig_file_attached'] else 'no'}")

@@ -62,6 +62,7 @@ class _PartData:
     ended: list[tuple[int, TestMeta, int | None]] = field(default_factory=list)
     samples: dict[int, list[bytes]] = field(default_factory=dict)
     events: list[tuple[float, str, str]] = field(default_factory=list)
+    # Any: the records' values as json.loads gives them (numbers, text, flags)
     actuator: list[tuple[float, dict[str, Any]]] = field(default_factory=list)
 
 
@@ -91,7 +92,7 @@ class Recording:
         self._interrupted_keys: list[tuple[int, int]] = []
         self._samples: dict[tuple[int, int], list[bytes]] = {}
         self.events: list[tuple[float, str, str]] = []
-        self.actuator: list[tuple[float, dict[str, Any]]] = []
+        self.actuator: list[tuple[float, dict[str, Any]]] = []  # json.loads's values
         for i, part in enumerate(parts):
             for serial, meta, count in part.ended:
                 damage = _damage(part.samples.get(serial, []), meta, count)

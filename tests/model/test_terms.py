@@ -509,6 +509,7 @@ def test_contact_is_a_hinge_with_a_power_law_past_each_onset() -> None:
         "exponent": 2.0,
         "hysteresis": 0.0,
         "hysteresis_velocity_m_s": 0.01,
+        "viscous_s_m": 0.0,
     }
     assert term.unplaced(local, stroke) == ""
     late = local | {"bump_onset_m": 0.0285}
@@ -524,13 +525,14 @@ def test_contact_is_a_hinge_with_a_power_law_past_each_onset() -> None:
     assert term.unseen(local | {"hysteresis_velocity_m_s": 0.2}, stroke) == {
         "hysteresis_velocity_m_s": 0.01
     }
-    lossy = late | {"topout_onset_m": -0.031, "hysteresis": 0.2}
+    lossy = late | {"topout_onset_m": -0.031, "hysteresis": 0.2, "viscous_s_m": 1.0}
     assert term.unseen(lossy, stroke) == {
         "bump_force_n": 0.0,
         "bump_onset_m": 0.2,
         "topout_force_n": 0.0,
         "topout_onset_m": -0.2,
         "hysteresis": 0.0,
+        "viscous_s_m": 0.0,
     }
     # Its start grid puts the onsets inside the stroke the data cover.
     seen = DamperModel(SPEC).evaluate(ModelInputs.single(x, z, z), A_BC, A_BT)
@@ -567,10 +569,20 @@ def test_a_lossy_stop_dissipates_its_loss_share_of_the_elastic_work_each_cycle()
     coming_out = len(x) // 2 - going_in  # the same depth, on the way out
     assert contact[coming_out] == pytest.approx((1 - eta) * f10 * 0.4**2, rel=1e-3)
     # An elastic stop (η = 0) stores and returns: no work over the cycle.
-    elastic = model.with_values({"contact.hysteresis": 0.0})
+    elastic = model.with_values({"contact.hysteresis": 0.0, "contact.viscous_s_m": 0.0})
     f0 = elastic.evaluate(ModelInputs.single(x, v, np.zeros_like(x)), A_BC, A_BT)
     c0 = f0.components["contact"]
     assert abs(float(np.sum(0.5 * (c0[1:] + c0[:-1]) * np.diff(x)))) < 1e-6 * per_side
+    # A viscous loss: (1 + α·v_in) × the elastic force going in, never a pull coming out.
+    alpha = 10.0  # coming out at 0.13 m/s at the onset, 1 − α·v < 0 there
+    viscous = model.with_values({"contact.hysteresis": 0.0, "contact.viscous_s_m": alpha})
+    fv = viscous.evaluate(ModelInputs.single(x, v, np.zeros_like(x)), A_BC, A_BT)
+    cv = fv.components["contact"]
+    for i in (going_in, coming_out):
+        v_in = v[i] * np.sign(x[i])
+        assert cv[i] == pytest.approx(max(0.0, 1 + alpha * v_in) * c0[i], rel=1e-12, abs=1e-12)
+    assert np.all(cv[x > 0] >= 0) and np.all(cv[x < 0] <= 0)
+    assert np.any((cv == 0) & (c0 > 0))  # coming out fast, the rubber left the rod
 
 
 @pytest.mark.parametrize("path", sorted((REPO / "sim" / "scenarios").glob("*.toml")), ids=str)

@@ -7,10 +7,11 @@ an engineer reads off a bump-stop curve, rather than by a stiffness whose unit c
 with n. n is 2 (a progressive elastomer) unless named (`contact.exponent`).
 
 A rubber stop pushes harder going in than coming out. Each side's force is multiplied by
-1 + η·tanh(v_in/v_h), v_in the speed into the stop (+ẋ at the bump, −ẋ at the top-out):
-v_h well below the test's speeds gives a loss that does not depend on speed (an
-elastomer's hysteresis), v_h well above it a loss proportional to speed, Hunt and
-Crossley's δ^n·ẋ (a viscous stop). η = 0: an elastic stop.
+max(0, 1 + η·tanh(v_in/v_h) + α·v_in), v_in the speed into the stop (+ẋ at the bump, −ẋ
+at the top-out): η a loss that does not depend on speed past v_h (an elastomer's
+hysteresis loop; v_h = 10 mm/s unless named), α one proportional to speed (Hunt and
+Crossley's viscous stop, F ∝ δⁿ(1 + α δ̇)). Never below 0: coming out faster than the
+rubber recovers, it leaves the rod. η = α = 0: an elastic stop.
 
 Beside `position_force`, which bends a smooth curve through the whole stroke, this is a
 hinge: nothing before the onset, then a power law. Off: both forces 0 (the onsets then
@@ -19,7 +20,6 @@ do nothing, and the data cannot place them: their σ is infinite).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import ClassVar
 
@@ -34,7 +34,6 @@ REFERENCE_DEPTH_M = 0.010
 # one whose onset lies in the last 10 % acts only in the ±26° of phase about reversal
 # (acos 0.9), where a lag, a delay or friction acts too, and is no evidence of contact.
 MIN_DEPTH_SHARE = 0.10
-HALF_TANH = math.atanh(0.5)
 
 
 class Contact(Term):
@@ -114,7 +113,18 @@ class Contact(Term):
             hi=1.0,
             scale=0.01,
             off=0.01,
+            free=False,
             doc="speed the loss saturates at",
+        ),
+        Param(
+            "viscous_s_m",
+            "s/m",
+            nominal=0.0,
+            lo=0.0,
+            hi=20.0,
+            scale=0.5,
+            off=0.0,
+            doc="loss per speed into the stop",
         ),
     )
 
@@ -130,15 +140,20 @@ class Contact(Term):
                     f"{r.sd(f'{key}_force_n', fn)} {fl} {ln * 0.01:.2g} {ll} past it)"
                 )
         text = "contact: " + (" and ".join(sides) or "at the end of travel")
+        losses = []
         if sides and r.moved("hysteresis"):
-            (sn, sl), eta = r.speed, r.v("hysteresis")
-            # tanh reaches half its value at 0.549 of its scale.
-            half = sn * HALF_TANH * r.v("hysteresis_velocity_m_s")
-            text += (
-                f", {100 * eta:.2g}{r.sd('hysteresis', 100)} % harder going in than coming "
-                f"out (the rubber's hysteresis, half of it at {half:.2g} {sl})"
+            losses.append(
+                f"{100 * r.v('hysteresis'):.2g}{r.sd('hysteresis', 100)} % harder going in "
+                "than coming out (the rubber's hysteresis)"
             )
-        return text
+        if sides and r.moved("viscous_s_m"):
+            # As a share per 0.1 m/s into the stop, which reads better than s/m.
+            (sn, sl), alpha = r.speed, r.v("viscous_s_m")
+            losses.append(
+                f"{10 * alpha:.2g}{r.sd('viscous_s_m', 10)} % more per {0.1 * sn:.3g} {sl} "
+                "into the stop (a viscous loss)"
+            )
+        return text + (", " + " and ".join(losses) if losses else "")
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
         # Past the onset the force grows fast, before it there is none: a start whose
@@ -172,10 +187,14 @@ class Contact(Term):
                 out[force], out[onset] = off[force], off[onset]
         # The loss acts on the stops' force only: with none left, or no loss, its
         # parameters move nothing.
-        if len(out) == 4 or p["hysteresis"] == 0.0:
-            for name in ("hysteresis", "hysteresis_velocity_m_s"):
-                if p[name] != off[name]:
-                    out[name] = off[name]
+        losses: tuple[str, ...] = ()
+        if len(out) == 4:
+            losses = ("hysteresis", "viscous_s_m", "hysteresis_velocity_m_s")
+        elif p["hysteresis"] == 0.0:
+            losses = ("hysteresis_velocity_m_s",)
+        for name in losses:
+            if p[name] != off[name]:
+                out[name] = off[name]
         return out
 
     def unplaced(self, p: Mapping[str, float], x: FloatArray) -> str:
@@ -197,13 +216,14 @@ class Contact(Term):
         bump = np.maximum(w.x - p["bump_onset_m"], 0.0) / REFERENCE_DEPTH_M
         top = np.maximum(p["topout_onset_m"] - w.x, 0.0) / REFERENCE_DEPTH_M
         force = p["bump_force_n"] * bump**n - p["topout_force_n"] * top**n
-        if p["hysteresis"] != 0.0:
-            # Loading either side (into the stop) pushes harder than unloading, by a share
-            # that grows with speed and saturates: its sign follows the velocity into the
-            # stop, which is +v at the bump and -v at the top-out, so on both sides the
-            # factor is 1 + η·tanh(v/v_h)·sgn(force).
-            loss = p["hysteresis"] * np.tanh(w.v / p["hysteresis_velocity_m_s"])
-            force = force * (1.0 + np.sign(force) * loss)
+        eta, alpha = p["hysteresis"], p["viscous_s_m"]
+        if eta != 0.0 or alpha != 0.0:
+            # Going into either stop it pushes harder than coming out. The speed into the
+            # stop is +v at the bump and -v at the top-out, i.e. v·sgn(force). Coming out
+            # fast, a viscous loss would have the stop pull; a rubber leaves the rod then.
+            v_in = w.v * np.sign(force)
+            loss = eta * np.tanh(v_in / p["hysteresis_velocity_m_s"]) + alpha * v_in
+            force = force * np.maximum(1.0 + loss, 0.0)
         w.add_part(self.name, force)
         return None
 

@@ -505,7 +505,12 @@ def test_contact_is_a_hinge_with_a_power_law_past_each_onset() -> None:
     # An onset in the last 10 % of the stroke acts at reversal only: not placed.
     term = make_term("contact")
     stroke = 0.03 * np.sin(np.linspace(0, 2 * np.pi, 400))
-    local = {k.partition(".")[2]: v for k, v in values.items()} | {"exponent": 2.0}
+    local = {k.partition(".")[2]: v for k, v in values.items()} | {
+        "exponent": 2.0,
+        "hysteresis": 0.0,
+        "hysteresis_velocity_m_s": 0.01,
+        "viscous_s_m": 0.0,
+    }
     assert term.unplaced(local, stroke) == ""
     late = local | {"bump_onset_m": 0.0285}
     assert "last 1.5 mm" in term.unplaced(late, stroke)
@@ -516,11 +521,68 @@ def test_contact_is_a_hinge_with_a_power_law_past_each_onset() -> None:
     assert term.unseen(late, stroke) == {"bump_force_n": 0.0, "bump_onset_m": 0.2}
     beyond = local | {"topout_onset_m": -0.031}
     assert term.unseen(beyond, stroke) == {"topout_force_n": 0.0, "topout_onset_m": -0.2}
+    # With no loss, the loss's speed moves nothing; with no stop, neither does the loss.
+    assert term.unseen(local | {"hysteresis_velocity_m_s": 0.2}, stroke) == {
+        "hysteresis_velocity_m_s": 0.01
+    }
+    lossy = late | {"topout_onset_m": -0.031, "hysteresis": 0.2, "viscous_s_m": 1.0}
+    assert term.unseen(lossy, stroke) == {
+        "bump_force_n": 0.0,
+        "bump_onset_m": 0.2,
+        "topout_force_n": 0.0,
+        "topout_onset_m": -0.2,
+        "hysteresis": 0.0,
+        "viscous_s_m": 0.0,
+    }
     # Its start grid puts the onsets inside the stroke the data cover.
     seen = DamperModel(SPEC).evaluate(ModelInputs.single(x, z, z), A_BC, A_BT)
     grid = make_term("contact").start_grid(seen)
     assert all(0 < g.get("bump_onset_m", 0.01) < 0.030 for g in grid)
     assert all(-0.035 < g.get("topout_onset_m", -0.01) < 0 for g in grid)
+
+
+def test_a_lossy_stop_dissipates_its_loss_share_of_the_elastic_work_each_cycle() -> None:
+    # Through a sine 8 mm deep into each stop, a loss that does not depend on speed
+    # (v_h far below the stroke's speeds) takes η of the elastic work going in and gives
+    # back η less coming out: per cycle, each side dissipates 2η·∫F dδ = 2η·F₁₀·d³/(3·δ₁₀²)
+    # with n = 2. Going in, the force is (1 + η)× the elastic one at the same depth.
+    eta, f10, depth = 0.15, 400.0, 0.008
+    values = {
+        "contact.bump_onset_m": 0.022,
+        "contact.bump_force_n": f10,
+        "contact.topout_onset_m": -0.022,
+        "contact.topout_force_n": f10,
+        "contact.hysteresis": eta,
+        "contact.hysteresis_velocity_m_s": 1e-6,
+    }
+    model = DamperModel(SPEC, (make_term("contact"),), values)
+    t = np.linspace(0.0, 1.0, 400_001)
+    x = 0.030 * np.sin(2 * np.pi * t)
+    v = 0.030 * 2 * np.pi * np.cos(2 * np.pi * t)
+    f = model.evaluate(ModelInputs.single(x, v, np.zeros_like(x)), A_BC, A_BT)
+    contact = f.components["contact"]
+    work = float(np.sum(0.5 * (contact[1:] + contact[:-1]) * np.diff(x)))
+    per_side = 2 * eta * f10 * depth**3 / (3 * 0.010**2)
+    assert work == pytest.approx(2 * per_side, rel=2e-3)
+    going_in = int(np.argmin(np.abs(x[: len(x) // 4] - 0.026)))  # 4 mm into the bump
+    assert contact[going_in] == pytest.approx((1 + eta) * f10 * 0.4**2, rel=1e-3)
+    coming_out = len(x) // 2 - going_in  # the same depth, on the way out
+    assert contact[coming_out] == pytest.approx((1 - eta) * f10 * 0.4**2, rel=1e-3)
+    # An elastic stop (η = 0) stores and returns: no work over the cycle.
+    elastic = model.with_values({"contact.hysteresis": 0.0, "contact.viscous_s_m": 0.0})
+    f0 = elastic.evaluate(ModelInputs.single(x, v, np.zeros_like(x)), A_BC, A_BT)
+    c0 = f0.components["contact"]
+    assert abs(float(np.sum(0.5 * (c0[1:] + c0[:-1]) * np.diff(x)))) < 1e-6 * per_side
+    # A viscous loss: (1 + α·v_in) × the elastic force going in, never a pull coming out.
+    alpha = 10.0  # coming out at 0.13 m/s at the onset, 1 − α·v < 0 there
+    viscous = model.with_values({"contact.hysteresis": 0.0, "contact.viscous_s_m": alpha})
+    fv = viscous.evaluate(ModelInputs.single(x, v, np.zeros_like(x)), A_BC, A_BT)
+    cv = fv.components["contact"]
+    for i in (going_in, coming_out):
+        v_in = v[i] * np.sign(x[i])
+        assert cv[i] == pytest.approx(max(0.0, 1 + alpha * v_in) * c0[i], rel=1e-12, abs=1e-12)
+    assert np.all(cv[x > 0] >= 0) and np.all(cv[x < 0] <= 0)
+    assert np.any((cv == 0) & (c0 > 0))  # coming out fast, the rubber left the rod
 
 
 @pytest.mark.parametrize("path", sorted((REPO / "sim" / "scenarios").glob("*.toml")), ids=str)

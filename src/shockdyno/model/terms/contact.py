@@ -6,6 +6,13 @@ onset x_t < 0) pulls it in. Each side is stated by its force 10 mm past its onse
 an engineer reads off a bump-stop curve, rather than by a stiffness whose unit changes
 with n. n is 2 (a progressive elastomer) unless named (`contact.exponent`).
 
+A rubber stop pushes harder going in than coming out. Each side's force is multiplied by
+max(0, 1 + η·tanh(v_in/v_h) + α·v_in), v_in the speed into the stop (+ẋ at the bump, −ẋ
+at the top-out): η a loss that does not depend on speed past v_h (an elastomer's
+hysteresis loop; v_h = 10 mm/s unless named), α one proportional to speed (Hunt and
+Crossley's viscous stop, F ∝ δⁿ(1 + α δ̇)). Never below 0: coming out faster than the
+rubber recovers, it leaves the rod. η = α = 0: an elastic stop.
+
 Beside `position_force`, which bends a smooth curve through the whole stroke, this is a
 hinge: nothing before the onset, then a power law. Off: both forces 0 (the onsets then
 do nothing, and the data cannot place them: their σ is infinite).
@@ -88,6 +95,37 @@ class Contact(Term):
             free=False,
             doc="1 linear, 2 progressive",
         ),
+        Param(
+            "hysteresis",
+            "1",
+            nominal=0.0,
+            lo=0.0,
+            hi=0.9,
+            scale=0.05,
+            off=0.0,
+            doc="loss: loading/unloading force share",
+        ),
+        Param(
+            "hysteresis_velocity_m_s",
+            "m/s",
+            nominal=0.01,
+            lo=0.001,
+            hi=1.0,
+            scale=0.01,
+            off=0.01,
+            free=False,
+            doc="speed the loss saturates at",
+        ),
+        Param(
+            "viscous_s_m",
+            "s/m",
+            nominal=0.0,
+            lo=0.0,
+            hi=20.0,
+            scale=0.5,
+            off=0.0,
+            doc="loss per speed into the stop",
+        ),
     )
 
     def describe(self, r: Reading) -> str:
@@ -101,7 +139,21 @@ class Contact(Term):
                     f"{r.sd(f'{key}_onset_m', ln)} {ll} ({fn * r.v(f'{key}_force_n'):.3g}"
                     f"{r.sd(f'{key}_force_n', fn)} {fl} {ln * 0.01:.2g} {ll} past it)"
                 )
-        return "contact: " + (" and ".join(sides) or "at the end of travel")
+        text = "contact: " + (" and ".join(sides) or "at the end of travel")
+        losses = []
+        if sides and r.moved("hysteresis"):
+            losses.append(
+                f"{100 * r.v('hysteresis'):.2g}{r.sd('hysteresis', 100)} % harder going in "
+                "than coming out (the rubber's hysteresis)"
+            )
+        if sides and r.moved("viscous_s_m"):
+            # As a share per 0.1 m/s into the stop, which reads better than s/m.
+            (sn, sl), alpha = r.speed, r.v("viscous_s_m")
+            losses.append(
+                f"{10 * alpha:.2g}{r.sd('viscous_s_m', 10)} % more per {0.1 * sn:.3g} {sl} "
+                "into the stop (a viscous loss)"
+            )
+        return text + (", " + " and ".join(losses) if losses else "")
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
         # Past the onset the force grows fast, before it there is none: a start whose
@@ -133,6 +185,16 @@ class Contact(Term):
         for _, force, onset, depth in _sides(p, x):
             if depth < MIN_DEPTH_SHARE * _half_stroke(x):
                 out[force], out[onset] = off[force], off[onset]
+        # The loss acts on the stops' force only: with none left, or no loss, its
+        # parameters move nothing.
+        losses: tuple[str, ...] = ()
+        if len(out) == 4:
+            losses = ("hysteresis", "viscous_s_m", "hysteresis_velocity_m_s")
+        elif p["hysteresis"] == 0.0:
+            losses = ("hysteresis_velocity_m_s",)
+        for name in losses:
+            if p[name] != off[name]:
+                out[name] = off[name]
         return out
 
     def unplaced(self, p: Mapping[str, float], x: FloatArray) -> str:
@@ -153,7 +215,16 @@ class Contact(Term):
         n = p["exponent"]
         bump = np.maximum(w.x - p["bump_onset_m"], 0.0) / REFERENCE_DEPTH_M
         top = np.maximum(p["topout_onset_m"] - w.x, 0.0) / REFERENCE_DEPTH_M
-        w.add_part(self.name, p["bump_force_n"] * bump**n - p["topout_force_n"] * top**n)
+        force = p["bump_force_n"] * bump**n - p["topout_force_n"] * top**n
+        eta, alpha = p["hysteresis"], p["viscous_s_m"]
+        if eta != 0.0 or alpha != 0.0:
+            # Going into either stop it pushes harder than coming out. The speed into the
+            # stop is +v at the bump and -v at the top-out, i.e. v·sgn(force). Coming out
+            # fast, a viscous loss would have the stop pull; a rubber leaves the rod then.
+            v_in = w.v * np.sign(force)
+            loss = eta * np.tanh(v_in / p["hysteresis_velocity_m_s"]) + alpha * v_in
+            force = force * np.maximum(1.0 + loss, 0.0)
+        w.add_part(self.name, force)
         return None
 
 

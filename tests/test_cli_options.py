@@ -4,6 +4,7 @@ traffic, and list flags fail in one line."""
 from __future__ import annotations
 
 import argparse
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -74,9 +75,17 @@ def test_verbose_shows_the_modbus_traffic_and_is_quiet_without(tmp_path: Path) -
     assert "pymodbus" not in quiet.stderr and "DEBUG" not in quiet.stderr
 
 
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
 def test_log_level_before_the_command_also_works(tmp_path: Path) -> None:
+    # Ports of its own: the rig file's 5020 may be a sim rig a person is running.
+    ports = ["--modbus-port", str(_free_port()), "--serial-port", str(_free_port())]
     res = subprocess.run(
-        [*CLI, "--log-level", "debug", "sim-rig", "--duration", "0.5"],
+        [*CLI, "--log-level", "debug", "sim-rig", "--duration", "0.5", *ports],
         cwd=REPO, capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     assert res.returncode == 0, res.stderr

@@ -18,6 +18,16 @@ REPO = Path(__file__).resolve().parents[2]
 CLI = [sys.executable, "-m", "shockdyno.cli"]
 
 
+# The CLI with Ctrl-C's handler set: a suite started where SIGINT is ignored (a background
+# job of a shell without job control) passes that on, and Python then installs none.
+INTERRUPTIBLE = [
+    sys.executable,
+    "-c",
+    "import signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
+    "from shockdyno.cli import main; sys.exit(main())",
+]
+
+
 def _files(folder: Path) -> dict[str, bytes]:
     files = [p for p in folder.rglob("*") if p.is_file()]
     return {p.relative_to(folder).as_posix(): p.read_bytes() for p in files}
@@ -25,7 +35,7 @@ def _files(folder: Path) -> dict[str, bytes]:
 
 def _stop_midway(args: list[str], out: Path, signum: int) -> subprocess.CompletedProcess[str]:
     """Run `report` and send `signum` once its staged folder holds a figure."""
-    proc = subprocess.Popen([*CLI, *args], cwd=REPO, stdout=subprocess.PIPE,
+    proc = subprocess.Popen([*INTERRUPTIBLE, *args], cwd=REPO, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)  # fmt: skip
     deadline = time.monotonic() + 90
     try:

@@ -361,19 +361,7 @@ def fit_sweep(
         trend=trend,
         terms=estimates,
     )
-    forces = model_forces(result.model(), result, pb.prepared)
-    result.tests = scores(forces)
-    # What a report draws of the model, computed here once (fit/forces.py).
-    picks = overlay_picks(result, [p.data.meta for p in pb.prepared])
-    result.saved = build_saved(
-        result,
-        [
-            TestForces(f.test.meta.index, f.proposed, f.talbott)
-            for f in forces
-            if f.test.meta.index in picks
-        ],
-        tests,
-    )
+    _validate_and_save(result, pb, tests)
     info = _fit_info(
         pb,
         cal,
@@ -389,6 +377,23 @@ def fit_sweep(
     result.info = replace(info, table4=tuple(row.doc() for row in table4(result)))
     report("done", 1.0)
     return result
+
+
+def _validate_and_save(result: FitResult, pb: Problem, tests: list[TestData]) -> None:
+    """The fitted model's scores on every test, and what a report draws of the model
+    (fit/forces.py), computed here once from the same forces."""
+    forces = model_forces(result.model(), result, pb.prepared)
+    result.tests = scores(forces)
+    picks = overlay_picks(result, [p.data.meta for p in pb.prepared])
+    result.saved = build_saved(
+        result,
+        [
+            TestForces(f.test.meta.index, f.proposed, f.talbott)
+            for f in forces
+            if f.test.meta.index in picks
+        ],
+        tests,
+    )
 
 
 def _unseen_off(

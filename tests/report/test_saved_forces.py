@@ -3,7 +3,9 @@ does not run the model: the page is the one it makes when it computes them."""
 
 from __future__ import annotations
 
+import io
 import json
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -114,3 +116,34 @@ def test_fit_refuses_to_overwrite_a_sidecar_without_force(
     err = capsys.readouterr().err
     assert "new.forces.npz exists (use --force" in err and not out.exists()
     assert forces.sidecar_path(out).read_bytes() == b"mine"
+
+
+@pytest.mark.parametrize("damage", ["member", "garbage"])
+def test_a_damaged_sidecar_is_said_and_not_used(
+    fitted: tuple[Path, Path],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    damage: str,
+) -> None:
+    """A sidecar whose compressed data is damaged (the zip's directory intact), or that is
+    no zip at all, is one line and the forces computed: never a traceback."""
+    rec, fit = fitted
+    copy = tmp_path / "copy.json"
+    copy.write_bytes(fit.read_bytes())
+    data = bytearray(forces.sidecar_path(fit).read_bytes())
+    if damage == "member":
+        with zipfile.ZipFile(io.BytesIO(bytes(data))) as z:
+            info = max(z.infolist(), key=lambda i: i.compress_size)
+        start = info.header_offset + 30 + len(info.filename.encode()) + len(info.extra)
+        middle = start + info.compress_size // 2
+        data[middle : middle + 64] = bytes(b ^ 0xFF for b in data[middle : middle + 64])
+    else:
+        data = bytearray(b"not an npz file\n" * 50)
+    forces.sidecar_path(copy).write_bytes(bytes(data))
+    assert main(["report", str(rec), "--fit", str(copy), "-o", str(tmp_path / "r")]) == 0
+    err = capsys.readouterr().err
+    assert "copy.forces.npz is not readable" in err and "Traceback" not in err
+    assert "computed from the fit instead" in err
+    assert (tmp_path / "r" / "index.html").is_file()
+    if damage == "garbage":
+        assert "pickled" not in err  # not np.load's advice to unpickle it

@@ -27,6 +27,7 @@ import hashlib
 import io
 import os
 import zipfile
+import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -305,6 +306,8 @@ def read(fit_json: str | os.PathLike[str]) -> tuple[SavedForces | None, str]:
         text = Path(fit_json).read_text(encoding="utf-8")
         if path.stat().st_size > MAX_BYTES:
             raise ValueError("too large")
+        if not zipfile.is_zipfile(path):  # np.load would try it as a pickle, and say so
+            raise ValueError("not a .npz file")
         with np.load(path, allow_pickle=False) as z:
             if str(z["format"]) != FORMAT:
                 raise ValueError(f"format {str(z['format'])!r}")
@@ -335,7 +338,7 @@ def read(fit_json: str | os.PathLike[str]) -> tuple[SavedForces | None, str]:
                 for k in z.files
                 if k.startswith("thermal_f_") and k[len("thermal_f_") :] in VELOCITY_SETS
             }
-    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile, zlib.error, EOFError) as exc:
         return None, f"{path.name} is not readable ({exc}){fallback}"
     return SavedForces(text_sha256(text), areas, table, tests, keys, thermal), ""
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import report_helpers
 from report_helpers import sweep_tests, write_recording
 from shockdyno.cli import main
 from shockdyno.fit import forces
@@ -147,3 +148,34 @@ def test_a_damaged_sidecar_is_said_and_not_used(
     assert (tmp_path / "r" / "index.html").is_file()
     if damage == "garbage":
         assert "pickled" not in err  # not np.load's advice to unpickle it
+
+
+def test_a_report_of_another_recording_computes_the_overlays_on_its_own_motion(
+    fitted: tuple[Path, Path],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """The saved overlays are the model on the fit's recording's motion: a recording of
+    the same plan at another amplitude (the same tests, the same sample counts) shown with
+    --allow-other-recording gets its own, the page it gets without the sidecar."""
+    _, fit = fitted
+    with monkeypatch.context() as m:
+        m.setattr(report_helpers, "AMPLITUDE_M", 0.6 * report_helpers.AMPLITUDE_M)
+        other = write_recording(tmp_path / "other.mcap", sweep_tests((0, 21), (1.0, 1.5)), {})
+    args = ["report", str(other), "--fit", str(fit), "--allow-other-recording"]
+    assert main([*args, "-o", str(tmp_path / "saved")]) == 0
+    err = capsys.readouterr().err
+    assert "sweep.fit.forces.npz does not hold test" in err  # said after the page
+    sidecar = forces.sidecar_path(fit)
+    moved = tmp_path / "away.npz"
+    sidecar.rename(moved)
+    try:
+        assert main([*args, "-o", str(tmp_path / "computed")]) == 0
+    finally:
+        moved.rename(sidecar)
+    saved, computed = _page(tmp_path / "saved"), _page(tmp_path / "computed")
+    overlays = [n for n in computed if n.startswith("fit-overlay")]
+    assert overlays and computed.keys() == saved.keys()
+    for name in computed:
+        assert saved[name] == computed[name], name

@@ -153,7 +153,7 @@ def _report(job: Job, row: Row) -> None:
     fit_path = fit_for(job)
     fit = FitResult.load(fit_path).require_usable(f"--fit {fit_path}") if fit_path else None
     if fit is not None and fit_path is not None:  # the page reads the forces the fit saved
-        forces.attach(fit, fit_path)  # none: computed from the fit, as before they were
+        forces.attach(fit, fit_path, job.sha256)  # none: computed from the fit, as before
     diag_path = Path(job.out_dir) / f"{job.name}.diag.json"
     diag = read_diagnosis(diag_path, "diagnose result") if diag_path.exists() else None
     out = Path(job.out_dir) / job.name

@@ -80,12 +80,16 @@ def _sha256(ref: RecordingRef | None) -> str | None:
 
 
 def _provenance(
-    args: argparse.Namespace, fit: Any, diagnose: DiagnosisDoc | None, ride: RideDoc | None
+    args: argparse.Namespace,
+    fit: Any,
+    diagnose: DiagnosisDoc | None,
+    ride: RideDoc | None,
+    actual: str,
 ) -> dict[str, str]:
     """Each result given against the recording's hash: a page row each; a result of
     another recording (or of none it names) is refused unless --allow-other-recording
     (issue 46.7: --force used to waive it), and then said on the terminal as well."""
-    from shockdyno.record.identity import provenance, recording_sha256
+    from shockdyno.record.identity import provenance
 
     given = []  # (row, what, flag, the hash it stores)
     if fit is not None:
@@ -96,7 +100,6 @@ def _provenance(
         given.append(("ride", "the ride study's fit", "--ride", _sha256(ride.fit_recording)))
     if not given:
         return {}
-    actual = recording_sha256(Path(args.recording))
     rows = {
         row: provenance(stored, actual, what, flag, args.allow_other_recording)
         for row, what, flag, stored in given
@@ -113,6 +116,7 @@ def run_report(args: argparse.Namespace) -> int:
     from shockdyno.fit import forces
     from shockdyno.fit.result import FitResult
     from shockdyno.record import open_recording
+    from shockdyno.record.identity import recording_sha256
     from shockdyno.report.build import build_report
 
     require_recording(args.recording, "a result goes with --fit, --diagnose or --ride")
@@ -122,12 +126,14 @@ def run_report(args: argparse.Namespace) -> int:
     inputs = [Path(p) for p in (args.recording, args.fit, args.diagnose, args.ride) if p]
     check_output_dir(out, inputs, args.force)
     fit = FitResult.load(args.fit).require_usable(f"--fit {args.fit}") if args.fit else None
+    given_any = args.fit or args.diagnose or args.ride
+    actual = recording_sha256(Path(args.recording)) if given_any else ""
     # The model's forces the fit saved beside it: the page reads them.
-    if fit is not None and (note := forces.attach(fit, args.fit)):
+    if fit is not None and (note := forces.attach(fit, args.fit, actual)):
         print(f"report: note: {note}", file=sys.stderr)
     diagnose = read_diagnosis(args.diagnose, "--diagnose") if args.diagnose else None
     ride = read_ride(args.ride, "--ride") if args.ride else None
-    provenance_rows = _provenance(args, fit, diagnose, ride)
+    provenance_rows = _provenance(args, fit, diagnose, ride, actual)
 
     console = Console(stderr=True)
     with console.status("report: reading the recording") as status:

@@ -343,10 +343,21 @@ def read(fit_json: str | os.PathLike[str]) -> tuple[SavedForces | None, str]:
     return SavedForces(text_sha256(text), areas, table, tests, keys, thermal), ""
 
 
-def attach(fit: FitResult, fit_json: str | os.PathLike[str]) -> str:
+def attach(
+    fit: FitResult, fit_json: str | os.PathLike[str], recording_sha256: str | None = None
+) -> str:
     """Give `fit` (loaded from `fit_json`) its saved forces; "" or the one line saying
-    why there are none and what is done instead."""
+    why there are none and what is done instead. `recording_sha256`: the recording the
+    page draws. The saved tests' forces are the model on the fit's recording's measured
+    motion, so for another recording (--allow-other-recording) they are left out and
+    computed on its own (counted: `computed_note`); the characteristic holds for any."""
     fit.saved, note = read(fit_json)
+    if (
+        fit.saved is not None
+        and recording_sha256 is not None
+        and fit.info.recording_sha256 != recording_sha256
+    ):
+        fit.saved.tests = {}
     return note
 
 

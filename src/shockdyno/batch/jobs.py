@@ -196,6 +196,19 @@ def missing_fits(jobs: list[Job]) -> list[str]:
     return [j.name for j in jobs if j.options.get("fit") and fit_for(j) is None]
 
 
+def sidecar_notes(jobs: list[Job]) -> list[str]:
+    """`batch report`: one line for each fit whose saved model forces (fit/forces.py) the
+    pages will not read (missing, stale, unreadable) and compute instead, as `report` says."""
+    from shockdyno.fit import forces
+
+    notes: dict[str, str] = {}
+    for job in jobs:
+        path = fit_for(job) if job.kind == "report" else None
+        if path is not None and path not in notes:
+            notes[path] = forces.read(path)[1]
+    return [note for note in notes.values() if note]
+
+
 def _damper_id(recording: str) -> str:
     """The damper id the recording's metadata holds (`sweep --damper-id`, `import --meta`)."""
     from shockdyno.record import open_recording

@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
-    from shockdyno.batch.jobs import missing_fits
+    from shockdyno.batch.jobs import missing_fits, sidecar_notes
     from shockdyno.batch.runner import collect, plan_jobs, run_batch
     from shockdyno.batch.table import earlier_rows
 
@@ -115,6 +115,8 @@ def run(args: argparse.Namespace) -> int:
             f"{len(jobs)} recordings ({names}): they run without a fit",
             file=sys.stderr,
         )
+    for note in sidecar_notes(jobs):  # as `report` says it: the page is the same
+        print(f"batch report: note: {note}", file=sys.stderr)
     console = Console(stderr=True)
     counts = {"done": 0, "skipped": 0, "failed": 0}
     with Progress(

@@ -117,6 +117,12 @@ def test_fit_refuses_to_overwrite_a_sidecar_without_force(
     err = capsys.readouterr().err
     assert "new.forces.npz exists (use --force" in err and not out.exists()
     assert forces.sidecar_path(out).read_bytes() == b"mine"
+    # With --force both are written, and the last line names both (they travel together).
+    assert main(["fit", str(rec), "--json", str(out), "--no-history", "--force"]) == 0
+    said = capsys.readouterr().out
+    assert f"wrote {out} and the model's forces new.forces.npz beside it\n" in said
+    saved, note = forces.read(out)
+    assert saved is not None and note == ""
 
 
 @pytest.mark.parametrize("damage", ["member", "garbage"])

@@ -107,3 +107,23 @@ def test_sim_rig_help_names_every_fault_it_accepts(capsys: pytest.CaptureFixture
         main(["sim-rig", "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert [k for k in KINDS if k not in text] == []
+
+
+def test_ctrl_c_while_the_commands_load_is_one_line_not_a_traceback() -> None:
+    """The command modules take seconds to import on a loaded machine: a Ctrl-C then (a
+    real SIGINT, sent while the first one imports) is said as an interrupt, exit 130."""
+    code = (
+        "import os, signal, sys\n"
+        "from shockdyno import cli\n"
+        "real = cli.importlib.import_module\n"
+        "def interrupted(name):\n"
+        "    os.kill(os.getpid(), signal.SIGINT)\n"
+        "    return real(name)\n"
+        "cli.importlib.import_module = interrupted\n"
+        "sys.exit(cli.main(['--version']))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=False
+    )
+    assert done.returncode == 130
+    assert done.stderr == "shockdyno: interrupted\n"

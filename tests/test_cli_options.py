@@ -76,7 +76,8 @@ def test_verbose_shows_the_modbus_traffic_and_is_quiet_without(tmp_path: Path) -
 
 def test_log_level_before_the_command_also_works(tmp_path: Path) -> None:
     res = subprocess.run(
-        [*CLI, "--log-level", "debug", "sim-rig", "--duration", "0.5"],
+        [*CLI, "--log-level", "debug", "sim-rig", "--duration", "0.5",
+         "--modbus-port", "0", "--serial-port", "0"],  # a sim-rig of someone else may hold 5020
         cwd=REPO, capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     assert res.returncode == 0, res.stderr

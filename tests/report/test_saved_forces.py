@@ -103,6 +103,7 @@ def test_a_stale_sidecar_is_said_and_not_used(
     assert main(["report", str(rec), "--fit", str(other), "-o", str(tmp_path / "r")]) == 0
     err = capsys.readouterr().err
     assert "edited.forces.npz belongs to another version of edited.json" in err
+    assert "(stale: the JSON was edited, or written again without it)" in err
     loaded = FitResult.load(other)
     assert "stale" in forces.attach(loaded, other) and loaded.saved is None
 

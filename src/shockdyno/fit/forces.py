@@ -314,7 +314,7 @@ def read(fit_json: str | os.PathLike[str]) -> tuple[SavedForces | None, str]:
             if str(z["fit_sha256"]) != text_sha256(text):
                 return None, (
                     f"{path.name} belongs to another version of {Path(fit_json).name} "
-                    f"(stale: the fit was written again without it){fallback}"
+                    f"(stale: the JSON was edited, or written again without it){fallback}"
                 )
             names = [k[len("char_f_") :] for k in z.files if k.startswith("char_f_")]
             table = {n: np.asarray(z[f"char_f_{n}"], dtype=float) for n in names}

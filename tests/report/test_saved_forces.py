@@ -39,6 +39,17 @@ def _no_model(*_args: object, **_kw: object) -> np.ndarray:
     raise AssertionError("the report ran the model")
 
 
+def _report_without_sidecar(fit: Path, args: list[str], out: Path) -> None:
+    """`report ARGS -o OUT` with the fit's sidecar moved away (and back): computed."""
+    sidecar = forces.sidecar_path(fit)
+    moved = out.parent / "away.npz"
+    sidecar.rename(moved)
+    try:
+        assert main([*args, "-o", str(out)]) == 0
+    finally:
+        moved.rename(sidecar)
+
+
 @pytest.mark.parametrize("units", ["si", "imperial"])
 def test_the_report_reads_the_saved_forces_and_draws_what_it_computed(
     fitted: tuple[Path, Path],
@@ -52,12 +63,7 @@ def test_the_report_reads_the_saved_forces_and_draws_what_it_computed(
     assert sidecar.name == "sweep.fit.forces.npz" and sidecar.is_file()
     args = ["report", str(rec), "--fit", str(fit), "--units", units]
     # Computed, as the report did before the fit saved them: the sidecar moved away.
-    moved = tmp_path / "away.npz"
-    sidecar.rename(moved)
-    try:
-        assert main([*args, "-o", str(tmp_path / "computed")]) == 0
-    finally:
-        moved.rename(sidecar)
+    _report_without_sidecar(fit, args, tmp_path / "computed")
     err = capsys.readouterr().err
     assert "sweep.fit.forces.npz not found beside sweep.fit.json" in err
     assert "computed from the fit instead" in err
@@ -174,13 +180,7 @@ def test_a_report_of_another_recording_computes_the_overlays_on_its_own_motion(
     assert main([*args, "-o", str(tmp_path / "saved")]) == 0
     err = capsys.readouterr().err
     assert "sweep.fit.forces.npz does not hold test" in err  # said after the page
-    sidecar = forces.sidecar_path(fit)
-    moved = tmp_path / "away.npz"
-    sidecar.rename(moved)
-    try:
-        assert main([*args, "-o", str(tmp_path / "computed")]) == 0
-    finally:
-        moved.rename(sidecar)
+    _report_without_sidecar(fit, args, tmp_path / "computed")
     saved, computed = _page(tmp_path / "saved"), _page(tmp_path / "computed")
     overlays = [n for n in computed if n.startswith("fit-overlay")]
     assert overlays and computed.keys() == saved.keys()

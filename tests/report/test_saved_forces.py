@@ -186,3 +186,21 @@ def test_a_report_of_another_recording_computes_the_overlays_on_its_own_motion(
     assert overlays and computed.keys() == saved.keys()
     for name in computed:
         assert saved[name] == computed[name], name
+
+
+def test_a_sidecar_whose_arrays_do_not_fit_together_is_not_read(
+    fitted: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Bound to its FIT.json (the right SHA-256) but with a characteristic row short: one
+    line and computed, not an IndexError from the click chart."""
+    rec, fit = fitted
+    copy = tmp_path / "short.json"
+    copy.write_bytes(fit.read_bytes())
+    with np.load(forces.sidecar_path(fit), allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    arrays["char_f_si"] = arrays["char_f_si"][:-1]
+    np.savez_compressed(forces.sidecar_path(copy), **arrays)
+    saved, note = forces.read(copy)
+    assert saved is None and "short.forces.npz is not readable (char_f_si is" in note
+    assert main(["report", str(rec), "--fit", str(copy), "-o", str(tmp_path / "r")]) == 0
+    assert "short.forces.npz is not readable" in capsys.readouterr().err

@@ -291,6 +291,26 @@ def write(path: Path, saved: SavedForces, fit_text: str) -> None:
         raise ConfigError(f"cannot write {path} ({exc.strerror})") from None
 
 
+def _check_shapes(
+    areas: FloatArray,
+    table: dict[str, FloatArray],
+    tests: dict[int, TestForces],
+    keys: FloatArray,
+    thermal: dict[str, FloatArray],
+) -> None:
+    """A file whose arrays do not fit together (written by something else, or damaged
+    in a way its checksums missed) is not readable: a report would index past them."""
+    for name, forces in table.items():
+        if forces.shape != (len(areas), len(VELOCITY_SETS[name])):
+            raise ValueError(f"char_f_{name} is {forces.shape}, not {len(areas)} rows")
+    for name, forces in thermal.items():
+        if forces.shape != (len(keys), 1 + len(VELOCITY_SETS[name])):
+            raise ValueError(f"thermal_f_{name} is {forces.shape}, not {len(keys)} rows")
+    for t in tests.values():
+        if t.proposed.ndim != 1 or t.proposed.shape != t.talbott.shape:
+            raise ValueError(f"test {t.index}'s forces differ in length")
+
+
 def read(fit_json: str | os.PathLike[str]) -> tuple[SavedForces | None, str]:
     """The sidecar of the FIT.json at `fit_json`, or None with one line saying why (a
     fit from before `fit` saved it, a stale or damaged file): the caller computes."""
@@ -338,6 +358,7 @@ def read(fit_json: str | os.PathLike[str]) -> tuple[SavedForces | None, str]:
                 for k in z.files
                 if k.startswith("thermal_f_") and k[len("thermal_f_") :] in VELOCITY_SETS
             }
+            _check_shapes(areas, table, tests, keys, thermal)
     except (OSError, ValueError, KeyError, zipfile.BadZipFile, zlib.error, EOFError) as exc:
         return None, f"{path.name} is not readable ({exc}){fallback}"
     return SavedForces(text_sha256(text), areas, table, tests, keys, thermal), ""

@@ -4,7 +4,6 @@ traffic, and list flags fail in one line."""
 from __future__ import annotations
 
 import argparse
-import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -75,17 +74,10 @@ def test_verbose_shows_the_modbus_traffic_and_is_quiet_without(tmp_path: Path) -
     assert "pymodbus" not in quiet.stderr and "DEBUG" not in quiet.stderr
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def test_log_level_before_the_command_also_works(tmp_path: Path) -> None:
-    # Ports of its own: the rig file's 5020 may be a sim rig a person is running.
-    ports = ["--modbus-port", str(_free_port()), "--serial-port", str(_free_port())]
     res = subprocess.run(
-        [*CLI, "--log-level", "debug", "sim-rig", "--duration", "0.5", *ports],
+        [*CLI, "--log-level", "debug", "sim-rig", "--duration", "0.5",
+         "--modbus-port", "0", "--serial-port", "0"],  # a sim-rig of someone else may hold 5020
         cwd=REPO, capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     assert res.returncode == 0, res.stderr
@@ -116,3 +108,23 @@ def test_sim_rig_help_names_every_fault_it_accepts(capsys: pytest.CaptureFixture
         main(["sim-rig", "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert [k for k in KINDS if k not in text] == []
+
+
+def test_ctrl_c_while_the_commands_load_is_one_line_not_a_traceback() -> None:
+    """The command modules take seconds to import on a loaded machine: a Ctrl-C then (a
+    real SIGINT, sent while the first one imports) is said as an interrupt, exit 130."""
+    code = (
+        "import os, signal, sys\n"
+        "from shockdyno import cli\n"
+        "real = cli.importlib.import_module\n"
+        "def interrupted(name):\n"
+        "    os.kill(os.getpid(), signal.SIGINT)\n"
+        "    return real(name)\n"
+        "cli.importlib.import_module = interrupted\n"
+        "sys.exit(cli.main(['--version']))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=False
+    )
+    assert done.returncode == 130
+    assert done.stderr == "shockdyno: interrupted\n"

@@ -221,3 +221,18 @@ def test_export_refuses_a_damper_no_dyno_measures(tmp_path: Path, capsys) -> Non
     assert "beyond any damper dyno's 1e+06 N; not written" in err and err.count("\n") == 1
     assert not (tmp_path / "t").exists()
     assert main(["export", str(good), "--damper-table", str(tmp_path / "t")]) == 0
+
+
+@pytest.mark.parametrize(
+    "option", ["--amplitude-mm", "--gas-pressure-bar", "--reversal-accel-m-s2"]
+)
+@pytest.mark.parametrize("value", ["inf", "-inf", "nan", "0", "-5", "x"])
+def test_a_sweep_quantity_that_is_no_positive_number_is_refused_by_the_parser(
+    option: str, value: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """An infinite amplitude was let through to the plan, which said "must be > 0, got inf"."""
+    with pytest.raises(SystemExit) as ex:
+        main(["sweep", "--rig", "rigs/sim.toml", "-o", "never.mcap", f"{option}={value}"])
+    assert ex.value.code == 2
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert option in last and ("finite number > 0" in last or "not a number" in last)

@@ -172,7 +172,7 @@ def _report(job: Job, row: Row) -> None:
     fit_path = fit_for(job)
     fit = FitResult.load(fit_path).require_usable(f"--fit {fit_path}") if fit_path else None
     if fit is not None and fit_path is not None:  # the page reads the forces the fit saved
-        forces.attach(fit, fit_path)  # none: computed from the fit, as before they were
+        forces.attach(fit, fit_path, job.sha256)  # none: computed from the fit, as before
     diag_path = Path(job.out_dir) / f"{job.name}.diag.json"
     diag = read_diagnosis(diag_path, "diagnose result") if diag_path.exists() else None
     out = Path(job.out_dir) / job.name
@@ -211,6 +211,19 @@ def fit_for(job: Job) -> str | None:
 def missing_fits(jobs: list[Job]) -> list[str]:
     """The recordings a --fit folder has no NAME.fit.json of, by name."""
     return [j.name for j in jobs if j.options.get("fit") and fit_for(j) is None]
+
+
+def sidecar_notes(jobs: list[Job]) -> list[str]:
+    """`batch report`: one line for each fit whose saved model forces (fit/forces.py) the
+    pages will not read (missing, stale, unreadable) and compute instead, as `report` says."""
+    from shockdyno.fit import forces
+
+    notes: dict[str, str] = {}
+    for job in jobs:
+        path = fit_for(job) if job.kind == "report" else None
+        if path is not None and path not in notes:
+            notes[path] = forces.read(path)[1]
+    return [note for note in notes.values() if note]
 
 
 def _damper_id(recording: str) -> str:

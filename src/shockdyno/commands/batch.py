@@ -89,7 +89,7 @@ def _options(args: argparse.Namespace) -> Options:
 def run(args: argparse.Namespace) -> int:
     # Imported when a batch runs: +7 ms CPU at every command's start-up otherwise (runner,
     # with jobs; measured).
-    from shockdyno.batch.jobs import missing_fits
+    from shockdyno.batch.jobs import missing_fits, sidecar_notes
     from shockdyno.batch.runner import collect, plan_jobs, run_batch
 
     if args.workers is not None and args.workers < 1:
@@ -117,6 +117,8 @@ def run(args: argparse.Namespace) -> int:
             f"{len(jobs)} recordings ({names}): they run without a fit",
             file=sys.stderr,
         )
+    for note in sidecar_notes(jobs):  # as `report` says it: the page is the same
+        print(f"batch report: note: {note}", file=sys.stderr)
     console = Console(stderr=True)
     counts = {"done": 0, "skipped": 0, "failed": 0}
     with Progress(

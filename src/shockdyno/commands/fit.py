@@ -206,8 +206,11 @@ def run_fit(args: argparse.Namespace) -> int:
     human.print(_clicks_table(result, units))
     human.print(table4_table(result))
     write_output(args.json, text, force=args.force, inputs=inputs)
+    wrote = "stdout" if out is None else str(out)
     if sidecar is not None and result.saved is not None:
         forces.write(sidecar, result.saved, text)
+        # Said: a FIT.json copied or moved without it is computed again by each report.
+        wrote += f" and the model's forces {sidecar.name} beside it"
     keep(args, lambda db: record_fit(db, Path(args.recording), result, args.json, tests), "the fit")
     info = result.info
     ident = sum(c.identifiable_bc + c.identifiable_bt for c in result.clicks)
@@ -216,7 +219,7 @@ def run_fit(args: argparse.Namespace) -> int:
         f"fitted {len(result.clicks)} click settings from {info.n_tests} tests in "
         f"{info.wall_s or 0:.1f} s ({info.model_evaluations} model evaluations); "
         f"{ident} of {2 * len(result.clicks)} areas identifiable; "
-        f"wrote {'stdout' if out is None else out}"
+        f"wrote {wrote}"
     )
     for note in info.skipped or ():
         say(f"note: {note}" if note.endswith(FITTED_ANYWAY) else f"skipped {note}")

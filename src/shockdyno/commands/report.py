@@ -91,6 +91,7 @@ def _provenance(
     fit: FitResult | None,
     diagnose: DiagnosisDoc | None,
     ride: RideDoc | None,
+    actual: str,
 ) -> dict[str, str]:
     """Each result given against the recording's hash: a page row each; a result of
     another recording (or of none it names) is refused unless --allow-other-recording
@@ -104,7 +105,6 @@ def _provenance(
         given.append(("ride", "the ride study's fit", "--ride", _sha256(ride.fit_recording)))
     if not given:
         return {}
-    actual = recording_sha256(Path(args.recording))
     rows = {
         row: provenance(stored, actual, what, flag, args.allow_other_recording)
         for row, what, flag, stored in given
@@ -126,12 +126,14 @@ def run_report(args: argparse.Namespace) -> int:
     inputs = [Path(p) for p in (args.recording, args.fit, args.diagnose, args.ride) if p]
     check_output_dir(out, inputs, args.force)
     fit = FitResult.load(args.fit).require_usable(f"--fit {args.fit}") if args.fit else None
+    given_any = args.fit or args.diagnose or args.ride
+    actual = recording_sha256(Path(args.recording)) if given_any else ""
     # The model's forces the fit saved beside it: the page reads them.
-    if fit is not None and (note := forces.attach(fit, args.fit)):
+    if fit is not None and (note := forces.attach(fit, args.fit, actual)):
         print(f"report: note: {note}", file=sys.stderr)
     diagnose = read_diagnosis(args.diagnose, "--diagnose") if args.diagnose else None
     ride = read_ride(args.ride, "--ride") if args.ride else None
-    provenance_rows = _provenance(args, fit, diagnose, ride)
+    provenance_rows = _provenance(args, fit, diagnose, ride, actual)
 
     console = Console(stderr=True)
     with console.status("report: reading the recording") as status:

@@ -27,6 +27,7 @@ import hashlib
 import io
 import os
 import zipfile
+import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -290,6 +291,26 @@ def write(path: Path, saved: SavedForces, fit_text: str) -> None:
         raise ConfigError(f"cannot write {path} ({exc.strerror})") from None
 
 
+def _check_shapes(
+    areas: FloatArray,
+    table: dict[str, FloatArray],
+    tests: dict[int, TestForces],
+    keys: FloatArray,
+    thermal: dict[str, FloatArray],
+) -> None:
+    """A file whose arrays do not fit together (written by something else, or damaged
+    in a way its checksums missed) is not readable: a report would index past them."""
+    for name, forces in table.items():
+        if forces.shape != (len(areas), len(VELOCITY_SETS[name])):
+            raise ValueError(f"char_f_{name} is {forces.shape}, not {len(areas)} rows")
+    for name, forces in thermal.items():
+        if forces.shape != (len(keys), 1 + len(VELOCITY_SETS[name])):
+            raise ValueError(f"thermal_f_{name} is {forces.shape}, not {len(keys)} rows")
+    for t in tests.values():
+        if t.proposed.ndim != 1 or t.proposed.shape != t.talbott.shape:
+            raise ValueError(f"test {t.index}'s forces differ in length")
+
+
 def read(fit_json: str | os.PathLike[str]) -> tuple[SavedForces | None, str]:
     """The sidecar of the FIT.json at `fit_json`, or None with one line saying why (a
     fit from before `fit` saved it, a stale or damaged file): the caller computes."""
@@ -305,13 +326,15 @@ def read(fit_json: str | os.PathLike[str]) -> tuple[SavedForces | None, str]:
         text = Path(fit_json).read_text(encoding="utf-8")
         if path.stat().st_size > MAX_BYTES:
             raise ValueError("too large")
+        if not zipfile.is_zipfile(path):  # np.load would try it as a pickle, and say so
+            raise ValueError("not a .npz file")
         with np.load(path, allow_pickle=False) as z:
             if str(z["format"]) != FORMAT:
                 raise ValueError(f"format {str(z['format'])!r}")
             if str(z["fit_sha256"]) != text_sha256(text):
                 return None, (
                     f"{path.name} belongs to another version of {Path(fit_json).name} "
-                    f"(stale: the fit was written again without it){fallback}"
+                    f"(stale: the JSON was edited, or written again without it){fallback}"
                 )
             names = [k[len("char_f_") :] for k in z.files if k.startswith("char_f_")]
             table = {n: np.asarray(z[f"char_f_{n}"], dtype=float) for n in names}
@@ -335,15 +358,27 @@ def read(fit_json: str | os.PathLike[str]) -> tuple[SavedForces | None, str]:
                 for k in z.files
                 if k.startswith("thermal_f_") and k[len("thermal_f_") :] in VELOCITY_SETS
             }
-    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
+            _check_shapes(areas, table, tests, keys, thermal)
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile, zlib.error, EOFError) as exc:
         return None, f"{path.name} is not readable ({exc}){fallback}"
     return SavedForces(text_sha256(text), areas, table, tests, keys, thermal), ""
 
 
-def attach(fit: FitResult, fit_json: str | os.PathLike[str]) -> str:
+def attach(
+    fit: FitResult, fit_json: str | os.PathLike[str], recording_sha256: str | None = None
+) -> str:
     """Give `fit` (loaded from `fit_json`) its saved forces; "" or the one line saying
-    why there are none and what is done instead."""
+    why there are none and what is done instead. `recording_sha256`: the recording the
+    page draws. The saved tests' forces are the model on the fit's recording's measured
+    motion, so for another recording (--allow-other-recording) they are left out and
+    computed on its own (counted: `computed_note`); the characteristic holds for any."""
     fit.saved, note = read(fit_json)
+    if (
+        fit.saved is not None
+        and recording_sha256 is not None
+        and fit.info.recording_sha256 != recording_sha256
+    ):
+        fit.saved.tests = {}
     return note
 
 

@@ -7,10 +7,12 @@ BIN := $(VENV)/bin
 
 # Two stamps: the demo needs only the runtime (.runtime); lint and tests add the test tools
 # (.installed, the name kept so `make .venv/.installed` still builds everything).
-# uv installs the same packages as pip in a fifth of the time (a clean clone's venv: 12 s
-# against 48 s, benchmarks/results/suite-workers-2026-11-29.txt); pip stays as the fallback
-# wherever uv cannot be fetched or cannot reach the index.
-INSTALL = $(BIN)/uv pip install --quiet --python $(PY)
+# uv installs the same packages as pip in a fraction of the time (benchmarks/results/
+# suite-workers-2026-11-29.txt); pip stays as the fallback wherever uv cannot be fetched or
+# cannot reach the index. --compile-bytecode as pip does: without .pyc files (and with
+# PYTHONDONTWRITEBYTECODE set) every command compiled numba's sources at start, 1.9 s
+# against 0.9 s, and the suite took 1228 s of CPU instead of about 900.
+INSTALL = $(BIN)/uv pip install --quiet --compile-bytecode --python $(PY)
 PIP = $(PY) -m pip install --quiet
 
 $(VENV)/.runtime: pyproject.toml

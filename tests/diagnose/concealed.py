@@ -12,8 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
-from shockdyno.diagnose.engine import Settings, diagnose
+from shockdyno.diagnose.engine import diagnose
 from shockdyno.diagnose.fitting import full_rate_force
+from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.verdict import to_json
 from shockdyno.record import open_recording
 

@@ -11,8 +11,10 @@ import pytest
 
 from shockdyno.diagnose.candidates import folds
 from shockdyno.diagnose.data import Data
-from shockdyno.diagnose.engine import Settings, Trial, _backward
+from shockdyno.diagnose.diagnosis import Trial
 from shockdyno.diagnose.fitting import refit
+from shockdyno.diagnose.search import backward
+from shockdyno.diagnose.settings import Settings
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.model import DamperModel, load_spec
 from shockdyno.model.terms import make_term
@@ -58,9 +60,7 @@ def test_a_gas_spring_claimed_before_the_bump_stop_is_dropped(tmp_path: Path) ->
     findings = [_finding("gas_spring"), _finding("contact")]
     groups: list[dict[str, object]] = [{"group": ["gas_spring", "position_force"]}]
     s = Settings(n_boot=199)
-    kept = _backward(
-        data, both, claimed, findings, groups, folds(data), np.random.default_rng(0), s
-    )
+    kept = backward(data, both, claimed, findings, groups, folds(data), np.random.default_rng(0), s)
     assert claimed == ["contact"]
     assert kept.model.term("gas_spring") is None and kept.model.term("contact") is not None
     assert not findings[0].claimed and findings[0].why_not.startswith("dropped in the backward")

@@ -10,7 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from shockdyno.diagnose.engine import GAS_VOLUME_RANGE, Settings, diagnose
+from shockdyno.diagnose.baseline import GAS_VOLUME_RANGE
+from shockdyno.diagnose.engine import diagnose
+from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.verdict import to_json
 from shockdyno.record import open_recording
 

@@ -22,7 +22,7 @@ def _run(monkeypatch: pytest.MonkeyPatch, delay_s: float) -> tuple[list[list[str
     real = spec.with_values({"friction_presliding_m": 2e-5, "friction_velocity_m_s": 1e-4})
     tests = synthetic_sweep(real, [15], cycles=4, seed=7, force_delay_s=delay_s, ripple_m=0.0)
     rounds: list[list[str]] = []
-    real_round, real_test = engine._round, engine.mismatch_test
+    real_round, real_test = engine.run_round, engine.mismatch_test
     calls = [0]
 
     def round_(*args: Any, **kwargs: Any) -> Any:
@@ -35,7 +35,7 @@ def _run(monkeypatch: pytest.MonkeyPatch, delay_s: float) -> tuple[list[list[str
         got = real_test(*args, **kwargs)
         return got if calls[0] == 1 else replace(got, p_value=1.0)
 
-    monkeypatch.setattr(engine, "_round", round_)
+    monkeypatch.setattr(engine, "run_round", round_)
     monkeypatch.setattr(engine, "mismatch_test", quiet_after_first)
     s = Settings(candidates=("sensor_lag",), calibrations=("seal_turn",), n_boot=199)
     return rounds, engine.diagnose(tests, settings=s)

@@ -8,8 +8,9 @@ from __future__ import annotations
 import numpy as np
 
 from shockdyno.diagnose.candidates import Candidate
-from shockdyno.diagnose.engine import Settings, why_not
+from shockdyno.diagnose.claims import why_not
 from shockdyno.diagnose.fitting import Fitted
+from shockdyno.diagnose.settings import Settings
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.spec import load_spec
 from shockdyno.model.terms import make_term
@@ -65,7 +66,8 @@ def test_a_term_that_stays_off_or_adds_too_little_force_is_the_refits_gain() -> 
 def test_a_gas_spring_at_a_spec_s_error_is_calibration_not_a_second_physics() -> None:
     """With air claimed, a gas spring joined at 0.972x the spec's volume (a CI run's s-air
     recording): the spec's error, listed as calibration. At 0.33x it stays physics."""
-    from shockdyno.diagnose.engine import Trial, _gas_spring_is_calibration
+    from shockdyno.diagnose.baseline import gas_spring_is_calibration
+    from shockdyno.diagnose.diagnosis import Trial
 
     def case(factor: float) -> tuple[bool, list[str], list[Trial]]:
         model = DamperModel(
@@ -80,7 +82,7 @@ def test_a_gas_spring_at_a_spec_s_error_is_calibration_not_a_second_physics() ->
             for i, name in enumerate(claimed)
         ]
         groups: list[dict[str, object]] = [{"group": ["gas_spring", "position_force"]}]
-        return _gas_spring_is_calibration(base, claimed, findings, groups), claimed, findings
+        return gas_spring_is_calibration(base, claimed, findings, groups), claimed, findings
 
     moved, claimed, findings = case(0.972)
     assert moved and claimed == ["compressibility"]

@@ -9,8 +9,8 @@ import pytest
 from shockdyno.diagnose import fitting
 from shockdyno.diagnose.candidates import binned_means, companion_keys, try_candidate
 from shockdyno.diagnose.data import Data
-from shockdyno.diagnose.engine import _without
 from shockdyno.diagnose.fitting import CALIBRATIONS, refit
+from shockdyno.diagnose.search import without
 from shockdyno.diagnose.stats import noise_draws
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.synthetic import synthetic_sweep
@@ -44,13 +44,13 @@ def test_friction_frees_the_seal_turn_and_takes_it_out_again(
     assert 1e-4 < got < 1e-3, got
     # Taken out, the term leaves no friction parameter free and the turn at the spec's.
     came = {"friction": companion_keys(base, "friction")}
-    model, free, calibrated = _without(data, c.fitted, ["friction"], came)
+    model, free, calibrated = without(data, c.fitted, ["friction"], came)
     assert model.term("friction") is None
     assert not any(q.startswith("friction.") for q in free)
     assert calibrated == base.globals
     assert model.spec.friction_presliding_m == spec.friction_presliding_m
     assert model.spec.friction_velocity_m_s == pytest.approx(spec.friction_velocity_m_s)
     # A turn the fit calibrated before (a calibration taken on its own) stays.
-    model2, _, calibrated2 = _without(data, c.fitted, ["friction"], {"friction": ()})
+    model2, _, calibrated2 = without(data, c.fitted, ["friction"], {"friction": ()})
     assert set(TURN) <= set(calibrated2)
     assert model2.spec.friction_presliding_m == c.fitted.model.spec.friction_presliding_m

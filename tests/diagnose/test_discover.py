@@ -13,8 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from shockdyno.diagnose.engine import Diagnosis, Settings, diagnose
+from shockdyno.diagnose.diagnosis import Diagnosis
+from shockdyno.diagnose.engine import diagnose
 from shockdyno.diagnose.report import write_report
+from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.verdict import document, to_json
 from shockdyno.fit.synthetic import synthetic_sweep
 from shockdyno.model import load_spec

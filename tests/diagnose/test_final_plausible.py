@@ -11,9 +11,12 @@ from __future__ import annotations
 import numpy as np
 
 from shockdyno.diagnose.candidates import with_term
+from shockdyno.diagnose.claims import at_range_end
 from shockdyno.diagnose.data import Data
-from shockdyno.diagnose.engine import Settings, Trial, _at_range_end, _final_refit
+from shockdyno.diagnose.diagnosis import Trial
 from shockdyno.diagnose.fitting import Fitted, refit
+from shockdyno.diagnose.search import final_refit
+from shockdyno.diagnose.settings import Settings
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.synthetic import synthetic_sweep
 from shockdyno.model.composite import DamperModel
@@ -36,7 +39,7 @@ def _final(floor_pa: float) -> tuple[list[str], list[Trial], Fitted]:
     base = refit(data, model, (), None, max_nfev=20)
     claimed, findings = ["cavitation"], [_claimed("cavitation")]
     force_peak = float(np.max(np.abs(data.prob.f)))
-    final = _final_refit(data, base, claimed, findings, [], Settings(), force_peak, {})
+    final = final_refit(data, base, claimed, findings, [], Settings(), force_peak, {})
     return claimed, findings, final
 
 
@@ -69,18 +72,18 @@ def test_a_term_pinned_at_an_end_of_its_range_is_not_an_estimate() -> None:
         m = model.with_values({term.qualified(k): v for k, v in values.items()})
         return Fitted(m, free, plain.areas, {}, plain.force, plain.residual)
 
-    assert "upper end of its range (0.05 1/K)" in _at_range_end(
+    assert "upper end of its range (0.05 1/K)" in at_range_end(
         fitted({"damping_coeff_per_k": 0.0499999, "oil_lead_s": 150.0}), term
     )
-    assert "oil_lead_s sits at the upper end" in _at_range_end(
+    assert "oil_lead_s sits at the upper end" in at_range_end(
         fitted({"damping_coeff_per_k": 0.01, "oil_lead_s": 1000.0}), term
     )
-    assert _at_range_end(fitted({"damping_coeff_per_k": 0.01, "oil_lead_s": 150.0}), term) == ""
+    assert at_range_end(fitted({"damping_coeff_per_k": 0.01, "oil_lead_s": 150.0}), term) == ""
     # At the end that is its off value (no lead) the term is only partly on: an estimate.
-    assert _at_range_end(fitted({"damping_coeff_per_k": 0.01, "oil_lead_s": 0.0}), term) == ""
+    assert at_range_end(fitted({"damping_coeff_per_k": 0.01, "oil_lead_s": 0.0}), term) == ""
     # A parameter the fit held is not judged where it was put.
     held = Fitted(
         model.with_values({term.qualified("viscosity_coeff_per_k"): 0.1}),
         free, plain.areas, {}, plain.force, plain.residual,
     )  # fmt: skip
-    assert _at_range_end(held, term) == ""
+    assert at_range_end(held, term) == ""

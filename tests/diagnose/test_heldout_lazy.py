@@ -1,5 +1,5 @@
 """A round scores held out only the candidates whose gain decides something
-(engine._score_heldout), and decides what scoring every candidate decides: the same claim,
+(claims.score_heldout), and decides what scoring every candidate decides: the same claim,
 the same claimable ones beside a claimed calibration (the next round's `outranked`), the
 same "cannot tell apart" pairs, the same gain for each of those. Checked against scoring
 them all on many random rounds (LRs, p-values, other rules' refusals, gains, shapes),
@@ -14,10 +14,11 @@ from typing import ClassVar
 import numpy as np
 import pytest
 
-from shockdyno.diagnose import engine
+from shockdyno.diagnose import claims as claim_rules
 from shockdyno.diagnose.candidates import Candidate
-from shockdyno.diagnose.engine import OPEN_SET, Settings, decide, why_not
-from shockdyno.diagnose.fitting import Fitted
+from shockdyno.diagnose.claims import OPEN_SET, decide, why_not
+from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted
+from shockdyno.diagnose.settings import Settings
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.spec import load_spec
 
@@ -82,8 +83,8 @@ def _outcome(
         return None, [], alike, {}
     # What the search reads of the round: the claim, `outranked` (after a calibration),
     # the pairs it cannot tell apart, and the gains of the claimed and of those pairs.
-    outranked = [c.name for c in pool if c is not best] if best.name in engine.CALIBRATIONS else []
-    outranked = [n for n in outranked if n not in engine.CALIBRATIONS]
+    outranked = [c.name for c in pool if c is not best] if best.name in CALIBRATIONS else []
+    outranked = [n for n in outranked if n not in CALIBRATIONS]
     read = {n: scored[n] for n in [best.name, *alike]}
     return best.name, outranked, alike, read
 
@@ -92,7 +93,7 @@ def _outcome(
 def test_scoring_only_what_decides_decides_as_scoring_all(
     monkeypatch: pytest.MonkeyPatch, joining: bool
 ) -> None:
-    monkeypatch.setattr(engine, "HeldOut", Fake)
+    monkeypatch.setattr(claim_rules, "HeldOut", Fake)
     s = Settings()
     rng = np.random.default_rng(44 + joining)
     claims = saved = total = 0
@@ -105,7 +106,7 @@ def test_scoring_only_what_decides_decides_as_scoring_all(
         )
         top = [c for c in screened if c.p_value < s.alpha]
         every = {c.name: (Fake.table[c.name], f"folds of {c.name}") for c in top}
-        lazy = engine._score_heldout(
+        lazy = claim_rules.score_heldout(
             top, cands, None, 1, s, 1.0, shapes, None, refused, ["fold"], lambda *a: None, None
         )  # type: ignore[arg-type]
         assert len(Fake.asked) == len(set(Fake.asked)), "a candidate scored twice"
@@ -126,7 +127,7 @@ def test_a_real_effect_below_refused_candidates_is_scored_and_claimed(
     """The three candidates with the largest LR are refused by other rules (not
     physical, spread delays, ...): they are not scored, and the real one below them is
     scored and claimed; the open set, below it, is not scored."""
-    monkeypatch.setattr(engine, "HeldOut", Fake)
+    monkeypatch.setattr(claim_rules, "HeldOut", Fake)
     s = Settings()
     rng = np.random.default_rng(3)
     real = rng.normal(size=N)
@@ -136,7 +137,7 @@ def test_a_real_effect_below_refused_candidates_is_scored_and_claimed(
     refused = {f"t{i}": "not physical" for i in range(3)}
     Fake.table = {c.name: 0.9 for c in cands}
     Fake.asked = []
-    lazy = engine._score_heldout(
+    lazy = claim_rules.score_heldout(
         cands, cands, None, 1, s, 1.0, [], None, refused, ["fold"], lambda *a: None, None
     )  # type: ignore[arg-type]
     assert Fake.asked == ["real"]
@@ -144,7 +145,7 @@ def test_a_real_effect_below_refused_candidates_is_scored_and_claimed(
     # Its gain too small: nothing named is claimable, so the open set is scored (and
     # claimed, as scoring all would).
     Fake.table["real"], Fake.asked = 0.05, []
-    lazy = engine._score_heldout(
+    lazy = claim_rules.score_heldout(
         cands, cands, None, 1, s, 1.0, [], None, refused, ["fold"], lambda *a: None, None
     )  # type: ignore[arg-type]
     assert Fake.asked == ["real", OPEN_SET]
@@ -154,18 +155,18 @@ def test_a_real_effect_below_refused_candidates_is_scored_and_claimed(
 def test_a_round_with_nothing_claimable_scores_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
     """A clean sweep's round: every candidate refused by other rules, none scored, none
     claimed; with no held-out split, every p < alpha candidate gets the split's 0."""
-    monkeypatch.setattr(engine, "HeldOut", Fake)
+    monkeypatch.setattr(claim_rules, "HeldOut", Fake)
     s = Settings()
     rng = np.random.default_rng(5)
     cands = [_candidate(f"t{i}", 1e4 * (i + 1), 0.001, rng.normal(size=N), 50.0) for i in range(4)]
     refused = {c.name: "its parameters stay at their off values" for c in cands}
     Fake.table, Fake.asked = {c.name: 0.9 for c in cands}, []
-    lazy = engine._score_heldout(
+    lazy = claim_rules.score_heldout(
         cands, cands, None, 1, s, 1.0, [], None, refused, ["fold"], lambda *a: None, None
     )  # type: ignore[arg-type]
     assert Fake.asked == [] and lazy == {}
     assert _outcome(cands, lazy, refused, s, [])[0] is None
-    none = engine._score_heldout(
+    none = claim_rules.score_heldout(
         cands, cands, None, 1, s, 1.0, [], None, {}, [], lambda *a: None, None
     )  # type: ignore[arg-type]
     assert none == {c.name: (0.0, "no held-out split") for c in cands}

@@ -10,9 +10,10 @@ from __future__ import annotations
 import numpy as np
 
 from shockdyno.diagnose.candidates import binned_means, own_force, try_candidate
+from shockdyno.diagnose.claims import why_not
 from shockdyno.diagnose.data import Data
-from shockdyno.diagnose.engine import Settings, why_not
 from shockdyno.diagnose.fitting import refit
+from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.stats import noise_draws
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.synthetic import synthetic_sweep

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from shockdyno.diagnose.consistency import delay_spread, inconsistent
 from shockdyno.diagnose.data import Data
-from shockdyno.diagnose.engine import Settings
 from shockdyno.diagnose.fitting import refit
+from shockdyno.diagnose.settings import Settings
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.synthetic import synthetic_sweep
 from shockdyno.model.composite import DamperModel

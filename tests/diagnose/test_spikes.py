@@ -9,7 +9,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from shockdyno.diagnose.engine import Settings, diagnose
+from shockdyno.diagnose.engine import diagnose
+from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.spikes import remove_spikes
 from shockdyno.diagnose.verdict import to_json
 from shockdyno.fit.synthetic import synthetic_sweep

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from shockdyno.diagnose.engine import CalibrationRow, Trial
+from shockdyno.diagnose.diagnosis import CalibrationRow, Trial
 from shockdyno.diagnose.verdict import describe, describe_calibration
 from shockdyno.model.params import Estimate
 
@@ -191,7 +191,7 @@ def test_the_engine_s_si_sentences_convert_their_forces_and_speeds() -> None:
     """The sentences the engine writes in SI (a spike count, a why-not, what separates two
     terms) shown in imperial: each force and speed the SI one over 4.448 N/lbf and
     25.4 mm/in; every other number left alone; SI untouched."""
-    from shockdyno.diagnose.engine import separate_by
+    from shockdyno.diagnose.claims import separate_by
     from shockdyno.diagnose.spikes import Spikes
     from shockdyno.units import IMPERIAL, in_units
 

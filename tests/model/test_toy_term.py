@@ -13,7 +13,9 @@ from typing import ClassVar
 import pytest
 
 from shockdyno.cli import main
-from shockdyno.diagnose.engine import Settings, diagnose, separate_by
+from shockdyno.diagnose.claims import separate_by
+from shockdyno.diagnose.engine import diagnose
+from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.verdict import to_json
 from shockdyno.fit.result import FitResult
 from shockdyno.fit.sweep import fit_sweep

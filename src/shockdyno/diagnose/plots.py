@@ -12,7 +12,7 @@ from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 from shockdyno.diagnose.data import Data
-from shockdyno.diagnose.engine import Diagnosis
+from shockdyno.diagnose.diagnosis import Diagnosis
 from shockdyno.diagnose.fitting import Fitted, full_rate_force
 from shockdyno.units import SI, Units
 

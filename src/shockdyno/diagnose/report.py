@@ -6,7 +6,7 @@ import os
 from pathlib import Path
 
 from shockdyno.atomic import write_text_atomic
-from shockdyno.diagnose.engine import Diagnosis
+from shockdyno.diagnose.diagnosis import Diagnosis
 from shockdyno.diagnose.plots import loops, residual_maps
 from shockdyno.report.diagnose_section import spec_shown
 from shockdyno.report.documents import DiagnosisDoc

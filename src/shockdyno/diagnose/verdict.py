@@ -10,7 +10,7 @@ from typing import Any, cast
 import numpy as np
 
 from shockdyno import schema
-from shockdyno.diagnose.engine import CalibrationRow, Diagnosis, Trial
+from shockdyno.diagnose.diagnosis import CalibrationRow, Diagnosis, Trial
 from shockdyno.diagnose.locate import Location
 from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.unexplained import described_doc, described_text

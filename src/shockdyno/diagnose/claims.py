@@ -1,0 +1,281 @@
+"""The claim rules: why a candidate is not claimed (`why_not`), which one a round claims
+(`decide`), which candidates are scored held out (`score_heldout`), and what tells two
+look-alikes apart (`separate_by`)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from shockdyno.diagnose.candidates import Candidate, Fold, HeldOut
+from shockdyno.diagnose.cycles import BinnedTest
+from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted
+from shockdyno.diagnose.settings import Settings
+from shockdyno.diagnose.workers import Workers
+from shockdyno.fit.parameters import spec_global
+from shockdyno.model.composite import Term
+from shockdyno.model.terms import LIBRARY
+
+FloatArray = NDArray[np.float64]
+Progress = Callable[[str, float], None]
+
+
+OPEN_SET = "position_force"
+
+
+# What separates two candidates that explain the same shape of residual.
+def separate_by(a: str, b: str) -> str:
+    """What would tell terms a and b apart (Term.separated_by, written on one of the two)."""
+    ca, cb = LIBRARY.get(a), LIBRARY.get(b)
+    said = (ca.separated_by.get(b) if ca else None) or (cb.separated_by.get(a) if cb else None)
+    return said or DEFAULT_SEPARATE
+
+
+DEFAULT_SEPARATE = "tests at other frequencies, amplitudes and gas pressures"
+
+
+def cosine(a: FloatArray, b: FloatArray) -> float:
+    na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+    return float(a @ b / (na * nb)) if na > 0 and nb > 0 else 0.0
+
+
+def moved_off(fitted: Fitted, term: Term) -> bool:
+    """Whether any free parameter of `term` moved off its off value by more than 3σ (and
+    a thousandth of its scale). A term that fits better while staying at off explains
+    nothing itself: its refit moved the rest (a gas spring at 0.998 ± 0.002 × the spec's
+    once took 97 % of what a claimed compressibility's short refit had left)."""
+    free = [p for p in term.params() if term.qualified(p.name) in fitted.free]
+    if not free:
+        return True  # nothing was fitted: nothing to judge
+    return any(
+        _beyond_noise(
+            fitted.model.value(term.qualified(p.name)),
+            p.off,
+            fitted.term_sd.get(term.qualified(p.name), math.nan),
+            p.scale,
+        )
+        for p in free
+    )
+
+
+def at_range_end(fitted: Fitted, term: Term) -> str:
+    """Why `term` as fitted is not an estimate ("" when it is): a free parameter pinned
+    at an end of its range that is not its off value. The data ask for more than the
+    term's physics allows there, so the term stands in for something else, and the σ a
+    bound gives is no error bar. Seen: a thermal term on reference-plant sweeps with no
+    heat effect (a 60 N seal; vapour at a 0.40 gas charge) fitted its damping at ±5 %/K
+    and the oil's lead at 1000 s, the range's ends, and was claimed."""
+    for p in term.params():
+        key = term.qualified(p.name)
+        if key not in fitted.free:
+            continue
+        value = fitted.model.value(key)
+        for end, bound in (("lower", p.lo), ("upper", p.hi)):
+            # No error bar is known here: within a thousandth of its scale of the bound.
+            if bound != p.off and not _beyond_noise(value, bound, math.nan, p.scale):
+                return f"its {p.name} sits at the {end} end of its range ({bound:.4g} {p.unit})"
+    return ""
+
+
+def _beyond_noise(value: float, ref: float, sd: float, scale: float) -> bool:
+    """Whether a fitted value sits off `ref` by more than 3σ and a thousandth of its scale
+    (a value that is not finite has moved)."""
+    noise = 3 * sd if math.isfinite(sd) else 0.0
+    return not math.isfinite(value) or abs(value - ref) > max(noise, 1e-3 * scale)
+
+
+def _calibration_idle(c: Candidate, min_effect_n: float) -> str:
+    """Why a calibration candidate changed nothing itself ("" when it did): none of its
+    spec values moved off the spec's by more than 3σ, or its own force (the model less
+    the same with the spec's values) is too small to matter."""
+    spec, sds = c.fitted.model.spec, c.fitted.globals_sd
+    moved = any(
+        _beyond_noise(
+            spec.value(key),
+            c.spec_values.get(key, 0.0),
+            sds.get(key, math.nan),
+            spec_global(key).scale(c.spec_values.get(key, 0.0)),
+        )
+        for key in CALIBRATIONS[c.name]
+    )
+    if not moved:
+        return "its values stay at the spec's: the gain is the refit's"
+    if c.own_peak_n < min_effect_n:
+        return (
+            f"its own force peaks at {c.own_peak_n:.2g} N, too small to matter: the gain is "
+            "the refit's"
+        )
+    return ""
+
+
+def why_not(
+    c: Candidate,
+    scored: dict[str, tuple[float, str]] | None,
+    s: Settings,
+    min_effect_n: float,
+    shapes: Sequence[tuple[str, FloatArray]] = (),
+    x: FloatArray | None = None,
+    refused: Mapping[str, str] | None = None,
+) -> str:
+    """Why a candidate is not claimable ("" when it is). `shapes`: what each claimed term
+    explained; a later term that explains the same shape again refines that physics (a
+    lag model's residual looks like more lag), it is not a second one. `refused`: what a
+    consistency check (consistency.py) found against a candidate. `scored` None: every
+    rule but the held-out gain's (what `run_round` asks before it scores a candidate held
+    out: a candidate one of them refuses is refused whatever its gain)."""
+    if refused and refused.get(c.name):
+        return refused[c.name]
+    for name, shape in shapes:
+        if cosine(c.explained, shape) > s.same_shape:
+            return f"the same shape as {name}, already claimed"
+    if c.name in CALIBRATIONS:
+        why = _calibration_idle(c, min_effect_n)
+        if why:
+            return why
+    term = c.fitted.model.term(c.name)
+    if term is not None:
+        odd = term.implausible(c.fitted.model.local_values(term), c.fitted.model.spec)
+        if odd:
+            return f"not physical: {odd}"
+        if x is not None:
+            unplaced = term.unplaced(c.fitted.model.local_values(term), x)
+            if unplaced:
+                return f"not placed: {unplaced}"
+        if not moved_off(c.fitted, term):
+            return "its parameters stay at their off values: the gain is the refit's"
+        if c.own_peak_n < min_effect_n:
+            return (
+                f"its own force peaks at {c.own_peak_n:.2g} N, too small to matter: the gain "
+                "is the refit's"
+            )
+        pinned = at_range_end(c.fitted, term)
+        if pinned:
+            return f"not an estimate: {pinned}"
+    if c.p_value >= s.alpha:
+        return f"p = {c.p_value:.3g} ≥ {s.alpha:g}"
+    if scored is None:
+        return _too_small(c, min_effect_n)
+    if c.name not in scored:
+        if s.heldout_top is None:  # score_heldout: one that explained more was claimable
+            return "not scored held out: a term that explained more was claimable"
+        return f"not scored held out: {s.heldout_top} candidates explained more"
+    gain = scored[c.name][0]
+    need = s.min_gain_joining if shapes else s.min_gain
+    if not gain >= need:
+        joining = " (to join a claimed term)" if shapes else ""
+        return f"held-out gain {gain:.2g} < {need:g}{joining}"
+    return _too_small(c, min_effect_n)
+
+
+def _too_small(c: Candidate, min_effect_n: float) -> str:
+    if c.effect_peak_n < min_effect_n:
+        return f"effect {c.effect_peak_n:.2g} N too small to matter"
+    return ""
+
+
+def decide(
+    cands: Sequence[Candidate],
+    screened: Sequence[Candidate],
+    scored: Mapping[str, tuple[float, str]],
+    reasons: Mapping[str, str],
+    s: Settings,
+) -> tuple[Candidate | None, list[Candidate], dict[str, list[str]]]:
+    """A round's outcome from its candidates' reasons (why_not, "" when claimable) and
+    held-out scores: the claimed candidate (None: none), the claimable ones it was chosen
+    from, and per candidate the claimed one when the verdict cannot tell them apart."""
+    passing = [c for c in screened if not reasons[c.name]]
+    named = [c for c in passing if c.name != OPEN_SET]
+    pool = named or passing
+    # Of the claimable, the one the full refit says explains most (its LR): held-out
+    # gains of near-tied candidates come from short refits and are noisier.
+    best = max(pool, key=lambda c: c.lr) if pool else None
+    alike_with: dict[str, list[str]] = {}
+    for c in cands:
+        if best is not None and c is not best and c.p_value < s.alpha:
+            # Alike: the same shape explained, and held out it leaves about as much.
+            gain = scored.get(c.name, (math.nan, ""))[0]
+            rest, rest_best = 1 - gain, 1 - scored[best.name][0]
+            same = cosine(c.explained, best.explained) > s.alike_cosine
+            if same and rest <= s.alike_rest_ratio * rest_best + s.alike_rest_margin:
+                alike_with[c.name] = [best.name]
+    return best, pool, alike_with
+
+
+def score_heldout(
+    top: Sequence[Candidate],
+    cands: Sequence[Candidate],
+    base: Fitted,
+    rnd: int,
+    s: Settings,
+    limit: float,
+    shapes: Sequence[tuple[str, FloatArray]],
+    x: FloatArray,
+    refused: Mapping[str, str],
+    fold_list: list[Fold],
+    report: Progress,
+    workers: Workers,
+) -> dict[str, tuple[float, str]]:
+    """The held-out gains (and folds in words) of the candidates of `top` (p < alpha,
+    largest LR first) whose gain decides something, scored in that order, and only those:
+    a fold refit is most of a round's work (five refits a candidate, beside 14 candidate
+    refits in all), and most candidates are refused on their full fit alone.
+
+    What the gain decides, and so what is scored:
+    - whether a candidate is claimable: only for one every other rule lets pass (why_not
+      with scored=None). A candidate another rule refuses is refused whatever its gain;
+    - which is claimed: the claimable one with the largest LR (a named term before the
+      open set's). So the candidates every other rule lets pass are scored in LR order
+      until one passes; those below it cannot be claimed this round. When that one is a
+      calibration, every physics term that could pass is scored too (a physics term that
+      passed but lost to a calibration gets the next round: `gated`'s `outranked`);
+    - which candidates the verdict cannot tell from the claimed one: those whose explained
+      shape has a cosine above alike_cosine with its, each scored.
+    So the claim, the groups, `passed` and every claimed figure are those of scoring them
+    all; a candidate left unscored has no gain (None in DIAG.json) and its first reason.
+    Each candidate's gain is the same asked alone or with others (HeldOut)."""
+    if not top:
+        return {}
+    if not fold_list:
+        return {c.name: (0.0, "no held-out split") for c in top}
+    held = HeldOut(fold_list, base, s.fold_nfev, workers)
+    scored: dict[str, tuple[float, str]] = {}
+
+    def score(batch: Sequence[Candidate]) -> None:
+        batch = [c for c in batch if c.name not in scored]
+        if batch:
+            names = ", ".join(c.name for c in batch)
+            report(f"round {rnd}: held out, {names}", 0.1 + 0.8 * (rnd - 0.3) / s.max_rounds)
+            scored.update(zip((c.name for c in batch), held.gains(batch), strict=True))
+
+    def claimable(c: Candidate) -> bool:
+        return not why_not(c, scored, s, limit, shapes, x, refused)
+
+    could = [c for c in top if not why_not(c, None, s, limit, shapes, x, refused)]
+    best = None
+    named = [c for c in could if c.name != OPEN_SET]
+    for group in (named, [c for c in could if c.name == OPEN_SET]):
+        for c in group:
+            score([c])
+            if claimable(c):
+                best = c
+                break
+        if best is not None:
+            break
+    if best is None:
+        return scored
+    if best.name in CALIBRATIONS:
+        score([c for c in could if c.name not in CALIBRATIONS and c.name != OPEN_SET])
+    score(
+        [c for c in top if c is not best and cosine(c.explained, best.explained) > s.alike_cosine]
+    )
+    return scored
+
+
+def effect_limit(binned: Sequence[BinnedTest], force_peak: float, s: Settings) -> float:
+    """The least effect that matters: 0.1 % of the peak force, and 3 noise σ of a phase
+    mean under the current model (a misfit inflates the scatter)."""
+    mean_noise = float(np.sqrt(np.mean(np.concatenate([b.mean_var for b in binned]))))
+    return max(s.min_effect_share * force_peak, 3 * mean_noise)

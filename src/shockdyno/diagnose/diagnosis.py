@@ -1,0 +1,129 @@
+"""What a diagnosis found: each candidate tried (`Trial`), the spec values calibrated,
+the tests' scores, and the whole `Diagnosis` that verdict.py turns into DIAG.json."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from shockdyno.diagnose.data import Data
+from shockdyno.diagnose.discover import Described
+from shockdyno.diagnose.fitting import Fitted
+from shockdyno.diagnose.locate import Location
+from shockdyno.diagnose.settings import Settings
+from shockdyno.diagnose.stats import MismatchStat
+from shockdyno.model.params import Estimate
+
+FloatArray = NDArray[np.float64]
+Progress = Callable[[str, float], None]
+
+
+@dataclass
+class Trial:
+    """One candidate term tried in one round of the search: its refit's scores, the term's
+    parameters as fitted, and whether it is claimed (and why not). The search edits it as
+    later rounds decide; verdict.py makes each one a row of DIAG.json's `findings`
+    (report/documents.py `Finding`)."""
+
+    physics: str
+    round: int
+    claimed: bool
+    p_value: float
+    lr_n2: float
+    heldout_gain: float
+    heldout_detail: str
+    effect_rms_n: float
+    effect_peak_n: float
+    parameters: dict[str, Estimate]  # the term's, at the fit that was scored
+    ambiguous_with: list[str] = field(default_factory=list)
+    why_not: str = ""
+
+
+@dataclass(frozen=True)
+class CalibrationRow:
+    """A spec value the recording calibrated (DIAG.json `verdict.calibration`)."""
+
+    parameter: str
+    spec_value: float
+    fitted: float
+    sd: float
+    unit: str
+    share: float = Settings.calibration_share
+    scale: float = 0.0  # what `share` is of where the spec says 0 (SpecGlobal.fallback)
+    tolerance: tuple[float, float] | None = None  # SpecGlobal.tolerance
+
+    @property
+    def beyond(self) -> bool:
+        """Moved further from the spec's value than a real damper departs from its
+        drawing (SpecGlobal.tolerance): a finding, not a calibration."""
+        if self.tolerance is None or self.spec_value <= 0 or not self.moved:
+            return False
+        ratio = self.fitted / self.spec_value
+        return not self.tolerance[0] <= ratio <= self.tolerance[1]
+
+    @property
+    def moved(self) -> bool:
+        """Worth a sentence: off the spec's value by more than `share` of it (of `scale`
+        where the spec gives 0: a bleed land of 0.1 mm is a sharp orifice still) and by
+        more than three of its σ."""
+        off = abs(self.fitted - self.spec_value)
+        sd = self.sd if math.isfinite(self.sd) else 0.0
+        size = abs(self.spec_value) or self.scale
+        return off > self.share * size and off > 3 * sd
+
+
+@dataclass
+class TestScore:
+    index: int
+    clicks: int
+    frequency_hz: float
+    e_t_before: float
+    e_t_after: float
+
+
+@dataclass(frozen=True)
+class ShortTest:
+    """A test of fewer than two whole cycles: it has no cycle-to-cycle scatter, so no noise
+    to weigh a mismatch against, and the diagnosis claims nothing from it."""
+
+    index: int
+    clicks: int
+    frequency_hz: float
+    cycles: float
+
+
+@dataclass
+class Diagnosis:
+    mismatch: MismatchStat
+    location: Location
+    trials: list[Trial]
+    claimed: list[str]
+    indistinguishable: list[dict[str, object]]
+    unexplained: Location
+    remaining: MismatchStat
+    tests: list[TestScore]
+    baseline: Fitted
+    final: Fitted
+    data: Data
+    notes: list[str]
+    wall_s: float
+    single_frequency: bool
+    calibration: list[CalibrationRow] = field(default_factory=list)
+    settings: Settings = field(default_factory=Settings)  # what the search used; the verdict too
+    sensor: list[str] = field(default_factory=list)  # faults of the sensors, not physics
+    short_tests: list[ShortTest] = field(default_factory=list)  # left out, see ShortTest
+    # What the search left (significant), described, with a discovered term (discover.py)
+    described: list[Described] = field(default_factory=list)
+
+    @property
+    def alpha(self) -> float:
+        return self.settings.alpha
+
+    @property
+    def testable(self) -> bool:
+        """False when every test was short: no mismatch test, nothing claimed (_untestable)."""
+        return not math.isnan(self.mismatch.p_value)

@@ -19,6 +19,7 @@ from shockdyno.fit.prepare import prepare_tests
 from shockdyno.model import DamperModel, load_spec
 from shockdyno.model.terms import make_term
 from shockdyno.record import open_recording
+from shockdyno.report.documents import Indistinguishable
 
 REPO = Path(__file__).resolve().parents[2]
 CLI = [sys.executable, "-m", "shockdyno.cli"]
@@ -58,7 +59,7 @@ def test_a_gas_spring_claimed_before_the_bump_stop_is_dropped(tmp_path: Path) ->
     both = refit(data, start, free, None, max_nfev=60)
     claimed = ["gas_spring", "contact"]
     findings = [_finding("gas_spring"), _finding("contact")]
-    groups: list[dict[str, object]] = [{"group": ["gas_spring", "position_force"]}]
+    groups = [Indistinguishable(group=("gas_spring", "position_force"), separate_by="")]
     s = Settings(n_boot=199)
     kept = backward(data, both, claimed, findings, groups, folds(data), np.random.default_rng(0), s)
     assert claimed == ["contact"]

@@ -68,6 +68,7 @@ def test_a_gas_spring_at_a_spec_s_error_is_calibration_not_a_second_physics() ->
     recording): the spec's error, listed as calibration. At 0.33x it stays physics."""
     from shockdyno.diagnose.baseline import gas_spring_is_calibration
     from shockdyno.diagnose.diagnosis import Trial
+    from shockdyno.report.documents import Indistinguishable
 
     def case(factor: float) -> tuple[bool, list[str], list[Trial]]:
         model = DamperModel(
@@ -81,7 +82,7 @@ def test_a_gas_spring_at_a_spec_s_error_is_calibration_not_a_second_physics() ->
             Trial(name, 1 + i, True, 0.002, 1.0, 0.96, "", 1.0, 2.0, {})
             for i, name in enumerate(claimed)
         ]
-        groups: list[dict[str, object]] = [{"group": ["gas_spring", "position_force"]}]
+        groups = [Indistinguishable(group=("gas_spring", "position_force"), separate_by="")]
         return gas_spring_is_calibration(base, claimed, findings, groups), claimed, findings
 
     moved, claimed, findings = case(0.972)

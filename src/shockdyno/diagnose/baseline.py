@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,6 +18,7 @@ from shockdyno.fit.result import FitResult
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.spec import DamperSpec
 from shockdyno.model.terms import make_term
+from shockdyno.report.documents import Indistinguishable
 
 FloatArray = NDArray[np.float64]
 Progress = Callable[[str, float], None]
@@ -66,7 +66,7 @@ def fit_baseline(data: Data, fit: FitResult | None, settings: Settings, notes: l
 
 
 def gas_spring_is_calibration(
-    base: Fitted, claimed: list[str], trials: list[Trial], groups: list[dict[str, object]]
+    base: Fitted, claimed: list[str], trials: list[Trial], groups: list[Indistinguishable]
 ) -> bool:
     """A gas spring claimed at a volume within a spec's error is calibration, not physics.
 
@@ -90,7 +90,7 @@ def gas_spring_is_calibration(
                 f"a gas volume {factor:.3g}x the spec's is within a spec's error: "
                 "calibration, not physics"
             )
-    groups[:] = [g for g in groups if "gas_spring" not in cast(list[str], g["group"])]
+    groups[:] = [g for g in groups if "gas_spring" not in g.group]
     return True
 
 

@@ -17,6 +17,7 @@ from shockdyno.diagnose.locate import Location
 from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.stats import MismatchStat
 from shockdyno.model.params import Estimate
+from shockdyno.report.documents import Indistinguishable
 
 FloatArray = NDArray[np.float64]
 Progress = Callable[[str, float], None]
@@ -102,7 +103,7 @@ class Diagnosis:
     location: Location
     trials: list[Trial]
     claimed: list[str]
-    indistinguishable: list[dict[str, object]]
+    indistinguishable: list[Indistinguishable]  # claimed terms the data cannot tell apart
     unexplained: Location
     remaining: MismatchStat
     tests: list[TestScore]

@@ -50,6 +50,7 @@ from shockdyno.fit.result import FitResult
 from shockdyno.fit.sweep import check_adjusters
 from shockdyno.model.spec import DamperSpec, default_spec_path, load_spec
 from shockdyno.record.types import TestData
+from shockdyno.report.documents import Indistinguishable
 
 FloatArray = NDArray[np.float64]
 Progress = Callable[[str, float], None]
@@ -132,7 +133,7 @@ def _diagnose(
     trials: list[Trial] = []
     claimed: list[str] = []
     shapes: list[tuple[str, FloatArray]] = []
-    groups: list[dict[str, object]] = []
+    groups: list[Indistinguishable] = []
     came_with: dict[str, tuple[str, ...]] = {}  # claimed term -> spec values freed with it
     if search is not data:
         base = refit(search, base.model, base.free, base, max_nfev=s.max_nfev)
@@ -186,7 +187,8 @@ def _diagnose(
                 best_f.ambiguous_with = alike
                 group = sorted([best.name, *alike])
                 pairs = [separate_by(best.name, a) for a in alike]
-                groups.append({"group": group, "separate_by": "; ".join(dict.fromkeys(pairs))})
+                by = "; ".join(dict.fromkeys(pairs))
+                groups.append(Indistinguishable(group=tuple(group), separate_by=by))
             claimed.append(best.name)
             came_with[best.name] = tuple(k for k in best.fitted.globals if k not in base.globals)
             shapes.append((best.name, best.explained))

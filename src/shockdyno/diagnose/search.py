@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,6 +36,7 @@ from shockdyno.diagnose.workers import SERIAL, Workers
 from shockdyno.model.composite import FORCE, PRESSURE, DamperModel
 from shockdyno.model.params import Estimate
 from shockdyno.model.terms import LIBRARY
+from shockdyno.report.documents import Indistinguishable
 
 FloatArray = NDArray[np.float64]
 Progress = Callable[[str, float], None]
@@ -59,7 +59,7 @@ def backward(
     base: Fitted,
     claimed: list[str],
     trials: list[Trial],
-    groups: list[dict[str, object]],
+    groups: list[Indistinguishable],
     fold_list: list[Fold],
     rng: np.random.Generator,
     s: Settings,
@@ -99,7 +99,7 @@ def backward(
         )
         claimed.remove(name)
         came_with.pop(name, None)
-        groups[:] = [g for g in groups if name not in g["group"]]  # type: ignore[operator]
+        groups[:] = [g for g in groups if name not in g.group]
         base = reduced
     return base
 
@@ -262,7 +262,7 @@ def final_refit(
     base: Fitted,
     claimed: list[str],
     trials: list[Trial],
-    groups: list[dict[str, object]],
+    groups: list[Indistinguishable],
     s: Settings,
     force_peak: float,
     came_with: dict[str, tuple[str, ...]],
@@ -310,7 +310,7 @@ def final_refit(
                 f.claimed = False
                 f.why_not = why[f.physics]
         claimed[:] = [n for n in claimed if n not in idle]
-        groups[:] = [g for g in groups if not set(idle) & set(cast(list[str], g["group"]))]
+        groups[:] = [g for g in groups if not set(idle) & set(g.group)]
         kept, free, calibrated = without(data, base, idle, came_with)
         for n in idle:
             came_with.pop(n, None)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from itertools import pairwise
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 
@@ -187,8 +187,8 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
         lines.append(f"To carry {'it' if len(claimed) == 1 else 'them'} into a fit: "
                      f"fit --terms {fit_terms(claimed)}.")  # fmt: skip
     for g in d.indistinguishable:
-        by = in_units(str(g["separate_by"]), u)
-        lines.append(f"To separate {' and '.join(g['group'])}: {by}.")  # type: ignore[arg-type]
+        by = in_units(g.separate_by, u)
+        lines.append(f"To separate {' and '.join(g.group)}: {by}.")
     if d.single_frequency:
         lines.append(
             "One frequency only: a lag, a delay and compressibility all open the loop alike "
@@ -263,12 +263,7 @@ def _verdict(d: Diagnosis) -> docs.Verdict:
         # described residuals (unexplained.py); regions alone where none was described
         unexplained=tuple(described_doc(x) for x in d.described)
         or tuple(docs.Unexplained(**vars(r.doc())) for r in d.unexplained.regions),
-        indistinguishable=tuple(
-            docs.Indistinguishable(
-                group=tuple(cast(list[str], g["group"])), separate_by=str(g["separate_by"])
-            )
-            for g in d.indistinguishable
-        ),
+        indistinguishable=tuple(d.indistinguishable),
         calibration=tuple(
             docs.Calibration(
                 parameter=r.parameter,

@@ -13,7 +13,7 @@ from shockdyno.diagnose.candidates import folds
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.diagnosis import Trial
 from shockdyno.diagnose.fitting import refit
-from shockdyno.diagnose.search import backward
+from shockdyno.diagnose.search import Search
 from shockdyno.diagnose.settings import Settings
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.model import DamperModel, load_spec
@@ -61,7 +61,10 @@ def test_a_gas_spring_claimed_before_the_bump_stop_is_dropped(tmp_path: Path) ->
     findings = [_finding("gas_spring"), _finding("contact")]
     groups = [Indistinguishable(group=("gas_spring", "position_force"), separate_by="")]
     s = Settings(n_boot=199)
-    kept = backward(data, both, claimed, findings, groups, folds(data), np.random.default_rng(0), s)
+    search = Search(data, both, s, np.random.default_rng(0), folds(data), 0.0)
+    search.claimed, search.trials, search.groups = claimed, findings, groups
+    search.backward()
+    kept = search.base
     assert claimed == ["contact"]
     assert kept.model.term("gas_spring") is None and kept.model.term("contact") is not None
     assert not findings[0].claimed and findings[0].why_not.startswith("dropped in the backward")

@@ -1,5 +1,5 @@
 """After a claim that leaves nothing beyond noise for physics, the calibrations that lost
-their round to it still get rounds of their own (diagnose/engine.py's search loop)."""
+their round to it still get rounds of their own (diagnose/search.py, Search.run)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,9 @@ from typing import Any
 
 import pytest
 
-from shockdyno.diagnose import engine
+from shockdyno.diagnose import engine, search
 from shockdyno.diagnose.fitting import CALIBRATIONS
+from shockdyno.diagnose.search import Search, gated
 from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.stats import MismatchStat
 from shockdyno.fit.synthetic import synthetic_sweep
@@ -22,12 +23,12 @@ def _run(monkeypatch: pytest.MonkeyPatch, delay_s: float) -> tuple[list[list[str
     real = spec.with_values({"friction_presliding_m": 2e-5, "friction_velocity_m_s": 1e-4})
     tests = synthetic_sweep(real, [15], cycles=4, seed=7, force_delay_s=delay_s, ripple_m=0.0)
     rounds: list[list[str]] = []
-    real_round, real_test = engine.run_round, engine.mismatch_test
+    real_round, real_test = Search.round, engine.mismatch_test
     calls = [0]
 
-    def round_(*args: Any, **kwargs: Any) -> Any:
-        rounds.append(list(args[4]))  # `remaining`
-        return real_round(*args, **kwargs)
+    def round_(self: Search, rnd: int, remaining: list[str]) -> Any:
+        rounds.append(list(remaining))
+        return real_round(self, rnd, remaining)
 
     def quiet_after_first(*args: Any, **kwargs: Any) -> MismatchStat:
         # What is left after the first round shows nothing beyond noise (the gate).
@@ -35,8 +36,10 @@ def _run(monkeypatch: pytest.MonkeyPatch, delay_s: float) -> tuple[list[list[str
         got = real_test(*args, **kwargs)
         return got if calls[0] == 1 else replace(got, p_value=1.0)
 
-    monkeypatch.setattr(engine, "run_round", round_)
+    monkeypatch.setattr(Search, "round", round_)
+    # The baseline's test is engine's, what each round leaves the search's.
     monkeypatch.setattr(engine, "mismatch_test", quiet_after_first)
+    monkeypatch.setattr(search, "mismatch_test", quiet_after_first)
     s = Settings(candidates=("sensor_lag",), calibrations=("seal_turn",), n_boot=199)
     return rounds, engine.diagnose(tests, settings=s)
 
@@ -89,5 +92,5 @@ def test_what_the_next_round_tries(
     p: float, claimed: list[str], outranked: list[str], expected: list[str]
 ) -> None:
     remaining = ["friction", "thermal", "seal_turn", "bleed_land"]
-    got = engine.gated(remaining, _left(p), claimed, outranked, Settings())
+    got = gated(remaining, _left(p), claimed, outranked, Settings())
     assert got == [c for c in remaining if c in expected]

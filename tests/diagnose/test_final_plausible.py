@@ -15,7 +15,7 @@ from shockdyno.diagnose.claims import at_range_end
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.diagnosis import Trial
 from shockdyno.diagnose.fitting import Fitted, refit
-from shockdyno.diagnose.search import final_refit
+from shockdyno.diagnose.search import Search
 from shockdyno.diagnose.settings import Settings
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.synthetic import synthetic_sweep
@@ -39,7 +39,9 @@ def _final(floor_pa: float) -> tuple[list[str], list[Trial], Fitted]:
     base = refit(data, model, (), None, max_nfev=20)
     claimed, findings = ["cavitation"], [_claimed("cavitation")]
     force_peak = float(np.max(np.abs(data.prob.f)))
-    final = final_refit(data, base, claimed, findings, [], Settings(), force_peak, {})
+    search = Search(data, base, Settings(), np.random.default_rng(0), [], force_peak)
+    search.claimed, search.trials = claimed, findings
+    final = search.final_refit(data)
     return claimed, findings, final
 
 

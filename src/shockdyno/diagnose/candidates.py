@@ -533,8 +533,8 @@ def _fold_task(
 
 class HeldOut:
     """The held-out scores of a round's candidates beside `base`, asked for in batches
-    (the search scores a candidate only when its gain could decide something: engine's
-    `_round`). The baseline's structure on each fold (and on each halves split some
+    (the search scores a candidate only when its gain could decide something: search.py's
+    `Search.round`). The baseline's structure on each fold (and on each halves split some
     candidate is judged on) is refitted once, the first time it is needed, and shared by
     every batch after: a candidate's score is the same whether it is asked for alone or
     with others (each refit is a pure function of its fold and its start)."""

@@ -124,7 +124,7 @@ def why_not(
     explained; a later term that explains the same shape again refines that physics (a
     lag model's residual looks like more lag), it is not a second one. `refused`: what a
     consistency check (consistency.py) found against a candidate. `scored` None: every
-    rule but the held-out gain's (what `run_round` asks before it scores a candidate held
+    rule but the held-out gain's (what `Search.round` asks before it scores a candidate held
     out: a candidate one of them refuses is refused whatever its gain)."""
     if refused and refused.get(c.name):
         return refused[c.name]

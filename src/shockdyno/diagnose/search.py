@@ -1,5 +1,6 @@
-"""The forward search's steps: one round of candidates (`run_round`), the next round's
-candidates (`gated`), the backward check, and the final refit on every test."""
+"""The forward search as one object (`Search`): its state between rounds (the model so
+far, what is claimed, each candidate's trial, the groups the verdict cannot tell apart)
+and its steps: the rounds, the backward check, and the final refit on every test."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from shockdyno.diagnose.candidates import (
     Candidate,
     Fold,
     binned_means,
+    folds,
     heldout_gains,
     own_peak,
     try_candidate,
@@ -23,15 +25,15 @@ from shockdyno.diagnose.claims import (
     effect_limit,
     moved_off,
     score_heldout,
+    separate_by,
     why_not,
 )
 from shockdyno.diagnose.consistency import SENSOR, alike, delay_spread, inconsistent
-from shockdyno.diagnose.cycles import BinnedTest
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.diagnosis import Trial
 from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted, refit
 from shockdyno.diagnose.settings import Settings
-from shockdyno.diagnose.stats import MismatchStat, noise_draws
+from shockdyno.diagnose.stats import MismatchStat, mismatch_test, noise_draws
 from shockdyno.diagnose.workers import SERIAL, Workers
 from shockdyno.model.composite import FORCE, PRESSURE, DamperModel
 from shockdyno.model.params import Estimate
@@ -42,7 +44,311 @@ FloatArray = NDArray[np.float64]
 Progress = Callable[[str, float], None]
 
 
+def _quiet(stage: str, fraction: float) -> None:
+    pass
+
+
+class Search:
+    """Forward selection over `tests` from `base`: each round tries every remaining
+    candidate beside the model so far and claims at most one (`round`); a claimed term
+    joins the model and the search repeats on what remains (`run`). Then each claim is
+    tested again as the last to join the others (`backward`), and the model is refitted
+    on every test (`final_refit`). The state is what the verdict reads: `trials`,
+    `claimed`, `groups`, and `base`, the model so far."""
+
+    def __init__(
+        self,
+        tests: Data,
+        base: Fitted,
+        s: Settings,
+        rng: np.random.Generator,
+        fold_list: list[Fold],
+        force_peak: float,
+        report: Progress = _quiet,
+        workers: Workers = SERIAL,
+    ) -> None:
+        self.tests = tests  # the search's clicks (search_subset)
+        self.base = base
+        self.s = s
+        self.rng = rng
+        self.folds = fold_list
+        self.force_peak = force_peak
+        self.report = report
+        self.workers = workers
+        self.trials: list[Trial] = []
+        self.claimed: list[str] = []
+        self.shapes: list[tuple[str, FloatArray]] = []  # what each claimed term explained
+        self.groups: list[Indistinguishable] = []
+        self.came_with: dict[str, tuple[str, ...]] = {}  # claimed term -> spec values freed
+        self.means, self.binned = binned_means(tests, base.residual)
+
+    @classmethod
+    def start(
+        cls,
+        data: Data,
+        base: Fitted,
+        s: Settings,
+        rng: np.random.Generator,
+        report: Progress = _quiet,
+        workers: Workers = SERIAL,
+    ) -> Search:
+        """The search on the tests of at most `s.search_clicks` settings of `data`, from
+        `base` refitted on them."""
+        tests = search_subset(data, s.search_clicks)
+        fold_list = folds(tests)
+        force_peak = float(np.max(np.abs(data.prob.f)))
+        if tests is not data:
+            base = refit(tests, base.model, base.free, base, max_nfev=s.max_nfev)
+        return cls(tests, base, s, rng, fold_list, force_peak, report, workers)
+
+    def run(self, mismatch: MismatchStat) -> None:
+        """The rounds, from the baseline's `mismatch`, until nothing is claimable or left
+        to try; then the backward check when two or more terms are claimed."""
+        s = self.s
+        # A term in the baseline (the fit's, or the calibrated gas spring) is not a candidate.
+        present = {t.name for t in self.base.model.terms}
+        remaining = [c for c in s.candidates if c not in present]
+        remaining += [
+            c for c in s.calibrations if not set(CALIBRATIONS[c]) <= set(self.base.globals)
+        ]
+        left = mismatch
+        outranked: list[str] = []  # physics that passed every rule but lost to a calibration
+        rnd = 0
+        while rnd < s.max_rounds:
+            rnd += 1
+            remaining = gated(remaining, left, self.claimed, outranked, s)
+            if not remaining:
+                break
+            if rnd > 1:
+                # The null of this round, refitted with the candidates' budget: a term must
+                # beat more iterations of the model it would join, not a less converged one.
+                self.base = refit(
+                    self.tests, self.base.model, self.base.free, self.base, max_nfev=s.max_nfev
+                )
+                self.means, self.binned = binned_means(self.tests, self.base.residual)
+            found, best, passed = self.round(rnd, remaining)
+            # A calibration candidate's trial is not physics: DIAG.json's findings hold the
+            # library's terms; a calibration the search took is a row of verdict.calibration.
+            self.trials += [f for f in found if f.physics not in CALIBRATIONS]
+            if best is None:
+                break
+            outranked = (
+                [n for n in passed if n != best.name and n not in CALIBRATIONS]
+                if best.name in CALIBRATIONS
+                else []
+            )
+            if best.name not in CALIBRATIONS:  # a calibration taken joins the model only
+                self._claim(best, rnd)
+            self.base = best.fitted
+            self.means, self.binned = binned_means(self.tests, self.base.residual)
+            left = mismatch_test(self.binned, self.rng, s.n_boot)
+            remaining = [c for c in remaining if c != best.name]
+        if len(self.claimed) >= 2:
+            self.report("backward check", 0.92)
+            self.backward()
+
+    def _claim(self, best: Candidate, rnd: int) -> None:
+        """`best` joins the claimed terms, with the round's candidates it is alike."""
+        best_f = next(f for f in self.trials if f.physics == best.name and f.round == rnd)
+        alike = [f.physics for f in self.trials if f.round == rnd and best.name in f.ambiguous_with]
+        if alike:
+            best_f.ambiguous_with = alike
+            group = sorted([best.name, *alike])
+            pairs = [separate_by(best.name, a) for a in alike]
+            self.groups.append(
+                Indistinguishable(group=tuple(group), separate_by="; ".join(dict.fromkeys(pairs)))
+            )
+        self.claimed.append(best.name)
+        self.came_with[best.name] = tuple(
+            k for k in best.fitted.globals if k not in self.base.globals
+        )
+        self.shapes.append((best.name, best.explained))
+
+    def round(
+        self, rnd: int, remaining: Sequence[str]
+    ) -> tuple[list[Trial], Candidate | None, list[str]]:
+        """One round of the forward search: every remaining candidate refitted beside
+        `base` and tested (LR against the noise's draws), the significant ones scored held
+        out, the claim rules (why_not) applied. Returns the round's trials and the
+        candidate it claims (None: nothing claimable), and every candidate that passed
+        the claim rules (the claimed one among them). The candidates, and then the
+        held-out folds, are independent: up to `workers` processes run them (workers.py)."""
+        s = self.s
+        cands = self._tried(rnd, remaining, noise_draws(self.binned, self.rng, s.n_boot))
+        screened = sorted(
+            (c for c in cands if c.p_value < s.screen_alpha and c.lr > 0), key=lambda c: -c.lr
+        )
+        top = [c for c in screened if c.p_value < s.alpha][: s.heldout_top]
+        limit = effect_limit(self.binned, self.force_peak, s)
+        x = self.tests.prob.inputs.x
+        refused = self._refused(top)
+        scored = score_heldout(
+            top, cands, self.base, rnd, s, limit, self.shapes, x, refused, self.folds,
+            self.report, self.workers,
+        )  # fmt: skip
+        # Each candidate's reason not to be claimed ("" when it is claimable), judged once.
+        reasons = {c.name: why_not(c, scored, s, limit, self.shapes, x, refused) for c in cands}
+        best, pool, alike_with = decide(cands, screened, scored, reasons, s)
+        found = []
+        for c in cands:
+            gain, detail = scored.get(c.name, (math.nan, ""))
+            found.append(
+                Trial(
+                    physics=c.name,
+                    round=rnd,
+                    claimed=c is best,
+                    p_value=c.p_value,
+                    lr_n2=c.lr,
+                    heldout_gain=gain,
+                    heldout_detail=detail,
+                    effect_rms_n=c.effect_rms_n,
+                    effect_peak_n=c.effect_peak_n,
+                    parameters=term_estimates(c.fitted, c.name),
+                    ambiguous_with=alike_with.get(c.name, []),
+                    why_not="" if c is best else (reasons[c.name] or "another term explained more"),
+                )
+            )
+        return found, best, [c.name for c in pool]
+
+    def _tried(self, rnd: int, remaining: Sequence[str], noise: FloatArray) -> list[Candidate]:
+        """Each of `remaining` refitted beside `base` and tested, in `remaining`'s order."""
+        rounds = self.s.max_rounds  # for the progress fraction
+        n_done = 0
+        # The chamber's terms first: they take the longest, and started last they would keep
+        # one worker busy after the others finished (the results keep the library's order).
+        order = sorted(range(len(remaining)), key=lambda i: not chamber_term(remaining[i]))
+
+        def tried(i: int) -> None:
+            nonlocal n_done
+            n_done += 1
+            share = n_done / len(remaining)
+            name = remaining[order[i]]
+            self.report(f"round {rnd}: {name} tried", 0.1 + 0.8 * (rnd - 1 + share) / rounds)
+
+        self.report(f"round {rnd}: {len(remaining)} candidates", 0.1 + 0.8 * (rnd - 1) / rounds)
+        shared = (self.tests, self.base, self.means, noise, self.s.max_nfev)
+        got = self.workers.map(_try, shared, [remaining[i] for i in order], tried)
+        return [got[order.index(i)] for i in range(len(remaining))]
+
+    def _refused(self, top: Sequence[Candidate]) -> dict[str, str]:
+        """What the sensor's consistency checks (consistency.py) find against it."""
+        s = self.s
+        return {
+            c.name: alike(c.fitted, s.sensor_delay_min_shift_s)
+            or inconsistent(
+                delay_spread(
+                    self.tests, c.fitted, s.sensor_delay_min_gain, s.sensor_delay_min_shift_s
+                ),
+                s.sensor_delay_spread_s,
+                s.sensor_delay_spread_share,
+            )
+            for c in top
+            if c.name == SENSOR
+        }
+
+    def backward(self) -> None:
+        """Forward selection claims in order, and an early claim can be a later one's
+        misfit (a bump stop first pulls the gas spring off the spec's, then a contact term
+        explains it all). So each claimed term is tested again as the last to join the
+        others: it stays only if it still passes (p < alpha, held-out gain ≥
+        min_gain_joining); else it is dropped from the model (`base`) with the spec
+        values freed with it, and its trial says why."""
+        s, tests = self.s, self.tests
+        for name in list(self.claimed):
+            if len(self.claimed) < 2:
+                break
+            if self.base.model.term(name) is None:
+                continue
+            model, free, calibrated = without(tests, self.base, [name], self.came_with)
+            reduced = refit(
+                tests, model, free, self.base, max_nfev=s.max_nfev, calibrated=calibrated
+            )
+            means, binned = binned_means(tests, reduced.residual)
+            noise = noise_draws(binned, self.rng, s.n_boot)
+            c = try_candidate(tests, reduced, means, name, noise, s.max_nfev)
+            gain = 0.0
+            if self.folds:
+                gain = heldout_gains(self.folds, reduced, [c], s.fold_nfev, self.workers)[0][0]
+            if c.p_value < s.alpha and gain >= s.min_gain_joining:
+                continue
+            others = [n for n in self.claimed if n != name]
+            f = next(f for f in self.trials if f.physics == name and f.claimed)
+            f.claimed = False
+            f.why_not = (
+                f"dropped in the backward check: with {', '.join(others)} in the model it "
+                f"removes {gain:.2g} of the held-out structure left (p = {c.p_value:.2g})"
+            )
+            self.claimed.remove(name)
+            self.came_with.pop(name, None)
+            self.groups[:] = [g for g in self.groups if name not in g.group]
+            self.base = reduced
+
+    def final_refit(self, data: Data) -> Fitted:
+        """The model refitted on every test of `data` (not only the search's clicks),
+        whose values the verdict reports: a candidate's refit is cut at max_nfev, and with
+        the gas spring calibrated beside it a bump stop's onset stopped at 24.1 mm where it
+        was 21. A claim whose term, refitted, is no longer physical, sits at an end of its
+        range, stays at its off values or has too small a force of its own (`_idle`) was
+        the short refit's gain, not the term's: it leaves the model and the verdict
+        (`claimed`, `trials`, `groups`). A 2 % air sweep kept a position force that
+        refitted to 0.45 N at most, against a 1.8 N limit; a reference-plant friction
+        sweep's cavitation floor, claimed above vacuum less the gas charge, refitted to
+        -2.55 MPa absolute."""
+        s, base = self.s, self.base
+        nfev = s.final_nfev if self.claimed else s.max_nfev
+        base = refit(data, base.model, base.free, base, max_nfev=nfev)
+        why = self._idle(data, base)
+        idle = list(why)
+        if idle:
+            for f in self.trials:
+                if f.claimed and f.physics in idle:
+                    f.claimed = False
+                    f.why_not = why[f.physics]
+            self.claimed[:] = [n for n in self.claimed if n not in idle]
+            self.groups[:] = [g for g in self.groups if not set(idle) & set(g.group)]
+            kept, free, calibrated = without(data, base, idle, self.came_with)
+            for n in idle:
+                self.came_with.pop(n, None)
+            nfev = s.final_nfev if self.claimed else s.max_nfev
+            base = refit(data, kept, free, base, max_nfev=nfev, calibrated=calibrated)
+        for f in self.trials:
+            if f.claimed:
+                f.parameters = term_estimates(base, f.physics)
+        self.base = base
+        return base
+
+    def _idle(self, data: Data, base: Fitted) -> dict[str, str]:
+        """Why each claimed term, as refitted on every test (`base`), leaves the verdict:
+        not physical, not an estimate, at its off values, or its own force below the limit
+        a candidate must pass (0.1 % of the peak force, 3 noise σ of a phase mean)."""
+        limit = effect_limit(data.binned(base.residual), self.force_peak, self.s)
+        why: dict[str, str] = {}
+        for n in self.claimed:
+            term = base.model.term(n)
+            if term is None:
+                continue
+            odd = term.implausible(base.model.local_values(term), base.model.spec)
+            if odd:
+                why[n] = f"refitted on every test it is not physical: {odd}"
+                continue
+            pinned = at_range_end(base, term)
+            if pinned:
+                why[n] = f"refitted on every test it is not an estimate: {pinned}"
+                continue
+            if not moved_off(base, term):
+                why[n] = "refitted on every test it stays at its off values"
+                continue
+            peak = own_peak(data, base, n)
+            if peak < limit:
+                why[n] = (
+                    f"refitted on every test its own force peaks at {peak:.2g} N, too small "
+                    f"to matter (< {limit:.2g} N)"
+                )
+        return why
+
+
 def term_estimates(fitted: Fitted, name: str) -> dict[str, Estimate]:
+    """The parameters of term `name` as `fitted`, with their σ ({} when it is not in)."""
     term = fitted.model.term(name)
     if term is None:
         return {}
@@ -52,56 +358,6 @@ def term_estimates(fitted: Fitted, name: str) -> dict[str, Estimate]:
         sd = fitted.term_sd.get(q, math.nan)
         out[p.name] = Estimate(fitted.model.value(q), sd, p.unit, fixed=q not in fitted.free)
     return out
-
-
-def backward(
-    search: Data,
-    base: Fitted,
-    claimed: list[str],
-    trials: list[Trial],
-    groups: list[Indistinguishable],
-    fold_list: list[Fold],
-    rng: np.random.Generator,
-    s: Settings,
-    came_with: dict[str, tuple[str, ...]] | None = None,
-    workers: Workers = SERIAL,
-) -> Fitted:
-    """Forward selection claims in order, and an early claim can be a later one's misfit
-    (a bump stop first pulls the gas spring off the spec's, then a contact term explains
-    it all). So each claimed term is tested again as the last to join the others: it
-    stays only if it still passes (p < alpha, held-out gain ≥ min_gain_joining); else it
-    is dropped from the model and its trial says why. Edits `claimed`, `trials` and
-    `groups`; returns the model without the dropped terms. `came_with`: per claimed
-    term, the spec values freed with it, which leave with it."""
-    came_with = {} if came_with is None else came_with
-    for name in list(claimed):
-        if len(claimed) < 2:
-            break
-        if base.model.term(name) is None:
-            continue
-        model, free, calibrated = without(search, base, [name], came_with)
-        reduced = refit(search, model, free, base, max_nfev=s.max_nfev, calibrated=calibrated)
-        means, binned = binned_means(search, reduced.residual)
-        c = try_candidate(
-            search, reduced, means, name, noise_draws(binned, rng, s.n_boot), s.max_nfev
-        )
-        gain = 0.0
-        if fold_list:
-            gain = heldout_gains(fold_list, reduced, [c], s.fold_nfev, workers)[0][0]
-        if c.p_value < s.alpha and gain >= s.min_gain_joining:
-            continue
-        others = [n for n in claimed if n != name]
-        f = next(f for f in trials if f.physics == name and f.claimed)
-        f.claimed = False
-        f.why_not = (
-            f"dropped in the backward check: with {', '.join(others)} in the model it removes "
-            f"{gain:.2g} of the held-out structure left (p = {c.p_value:.2g})"
-        )
-        claimed.remove(name)
-        came_with.pop(name, None)
-        groups[:] = [g for g in groups if name not in g.group]
-        base = reduced
-    return base
 
 
 def without(
@@ -133,91 +389,6 @@ def search_subset(data: Data, n_clicks: int) -> Data:
     pick = {keys[round(i)] for i in np.linspace(0, len(keys) - 1, n_clicks)}
     keep = [i for i, p in enumerate(data.prepared) if p.key in pick]
     return data.subset(keep)
-
-
-def run_round(
-    search: Data,
-    base: Fitted,
-    base_means: FloatArray,
-    binned: list[BinnedTest],
-    remaining: Sequence[str],
-    rnd: int,
-    s: Settings,
-    rng: np.random.Generator,
-    fold_list: list[Fold],
-    force_peak: float,
-    shapes: Sequence[tuple[str, FloatArray]],
-    report: Progress,
-    workers: Workers = SERIAL,
-) -> tuple[list[Trial], Candidate | None, list[str]]:
-    """One round of the forward search: every remaining candidate refitted beside `base`
-    and tested (LR against the noise's draws), the significant ones scored held out, the
-    claim rules (why_not) applied. Returns the round's trials and the candidate it
-    claims (None: nothing claimable), and every candidate that passed the claim rules
-    (the claimed one among them). The candidates, and then the held-out folds, are
-    independent: up to `workers` processes run them (workers.py)."""
-    found: list[Trial] = []
-    rounds = s.max_rounds  # for the progress fraction
-    noise = noise_draws(binned, rng, s.n_boot)
-    n_done = 0
-
-    # The chamber's terms first: they take the longest, and started last they would keep
-    # one worker busy after the others finished (the results keep the library's order).
-    order = sorted(range(len(remaining)), key=lambda i: not chamber_term(remaining[i]))
-
-    def tried(i: int) -> None:
-        nonlocal n_done
-        n_done += 1
-        share = n_done / len(remaining)
-        name = remaining[order[i]]
-        report(f"round {rnd}: {name} tried", 0.1 + 0.8 * (rnd - 1 + share) / rounds)
-
-    report(f"round {rnd}: {len(remaining)} candidates", 0.1 + 0.8 * (rnd - 1) / rounds)
-    shared = (search, base, base_means, noise, s.max_nfev)
-    got = workers.map(_try, shared, [remaining[i] for i in order], tried)
-    cands = [got[order.index(i)] for i in range(len(remaining))]
-    screened = sorted(
-        (c for c in cands if c.p_value < s.screen_alpha and c.lr > 0), key=lambda c: -c.lr
-    )
-    top = [c for c in screened if c.p_value < s.alpha][: s.heldout_top]
-    limit = effect_limit(binned, force_peak, s)
-    x = search.prob.inputs.x
-    refused = {
-        c.name: alike(c.fitted, s.sensor_delay_min_shift_s)
-        or inconsistent(
-            delay_spread(search, c.fitted, s.sensor_delay_min_gain, s.sensor_delay_min_shift_s),
-            s.sensor_delay_spread_s,
-            s.sensor_delay_spread_share,
-        )
-        for c in top
-        if c.name == SENSOR
-    }
-    scored = score_heldout(
-        top, cands, base, rnd, s, limit, shapes, x, refused, fold_list, report, workers
-    )
-    # Each candidate's reason not to be claimed ("" when it is claimable), judged once.
-    reasons = {c.name: why_not(c, scored, s, limit, shapes, x, refused) for c in cands}
-    best, pool, alike_with = decide(cands, screened, scored, reasons, s)
-    for c in cands:
-        gain, detail = scored.get(c.name, (math.nan, ""))
-        amb = alike_with.get(c.name, [])
-        found.append(
-            Trial(
-                physics=c.name,
-                round=rnd,
-                claimed=c is best,
-                p_value=c.p_value,
-                lr_n2=c.lr,
-                heldout_gain=gain,
-                heldout_detail=detail,
-                effect_rms_n=c.effect_rms_n,
-                effect_peak_n=c.effect_peak_n,
-                parameters=term_estimates(c.fitted, c.name),
-                ambiguous_with=amb,
-                why_not="" if c is best else (reasons[c.name] or "another term explained more"),
-            )
-        )
-    return found, best, [c.name for c in pool]
 
 
 def chamber_term(name: str) -> bool:
@@ -255,68 +426,3 @@ def gated(
         return []
     keep = set(CALIBRATIONS) | (set(outranked) if len(claimed) < s.max_terms else set())
     return [c for c in remaining if c in keep]
-
-
-def final_refit(
-    data: Data,
-    base: Fitted,
-    claimed: list[str],
-    trials: list[Trial],
-    groups: list[Indistinguishable],
-    s: Settings,
-    force_peak: float,
-    came_with: dict[str, tuple[str, ...]],
-) -> Fitted:
-    """The model refitted on every test (not only the search's clicks), whose values the
-    verdict reports: a candidate's refit is cut at max_nfev, and with the gas spring
-    calibrated beside it a bump stop's onset stopped at 24.1 mm where it was 21. A claim
-    whose term, refitted to convergence, stays at its off values, or whose own force is
-    then below the limit a candidate must pass (0.1 % of the peak force, 3 noise σ of a
-    phase mean), was the short refit's gain, not the term's: it leaves the model and the
-    verdict (`claimed`, `trials` and `groups` are updated in place). A 2 % air sweep
-    kept a position force that refitted to 0.45 N at most, against a 1.8 N limit. And a
-    claim whose values, refitted, are no longer physical (term.implausible) leaves too:
-    a reference-plant friction sweep's cavitation floor, claimed above vacuum less the
-    gas charge, refitted to -2.55 MPa absolute and was reported as the verdict's."""
-    nfev = s.final_nfev if claimed else s.max_nfev
-    base = refit(data, base.model, base.free, base, max_nfev=nfev)
-    limit = effect_limit(data.binned(base.residual), force_peak, s)
-    why: dict[str, str] = {}
-    for n in claimed:
-        term = base.model.term(n)
-        if term is None:
-            continue
-        odd = term.implausible(base.model.local_values(term), base.model.spec)
-        if odd:
-            why[n] = f"refitted on every test it is not physical: {odd}"
-            continue
-        pinned = at_range_end(base, term)
-        if pinned:
-            why[n] = f"refitted on every test it is not an estimate: {pinned}"
-            continue
-        if not moved_off(base, term):
-            why[n] = "refitted on every test it stays at its off values"
-            continue
-        peak = own_peak(data, base, n)
-        if peak < limit:
-            why[n] = (
-                f"refitted on every test its own force peaks at {peak:.2g} N, too small "
-                f"to matter (< {limit:.2g} N)"
-            )
-    idle = list(why)
-    if idle:
-        for f in trials:
-            if f.claimed and f.physics in idle:
-                f.claimed = False
-                f.why_not = why[f.physics]
-        claimed[:] = [n for n in claimed if n not in idle]
-        groups[:] = [g for g in groups if not set(idle) & set(g.group)]
-        kept, free, calibrated = without(data, base, idle, came_with)
-        for n in idle:
-            came_with.pop(n, None)
-        nfev = s.final_nfev if claimed else s.max_nfev
-        base = refit(data, kept, free, base, max_nfev=nfev, calibrated=calibrated)
-    for f in trials:
-        if f.claimed:
-            f.parameters = term_estimates(base, f.physics)
-    return base

@@ -10,10 +10,10 @@ from pathlib import Path
 
 import pytest
 
-from shockdyno.diagnose.baseline import GAS_VOLUME_RANGE
 from shockdyno.diagnose.engine import diagnose
 from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.verdict import to_json
+from shockdyno.model.terms.gas_spring import GasSpring
 from shockdyno.record import open_recording
 
 REPO = Path(__file__).resolve().parents[2]
@@ -81,7 +81,7 @@ def test_a_rate_beyond_a_spec_error_is_left_to_the_search(clean: Path, tmp_path:
     # The spec claims three times the real gas column: the rate would need a volume
     # 1/3 of the spec's, outside what a spec gets wrong.
     d = _diagnose(clean, _spec_with_gas_length(tmp_path, 0.150))
-    assert GAS_VOLUME_RANGE[0] > 1 / 3
+    assert GasSpring.calibrates is not None and GasSpring.calibrates.within[0] > 1 / 3
     assert not any(r["parameter"] == "gas_volume_m3" for r in d["verdict"]["calibration"])
     assert any("beyond a spec's error" in n for n in d["info"]["skipped"])
     assert d["mismatch"]["significant"]

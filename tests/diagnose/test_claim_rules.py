@@ -5,6 +5,8 @@ of what the first one's model leaves; its own force and parameters guard the res
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from shockdyno.diagnose.candidates import Candidate
@@ -66,7 +68,7 @@ def test_a_term_that_stays_off_or_adds_too_little_force_is_the_refits_gain() -> 
 def test_a_gas_spring_at_a_spec_s_error_is_calibration_not_a_second_physics() -> None:
     """With air claimed, a gas spring joined at 0.972x the spec's volume (a CI run's s-air
     recording): the spec's error, listed as calibration. At 0.33x it stays physics."""
-    from shockdyno.diagnose.baseline import gas_spring_is_calibration
+    from shockdyno.diagnose.baseline import spec_calibrated
     from shockdyno.diagnose.diagnosis import Trial
     from shockdyno.report.documents import Indistinguishable
 
@@ -83,7 +85,9 @@ def test_a_gas_spring_at_a_spec_s_error_is_calibration_not_a_second_physics() ->
             for i, name in enumerate(claimed)
         ]
         groups = [Indistinguishable(group=("gas_spring", "position_force"), separate_by="")]
-        return gas_spring_is_calibration(base, claimed, findings, groups), claimed, findings
+        baseline = replace(base, free=())  # the baseline did not calibrate it
+        taken = spec_calibrated(baseline, base, claimed, findings, groups)
+        return bool(taken), claimed, findings
 
     moved, claimed, findings = case(0.972)
     assert moved and claimed == ["compressibility"]

@@ -1,13 +1,13 @@
-"""The baseline: the paper's (or the given fit's) model refitted, with the gas spring
-rate calibrated; and the spec values the recording calibrated, as the verdict lists them."""
+"""The baseline: the paper's (or the given fit's) model refitted, with each term's factor
+on a spec value calibrated (Term.calibrates: the gas spring's volume); and the spec
+values the recording calibrated, as the verdict lists them."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.diagnosis import CalibrationRow, Trial
@@ -15,24 +15,15 @@ from shockdyno.diagnose.fitting import Fitted, refit
 from shockdyno.diagnose.settings import Settings
 from shockdyno.fit.parameters import spec_global
 from shockdyno.fit.result import FitResult
-from shockdyno.model.composite import DamperModel
+from shockdyno.model.composite import DamperModel, Term
 from shockdyno.model.spec import DamperSpec
-from shockdyno.model.terms import make_term
+from shockdyno.model.terms import LIBRARY, make_term
 from shockdyno.report.documents import Indistinguishable
-
-FloatArray = NDArray[np.float64]
-Progress = Callable[[str, float], None]
-
 
 # The spec's own numbers that a sweep sees and a spec can only guess are calibrated in
 # the baseline, never claimed as physics: the globals (gas charge, Coulomb friction,
-# valve preloads and face areas, fit/problem.py) and the gas spring rate. A ±30 mm
-# stroke pins the rate p0·n·A²/V, not n and V apart, so the gas volume carries it at the
-# spec's (isothermal) index. A spec's gas volume is a guess within a factor of two;
-# a rate that needs more than that is something else acting over the stroke (a bump
-# stop, a top-out spring) and is left to the search.
-GAS_VOLUME = "gas_spring.volume_factor"
-GAS_VOLUME_RANGE = (0.5, 2.0)
+# valve preloads and face areas, fit/problem.py) and a term's factor on a spec value
+# within a spec's error (Term.calibrates: the gas spring rate, carried by the gas volume).
 
 
 def _baseline_fit(
@@ -45,60 +36,89 @@ def _baseline_fit(
     return refit(data, model, free, start, max_nfev=settings.max_nfev)
 
 
+def _factor(fitted: Fitted, term: Term) -> float:
+    """The term's calibrated factor as `fitted` (Term.calibrates.param)."""
+    assert term.calibrates is not None
+    return fitted.model.value(term.qualified(term.calibrates.param))
+
+
+def _within(factor: float, term: Term) -> bool:
+    assert term.calibrates is not None
+    lo, hi = term.calibrates.within
+    return lo <= factor <= hi
+
+
 def fit_baseline(data: Data, fit: FitResult | None, settings: Settings, notes: list[str]) -> Fitted:
-    """The paper's model (or the given fit's) refitted, with the gas spring rate
-    calibrated unless the fit already carries a gas spring or the rate is out of a
-    spec's reach (GAS_VOLUME_RANGE)."""
+    """The paper's model (or the given fit's) refitted, with each library term that
+    calibrates a spec value (Term.calibrates) added and its factor freed, unless the fit
+    already carries the term, the search may not try it, or the factor comes out beyond
+    a spec's error (then a note says so and the term is left to the search)."""
     model = DamperModel(data.prob.base) if fit is None else fit.model()
-    if model.term("gas_spring") is not None or "gas_spring" not in settings.candidates:
-        return _baseline_fit(data, fit, settings, model, ())
-    with_gas = DamperModel(model.spec, (*model.terms, make_term("gas_spring")), model.values)
-    calibrated = _baseline_fit(data, fit, settings, with_gas, (GAS_VOLUME,))
-    factor = calibrated.model.value(GAS_VOLUME)
-    lo, hi = GAS_VOLUME_RANGE
-    if lo <= factor <= hi:
-        return calibrated
-    notes.append(
-        f"the gas spring rate would need a gas volume {factor:.2g}× the spec's, beyond a "
-        "spec's error: not calibrated, left to the search"
-    )
+    terms = [
+        make_term(name)
+        for name, cls in LIBRARY.items()
+        if cls.calibrates is not None and model.term(name) is None and name in settings.candidates
+    ]
+    while terms:
+        with_terms = DamperModel(model.spec, (*model.terms, *terms), model.values)
+        keys = tuple(t.qualified(t.calibrates.param) for t in terms if t.calibrates)
+        calibrated = _baseline_fit(data, fit, settings, with_terms, keys)
+        beyond = [t for t in terms if not _within(_factor(calibrated, t), t)]
+        if not beyond:
+            return calibrated
+        for t in beyond:
+            assert t.calibrates is not None
+            notes.append(
+                f"{t.calibrates.effect} would need a {t.calibrates.quantity} "
+                f"{_factor(calibrated, t):.2g}× the spec's, beyond a spec's error: not "
+                "calibrated, left to the search"
+            )
+        terms = [t for t in terms if t not in beyond]
     return _baseline_fit(data, fit, settings, model, ())
 
 
-def gas_spring_is_calibration(
-    base: Fitted, claimed: list[str], trials: list[Trial], groups: list[Indistinguishable]
-) -> bool:
-    """A gas spring claimed at a volume within a spec's error is calibration, not physics.
+def spec_calibrated(
+    baseline: Fitted,
+    final: Fitted,
+    claimed: list[str],
+    trials: list[Trial],
+    groups: list[Indistinguishable],
+) -> list[Term]:
+    """The terms of the final model whose factor is the spec's error (Term.calibrates):
+    calibrated in the baseline, or claimed at a factor within a spec's error.
 
     The baseline calibrates the gas volume unless the plain model wants it beyond a spec's
-    reach (GAS_VOLUME_RANGE); with air in the oil it can (the air softens the stroke), and
-    once the air is claimed the gas spring joins at the spec's volume give or take a few
-    per cent (0.972x in a CI run): the spec's error, not a second physics. It stays in
-    the model, and the verdict lists it under calibration. Edits `claimed`, `trials`
-    and `groups`."""
-    if "gas_spring" not in claimed:
-        return False
-    lo, hi = GAS_VOLUME_RANGE
-    factor = base.model.value(GAS_VOLUME)
-    if not lo <= factor <= hi:
-        return False
-    claimed.remove("gas_spring")
-    for f in trials:
-        if f.claimed and f.physics == "gas_spring":
-            f.claimed = False
-            f.why_not = (
-                f"a gas volume {factor:.3g}x the spec's is within a spec's error: "
-                "calibration, not physics"
-            )
-    groups[:] = [g for g in groups if "gas_spring" not in g.group]
-    return True
+    reach; with air in the oil it can (the air softens the stroke), and once the air is
+    claimed the gas spring joins at the spec's volume give or take a few per cent (0.972x
+    in a CI run): the spec's error, not a second physics. It stays in the model, and the
+    verdict lists it under calibration: it leaves `claimed`, its trial and `groups`."""
+    out = []
+    for term in final.model.terms:
+        cal = term.calibrates
+        if cal is None:
+            continue
+        if term.qualified(cal.param) in baseline.free:
+            out.append(term)
+        elif term.name in claimed and _within(_factor(final, term), term):
+            claimed.remove(term.name)
+            for f in trials:
+                if f.claimed and f.physics == term.name:
+                    f.claimed = False
+                    f.why_not = (
+                        f"a {cal.quantity} {_factor(final, term):.3g}x the spec's is within "
+                        "a spec's error: calibration, not physics"
+                    )
+            groups[:] = [g for g in groups if term.name not in g.group]
+            out.append(term)
+    return out
 
 
 def calibration_rows(
-    spec: DamperSpec, fitted: Fitted, gas_calibrated: bool, share: float
+    spec: DamperSpec, fitted: Fitted, terms: Sequence[Term], share: float
 ) -> list[CalibrationRow]:
-    """The spec's values against what the recording calibrated them to; the gas volume
-    when the baseline calibrated it (not when a claimed gas spring moved it)."""
+    """The spec's values against what the recording calibrated them to; each spec value
+    a term's factor calibrated (`terms`, spec_calibrated: not when a claimed term's
+    physics moved it)."""
     got = fitted.model.spec
     rows = [
         CalibrationRow(
@@ -113,12 +133,11 @@ def calibration_rows(
         )
         for key in fitted.globals
     ]
-    if gas_calibrated:
-        v0 = spec.gas_volume_m3
-        sd = fitted.term_sd.get(GAS_VOLUME, math.nan)
-        rows.append(
-            CalibrationRow(
-                "gas_volume_m3", v0, v0 * fitted.model.value(GAS_VOLUME), v0 * sd, "m³", share
-            )
-        )
+    for term in terms:
+        cal = term.calibrates
+        assert cal is not None
+        v0 = spec.value(cal.spec_key)
+        sd = fitted.term_sd.get(term.qualified(cal.param), math.nan)
+        got_v = v0 * _factor(fitted, term)
+        rows.append(CalibrationRow(cal.spec_key, v0, got_v, v0 * sd, cal.unit, share))
     return rows

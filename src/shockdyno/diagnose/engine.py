@@ -25,12 +25,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from shockdyno.diagnose.baseline import (
-    GAS_VOLUME,
-    calibration_rows,
-    fit_baseline,
-    gas_spring_is_calibration,
-)
+from shockdyno.diagnose.baseline import calibration_rows, fit_baseline, spec_calibrated
 from shockdyno.diagnose.candidates import binned_means
 from shockdyno.diagnose.claims import effect_limit
 from shockdyno.diagnose.data import Data
@@ -120,8 +115,8 @@ def _diagnose(
     report("scores", 0.95)
     if search.claimed or search.tests is not data:
         search.final_refit(data)
-    gas_calibrated = GAS_VOLUME in baseline.free or gas_spring_is_calibration(
-        search.base, search.claimed, search.trials, search.groups
+    calibrated = spec_calibrated(
+        baseline, search.base, search.claimed, search.trials, search.groups
     )
     remaining, unexplained, described = _left(search, data, rng, report)
     freqs = {round(p.data.meta.frequency_hz, 3) for p in data.prepared}
@@ -144,7 +139,7 @@ def _diagnose(
         calibration=calibration_rows(
             load_spec(fit.spec_file()) if fit else spec,
             search.base,
-            gas_calibrated,
+            calibrated,
             s.calibration_share,
         ),
         settings=s,

@@ -36,7 +36,7 @@ from shockdyno.errors import ConfigError
 from shockdyno.model.filters import segment_bounds
 from shockdyno.model.flow import solve_signed_drop
 from shockdyno.model.gas import compression_pressure
-from shockdyno.model.params import Param
+from shockdyno.model.params import Param, SpecCalibration
 from shockdyno.model.reading import Reading
 from shockdyno.model.seal import seal_force
 from shockdyno.model.spec import DamperSpec
@@ -244,6 +244,8 @@ class Term:
     # What would tell this term from a look-alike, by the look-alike's name: a diagnosis
     # that cannot separate the two says so. Each pair is written on one of its terms.
     separated_by: ClassVar[dict[str, str]] = {}
+    # A parameter the diagnosis calibrates as the spec's error before it tries physics.
+    calibrates: ClassVar[SpecCalibration | None] = None
 
     def describe(self, r: Reading) -> str:
         """The fitted physics in words, naming only the parameters the data moved (with

@@ -13,6 +13,21 @@ from dataclasses import KW_ONLY, dataclass
 
 
 @dataclass(frozen=True)
+class SpecCalibration:
+    """A term parameter that is a factor on one of the spec's values, which a recording
+    calibrates before any physics is claimed (the diagnosis's baseline): while the factor
+    stays `within` a spec's error it is the spec's value corrected, listed as calibration
+    (row `spec_key`), not the term's physics. `quantity` and `effect` say it in words."""
+
+    param: str  # the term's parameter (local name)
+    spec_key: str  # the spec value it multiplies (DamperSpec.value)
+    unit: str
+    within: tuple[float, float]  # a spec's error, as factors
+    quantity: str  # "gas volume"
+    effect: str  # what the data see of it: "the gas spring rate"
+
+
+@dataclass(frozen=True)
 class Param:
     """One parameter of a term (local name; `Term.qualified` adds the namespace).
 

@@ -15,7 +15,7 @@ from typing import ClassVar
 import numpy as np
 
 from shockdyno.model.composite import CHAMBER, Evaluation, FloatArray, Term, Work
-from shockdyno.model.params import Param
+from shockdyno.model.params import Param, SpecCalibration
 from shockdyno.model.reading import Reading
 
 
@@ -31,6 +31,18 @@ class GasSpring(Term):
         ),
         "thermal": "a test held at constant temperature",
     }
+    # A ±30 mm stroke pins the rate p0·n·A²/V, not n and V apart, so the gas volume
+    # carries it at the spec's (isothermal) index. A spec's gas volume is a guess within a
+    # factor of two; a rate that needs more than that is something else acting over the
+    # stroke (a bump stop, a top-out spring) and is left to the diagnosis's search.
+    calibrates = SpecCalibration(
+        "volume_factor",
+        "gas_volume_m3",
+        "m³",
+        within=(0.5, 2.0),
+        quantity="gas volume",
+        effect="the gas spring rate",
+    )
     PARAMS = (
         Param(
             "volume_factor",

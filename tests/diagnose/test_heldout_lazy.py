@@ -16,11 +16,12 @@ import pytest
 
 from shockdyno.diagnose import claims as claim_rules
 from shockdyno.diagnose.candidates import Candidate
-from shockdyno.diagnose.claims import OPEN_SET, decide, why_not
+from shockdyno.diagnose.claims import decide, why_not
 from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted
 from shockdyno.diagnose.settings import Settings
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.spec import load_spec
+from shockdyno.model.terms.position_force import PositionForce
 
 SPEC = load_spec(None)
 N = 60  # phase means of the explained shapes
@@ -52,7 +53,7 @@ def _round(rng: np.random.Generator, s: Settings) -> tuple[list[Candidate], dict
     test controls apply), the open set, the two calibrations; shapes drawn from a few
     so that some are alike."""
     names = [f"t{i}" for i in range(int(rng.integers(2, 9)))]
-    names += [n for n in (OPEN_SET, "bleed_land", "seal_turn") if rng.random() < 0.5]
+    names += [n for n in (PositionForce.name, "bleed_land", "seal_turn") if rng.random() < 0.5]
     bases = [rng.normal(size=N) for _ in range(3)]
     cands, refused = [], {}
     for n in names:
@@ -133,7 +134,7 @@ def test_a_real_effect_below_refused_candidates_is_scored_and_claimed(
     real = rng.normal(size=N)
     cands = [_candidate(f"t{i}", 1e6 - i, 0.001, rng.normal(size=N), 50.0) for i in range(3)]
     cands += [_candidate("real", 1e4, 0.001, real, 50.0)]
-    cands += [_candidate(OPEN_SET, 9e3, 0.001, rng.normal(size=N), 50.0)]
+    cands += [_candidate(PositionForce.name, 9e3, 0.001, rng.normal(size=N), 50.0)]
     refused = {f"t{i}": "not physical" for i in range(3)}
     Fake.table = {c.name: 0.9 for c in cands}
     Fake.asked = []
@@ -148,8 +149,8 @@ def test_a_real_effect_below_refused_candidates_is_scored_and_claimed(
     lazy = claim_rules.score_heldout(
         cands, cands, None, 1, s, 1.0, [], None, refused, ["fold"], lambda *a: None, None
     )  # type: ignore[arg-type]
-    assert Fake.asked == ["real", OPEN_SET]
-    assert _outcome(cands, lazy, refused, s, [])[0] == OPEN_SET
+    assert Fake.asked == ["real", PositionForce.name]
+    assert _outcome(cands, lazy, refused, s, [])[0] == PositionForce.name
 
 
 def test_a_round_with_nothing_claimable_scores_nothing(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -23,7 +23,11 @@ FloatArray = NDArray[np.float64]
 Progress = Callable[[str, float], None]
 
 
-OPEN_SET = "position_force"
+def open_set(name: str) -> bool:
+    """Whether candidate `name` is a generic form (Term.open_set), claimed only when no
+    named term is."""
+    term = LIBRARY.get(name)
+    return term is not None and term.open_set
 
 
 # What separates two candidates that explain the same shape of residual.
@@ -187,7 +191,7 @@ def decide(
     held-out scores: the claimed candidate (None: none), the claimable ones it was chosen
     from, and per candidate the claimed one when the verdict cannot tell them apart."""
     passing = [c for c in screened if not reasons[c.name]]
-    named = [c for c in passing if c.name != OPEN_SET]
+    named = [c for c in passing if not open_set(c.name)]
     pool = named or passing
     # Of the claimable, the one the full refit says explains most (its LR): held-out
     # gains of near-tied candidates come from short refits and are noisier.
@@ -255,8 +259,8 @@ def score_heldout(
 
     could = [c for c in top if not why_not(c, None, s, limit, shapes, x, refused)]
     best = None
-    named = [c for c in could if c.name != OPEN_SET]
-    for group in (named, [c for c in could if c.name == OPEN_SET]):
+    named = [c for c in could if not open_set(c.name)]
+    for group in (named, [c for c in could if open_set(c.name)]):
         for c in group:
             score([c])
             if claimable(c):
@@ -267,7 +271,7 @@ def score_heldout(
     if best is None:
         return scored
     if best.name in CALIBRATIONS:
-        score([c for c in could if c.name not in CALIBRATIONS and c.name != OPEN_SET])
+        score([c for c in could if c.name not in CALIBRATIONS and not open_set(c.name)])
     score(
         [c for c in top if c is not best and cosine(c.explained, best.explained) > s.alike_cosine]
     )

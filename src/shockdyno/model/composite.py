@@ -246,6 +246,9 @@ class Term:
     separated_by: ClassVar[dict[str, str]] = {}
     # A parameter the diagnosis calibrates as the spec's error before it tries physics.
     calibrates: ClassVar[SpecCalibration | None] = None
+    # A generic form for what no named term explains: it competes in the diagnosis's
+    # search but is claimed only when no named term is.
+    open_set: ClassVar[bool] = False
 
     def describe(self, r: Reading) -> str:
         """The fitted physics in words, naming only the parameters the data moved (with

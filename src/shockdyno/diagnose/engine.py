@@ -1,18 +1,21 @@
 """The diagnosis: locate the mismatch, name the missing physics, model it, refit.
 
-1. Baseline: the paper's model (or a given fit's model) refitted to the recording; its
+1. Baseline (baseline.py): the paper's model (or a given fit's model) refitted to the
+   recording, each spec value a term calibrates (Term.calibrates) calibrated; its
    residual is split into structure and noise (cycles.py) and tested (stats.py), and the
    structure located (locate.py).
-2. Forward selection: each library term not yet in the model is added and refitted
-   jointly with the globals and areas (fitting.py); scored by a bootstrap likelihood
-   ratio (p-value) and by held-out prediction (leave one frequency out, one click out,
-   or one half of a single test). A term is claimed when both agree (p < alpha and a
-   held-out gain of at least `min_gain`, or `min_gain_joining` once a term is claimed)
-   and its effect is material; candidates whose
-   explained structure has the same shape are reported as indistinguishable. The claimed
-   term joins the model and the search repeats on what remains.
-3. Open set: `position_force` competes as a candidate, but is claimed only when no named
-   term is; what no candidate explains is reported as the unexplained regions.
+2. Forward selection (search.py's Search; its claim rules in claims.py): each library
+   term not yet in the model is added and refitted jointly with the globals and areas
+   (fitting.py); scored by a bootstrap likelihood ratio (p-value) and by held-out
+   prediction (leave one frequency out, one click out, or one half of a single test). A
+   term is claimed when both agree (p < alpha and a held-out gain of at least
+   `min_gain`, or `min_gain_joining` once a term is claimed) and its effect is material;
+   candidates whose explained structure has the same shape are reported as
+   indistinguishable. The claimed term joins the model and the search repeats on what
+   remains.
+3. Open set: a generic form (Term.open_set: `position_force`) competes as a candidate,
+   but is claimed only when no named term is; what no candidate explains is reported as
+   the unexplained regions.
 """
 
 from __future__ import annotations

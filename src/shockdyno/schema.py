@@ -35,6 +35,9 @@ from shockdyno.errors import ConfigError
 from shockdyno.result_files import special_file, what_bytes_are
 
 T = TypeVar("T")
+# A TOML table or JSON object as tomllib and json give it: its values are untyped (Any)
+# until `convert` checks them against a dataclass.
+Table = dict[str, Any]
 # Any in this module: a file's parsed TOML or JSON before it is checked (tomllib, json and
 # msgspec give Any), and the type forms msgspec checks a value against (_py).
 
@@ -66,7 +69,7 @@ def dotted(at: str, key: object) -> str:
     return f"{at}.{k}" if at else k
 
 
-def parse_toml(text: str, source: str) -> dict[str, Any]:
+def parse_toml(text: str, source: str) -> Table:
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -94,7 +97,7 @@ def read_text(path: Path, missing: str) -> str:
         raise ConfigError(f"{path}: cannot read ({exc})") from None
 
 
-def read_toml(path: Path, missing: str) -> tuple[str, dict[str, Any]]:
+def read_toml(path: Path, missing: str) -> tuple[str, Table]:
     text = read_text(path, missing)
     return text, parse_toml(text, str(path))
 

@@ -216,8 +216,6 @@ def missing_fits(jobs: list[Job]) -> list[str]:
 def sidecar_notes(jobs: list[Job]) -> list[str]:
     """`batch report`: one line for each fit whose saved model forces (fit/forces.py) the
     pages will not read (missing, stale, unreadable) and compute instead, as `report` says."""
-    from shockdyno.fit import forces
-
     notes: dict[str, str] = {}
     for job in jobs:
         path = fit_for(job) if job.kind == "report" else None

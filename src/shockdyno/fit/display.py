@@ -13,6 +13,8 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from shockdyno.fit.parameters import spec_global
+from shockdyno.model.terms import LIBRARY
 from shockdyno.units import SI, Units
 
 if TYPE_CHECKING:
@@ -108,9 +110,6 @@ def globals_rows(result: FitResult, units: Units = SI) -> tuple[list[str], list[
     beside the spec's values, in engineering units, and the force channel's delay; a
     global pressed against its calibration range reads "at lower bound (...)". Shared by
     the terminal table and the report's fit section."""
-    from shockdyno.fit.parameters import spec_global  # the model's weight, only when drawn
-    from shockdyno.model.terms import LIBRARY
-
     cal = result.info.calibration
     nominal = cal.globals_nominal if cal is not None else {}
     sd = cal.globals_sd if cal is not None else {}

@@ -3,14 +3,22 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
-from shockdyno.errors import FitError
+from shockdyno.errors import ConfigError, FitError
+from shockdyno.fit.result import FitResult
 from shockdyno.fit.result_doc import VelocityReach
+from shockdyno.fit.sweep import Progress, fit_sweep
+from shockdyno.fit.terms import parse_terms
+from shockdyno.model.kinematics import differentiate
+from shockdyno.record import open_recording
+from shockdyno.record.identity import recording_info
+from shockdyno.record.types import TestData
 from shockdyno.result_files import RecordingRef
 
 # Beyond these a recording is not of a damper on a dyno (a unit mix-up or a corrupt file).
@@ -18,7 +26,7 @@ MAX_DISPLACEMENT_M = 1.0
 MAX_FORCE_N = 1e6
 
 
-def check_fit_input(tests: list[Any], source: str) -> None:
+def check_fit_input(tests: list[TestData], source: str) -> None:
     """Refuse a recording whose samples a fit cannot use (non-finite or absurd values)."""
     for test in tests:
         for name, values in (("time", test.t), ("displacement", test.x), ("force", test.force)):
@@ -38,16 +46,14 @@ def check_fit_input(tests: list[Any], source: str) -> None:
             )
 
 
-def _peak(values: Any) -> float:
+def _peak(values: npt.NDArray[np.float64]) -> float:
     return float(np.max(np.abs(values))) if values.size else 0.0
 
 
-def velocity_range(tests: list[Any]) -> tuple[VelocityReach, ...]:
+def velocity_range(tests: list[TestData]) -> tuple[VelocityReach, ...]:
     """The fastest compression and rebound velocity (m/s, signed) each click setting's
     tests reached over their measured cycles: the fit JSON's `info.velocity_range`, the
     span a damper table may call measured (ride/damper_table.py)."""
-    from shockdyno.errors import ConfigError
-    from shockdyno.model.kinematics import differentiate
 
     reached: dict[tuple[int, int, tuple[tuple[str, int], ...]], tuple[float, float]] = {}
     for test in tests:
@@ -70,7 +76,7 @@ def velocity_range(tests: list[Any]) -> tuple[VelocityReach, ...]:
     )
 
 
-def result_json(result: Any) -> str:
+def result_json(result: FitResult) -> str:
     try:
         return json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n"
     except (TypeError, ValueError) as exc:
@@ -86,16 +92,11 @@ def fit_file(
     optimizer: str = "fast",
     seed: int = 0,
     terms: str | None = None,
-    progress: Any = None,
-    warn: Any = None,
-) -> tuple[Any, list[Any]]:
+    progress: Progress | None = None,
+    warn: Callable[[str], None] | None = None,
+) -> tuple[FitResult, list[TestData]]:
     """`shockdyno fit` on one recording, as `batch fit` runs it too: the FitResult (with
     `info.recording` and any `info.recording_loss`) and the tests it read."""
-    from shockdyno.fit.sweep import fit_sweep
-    from shockdyno.fit.terms import parse_terms
-    from shockdyno.record import open_recording
-    from shockdyno.record.identity import recording_info
-
     rec = open_recording(recording).require_recording()
     loss = rec.loss_note()
     if loss and warn is not None:

@@ -19,9 +19,8 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -76,7 +75,7 @@ class AreaFit:
     a_bc: FloatArray
     a_bt: FloatArray
     objective: FloatArray  # eq. 8 per (click, direction) problem
-    ga_info: dict[str, Any] = field(default_factory=dict)
+    ga_info: GaInfo | None = None  # with --optimizer ga
 
 
 def prepare_problem(
@@ -150,13 +149,13 @@ def click_areas(
     ga = run_ga(ga_fitness(prob, model, a_max), n, 2, rng, ga_settings, on_gen)
     a_bc, a_bt = a_max * ga.best[:, 0] ** 2, a_max * ga.best[:, 1] ** 2
     obj = l1_problems(prob, model)(np.concatenate([a_bc, a_bt]))
-    info = {
-        "population": ga_settings.population,
-        "generations": ga_settings.generations,
-        "elite_count": math.ceil(ga_settings.elite_fraction * ga_settings.population),
-        "crossover_fraction": ga_settings.crossover_fraction,
-        "variable_map": "A = A_bore * u^2, u in [0, 1]",
-    }
+    info = GaInfo(
+        population=ga_settings.population,
+        generations=ga_settings.generations,
+        elite_count=math.ceil(ga_settings.elite_fraction * ga_settings.population),
+        crossover_fraction=ga_settings.crossover_fraction,
+        variable_map="A = A_bore * u^2, u in [0, 1]",
+    )
     return AreaFit(a_bc, a_bt, obj, info)
 
 
@@ -431,9 +430,8 @@ def _fit_info(
     skipped."""
     prob, selection = pb.prob, pb.selection
     delay = estimates.get("sensor_lag", {}).get("delay_s")
-    ga = areas.ga_info
     return FitInfo(
-        ga=GaInfo(**ga) if ga else None,
+        ga=areas.ga_info,
         optimizer=optimizer,
         seed=seed,
         terms=tuple(selection.names),
@@ -461,6 +459,6 @@ def _fit_info(
     )
 
 
-def _finite(v: float | np.floating[Any]) -> float | None:
+def _finite(v: float) -> float | None:
     """An info number as FIT.json holds it: null when not finite (JSON has no NaN)."""
     return float(v) if math.isfinite(v) else None

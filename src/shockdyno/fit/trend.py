@@ -13,13 +13,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Annotated, Any
+from typing import Annotated
 
 import numpy as np
 from msgspec import Meta
 from numpy.typing import ArrayLike
 
-from shockdyno.schema import OMITTED_AT_DEFAULT, convert, to_json
+from shockdyno.schema import OMITTED_AT_DEFAULT, Table, convert, to_json
 
 MAX_DEGREE = 4
 
@@ -65,13 +65,13 @@ class AreaTrend:
     def at(self, clicks: float) -> float:
         return float(np.polyval(self.coefficients, clicks))
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> Table:
         """FIT.json's entry (`TrendDoc`)."""
-        out: dict[str, Any] = to_json(TrendDoc.of(self))
+        out: Table = to_json(TrendDoc.of(self))
         return out
 
     @staticmethod
-    def from_json(d: dict[str, Any]) -> AreaTrend:
+    def from_json(d: Table) -> AreaTrend:
         """A trend from its JSON (FIT.json's `trend` entries; tests build them so)."""
         return convert(d, TrendDoc, "trend", unknown_keys=True).trend()
 

@@ -10,10 +10,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from rich.table import Table
 
 from shockdyno.errors import FitError
 from shockdyno.fit.metrics import error_metrics
@@ -169,10 +169,8 @@ def table4_rows(result: FitResult) -> tuple[list[str], list[list[str]]]:
     return list(TABLE4_HEADER), rows
 
 
-def table4_table(result: FitResult) -> Any:
+def table4_table(result: FitResult) -> Table:
     """A rich Table of `table4_rows`, one section per frequency."""
-    from rich.table import Table
-
     table = Table(title="Errors by frequency (paper's Table 4): proposed vs Talbott")
     header, rows = table4_rows(result)
     for i, name in enumerate(header):

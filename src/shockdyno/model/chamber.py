@@ -44,7 +44,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass
-from typing import Any, NamedTuple, Protocol, cast
+from typing import NamedTuple, Protocol, cast
 
 import numpy as np
 from numba import njit
@@ -156,7 +156,12 @@ def integrate(
     gas = np.zeros(x.size) if gas_volume is None else gas_volume
     sc = np.ones(x.size) if dp_scale is None else dp_scale
     guides = _GUIDES.get()
-    layout = (x.size, np.asarray(starts).tobytes(), np.asarray(dt_s).tobytes(), periodic)
+    layout: Layout = (
+        x.size,
+        np.asarray(starts).tobytes(),
+        np.asarray(dt_s).tobytes(),
+        periodic,
+    )
     guide = guides.get(layout) if guides is not None and not use_carry else None
     g_pre, g_fin, g_used = guide if guide is not None else (_NONE, _NONE, _NO_PASSES)
     k = constants(
@@ -195,13 +200,14 @@ _NONE = np.zeros(0)
 _NO_PASSES = np.zeros(0, dtype=np.int64)
 # Within `linearised`: per layout of samples (size, segments, steps), the chamber pressure
 # of the first integration there, as a guide for the later ones.
-_GUIDES: ContextVar[dict[Any, tuple[FloatArray, FloatArray, NDArray[np.int64]]] | None] = (
-    ContextVar("chamber_guides", default=None)
-)
+# A layout: (size, segment starts' bytes, steps' bytes, periodic).
+Layout = tuple[int, bytes, bytes, bool]
+Guides = dict[Layout, tuple[FloatArray, FloatArray, NDArray[np.int64]]]
+_GUIDES: ContextVar[Guides | None] = ContextVar("chamber_guides", default=None)
 
 
 @contextmanager
-def linearised() -> Iterator[dict[Any, Any]]:
+def linearised() -> Iterator[Guides]:
     """Within this block, the first integration of a set of samples is solved as always
     and the later ones of the same samples (a Jacobian's columns: the model a small step
     away in one parameter) take one Newton step per chamber step from its trajectory:
@@ -212,7 +218,7 @@ def linearised() -> Iterator[dict[Any, Any]]:
     so is a segment the first integration needed more than its usual passes for. One
     balance a step instead of 2.3. The guide is the first integration's, whatever the
     cache held, so the results are a function of the inputs alone."""
-    guides: dict[Any, Any] = {}
+    guides: Guides = {}
     token = _GUIDES.set(guides)
     try:
         yield guides  # empty after the block when no chamber integration was guided
@@ -269,7 +275,7 @@ class Constants(Protocol):
     gas_n: float
 
 
-def constants(**fields: Any) -> Constants:
+def constants(**fields: object) -> Constants:
     """A `CONSTANTS` record with these fields (the others zero): a NumPy record, whose
     fields Python reads by name as the kernels do (numba types it as the structured
     scalar it is)."""

@@ -14,17 +14,19 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
-from typing import Any
+from typing import Generic, ParamSpec, TypeVar, cast
 
 import numpy as np
 
 SAMPLES = 16  # elements of each array in the fingerprint
+P = ParamSpec("P")
+R = TypeVar("R")
 
 
-def _fingerprint(args: tuple[Any, ...]) -> tuple[Any, ...]:
+def _fingerprint(args: tuple[object, ...]) -> tuple[object, ...]:
     # Every call pays for this (36 000 in one diagnosis): the dtype itself, not its name,
     # and no reshape of an array that is flat already.
-    out: list[Any] = []
+    out: list[object] = []
     for a in args:
         if isinstance(a, np.ndarray):
             flat = a if a.ndim == 1 else a.reshape(-1)
@@ -37,16 +39,18 @@ def _fingerprint(args: tuple[Any, ...]) -> tuple[Any, ...]:
     return tuple(out)
 
 
-def _same(a: tuple[Any, ...], b: tuple[Any, ...]) -> bool:
+def _same(a: tuple[object, ...], b: tuple[object, ...]) -> bool:
     for x, y in zip(a, b, strict=True):
         if isinstance(x, np.ndarray):
+            if not isinstance(y, np.ndarray):
+                return False
             same = _bitwise(x, y) if x.dtype == np.float64 else None
             if same is None:
                 same = bool(np.array_equal(x, y, equal_nan=x.dtype.kind == "f"))
             if not same:
                 return False
         elif isinstance(x, tuple):
-            if not _same(x, y):
+            if not isinstance(y, tuple) or not _same(x, y):
                 return False
         elif not (x == y or (x != x and y != y)):  # NaN scalars alike
             return False
@@ -64,39 +68,41 @@ def _bitwise(x: np.ndarray, y: np.ndarray) -> bool | None:
     return bool(np.array_equal(x.view(np.int64), y.view(np.int64)))
 
 
-def _nbytes(values: tuple[Any, ...]) -> int:
+def _nbytes(values: tuple[object, ...]) -> int:
     return sum(
         v.nbytes if isinstance(v, np.ndarray) else _nbytes(v) if isinstance(v, tuple) else 0
         for v in values
     )
 
 
-def _copy(values: Any) -> Any:
+def _copy(values: R) -> R:
     if isinstance(values, np.ndarray):
-        return values.copy()
+        return cast("R", values.copy())
     if isinstance(values, tuple):
         copied = (_copy(v) for v in values)
         # a named tuple keeps its class (numba types it by the class)
-        return type(values)(*copied) if hasattr(values, "_fields") else tuple(copied)
+        return cast("R", type(values)(*copied) if hasattr(values, "_fields") else tuple(copied))
     return values
 
 
-class Recent:
+class Recent(Generic[P, R]):
     """Up to `size` calls of `kernel` (positional arguments: arrays, scalars and tuples of
     them), the most recent first, holding at most `max_bytes` of inputs and results.
     Results are copied in and out, so a caller that edits one in place changes no other's."""
 
-    def __init__(self, kernel: Callable[..., Any], size: int = 8, max_bytes: int = 64 << 20):
+    def __init__(self, kernel: Callable[P, R], size: int = 8, max_bytes: int = 64 << 20):
         self.kernel = kernel
         self.size = size
         self.max_bytes = max_bytes
-        self._entries: list[tuple[tuple[Any, ...], tuple[Any, ...], Any, int]] = []
+        self._entries: list[tuple[tuple[object, ...], tuple[object, ...], R, int]] = []
         self._held = 0  # the entries' bytes, kept as they come and go (not summed per call)
         self._lock = threading.Lock()
         self.hits = 0
         self.calls = 0
 
-    def __call__(self, *args: Any) -> Any:
+    def __call__(self, *args: P.args, **kwargs: P.kwargs) -> R:
+        if kwargs:  # the cache keys on positional arguments only
+            raise TypeError(f"Recent takes positional arguments only, got {sorted(kwargs)}")
         key = _fingerprint(args)
         with self._lock:
             self.calls += 1
@@ -105,7 +111,7 @@ class Recent:
                     self.hits += 1
                     self._entries.insert(0, self._entries.pop(i))
                     return _copy(result)
-        result = self.kernel(*args)
+        result = self.kernel(*args, **kwargs)
         stored = tuple(_copy(a) for a in args)
         cost = _nbytes(stored) + _nbytes(result if isinstance(result, tuple) else (result,))
         if cost > self.max_bytes // 4:

@@ -8,7 +8,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, TypedDict
 
 import numpy as np
 from msgspec import Meta
@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from shockdyno.errors import ConfigError
 from shockdyno.model.bleed import PATHS, Adjuster, BleedLaw
 from shockdyno.model.shims import ShimStack
-from shockdyno.schema import NonEmpty, NonNegative, Positive, convert, fail, read_toml
+from shockdyno.schema import NonEmpty, NonNegative, Positive, Table, convert, fail, read_toml
 
 
 @dataclass(frozen=True)
@@ -174,6 +174,7 @@ class DamperSpec:
             areas[a.acts_on] = float(law.area(n, g))
         return areas["compression"], areas["rebound"]
 
+    # Any: dataclasses.replace checks each field against its own type (floats, valves, ...)
     def with_changes(self, **changes: Any) -> DamperSpec:
         return replace(self, **changes)
 
@@ -190,7 +191,7 @@ class DamperSpec:
 
     def with_values(self, values: Mapping[str, float]) -> DamperSpec:
         """A copy with these named values (as `value` names them) replaced."""
-        changes: dict[str, Any] = {}
+        changes: dict[str, Any] = {}  # Any: fields of several types, for replace
         parts: dict[str, dict[str, float]] = {}  # a valve's fields, replaced in one copy
         for key, v in values.items():
             self.value(key)  # a name that is not a number of the spec is an error
@@ -240,7 +241,13 @@ def default_spec_path() -> Path:
     return here if here.exists() else Path("sim/ohlins-s46.toml")
 
 
-def spec_used(path: str | Path | None) -> dict[str, Any]:
+class SpecInfo(TypedDict):
+    path: str
+    name: str
+    default: bool
+
+
+def spec_used(path: str | Path | None) -> SpecInfo:
     """Which spec a command used, for its terminal line and its JSON: {path, name,
     default}. `path` as the user gave it; the built-in default as its repository path."""
     p = default_spec_path() if path is None else Path(path)
@@ -254,7 +261,7 @@ def spec_used(path: str | Path | None) -> dict[str, Any]:
     return {"path": shown, "name": load_spec(p).name, "default": default}
 
 
-def spec_line(used: dict[str, Any]) -> str:
+def spec_line(used: Mapping[str, object]) -> str:
     """ "spec: sim/x.toml (name)", or "spec: built-in default sim/ohlins-s46.toml (...)"."""
     where = f"built-in default {used['path']}" if used.get("default") else used["path"]
     return f"spec: {where} ({used['name']})"
@@ -274,23 +281,21 @@ class _Bleeds:
 
 @dataclass(frozen=True)
 class _SpecFile:
-    damper: dict[str, Any]  # DamperSpec's own keys, checked with the valves and bleeds in
+    damper: Table  # DamperSpec's own keys, checked with the valves and bleeds in
     valves: _Valves
     bleed: _Bleeds | None = None
     # [adjuster.NAME]: acts_on and its area law's keys (BleedLaw's), checked below
-    adjuster: dict[str, dict[str, Any]] | None = None
+    adjuster: dict[str, Table] | None = None
 
 
 ADJUSTER_NAME = re.compile(r"^[a-z][a-z0-9_]{0,31}$")
 RESERVED_ADJUSTERS = ("gas", "rod", "clicks")  # the gas bottle's and the one needle's words
 
 
-def _adjusters(
-    p: Path, tables: dict[str, dict[str, Any]]
-) -> tuple[tuple[Adjuster, ...], dict[str, Any]]:
+def _adjusters(p: Path, tables: dict[str, Table]) -> tuple[tuple[Adjuster, ...], Table]:
     """[adjuster.NAME] tables: the adjusters and each path's law from its adjuster's table."""
     found: list[Adjuster] = []
-    laws: dict[str, Any] = {}
+    laws: Table = {}
     for name, table in tables.items():
         at = f"adjuster.{name}"
         if not ADJUSTER_NAME.match(name) or name in RESERVED_ADJUSTERS:
@@ -333,7 +338,7 @@ def load_spec(path: str | Path | None = None) -> DamperSpec:
             raise fail(str(p), f"damper.{key}", "unknown key (it has its own table)")
     if "adjusters" in f.damper:
         raise fail(str(p), "damper.adjusters", "unknown key (each has its [adjuster.NAME])")
-    parts: dict[str, Any] = {
+    parts: Table = {
         "compression_valve": doc["valves"]["compression"],
         "rebound_valve": doc["valves"]["rebound"],
     }

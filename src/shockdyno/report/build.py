@@ -30,6 +30,8 @@ import numpy as np
 
 from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError
+from shockdyno.fit.display import globals_rows
+from shockdyno.fit.validate import table4_rows
 from shockdyno.record import adjusters
 from shockdyno.record.types import TestData
 from shockdyno.report import clickchart, plots, repeatability, temperature
@@ -503,11 +505,9 @@ def _peaks_and_overlays(
 def _fit_section(
     page: Page, fit: FitResult, tests: list[TestData], out_dir: Path, units: Units
 ) -> None:
-    # Here, not at the top: the fit package adds 0.2 s to the start of every `report`,
-    # with a fit or not (median of 7 imports, 1.45 s against 1.68 s, on 2 busy cores).
-    from shockdyno.fit.display import globals_rows
+    # Here, not at the top: the fit's plots load 183 modules (matplotlib's) that a report
+    # without a fit never needs (bench_startup --marginal).
     from shockdyno.fit.plots import fit_figures
-    from shockdyno.fit.validate import table4_rows
 
     page.section(
         "Fit and validation",

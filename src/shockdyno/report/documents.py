@@ -23,7 +23,7 @@ import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, TypeVar
+from typing import Literal, TypeVar
 
 from shockdyno.result_files import RecordingRef, read_result
 from shockdyno.schema import OMITTED_AT_DEFAULT, Positive, convert, to_json
@@ -445,7 +445,7 @@ def ride_text(doc: RideDoc) -> str:
     return json.dumps(to_json(doc), indent=2, allow_nan=False) + "\n"
 
 
-def typed(value: T | Mapping[str, Any], cls: type[T], source: str) -> T:
+def typed(value: T | Mapping[str, object], cls: type[T], source: str) -> T:
     """`value` as a `cls`: a writer's dict (`to_json()`, not yet written) is read as its
     file would be. For callers that still pass dicts; `source` names it in an error."""
     if isinstance(value, cls):

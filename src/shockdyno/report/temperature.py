@@ -35,6 +35,7 @@ import numpy as np
 
 from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError, FitError
+from shockdyno.fit.forces import setting_temperatures as of_settings
 from shockdyno.model.composite import ModelInputs
 from shockdyno.record.types import TestData
 from shockdyno.report import clickchart
@@ -92,10 +93,7 @@ def setting_temperatures(tests: Sequence[TestData]) -> dict[Setting, float]:
     """Mean temperature over the measured cycles of each setting's complete tests (each
     test weighted alike, as the click chart averages them); settings without a reading
     are left out."""
-    # Here: the fit package loads only when a fit is drawn; the fit saves the model at
-    # the same temperatures (fit/forces.py), so this is its one definition.
-    from shockdyno.fit.forces import setting_temperatures as of_settings
-
+    # the fit saves the model at the same temperatures (fit/forces.py): its one definition
     return of_settings(tests)
 
 

@@ -11,35 +11,61 @@ import math
 import sys
 from dataclasses import asdict
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from rich.console import Console
 
 from shockdyno.errors import ConfigError, RecordingError
 from shockdyno.outputs import check_recording_output
+from shockdyno.record import open_recording
+from shockdyno.record.lock import recording_lock
+from shockdyno.record.queued import QueuedWriter
+from shockdyno.record.writer import RecordingWriter
 from shockdyno.run.plan import PointKey, SweepPlan
+from shockdyno.run.refusals import check_band, check_sine
 from shockdyno.units import SI, Units
 
 NEW_SUFFIX = ".new.mcap"  # a forced sweep's recording, until its first test completes
 
 if TYPE_CHECKING:
-    from shockdyno.record.queued import QueuedWriter
+    from shockdyno.record.types import TestMeta
     from shockdyno.rig.config import RigConfig
-    from shockdyno.run.sweep import Writer
+    from shockdyno.run.sweep import SweepResult, Writer
 
 
-def record_sweep(rig: RigConfig, plan: SweepPlan, output: Path, **options: Any) -> Any:
-    """Run the plan on the rig into the recording; returns the SweepResult (`options`:
-    `_record_sweep`'s). The recording has one writer: a second sweep, resume or --force
-    on it, under any name (a link), is refused (record/lock.py)."""
-    from shockdyno.record.lock import recording_lock
-
+def record_sweep(
+    rig: RigConfig,
+    plan: SweepPlan,
+    output: Path,
+    *,
+    metadata: dict[str, str],
+    overwrite: bool = False,
+    resume: bool = False,
+    console: Console | None = None,
+    units: Units = SI,
+    live: Writer | None = None,
+) -> SweepResult | None:
+    """Run the plan on the rig into the recording; returns the SweepResult (None when the
+    recording being resumed had nothing left to run). The recording
+    has one writer: a second sweep, resume or --force on it, under any name (a link), is
+    refused (record/lock.py). `live` (a viewer, `sweep --live`) gets every call the
+    recording gets, after it."""
     if output.exists() and not output.is_file():
         check_recording_output(output, force=True)  # a folder, a FIFO, a device: refused
     with recording_lock(output):
-        if not options.get("resume", False):
-            check_recording_output(output, force=options.get("overwrite", False))
-        return _record_sweep(rig, plan, output, **options)
+        if not resume:
+            check_recording_output(output, force=overwrite)
+        return _record_sweep(
+            rig,
+            plan,
+            output,
+            metadata=metadata,
+            overwrite=overwrite,
+            resume=resume,
+            console=console,
+            units=units,
+            live=live,
+        )
 
 
 def _record_sweep(
@@ -53,9 +79,8 @@ def _record_sweep(
     console: Console | None = None,
     units: Units = SI,
     live: Writer | None = None,
-) -> Any:
-    """Run the plan on the rig into the recording; returns the SweepResult. `live` (a
-    viewer, `sweep --live`) gets every call the recording gets, after it."""
+) -> SweepResult | None:
+    """`record_sweep` once the recording is locked."""
     from shockdyno.run.fanout import Fanout
     from shockdyno.run.liveview import LiveView
     from shockdyno.run.session import RigSession, exit_reason
@@ -124,8 +149,6 @@ def _resumed(
 ) -> tuple[set[PointKey], int]:
     """A recording to resume, checked to be this plan's, this set's and this rig's: the
     points it completed and the next test's index."""
-    from shockdyno.record import open_recording
-
     if not output.is_file():
         raise RecordingError(f"nothing to resume: {output} does not exist")
     previous = open_recording(output).require_recording()
@@ -139,8 +162,6 @@ def _resumed(
 
 def _refuse_before_the_rig(rig: RigConfig, plan: SweepPlan) -> None:
     """Everything that can be refused, refused before the rig is touched."""
-    from shockdyno.run.refusals import check_band, check_sine
-
     for frequency in plan.frequencies_hz:
         stroke = plan.stroke(frequency)
         check_sine(rig, plan.amplitude_m, frequency, plan.warmup_cycles, plan.measured_cycles,
@@ -174,8 +195,6 @@ def _open_writer(
     """The sweep's writer, in a thread of its own (record/queued.py). A recording that
     replaces one (--force) is written beside it and takes its place when its first test
     completes (record/writer.py)."""
-    from shockdyno.record.queued import QueuedWriter
-    from shockdyno.record.writer import RecordingWriter
 
     target, replaces = output, None
     if not resume and output.exists():
@@ -252,7 +271,7 @@ def identity(rig: RigConfig, plan: SweepPlan) -> dict[str, str]:
     }
 
 
-def _check_resume_matches(tests: list[Any], plan: SweepPlan, output: Path) -> None:
+def _check_resume_matches(tests: list[TestMeta], plan: SweepPlan, output: Path) -> None:
     """A resumed sweep must measure like the one it continues, or the set mixes two tests."""
     for meta in tests:
         same = (

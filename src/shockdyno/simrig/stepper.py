@@ -63,6 +63,7 @@ class Stepper:
                 loop.call_soon_threadsafe(_settle, fut, result, error)
 
 
+# Any: as in _Job, the Future of a job of any result type
 def _settle(fut: asyncio.Future[Any], result: object, error: BaseException | None) -> None:
     if fut.done():  # cancelled by a loop that stopped waiting
         return

@@ -5,7 +5,7 @@ values the recording calibrated, as the verdict lists them."""
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -13,6 +13,7 @@ from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.diagnosis import CalibrationRow, Trial
 from shockdyno.diagnose.fitting import Fitted, refit
 from shockdyno.diagnose.settings import Settings
+from shockdyno.diagnose.tolerance import Asked, at_edge, reference
 from shockdyno.fit.parameters import spec_global
 from shockdyno.fit.result import FitResult
 from shockdyno.model.composite import DamperModel, Term
@@ -114,12 +115,20 @@ def spec_calibrated(
 
 
 def calibration_rows(
-    spec: DamperSpec, fitted: Fitted, terms: Sequence[Term], share: float
+    spec: DamperSpec,
+    fitted: Fitted,
+    terms: Sequence[Term],
+    share: float,
+    asked: Mapping[str, Asked] | None = None,
+    data: Data | None = None,
 ) -> list[CalibrationRow]:
     """The spec's values against what the recording calibrated them to; each spec value
     a term's factor calibrated (`terms`, spec_calibrated: not when a claimed term's
-    physics moved it)."""
+    physics moved it). `asked`: the values a fit of the search asked beyond their
+    tolerance (tolerance.py); `data`: the recording, whose written gas charge the
+    charge's tolerance is about."""
     got = fitted.model.spec
+    asked = asked or {}
     rows = [
         CalibrationRow(
             key,
@@ -130,6 +139,9 @@ def calibration_rows(
             share,
             spec_global(key).fallback,
             spec_global(key).tolerance,
+            asked[key].value if key in asked else math.nan,
+            key in fitted.limits and at_edge(got.value(key), fitted.limits[key]),
+            reference(data, spec, key) if data is not None else math.nan,
         )
         for key in fitted.globals
     ]

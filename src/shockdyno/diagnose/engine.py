@@ -40,6 +40,7 @@ from shockdyno.diagnose.search import Search
 from shockdyno.diagnose.settings import Settings as Settings
 from shockdyno.diagnose.spikes import remove_spikes
 from shockdyno.diagnose.stats import MismatchStat, mismatch_test
+from shockdyno.diagnose.tolerance import Asked, hold
 from shockdyno.diagnose.workers import Workers
 from shockdyno.errors import FitError
 from shockdyno.fit.metrics import error_metrics
@@ -109,11 +110,14 @@ def _diagnose(
     data = Data.build(spec, prepared, s.full_rate_hz)
     rng = np.random.default_rng(s.seed)
     report("baseline fit", 0.05)
-    baseline = fit_baseline(data, fit, s, notes)
+    drawing = load_spec(fit.spec_file()) if fit else spec  # what the tolerances are about
+    asked: dict[str, Asked] = {}  # spec values a fit moved beyond them, then held
+    baseline = hold(data, drawing, fit_baseline(data, fit, s, notes), asked, 60)
     _, binned = binned_means(data, baseline.residual)
     mismatch = mismatch_test(binned, rng, s.n_boot)
     location = locate(data, binned, s)
     search = Search.start(data, baseline, s, rng, report, workers)
+    search.drawing, search.asked = drawing, asked
     search.run(mismatch)
     report("scores", 0.95)
     if search.claimed or search.tests is not data:
@@ -140,10 +144,7 @@ def _diagnose(
         wall_s=time.perf_counter() - wall0,
         single_frequency=len(freqs) == 1,
         calibration=calibration_rows(
-            load_spec(fit.spec_file()) if fit else spec,
-            search.base,
-            calibrated,
-            s.calibration_share,
+            drawing, search.base, calibrated, s.calibration_share, asked, data
         ),
         settings=s,
         sensor=sensor,

@@ -8,8 +8,8 @@ residual sums that the likelihood-ratio test compares are the ones minimised.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -17,7 +17,12 @@ from numpy.typing import NDArray
 from shockdyno.diagnose.data import Data
 from shockdyno.fit.areas import start_areas
 from shockdyno.fit.calibrate import calibrate
-from shockdyno.fit.parameters import DEFAULT_GLOBALS, DIAGNOSE_ONLY, global_parameters
+from shockdyno.fit.parameters import (
+    DEFAULT_GLOBALS,
+    DIAGNOSE_ONLY,
+    Parameter,
+    global_parameters,
+)
 from shockdyno.fit.prepare import ClickKey, PreparedTest
 from shockdyno.fit.problem import prepared_inputs
 from shockdyno.model.composite import DamperModel, Evaluation
@@ -77,6 +82,11 @@ class Fitted:
     jac: FloatArray | None = None
     jac_rows: dict[tuple[int, int, float], tuple[int, int]] = field(default_factory=dict)
     jac_keys: tuple[ClickKey, ...] = ()
+    # Spec values held within a range (SI, by name) narrower than their declared one, in
+    # this fit and in every refit started from it: a calibration that moved beyond a
+    # damper's tolerance (diagnose/tolerance.py) cannot take that move up again while the
+    # candidates are scored.
+    limits: Mapping[str, tuple[float, float]] = field(default_factory=dict)
 
     def area_vectors(self, data: Data) -> tuple[FloatArray, FloatArray]:
         keys = data.prob.keys
@@ -159,7 +169,19 @@ def predict(data: Data, fitted: Fitted) -> Fitted:
         force - prob.f,
         fitted.globals_sd,
         fitted.globals,
+        limits=fitted.limits,
     )
+
+
+def within(p: Parameter, limit: tuple[float, float] | None) -> Parameter:
+    """A global's range (in units of its scale) narrowed to `limit` (SI); the limit alone
+    where the two do not meet."""
+    if limit is None:
+        return p
+    lo, hi = max(p.lo, limit[0] / p.scale), min(p.hi, limit[1] / p.scale)
+    if lo > hi:
+        lo, hi = limit[0] / p.scale, limit[1] / p.scale
+    return replace(p, lo=lo, hi=hi)
 
 
 def refit(
@@ -171,6 +193,7 @@ def refit(
     calibrated: Sequence[str] | None = None,
     bounds_from: DamperSpec | None = None,
     warm: bool = False,
+    limits: Mapping[str, tuple[float, float]] | None = None,
 ) -> Fitted:
     """Least squares over the globals, the free term parameters and all areas.
 
@@ -180,7 +203,8 @@ def refit(
     values (default: the start's). `warm`: `model` is the start's, on some of its tests:
     the solve starts from the start's Jacobian there and updates it (calibrate's jac0)
     rather than differencing the model at every step (where the start has no rows for
-    these tests, as on a test's halves, it differences as usual).
+    these tests, as on a test's halves, it differences as usual). `limits`: ranges (SI)
+    some spec values are held within (Fitted.limits; by default the start's).
     """
     names = tuple(calibrated) if calibrated is not None else (start.globals if start else GLOBALS)
     prob = data.prob.with_base(model.spec).for_model(model, free)
@@ -193,7 +217,10 @@ def refit(
             bt0 = np.where(np.isfinite(bt0), bt0, sbt)
     else:
         bc0, bt0 = start_areas(prob, model, a_max)
-    params = global_parameters(bounds_from or model.spec, names)
+    held = dict(limits if limits is not None else (start.limits if start else {}))
+    params = [
+        within(p, held.get(p.name)) for p in global_parameters(bounds_from or model.spec, names)
+    ]
     jac0 = None
     if warm and start is not None and tuple(free) == start.free and names == start.globals:
         jac0 = _warm_jacobian(data, start)
@@ -220,4 +247,5 @@ def refit(
             for p, a, b in zip(data.prepared, bounds[:-1], bounds[1:], strict=True)
         },
         tuple(prob.keys),
+        held,
     )

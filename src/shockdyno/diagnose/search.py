@@ -34,9 +34,11 @@ from shockdyno.diagnose.diagnosis import Trial
 from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted, refit
 from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.stats import MismatchStat, mismatch_test, noise_draws
+from shockdyno.diagnose.tolerance import Asked, hold
 from shockdyno.diagnose.workers import SERIAL, Workers
 from shockdyno.model.composite import FORCE, PRESSURE, DamperModel
 from shockdyno.model.params import Estimate
+from shockdyno.model.spec import DamperSpec
 from shockdyno.model.terms import LIBRARY
 from shockdyno.report.documents import Indistinguishable
 
@@ -80,6 +82,10 @@ class Search:
         self.shapes: list[tuple[str, FloatArray]] = []  # what each claimed term explained
         self.groups: list[Indistinguishable] = []
         self.came_with: dict[str, tuple[str, ...]] = {}  # claimed term -> spec values freed
+        # What the spec values' tolerances are about (None: no limits), and the values a
+        # fit asked beyond them, held from then on (tolerance.py)
+        self.drawing: DamperSpec | None = None
+        self.asked: dict[str, Asked] = {}
         self.means, self.binned = binned_means(tests, base.residual)
 
     @classmethod
@@ -139,13 +145,21 @@ class Search:
             )
             if best.name not in CALIBRATIONS:  # a calibration taken joins the model only
                 self._claim(best, rnd)
-            self.base = best.fitted
+            self.base = self.held(best.fitted)
             self.means, self.binned = binned_means(self.tests, self.base.residual)
             left = mismatch_test(self.binned, self.rng, s.n_boot)
             remaining = [c for c in remaining if c != best.name]
         if len(self.claimed) >= 2:
             self.report("backward check", 0.92)
             self.backward()
+
+    def held(self, fitted: Fitted, data: Data | None = None, nfev: int = 0) -> Fitted:
+        """`fitted` (on the search's tests, or `data`), refitted with any spec value it
+        moved beyond its tolerance held within it (tolerance.hold)."""
+        if self.drawing is None:
+            return fitted
+        on = self.tests if data is None else data
+        return hold(on, self.drawing, fitted, self.asked, nfev or self.s.max_nfev)
 
     def _claim(self, best: Candidate, rnd: int) -> None:
         """`best` joins the claimed terms, with the round's candidates it is alike."""
@@ -311,6 +325,7 @@ class Search:
                 self.came_with.pop(n, None)
             nfev = s.final_nfev if self.claimed else s.max_nfev
             base = refit(data, kept, free, base, max_nfev=nfev, calibrated=calibrated)
+        base = self.held(base, data, s.final_nfev)
         for f in self.trials:
             if f.claimed:
                 f.parameters = term_estimates(base, f.physics)

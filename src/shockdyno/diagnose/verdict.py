@@ -4,6 +4,7 @@ classes, the one definition every reader reads: report/documents.py)."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from itertools import pairwise
 from typing import Any
 
@@ -107,20 +108,52 @@ def describe_calibration(r: CalibrationRow) -> str:
 def calibration_text(d: Diagnosis) -> str:
     moved = [r for r in d.calibration if r.moved and not r.beyond]
     beyond = [r for r in d.calibration if r.beyond]
+    # Asked beyond its tolerance, held within it, and a claimed term took the rest.
+    taken = [r for r in d.calibration if math.isfinite(r.asked) and not r.held]
     text = []
     if moved:
         text.append(
             "Calibrated, not physics: " + "; ".join(describe_calibration(r) for r in moved) + "."
         )
+    claims = (
+        " and ".join(t.physics.replace("_", " ") for t in d.trials if t.claimed) if taken else ""
+    )
+    for r in taken:
+        now = f"{r.fitted / r.spec_value:.2g}× the spec's" if r.spec_value else f"{r.fitted:.3g}"
+        text.append(
+            f"Held within its tolerance: a fit found {_asked(r)}, beyond the "
+            f"{_tolerance(r)} a damper departs from its drawing by; held there, "
+            + (f"the claimed {claims} took its place" if claims else "it came back")
+            + f" (now {now})."
+        )
     for r in beyond:
-        assert r.tolerance is not None
-        lo, hi = r.tolerance
+        if r.held:
+            edge = r.fitted / (r.reference if math.isfinite(r.reference) else r.spec_value)
+            text.append(
+                f"A finding, not a calibration: a fit found {_asked(r)}, beyond the "
+                f"{_tolerance(r)} a damper departs from its drawing by; held at {edge:.2g}×, "
+                "no candidate physics took the rest, which is left in the residual: physics "
+                "the library did not name, or the spec is not this damper's."
+            )
+            continue
         text.append(
             f"A finding, not a calibration: {describe_calibration(r)}, beyond the "
-            f"{lo:.2g}-{hi:.2g}× a damper departs from its drawing by; physics the library "
+            f"{_tolerance(r)} a damper departs from its drawing by; physics the library "
             "did not name takes that place, or the spec is not this damper's."
         )
     return " ".join(text)
+
+
+def _tolerance(r: CalibrationRow) -> str:
+    assert r.tolerance is not None
+    lo, hi = r.tolerance
+    return f"{lo:.2g}-{hi:.2g}×"
+
+
+def _asked(r: CalibrationRow) -> str:
+    """What a fit asked of the value before it was held: "the spec's Coulomb friction is
+    2.7× too small (fitted 2.7 × the spec's)"."""
+    return describe_calibration(replace(r, fitted=r.asked, sd=math.nan))
 
 
 def short_text(d: Diagnosis) -> str:
@@ -274,6 +307,7 @@ def _verdict(d: Diagnosis) -> docs.Verdict:
                 moved=r.moved,
                 # beyond the spec's tolerance: a finding, not a calibration
                 beyond_tolerance=r.beyond,
+                asked=r.asked if math.isfinite(r.asked) else None,
             )
             for r in d.calibration
         ),

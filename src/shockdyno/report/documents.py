@@ -192,6 +192,9 @@ class Calibration:
     unit: str
     moved: bool
     beyond_tolerance: bool = False  # further than a damper departs from its drawing
+    # what a fit of the search asked for beyond that, before the value was held within it
+    # (diagnose/tolerance.py); with `fitted` inside its range, a claimed term took the rest
+    asked: float | None = field(default=None, metadata=_OMIT)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -11,7 +11,8 @@ then `shockdyno diagnose REC.mcap --workers 1 --no-history` is run with the `sho
 DIR/CASE-sSEED-c2_12-f0.5_1.5/DIAG-LABEL.json (reused when there). Printed per recording
 and label: truth, claimed, mean E_t before -> after, every calibrated value that moved
 (x the spec's; `BEYOND`: beyond its tolerance; `asked A`: what a fit asked before it was
-held), and the verdict's calibration sentences.
+held), and the verdict's calibration sentences. `--spec`: diagnose with another spec (a
+drawing whose Coulomb friction is a third of the damper's: a value beyond its tolerance).
 
 Cases (the issue's aerated oil beside seal stiction, in the plant's own forms):
   comp_hi+fric_hi    1.5-3 % free air (bubbles κ 1.0-1.3) beside an elastic seal lip,
@@ -79,11 +80,12 @@ def make(name: str, seed: int, cache: Path) -> Path:
     return rec
 
 
-def diagnose(rec: Path, python: Path, label: str) -> dict[str, Any]:
+def diagnose(rec: Path, python: Path, label: str, spec: Path | None) -> dict[str, Any]:
     out = rec.parent / f"DIAG-{label}.json"
     if not out.exists():
         exe = python.parent / "shockdyno"
         cmd = [str(exe), "diagnose", str(rec), "--json", str(out), "--workers", "1"]
+        cmd += ["--spec", str(spec)] if spec else []
         t = time.perf_counter()
         done = subprocess.run([*cmd, "--no-history"], capture_output=True, text=True)
         (rec.parent / f"diag-{label}.log").write_text(done.stdout + done.stderr)
@@ -126,11 +128,20 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--python", type=Path, default=Path(sys.executable))
     ap.add_argument("--label", default="this")
     ap.add_argument("--only", default=",".join(CASES), help="cases, comma-separated")
+    ap.add_argument("--spec", type=Path, default=None, help="diagnose with this spec")
     args = ap.parse_args(argv)
     for name in args.only.split(","):
         rec = make(name, args.seed, args.cache)
         truth = (rec.parent / "truth.txt").read_text().splitlines()[1]
-        print(line(name, args.seed, args.label, truth, diagnose(rec, args.python, args.label)))
+        print(
+            line(
+                name,
+                args.seed,
+                args.label,
+                truth,
+                diagnose(rec, args.python, args.label, args.spec),
+            )
+        )
 
 
 if __name__ == "__main__":

@@ -13,7 +13,7 @@ from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.diagnosis import CalibrationRow, Trial
 from shockdyno.diagnose.fitting import Fitted, refit
 from shockdyno.diagnose.settings import Settings
-from shockdyno.diagnose.tolerance import Asked, at_edge, reference
+from shockdyno.diagnose.tolerance import Asked, reference
 from shockdyno.fit.parameters import spec_global
 from shockdyno.fit.result import FitResult
 from shockdyno.model.composite import DamperModel, Term
@@ -140,7 +140,6 @@ def calibration_rows(
             spec_global(key).fallback,
             spec_global(key).tolerance,
             asked[key].value if key in asked else math.nan,
-            key in fitted.limits and at_edge(got.value(key), fitted.limits[key]),
             reference(data, spec, key) if data is not None else math.nan,
         )
         for key in fitted.globals

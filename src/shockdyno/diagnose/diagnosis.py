@@ -56,19 +56,15 @@ class CalibrationRow:
     share: float = Settings.calibration_share
     scale: float = 0.0  # what `share` is of where the spec says 0 (SpecGlobal.fallback)
     tolerance: tuple[float, float] | None = None  # SpecGlobal.tolerance
-    # A fit of the search asked for this value beyond its tolerance (tolerance.py: NaN,
-    # none did); `held`: the final fit still sits at the edge it was held at.
+    # What a fit of the search asked for this value beyond its tolerance, before it was
+    # held within it while the search ran (tolerance.py; NaN: none did).
     asked: float = math.nan
-    held: bool = False
     reference: float = math.nan  # what the tolerance is about, if not the spec's value
 
     @property
     def beyond(self) -> bool:
         """Moved further from the spec's value than a real damper departs from its
-        drawing (SpecGlobal.tolerance), or held at its edge with the data asking for more:
-        a finding, not a calibration."""
-        if self.held:
-            return True
+        drawing (SpecGlobal.tolerance): a finding, not a calibration."""
         if self.tolerance is None or self.spec_value <= 0 or not self.moved:
             return False
         ref = self.reference if math.isfinite(self.reference) else self.spec_value

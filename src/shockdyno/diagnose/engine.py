@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -111,16 +112,20 @@ def _diagnose(
     rng = np.random.default_rng(s.seed)
     report("baseline fit", 0.05)
     drawing = load_spec(fit.spec_file()) if fit else spec  # what the tolerances are about
-    asked: dict[str, Asked] = {}  # spec values a fit moved beyond them, then held
-    baseline = hold(data, drawing, fit_baseline(data, fit, s, notes), asked, 60)
-    _, binned = binned_means(data, baseline.residual)
+    asked: dict[str, Asked] = {}  # spec values a fit moved beyond them, held in the search
+    baseline = fit_baseline(data, fit, s, notes)
+    held = hold(data, drawing, baseline, asked, 60)
+    _, binned = binned_means(data, held.residual)
     mismatch = mismatch_test(binned, rng, s.n_boot)
     location = locate(data, binned, s)
-    search = Search.start(data, baseline, s, rng, report, workers)
+    search = Search.start(data, held, s, rng, report, workers)
     search.drawing, search.asked = drawing, asked
     search.run(mismatch)
     report("scores", 0.95)
-    if search.claimed or search.tests is not data:
+    freed = bool(search.base.limits)
+    if freed:  # the final refit frees what the search held: a claim must hold up without it
+        search.base = replace(search.base, limits={})
+    if search.claimed or search.tests is not data or freed:
         search.final_refit(data)
     calibrated = spec_calibrated(
         baseline, search.base, search.claimed, search.trials, search.groups

@@ -153,13 +153,12 @@ class Search:
             self.report("backward check", 0.92)
             self.backward()
 
-    def held(self, fitted: Fitted, data: Data | None = None, nfev: int = 0) -> Fitted:
-        """`fitted` (on the search's tests, or `data`), refitted with any spec value it
-        moved beyond its tolerance held within it (tolerance.hold)."""
+    def held(self, fitted: Fitted) -> Fitted:
+        """`fitted`, refitted with any spec value it moved beyond its tolerance held
+        within it (tolerance.hold) while the search runs."""
         if self.drawing is None:
             return fitted
-        on = self.tests if data is None else data
-        return hold(on, self.drawing, fitted, self.asked, nfev or self.s.max_nfev)
+        return hold(self.tests, self.drawing, fitted, self.asked, self.s.max_nfev)
 
     def _claim(self, best: Candidate, rnd: int) -> None:
         """`best` joins the claimed terms, with the round's candidates it is alike."""
@@ -325,7 +324,6 @@ class Search:
                 self.came_with.pop(n, None)
             nfev = s.final_nfev if self.claimed else s.max_nfev
             base = refit(data, kept, free, base, max_nfev=nfev, calibrated=calibrated)
-        base = self.held(base, data, s.final_nfev)
         for f in self.trials:
             if f.claimed:
                 f.parameters = term_estimates(base, f.physics)

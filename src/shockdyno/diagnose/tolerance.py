@@ -7,10 +7,14 @@ for the gas charge, the Coulomb friction and the valves); a calibration that nee
 stands in for physics the model lacks. Aerated oil beside seal stiction was reported as
 compressibility and "the spec's Coulomb friction is 2.7x too small (calibrated, not
 physics)": the Coulomb level had taken the stiction, so the friction term had nothing left
-to explain. So whenever a fit of the search (the baseline, a claim, the final refit) has
+to explain. So whenever a fit of the search (the baseline, the fit after a claim) has
 moved a value beyond its tolerance by more than 3σ, the value is held within it and the
 fit refitted; every refit started from that one holds it too (`Fitted.limits`), so the
-candidates are scored on the structure it could not take. A value within its tolerance is
+candidates are scored on the structure it could not take. The final refit frees it again
+(engine.py): a claimed term that took its place keeps it there, and one that did not is
+dropped by the final refit's rules; where the value still moves beyond, the drawing is not
+the damper's (or the physics is not the library's), and the model keeps the value the
+recording asks, reported as a finding, not a calibration. A value within its tolerance is
 not bounded at all: trf scales its steps by the distance to the bounds, and a bound that
 never binds still changes a short refit's path (a branch that bounded every value from
 the start moved the friction claims' held-out gains by 0.04-0.08 on sweeps where nothing
@@ -96,9 +100,3 @@ def hold(
         asked.setdefault(k, a)
     held = {**fitted.limits, **limits_of(new)}
     return refit(data, fitted.model, fitted.free, fitted, max_nfev=max_nfev, limits=held)
-
-
-def at_edge(value: float, limit: tuple[float, float]) -> bool:
-    """Held at an end of its range (within a thousandth of it): the data ask for more."""
-    lo, hi = limit
-    return value <= lo * (1 + 1e-3) or value >= hi * (1 - 1e-3)

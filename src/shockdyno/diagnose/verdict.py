@@ -108,8 +108,9 @@ def describe_calibration(r: CalibrationRow) -> str:
 def calibration_text(d: Diagnosis) -> str:
     moved = [r for r in d.calibration if r.moved and not r.beyond]
     beyond = [r for r in d.calibration if r.beyond]
-    # Asked beyond its tolerance, held within it, and a claimed term took the rest.
-    taken = [r for r in d.calibration if math.isfinite(r.asked) and not r.held]
+    # Asked beyond its tolerance, held within it while the search ran, and a claimed
+    # term took its place (the final refit, which frees it, left it within).
+    taken = [r for r in d.calibration if math.isfinite(r.asked) and not r.beyond]
     text = []
     if moved:
         text.append(
@@ -121,24 +122,20 @@ def calibration_text(d: Diagnosis) -> str:
     for r in taken:
         now = f"{r.fitted / r.spec_value:.2g}× the spec's" if r.spec_value else f"{r.fitted:.3g}"
         text.append(
-            f"Held within its tolerance: a fit found {_asked(r)}, beyond the "
-            f"{_tolerance(r)} a damper departs from its drawing by; held there, "
+            f"Held within its tolerance while the search ran: a fit found {_asked(r)}, "
+            f"beyond the {_tolerance(r)} a damper departs from its drawing by; "
             + (f"the claimed {claims} took its place" if claims else "it came back")
             + f" (now {now})."
         )
     for r in beyond:
-        if r.held:
-            edge = r.fitted / (r.reference if math.isfinite(r.reference) else r.spec_value)
-            text.append(
-                f"A finding, not a calibration: a fit found {_asked(r)}, beyond the "
-                f"{_tolerance(r)} a damper departs from its drawing by; held at {edge:.2g}×, "
-                "no candidate physics took the rest, which is left in the residual: physics "
-                "the library did not name, or the spec is not this damper's."
-            )
-            continue
+        held = (
+            "; held within it while the search ran, no candidate physics took its place"
+            if math.isfinite(r.asked)
+            else ""
+        )
         text.append(
             f"A finding, not a calibration: {describe_calibration(r)}, beyond the "
-            f"{_tolerance(r)} a damper departs from its drawing by; physics the library "
+            f"{_tolerance(r)} a damper departs from its drawing by{held}; physics the library "
             "did not name takes that place, or the spec is not this damper's."
         )
     return " ".join(text)

@@ -28,7 +28,7 @@ from shockdyno.diagnose.claims import (
     separate_by,
     why_not,
 )
-from shockdyno.diagnose.consistency import SENSOR, alike, delay_spread, inconsistent
+from shockdyno.diagnose.consistency import alike, checked, delay_spread, inconsistent
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.diagnosis import Trial
 from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted, refit
@@ -243,7 +243,7 @@ class Search:
                 s.sensor_delay_spread_share,
             )
             for c in top
-            if c.name == SENSOR
+            if checked(c.name)
         }
 
     def backward(self) -> None:

@@ -20,13 +20,12 @@ from shockdyno.diagnose.candidates import (
     try_candidate,
 )
 from shockdyno.diagnose.claims import (
+    Judge,
     at_range_end,
     decide,
     effect_limit,
     moved_off,
-    score_heldout,
     separate_by,
-    why_not,
 )
 from shockdyno.diagnose.consistency import alike, checked, delay_spread, inconsistent
 from shockdyno.diagnose.data import Data
@@ -179,15 +178,21 @@ class Search:
             (c for c in cands if c.p_value < s.screen_alpha and c.lr > 0), key=lambda c: -c.lr
         )
         top = [c for c in screened if c.p_value < s.alpha][: s.heldout_top]
-        limit = effect_limit(self.binned, self.force_peak, s)
-        x = self.tests.prob.inputs.x
-        refused = self._refused(top)
-        scored = score_heldout(
-            top, cands, self.base, rnd, s, limit, self.shapes, x, refused, self.folds,
-            self.report, self.workers,
-        )  # fmt: skip
+        judge = Judge(
+            rnd=rnd,
+            s=s,
+            limit=effect_limit(self.binned, self.force_peak, s),
+            shapes=self.shapes,
+            x=self.tests.prob.inputs.x,
+            refused=self._refused(top),
+            base=self.base,
+            folds=self.folds,
+            report=self.report,
+            workers=self.workers,
+        )
+        scored = judge.score_heldout(top)
         # Each candidate's reason not to be claimed ("" when it is claimable), judged once.
-        reasons = {c.name: why_not(c, scored, s, limit, self.shapes, x, refused) for c in cands}
+        reasons = {c.name: judge.why_not(c, scored) for c in cands}
         best, pool, alike_with = decide(cands, screened, scored, reasons, s)
         found = []
         for c in cands:

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from shockdyno.diagnose.baseline import calibration_rows, fit_baseline, spec_calibrated
+from shockdyno.diagnose.baseline import calibrate, fit_baseline
 from shockdyno.diagnose.candidates import binned_means
 from shockdyno.diagnose.claims import effect_limit
 from shockdyno.diagnose.data import Data
@@ -113,14 +113,8 @@ def _diagnose(
     _, binned = binned_means(data, baseline.residual)
     mismatch = mismatch_test(binned, rng, s.n_boot)
     location = locate(data, binned, s)
-    search = Search.start(data, baseline, s, rng, report, workers)
-    search.run(mismatch)
-    report("scores", 0.95)
-    if search.claimed or search.tests is not data:
-        search.final_refit(data)
-    calibrated = spec_calibrated(
-        baseline, search.base, search.claimed, search.trials, search.groups
-    )
+    search = Search.over(data, baseline, mismatch, s, rng, report, workers)
+    calibration = calibrate(load_spec(fit.spec_file()) if fit else spec, baseline, search)
     remaining, unexplained, described = _left(search, data, rng, report)
     freqs = {round(p.data.meta.frequency_hz, 3) for p in data.prepared}
     report("done", 1.0)
@@ -139,12 +133,7 @@ def _diagnose(
         notes=notes,
         wall_s=time.perf_counter() - wall0,
         single_frequency=len(freqs) == 1,
-        calibration=calibration_rows(
-            load_spec(fit.spec_file()) if fit else spec,
-            search.base,
-            calibrated,
-            s.calibration_share,
-        ),
+        calibration=calibration,
         settings=s,
         sensor=sensor,
         short_tests=short,

@@ -82,23 +82,31 @@ class Search:
         self.means, self.binned = binned_means(tests, base.residual)
 
     @classmethod
-    def start(
+    def over(
         cls,
         data: Data,
         base: Fitted,
+        mismatch: MismatchStat,
         s: Settings,
         rng: np.random.Generator,
         report: Progress = _quiet,
         workers: Workers = SERIAL,
     ) -> Search:
-        """The search on the tests of at most `s.search_clicks` settings of `data`, from
-        `base` refitted on them."""
+        """The search done: its rounds on the tests of at most `s.search_clicks` settings
+        of `data` from `base` refitted on them, starting from the baseline's `mismatch`
+        (`run`), and then the model refitted on every test of `data` (`final_refit`) when
+        a term was claimed or the search saw fewer tests."""
         tests = search_subset(data, s.search_clicks)
         fold_list = folds(tests)
         force_peak = float(np.max(np.abs(data.prob.f)))
         if tests is not data:
             base = refit(tests, base.model, base.free, base, max_nfev=s.max_nfev)
-        return cls(tests, base, s, rng, fold_list, force_peak, report, workers)
+        search = cls(tests, base, s, rng, fold_list, force_peak, report, workers)
+        search.run(mismatch)
+        report("scores", 0.95)
+        if search.claimed or search.tests is not data:
+            search.final_refit(data)
+        return search
 
     def run(self, mismatch: MismatchStat) -> None:
         """The rounds, from the baseline's `mismatch`, until nothing is claimable or left

@@ -78,8 +78,22 @@ SIGN_SPEED_SHARE = 0.01  # sgn ẋ is tanh(ẋ / (this share of the peak speed))
 NOT_MODEL = ("gas", "inertia", "coulomb")  # the parts of the model's force not its damping
 
 
+# The signals the features below are made of, as a term's `follows` names them.
+SIGNALS = (
+    "displacement",
+    "velocity",
+    "direction",
+    "acceleration",
+    "temperature",
+    "position",
+    "presliding",
+    "lag",
+)
+
+
 def like(signal: str) -> tuple[str, ...]:
     """The library terms whose force follows `signal` (Term.follows), in library order."""
+    assert signal in SIGNALS, signal
     return tuple(name for name, term in LIBRARY.items() if signal in term.follows)
 
 

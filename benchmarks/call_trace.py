@@ -10,6 +10,7 @@ a module boundary), and how many of those steps come back to a module it had alr
 left. Fewer steps and comebacks: the search reads in fewer jumps.
 
     .venv/bin/python benchmarks/call_trace.py [REC.mcap] [--fit FIT.json] [--top 10]
+        [--skip-imports]
 
 The default recording is recordings/examples/example.mcap with the whole library.
 """
@@ -36,13 +37,18 @@ def _key(frame: FrameType) -> Key | None:
     return module, frame.f_code.co_qualname
 
 
-def trace_calls(run: Any) -> tuple[Key, dict[Key, list[Key]]]:
+def trace_calls(run: Any, skip_imports: bool = False) -> tuple[Key, dict[Key, list[Key]]]:
     """(the root, each function's callees in first-call order) of shockdyno's calls made
     by `run()`, skipping frames outside the package (a callee reached through numpy or
-    a thread pool is tied to the nearest shockdyno caller on the stack)."""
+    a thread pool is tied to the nearest shockdyno caller on the stack). `skip_imports`:
+    leave out what runs while a module is imported (its body, and what that calls), so
+    an import inside a function does not add the imported module's definitions to the
+    walk."""
     callees: dict[Key, list[Key]] = {}
     seen: dict[Key, set[Key]] = {}
     root: list[Key] = []
+    importing = [0]  # module bodies running (the profile hook is per thread: imports
+    # inside the diagnosis run on the calling thread)
 
     def caller_of(frame: FrameType) -> Key | None:
         f = frame.f_back
@@ -54,7 +60,10 @@ def trace_calls(run: Any) -> tuple[Key, dict[Key, list[Key]]]:
         return None
 
     def hook(frame: FrameType, event: str, _arg: object) -> None:
-        if event != "call":
+        if skip_imports and frame.f_code.co_name == "<module>":
+            importing[0] += {"call": 1, "return": -1}.get(event, 0)
+            return
+        if event != "call" or importing[0]:
             return
         k = _key(frame)
         if k is None:
@@ -119,11 +128,18 @@ def main(argv: list[str] | None = None) -> None:
     )
     ap.add_argument("--fit", default=None, help="FIT.json to start from (diagnose --fit)")
     ap.add_argument("--top", type=int, default=10, help="modules listed by comebacks")
+    ap.add_argument(
+        "--skip-imports",
+        action="store_true",
+        help="leave out module bodies run by imports inside functions (and what they call)",
+    )
     args = ap.parse_args(argv)
 
     from shockdyno.diagnose.file import diagnose_file
 
-    root, callees = trace_calls(lambda: diagnose_file(args.recording, fit_path=args.fit))
+    root, callees = trace_calls(
+        lambda: diagnose_file(args.recording, fit_path=args.fit), args.skip_imports
+    )
     steps = walk(root, callees)
     crossings, comebacks, by_module = count(steps)
     functions = {k for k in callees} | {c for cs in callees.values() for c in cs}
@@ -131,7 +147,7 @@ def main(argv: list[str] | None = None) -> None:
         f"diagnose_file({args.recording.name}{', --fit' if args.fit else ''}): "
         f"{len(functions)} functions in {len(set(steps))} modules; the reader's walk steps "
         f"into another module {crossings} times and comes back to one it had left "
-        f"{comebacks} times"
+        f"{comebacks} times" + (" (imports left out)" if args.skip_imports else "")
     )
     for module, n in by_module.most_common(args.top):
         print(f"  {n:4d} comebacks to {module}")

@@ -8,7 +8,9 @@ Recordings: the committed example, and two held-out-plant sweeps with a conceale
 by each Python given (each venv runs its own checkout's code), in one process per run,
 and the DIAG.json documents (`diagnose_file`'s, serialised as `diagnose --json` does) are
 compared after removing the timing keys (`wall_s`). CPU is `time.process_time()` around
-`diagnose_file` in the child (the diagnosis, not the interpreter's start).
+`diagnose_file` in the child (the diagnosis, not the interpreter's start: the modules
+`diagnose_file` imports inside itself are imported before the clock starts, so a checkout
+that imports them at the top is not timed as faster).
 
     .venv/bin/python benchmarks/diag_equal.py --before /work/main/.venv/bin/python \\
         [--after .venv/bin/python] [--work DIR] [--seed 101] [--only example,fric_mid]
@@ -34,6 +36,7 @@ import json, sys, time
 from pathlib import Path
 from shockdyno import schema
 from shockdyno.diagnose.file import diagnose_file
+import shockdyno.diagnose.engine, shockdyno.diagnose.verdict  # loaded before the clock
 rec, out = Path(sys.argv[1]), Path(sys.argv[2])
 t = time.process_time()
 _, doc = diagnose_file(rec)

@@ -1,5 +1,5 @@
 """A round scores held out only the candidates whose gain decides something
-(claims.score_heldout), and decides what scoring every candidate decides: the same claim,
+(claims.Judge.score_heldout), and decides what scoring every candidate decides: the same claim,
 the same claimable ones beside a claimed calibration (the next round's `outranked`), the
 same "cannot tell apart" pairs, the same gain for each of those. Checked against scoring
 them all on many random rounds (LRs, p-values, other rules' refusals, gains, shapes),
@@ -90,6 +90,22 @@ def _outcome(
     return best.name, outranked, alike, read
 
 
+def _scored(
+    top: list[Candidate],
+    s: Settings,
+    shapes: list[tuple[str, np.ndarray]],
+    refused: dict[str, str],
+    folds: list[str],
+) -> dict[str, tuple[float, str]]:
+    """Round 1's held-out scores of `top` (HeldOut is the Fake: no model, no workers)."""
+    judge = claim_rules.Judge(1, s, 1.0, shapes, None, refused, None, folds, _silent, None)  # type: ignore[arg-type]
+    return judge.score_heldout(top)
+
+
+def _silent(stage: str, fraction: float) -> None:
+    pass
+
+
 @pytest.mark.parametrize("joining", [False, True])
 def test_scoring_only_what_decides_decides_as_scoring_all(
     monkeypatch: pytest.MonkeyPatch, joining: bool
@@ -107,9 +123,7 @@ def test_scoring_only_what_decides_decides_as_scoring_all(
         )
         top = [c for c in screened if c.p_value < s.alpha]
         every = {c.name: (Fake.table[c.name], f"folds of {c.name}") for c in top}
-        lazy = claim_rules.score_heldout(
-            top, cands, None, 1, s, 1.0, shapes, None, refused, ["fold"], lambda *a: None, None
-        )  # type: ignore[arg-type]
+        lazy = _scored(top, s, shapes, refused, ["fold"])
         assert len(Fake.asked) == len(set(Fake.asked)), "a candidate scored twice"
         assert set(lazy) <= set(every) and all(lazy[n] == every[n] for n in lazy)
         want = _outcome(cands, every, refused, s, shapes)
@@ -138,17 +152,13 @@ def test_a_real_effect_below_refused_candidates_is_scored_and_claimed(
     refused = {f"t{i}": "not physical" for i in range(3)}
     Fake.table = {c.name: 0.9 for c in cands}
     Fake.asked = []
-    lazy = claim_rules.score_heldout(
-        cands, cands, None, 1, s, 1.0, [], None, refused, ["fold"], lambda *a: None, None
-    )  # type: ignore[arg-type]
+    lazy = _scored(cands, s, [], refused, ["fold"])
     assert Fake.asked == ["real"]
     assert _outcome(cands, lazy, refused, s, [])[0] == "real"
     # Its gain too small: nothing named is claimable, so the open set is scored (and
     # claimed, as scoring all would).
     Fake.table["real"], Fake.asked = 0.05, []
-    lazy = claim_rules.score_heldout(
-        cands, cands, None, 1, s, 1.0, [], None, refused, ["fold"], lambda *a: None, None
-    )  # type: ignore[arg-type]
+    lazy = _scored(cands, s, [], refused, ["fold"])
     assert Fake.asked == ["real", PositionForce.name]
     assert _outcome(cands, lazy, refused, s, [])[0] == PositionForce.name
 
@@ -162,13 +172,9 @@ def test_a_round_with_nothing_claimable_scores_nothing(monkeypatch: pytest.Monke
     cands = [_candidate(f"t{i}", 1e4 * (i + 1), 0.001, rng.normal(size=N), 50.0) for i in range(4)]
     refused = {c.name: "its parameters stay at their off values" for c in cands}
     Fake.table, Fake.asked = {c.name: 0.9 for c in cands}, []
-    lazy = claim_rules.score_heldout(
-        cands, cands, None, 1, s, 1.0, [], None, refused, ["fold"], lambda *a: None, None
-    )  # type: ignore[arg-type]
+    lazy = _scored(cands, s, [], refused, ["fold"])
     assert Fake.asked == [] and lazy == {}
     assert _outcome(cands, lazy, refused, s, [])[0] is None
-    none = claim_rules.score_heldout(
-        cands, cands, None, 1, s, 1.0, [], None, {}, [], lambda *a: None, None
-    )  # type: ignore[arg-type]
+    none = _scored(cands, s, [], {}, [])
     assert none == {c.name: (0.0, "no held-out split") for c in cands}
     assert math.isnan(lazy.get("t0", (math.nan, ""))[0])

@@ -98,7 +98,7 @@ def test_the_diagnosis_is_the_same_with_two_workers() -> None:
         docs.append(json.dumps(doc, sort_keys=True))
     found = json.loads(docs[0])["findings"]
     # Refits in the workers: three candidates, and the claimed one's folds (a round scores
-    # held out only the candidates whose gain decides something: claims.score_heldout).
+    # held out only the candidates whose gain decides something: claims.Judge.score_heldout).
     assert len(found) == 3
     assert any(f["claimed"] and f["heldout_gain"] is not None for f in found)
     assert docs[1] == docs[0]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,6 +21,9 @@ from shockdyno.model.composite import DamperModel, Term
 from shockdyno.model.spec import DamperSpec
 from shockdyno.model.terms import LIBRARY, make_term
 from shockdyno.report.documents import Indistinguishable
+
+if TYPE_CHECKING:  # search.py imports what the baseline does; only its type is read here
+    from shockdyno.diagnose.search import Search
 
 # The spec's own numbers that a sweep sees and a spec can only guess are calibrated in
 # the baseline, never claimed as physics: the globals (gas charge, Coulomb friction,
@@ -152,3 +156,19 @@ def calibration_rows(
         got_v = v0 * _factor(fitted, term)
         rows.append(CalibrationRow(cal.spec_key, v0, got_v, v0 * sd, cal.unit, share))
     return rows
+
+
+def calibrate(
+    spec: DamperSpec,
+    baseline: Fitted,
+    search: Search,
+    asked: Mapping[str, Asked] | None = None,
+    data: Data | None = None,
+) -> list[CalibrationRow]:
+    """The spec values the recording calibrated, once the search is done (`spec`: the one
+    the recording names, the drawing the tolerances are about): a term whose factor is
+    the spec's error leaves the search's claims, trials and groups (spec_calibrated) and
+    is listed with the globals (calibration_rows), with what a fit `asked` beyond a
+    tolerance and `data`, the recording (its written gas charge)."""
+    terms = spec_calibrated(baseline, search.base, search.claimed, search.trials, search.groups)
+    return calibration_rows(spec, search.base, terms, search.s.calibration_share, asked, data)

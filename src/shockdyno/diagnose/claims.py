@@ -1,11 +1,12 @@
 """The claim rules: why a candidate is not claimed (`why_not`), which one a round claims
-(`decide`), which candidates are scored held out (`score_heldout`), and what tells two
+(`decide`), which candidates are scored held out (`Judge.score_heldout`), and what tells two
 look-alikes apart (`separate_by`)."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -163,7 +164,7 @@ def why_not(
     if scored is None:
         return _too_small(c, min_effect_n)
     if c.name not in scored:
-        if s.heldout_top is None:  # score_heldout: one that explained more was claimable
+        if s.heldout_top is None:  # Judge.score_heldout: one that explained more was claimable
             return "not scored held out: a term that explained more was claimable"
         return f"not scored held out: {s.heldout_top} candidates explained more"
     gain = scored[c.name][0]
@@ -208,74 +209,91 @@ def decide(
     return best, pool, alike_with
 
 
-def score_heldout(
-    top: Sequence[Candidate],
-    cands: Sequence[Candidate],
-    base: Fitted,
-    rnd: int,
-    s: Settings,
-    limit: float,
-    shapes: Sequence[tuple[str, FloatArray]],
-    x: FloatArray,
-    refused: Mapping[str, str],
-    fold_list: list[Fold],
-    report: Progress,
-    workers: Workers,
-) -> dict[str, tuple[float, str]]:
-    """The held-out gains (and folds in words) of the candidates of `top` (p < alpha,
-    largest LR first) whose gain decides something, scored in that order, and only those:
-    a fold refit is most of a round's work (five refits a candidate, beside 14 candidate
-    refits in all), and most candidates are refused on their full fit alone.
+@dataclass(frozen=True)
+class Judge:
+    """One round's claim rules and held-out scoring: what `why_not` reads beside each
+    candidate's own fit (the least effect that matters, what each claimed term explained,
+    the positions the data cover, the consistency checks' refusals) and what a held-out
+    score needs (the model so far, the folds, the workers)."""
 
-    What the gain decides, and so what is scored:
-    - whether a candidate is claimable: only for one every other rule lets pass (why_not
-      with scored=None). A candidate another rule refuses is refused whatever its gain;
-    - which is claimed: the claimable one with the largest LR (a named term before the
-      open set's). So the candidates every other rule lets pass are scored in LR order
-      until one passes; those below it cannot be claimed this round. When that one is a
-      calibration, every physics term that could pass is scored too (a physics term that
-      passed but lost to a calibration gets the next round: `gated`'s `outranked`);
-    - which candidates the verdict cannot tell from the claimed one: those whose explained
-      shape has a cosine above alike_cosine with its, each scored.
-    So the claim, the groups, `passed` and every claimed figure are those of scoring them
-    all; a candidate left unscored has no gain (None in DIAG.json) and its first reason.
-    Each candidate's gain is the same asked alone or with others (HeldOut)."""
-    if not top:
-        return {}
-    if not fold_list:
-        return {c.name: (0.0, "no held-out split") for c in top}
-    held = HeldOut(fold_list, base, s.fold_nfev, workers)
-    scored: dict[str, tuple[float, str]] = {}
+    rnd: int
+    s: Settings
+    limit: float  # effect_limit
+    shapes: Sequence[tuple[str, FloatArray]]
+    x: FloatArray | None
+    refused: Mapping[str, str]
+    base: Fitted
+    folds: list[Fold]
+    report: Progress
+    workers: Workers
 
-    def score(batch: Sequence[Candidate]) -> None:
-        batch = [c for c in batch if c.name not in scored]
-        if batch:
-            names = ", ".join(c.name for c in batch)
-            report(f"round {rnd}: held out, {names}", 0.1 + 0.8 * (rnd - 0.3) / s.max_rounds)
-            scored.update(zip((c.name for c in batch), held.gains(batch), strict=True))
+    def why_not(self, c: Candidate, scored: dict[str, tuple[float, str]] | None) -> str:
+        """why_not with this round's rules."""
+        return why_not(c, scored, self.s, self.limit, self.shapes, self.x, self.refused)
 
-    def claimable(c: Candidate) -> bool:
-        return not why_not(c, scored, s, limit, shapes, x, refused)
+    def score_heldout(self, top: Sequence[Candidate]) -> dict[str, tuple[float, str]]:
+        """The held-out gains (and folds in words) of the candidates of `top` (p < alpha,
+        largest LR first) whose gain decides something, scored in that order, and only those:
+        a fold refit is most of a round's work (five refits a candidate, beside 14 candidate
+        refits in all), and most candidates are refused on their full fit alone.
 
-    could = [c for c in top if not why_not(c, None, s, limit, shapes, x, refused)]
-    best = None
-    named = [c for c in could if not open_set(c.name)]
-    for group in (named, [c for c in could if open_set(c.name)]):
-        for c in group:
-            score([c])
-            if claimable(c):
-                best = c
+        What the gain decides, and so what is scored:
+        - whether a candidate is claimable: only for one every other rule lets pass (why_not
+          with scored=None). A candidate another rule refuses is refused whatever its gain;
+        - which is claimed: the claimable one with the largest LR (a named term before the
+          open set's). So the candidates every other rule lets pass are scored in LR order
+          until one passes; those below it cannot be claimed this round. When that one is a
+          calibration, every physics term that could pass is scored too (a physics term that
+          passed but lost to a calibration gets the next round: `gated`'s `outranked`);
+        - which candidates the verdict cannot tell from the claimed one: those whose explained
+          shape has a cosine above alike_cosine with its, each scored.
+        So the claim, the groups, `passed` and every claimed figure are those of scoring them
+        all; a candidate left unscored has no gain (None in DIAG.json) and its first reason.
+        Each candidate's gain is the same asked alone or with others (HeldOut)."""
+        if not top:
+            return {}
+        if not self.folds:
+            return {c.name: (0.0, "no held-out split") for c in top}
+        s = self.s
+        held = HeldOut(self.folds, self.base, s.fold_nfev, self.workers)
+        scored: dict[str, tuple[float, str]] = {}
+
+        def score(batch: Sequence[Candidate]) -> None:
+            batch = [c for c in batch if c.name not in scored]
+            if batch:
+                names = ", ".join(c.name for c in batch)
+                self.report(
+                    f"round {self.rnd}: held out, {names}",
+                    0.1 + 0.8 * (self.rnd - 0.3) / s.max_rounds,
+                )
+                scored.update(zip((c.name for c in batch), held.gains(batch), strict=True))
+
+        def claimable(c: Candidate) -> bool:
+            return not self.why_not(c, scored)
+
+        could = [c for c in top if not self.why_not(c, None)]
+        best = None
+        named = [c for c in could if not open_set(c.name)]
+        for group in (named, [c for c in could if open_set(c.name)]):
+            for c in group:
+                score([c])
+                if claimable(c):
+                    best = c
+                    break
+            if best is not None:
                 break
-        if best is not None:
-            break
-    if best is None:
+        if best is None:
+            return scored
+        if best.name in CALIBRATIONS:
+            score([c for c in could if c.name not in CALIBRATIONS and not open_set(c.name)])
+        score(
+            [
+                c
+                for c in top
+                if c is not best and cosine(c.explained, best.explained) > s.alike_cosine
+            ]
+        )
         return scored
-    if best.name in CALIBRATIONS:
-        score([c for c in could if c.name not in CALIBRATIONS and not open_set(c.name)])
-    score(
-        [c for c in top if c is not best and cosine(c.explained, best.explained) > s.alike_cosine]
-    )
-    return scored
 
 
 def effect_limit(binned: Sequence[BinnedTest], force_peak: float, s: Settings) -> float:

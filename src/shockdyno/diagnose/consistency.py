@@ -17,9 +17,9 @@ import numpy as np
 
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.fitting import Fitted
+from shockdyno.model.composite import DamperModel, Term
+from shockdyno.model.terms import LIBRARY
 
-SENSOR = "sensor_lag"
-TIMES = ("delay_s", "load_cell_lag_s", "lvdt_lag_s")
 SCALES = np.linspace(0.0, 3.0, 61)  # the fitted sensor's times × these, tried on each test
 
 
@@ -36,6 +36,27 @@ class DelaySpread:
             f"{1e3 * self.hi_s:.3g} ms from test to test: a sensor's is one time for the "
             "sweep, a lag that changes with the test is the damper's"
         )
+
+
+def checked(name: str) -> bool:
+    """Whether candidate `name` is a sensor that shifts the force against the motion in
+    time (Term.time_shift): the checks below apply to it."""
+    term = LIBRARY.get(name)
+    return term is not None and term.sensor and bool(term.time_shift)
+
+
+def _shifting(model: DamperModel) -> Term | None:
+    """The model's sensor term that shifts the force in time (None without one)."""
+    return next((t for t in model.terms if t.sensor and t.time_shift), None)
+
+
+def _times(model: DamperModel, term: Term) -> dict[str, float]:
+    return {t: model.value(term.qualified(t)) for t in term.time_shift}
+
+
+def _net(term: Term, times: dict[str, float]) -> float:
+    """The signed sum of the term's times: how far it moves the force against the motion."""
+    return sum((sign * times[t] for t, sign in term.time_shift.items()), 0.0)
 
 
 def _refined_minimum(points: np.ndarray, sse: np.ndarray) -> float:
@@ -60,11 +81,11 @@ def delay_spread(
     it. None when the sensor shifts by less than `min_shift_s` (no time to compare) or
     fewer than three tests place it."""
     model = fitted.model
-    term = model.term(SENSOR)
+    term = _shifting(model)
     if term is None:
         return None
-    values = {t: model.value(term.qualified(t)) for t in TIMES}
-    shift = values["delay_s"] + values["load_cell_lag_s"] - values["lvdt_lag_s"]
+    values = _times(model, term)
+    shift = _net(term, values)
     if abs(shift) < min_shift_s:
         return None
     delays: list[float] = []
@@ -89,13 +110,10 @@ def delay_spread(
 
 
 def net_shift_s(fitted: Fitted) -> float:
-    """How far the sensor term moves the force against the motion: delay + load-cell lag
-    - LVDT lag (0 without the term)."""
-    term = fitted.model.term(SENSOR)
-    if term is None:
-        return 0.0
-    v = {t: fitted.model.value(term.qualified(t)) for t in TIMES}
-    return v["delay_s"] + v["load_cell_lag_s"] - v["lvdt_lag_s"]
+    """How far the sensor term moves the force against the motion: the signed sum of its
+    times, e.g. delay + load-cell lag - LVDT lag (0 without the term)."""
+    term = _shifting(fitted.model)
+    return 0.0 if term is None else _net(term, _times(fitted.model, term))
 
 
 def alike(fitted: Fitted, min_shift_s: float) -> str:
@@ -104,8 +122,7 @@ def alike(fitted: Fitted, min_shift_s: float) -> str:
     both channels before it samples them: on a clean reference-plant sweep (a 400 Hz
     anti-alias filter on each) the term took 0.66 ms of delay and 0.67 ms of LVDT lag,
     a net 0.04 ms, and 28 % of the held-out structure the sharp reversals leave."""
-    term = fitted.model.term(SENSOR)
-    if term is None:
+    if _shifting(fitted.model) is None:
         return ""
     shift = net_shift_s(fitted)
     if abs(shift) >= min_shift_s:

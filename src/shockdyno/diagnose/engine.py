@@ -23,13 +23,12 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
-from shockdyno.diagnose.baseline import calibration_rows, fit_baseline, spec_calibrated
+from shockdyno.diagnose.baseline import calibrate, fit_baseline
 from shockdyno.diagnose.candidates import binned_means
 from shockdyno.diagnose.claims import effect_limit
 from shockdyno.diagnose.data import Data
@@ -118,18 +117,8 @@ def _diagnose(
     _, binned = binned_means(data, held.residual)
     mismatch = mismatch_test(binned, rng, s.n_boot)
     location = locate(data, binned, s)
-    search = Search.start(data, held, s, rng, report, workers)
-    search.drawing, search.asked = drawing, asked
-    search.run(mismatch)
-    report("scores", 0.95)
-    freed = bool(search.base.limits)
-    if freed:  # the final refit frees what the search held: a claim must hold up without it
-        search.base = replace(search.base, limits={})
-    if search.claimed or search.tests is not data or freed:
-        search.final_refit(data)
-    calibrated = spec_calibrated(
-        baseline, search.base, search.claimed, search.trials, search.groups
-    )
+    search = Search.over(data, held, mismatch, s, rng, report, workers, limits=(drawing, asked))
+    calibration = calibrate(drawing, baseline, search, asked, data)
     remaining, unexplained, described = _left(search, data, rng, report)
     freqs = {round(p.data.meta.frequency_hz, 3) for p in data.prepared}
     report("done", 1.0)
@@ -148,9 +137,7 @@ def _diagnose(
         notes=notes,
         wall_s=time.perf_counter() - wall0,
         single_frequency=len(freqs) == 1,
-        calibration=calibration_rows(
-            drawing, search.base, calibrated, s.calibration_share, asked, data
-        ),
+        calibration=calibration,
         settings=s,
         sensor=sensor,
         short_tests=short,

@@ -5,7 +5,8 @@ Each feature is a column over the diagnosis's objective samples, made from what 
 records (time, displacement, force, temperature) and from the fitted model (its damping
 force, shifted in time): a force the model left out is sought as Σ c_k φ_k. A feature
 says what it is in words and as a symbol, its unit (a coefficient's unit is N per it),
-its family, and the library terms whose physics it already is (`resembles`): those
+its family, and the library terms whose physics it already is (`resembles`: the terms whose
+force follows its signal, `Term.follows`): those
 describe what a residual follows, but a discovered ("unnamed") term is made only of
 features that resemble none, so a discovered term is never a named physics under
 another name.
@@ -57,6 +58,7 @@ from numpy.typing import NDArray
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.fitting import Fitted
 from shockdyno.model.filters import segment_bounds
+from shockdyno.model.terms import LIBRARY
 from shockdyno.units import SI, Units
 
 FloatArray = NDArray[np.float64]
@@ -74,6 +76,25 @@ N_KNOTS = 7  # knots over the stroke, its ends included: 6 sixths
 EDGE_SHARE = 1 / 40  # a band's edge: a logistic over this share of the stroke
 SIGN_SPEED_SHARE = 0.01  # sgn ẋ is tanh(ẋ / (this share of the peak speed))
 NOT_MODEL = ("gas", "inertia", "coulomb")  # the parts of the model's force not its damping
+
+
+# The signals the features below are made of, as a term's `follows` names them.
+SIGNALS = (
+    "displacement",
+    "velocity",
+    "direction",
+    "acceleration",
+    "temperature",
+    "position",
+    "presliding",
+    "lag",
+)
+
+
+def like(signal: str) -> tuple[str, ...]:
+    """The library terms whose force follows `signal` (Term.follows), in library order."""
+    assert signal in SIGNALS, signal
+    return tuple(name for name, term in LIBRARY.items() if signal in term.follows)
 
 
 @dataclass(frozen=True)
@@ -299,7 +320,7 @@ def feature_table(data: Data, fitted: Fitted, stroke: Stroke) -> FeatureTable:
 def _time_features(t: FloatArray, temp: FloatArray | None) -> Columns:
     """A zero drift, or the damper changing over the session; heat's when the
     temperature channel rose or fell with the session (no telling them apart then)."""
-    heat = ("thermal",) if _warmed_with_time(t, temp) else ()
+    heat = like("temperature") if _warmed_with_time(t, temp) else ()
     feats: Columns = [(Feature("t", "the elapsed time", "t", "s", "time", heat), t)]
     for tau in DRIFT_TAUS_S:
         feats.append(
@@ -326,7 +347,7 @@ def _temperature_features(temp: FloatArray | None, stroke: Stroke, damping: Floa
     if float(np.std(dt_c)) <= 0.05:
         return []
     return [
-        (Feature("T", "the temperature", "(T − T̄)", "K", "temperature", ("thermal",)), dt_c),
+        (Feature("T", "the temperature", "(T − T̄)", "K", "temperature", like("temperature")), dt_c),
         (
             Feature(
                 "T*F_d",
@@ -334,7 +355,7 @@ def _temperature_features(temp: FloatArray | None, stroke: Stroke, damping: Floa
                 "(T − T̄)·F_d",
                 "N·K",
                 "temperature",
-                ("thermal",),
+                like("temperature"),
             ),
             dt_c * damping,
         ),
@@ -352,14 +373,17 @@ def _motion_features(
     """The library's and the calibrations' own forms; a bleed opened over the whole
     stroke is the areas' (or heat's)."""
     feats: Columns = [
-        (Feature("x", "the displacement", "x", "m", "motion", ("gas_spring", "position_force")), x),
-        (Feature("v", "the velocity", "ẋ", "m/s", "motion", ("friction", "bleed_land")), v),
+        (Feature("x", "the displacement", "x", "m", "motion", like("displacement")), x),
+        (Feature("v", "the velocity", "ẋ", "m/s", "motion", (*like("velocity"), "bleed_land")), v),
         (
             Feature("v|v|", "the velocity squared", "|ẋ|ẋ", "m²/s²", "motion", ("bleed areas",)),
             v * np.abs(v),
         ),
-        (Feature("sgn_v", "the direction of motion", "sgn ẋ", "1", "motion", ("friction",)), sign),
-        (Feature("a", "the acceleration", "ẍ", "m/s²", "motion", ("fixture_mass",)), a),
+        (
+            Feature("sgn_v", "the direction of motion", "sgn ẋ", "1", "motion", like("direction")),
+            sign,
+        ),
+        (Feature("a", "the acceleration", "ẍ", "m/s²", "motion", like("acceleration")), a),
         (
             Feature("F_d", "the damping force", "F_d", "N", "motion", ("bleed areas", "valves")),
             damping,
@@ -374,7 +398,7 @@ def _motion_features(
                     "ΔF_d(A + {0})",
                     "N",
                     "motion",
-                    ("bleed areas", "thermal"),
+                    ("bleed areas", *like("temperature")),
                     (("area", area),),
                 ),
                 change,
@@ -464,7 +488,7 @@ def _hinge_features(x: FloatArray, sign: FloatArray, stroke: Stroke) -> Columns:
                         sym,
                         "m",
                         "position",
-                        ("contact", "position_force"),
+                        like("position"),
                         at,
                     ),
                     col,
@@ -488,7 +512,7 @@ def _hysteresis_features(
                     "(x − P_b[x])/b, b = {0}",
                     "1",
                     "hysteresis",
-                    ("friction", "seal_turn"),
+                    (*like("presliding"), "seal_turn"),
                     (("len", b),),
                 ),
                 (x - play(x, b, starts)) / b,
@@ -504,7 +528,7 @@ def _hysteresis_features(
                     "sgn ẋ·e^(−s/{0})",
                     "1",
                     "hysteresis",
-                    ("friction", "seal_turn"),
+                    (*like("presliding"), "seal_turn"),
                     (("len", lam),),
                 ),
                 sign * np.exp(-travel / lam),
@@ -546,7 +570,7 @@ def _shift_features(damping_full: FloatArray, damping: FloatArray, data: Data) -
                     "[F_d(s + {0}) − F_d]" if lead else "[F_d(s − {0}) − F_d]",
                     "N",
                     "force in travel",
-                    () if lead else ("friction", "seal_turn"),
+                    () if lead else (*like("presliding"), "seal_turn"),
                     (("len", abs(lam)),),
                 ),
                 _travelled(damping_full, data, lam) - damping,
@@ -568,7 +592,7 @@ def _shift_features(damping_full: FloatArray, damping: FloatArray, data: Data) -
                     f"[F_d(t{1e3 * tau:+g} ms) − F_d]",
                     "N",
                     "force in time",
-                    () if lead else ("sensor_lag", "compressibility"),
+                    () if lead else like("lag"),
                 ),
                 _shifted(damping_full, data, tau) - damping,
             )

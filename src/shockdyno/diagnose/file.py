@@ -3,20 +3,29 @@ run it."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from shockdyno.errors import ConfigError
+from shockdyno.fit.result import FitResult
+from shockdyno.fit.terms import split_terms
+from shockdyno.model import load_spec
+from shockdyno.model.spec import spec_used
+from shockdyno.model.terms import LIBRARY
+from shockdyno.record import open_recording
+from shockdyno.record.identity import provenance, recording_info
+from shockdyno.report.documents import DiagnosisDoc, SpecUsed
+from shockdyno.result_files import RecordingRef
 
 if TYPE_CHECKING:
-    from shockdyno.report.documents import DiagnosisDoc
+    from shockdyno.diagnose.diagnosis import Diagnosis
+    from shockdyno.diagnose.engine import Progress
 
 
 def parse_candidates(text: str) -> tuple[str, ...]:
     """--terms of `diagnose`: `all` or a list of library terms."""
-    from shockdyno.fit.terms import split_terms
-    from shockdyno.model.terms import LIBRARY
-
     items = split_terms(text)
     if items == ["all"]:
         return tuple(LIBRARY)
@@ -38,24 +47,17 @@ def diagnose_file(
     seed: int = 0,
     terms: str = "all",
     allow_other_recording: bool = False,
-    progress: Any = None,
-    warn: Any = None,
+    progress: Progress | None = None,
+    warn: Callable[[str], None] | None = None,
     workers: int = 1,
-) -> tuple[Any, DiagnosisDoc]:
+) -> tuple[Diagnosis, DiagnosisDoc]:
     """`shockdyno diagnose` on one recording, as `batch diagnose` runs it too: the
     Diagnosis and its DIAG.json document (a DiagnosisDoc, with `info.recording`, the
     spec and the fit's provenance)."""
-    from dataclasses import replace
-
+    # Here, not at the top: the engine and the verdict load about 140 modules (scipy's
+    # optimisers, the model's kernels) that `diagnose --help` and a bad argument need not.
     from shockdyno.diagnose.engine import Settings, diagnose
     from shockdyno.diagnose.verdict import document
-    from shockdyno.fit.result import FitResult
-    from shockdyno.model import load_spec
-    from shockdyno.model.spec import spec_used
-    from shockdyno.record import open_recording
-    from shockdyno.record.identity import provenance, recording_info
-    from shockdyno.report.documents import SpecUsed
-    from shockdyno.result_files import RecordingRef
 
     if not 0 < alpha < 1:
         raise ConfigError(f"--alpha must be between 0 and 1, got {alpha}")

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,15 +21,14 @@ from shockdyno.diagnose.candidates import (
     try_candidate,
 )
 from shockdyno.diagnose.claims import (
+    Judge,
     at_range_end,
     decide,
     effect_limit,
     moved_off,
-    score_heldout,
     separate_by,
-    why_not,
 )
-from shockdyno.diagnose.consistency import SENSOR, alike, delay_spread, inconsistent
+from shockdyno.diagnose.consistency import alike, checked, delay_spread, inconsistent
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.diagnosis import Trial
 from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted, refit
@@ -89,23 +89,40 @@ class Search:
         self.means, self.binned = binned_means(tests, base.residual)
 
     @classmethod
-    def start(
+    def over(
         cls,
         data: Data,
         base: Fitted,
+        mismatch: MismatchStat,
         s: Settings,
         rng: np.random.Generator,
         report: Progress = _quiet,
         workers: Workers = SERIAL,
+        limits: tuple[DamperSpec, dict[str, Asked]] | None = None,
     ) -> Search:
-        """The search on the tests of at most `s.search_clicks` settings of `data`, from
-        `base` refitted on them."""
+        """The search done: its rounds on the tests of at most `s.search_clicks` settings
+        of `data` from `base` refitted on them, starting from the baseline's `mismatch`
+        (`run`), and then the model refitted on every test of `data` (`final_refit`) when
+        a term was claimed, the search saw fewer tests or it held spec values. `limits`:
+        the drawing the spec values' tolerances are about and the values a fit asked
+        beyond them (tolerance.py), held while the search runs and freed for the final
+        refit, so a claim must hold up without them."""
         tests = search_subset(data, s.search_clicks)
         fold_list = folds(tests)
         force_peak = float(np.max(np.abs(data.prob.f)))
         if tests is not data:
             base = refit(tests, base.model, base.free, base, max_nfev=s.max_nfev)
-        return cls(tests, base, s, rng, fold_list, force_peak, report, workers)
+        search = cls(tests, base, s, rng, fold_list, force_peak, report, workers)
+        if limits is not None:
+            search.drawing, search.asked = limits
+        search.run(mismatch)
+        report("scores", 0.95)
+        freed = bool(search.base.limits)
+        if freed:
+            search.base = replace(search.base, limits={})
+        if search.claimed or search.tests is not data or freed:
+            search.final_refit(data)
+        return search
 
     def run(self, mismatch: MismatchStat) -> None:
         """The rounds, from the baseline's `mismatch`, until nothing is claimable or left
@@ -192,15 +209,21 @@ class Search:
             (c for c in cands if c.p_value < s.screen_alpha and c.lr > 0), key=lambda c: -c.lr
         )
         top = [c for c in screened if c.p_value < s.alpha][: s.heldout_top]
-        limit = effect_limit(self.binned, self.force_peak, s)
-        x = self.tests.prob.inputs.x
-        refused = self._refused(top)
-        scored = score_heldout(
-            top, cands, self.base, rnd, s, limit, self.shapes, x, refused, self.folds,
-            self.report, self.workers,
-        )  # fmt: skip
+        judge = Judge(
+            rnd=rnd,
+            s=s,
+            limit=effect_limit(self.binned, self.force_peak, s),
+            shapes=self.shapes,
+            x=self.tests.prob.inputs.x,
+            refused=self._refused(top),
+            base=self.base,
+            folds=self.folds,
+            report=self.report,
+            workers=self.workers,
+        )
+        scored = judge.score_heldout(top)
         # Each candidate's reason not to be claimed ("" when it is claimable), judged once.
-        reasons = {c.name: why_not(c, scored, s, limit, self.shapes, x, refused) for c in cands}
+        reasons = {c.name: judge.why_not(c, scored) for c in cands}
         best, pool, alike_with = decide(cands, screened, scored, reasons, s)
         found = []
         for c in cands:
@@ -256,7 +279,7 @@ class Search:
                 s.sensor_delay_spread_share,
             )
             for c in top
-            if c.name == SENSOR
+            if checked(c.name)
         }
 
     def backward(self) -> None:
@@ -301,7 +324,7 @@ class Search:
         whose values the verdict reports: a candidate's refit is cut at max_nfev, and with
         the gas spring calibrated beside it a bump stop's onset stopped at 24.1 mm where it
         was 21. A claim whose term, refitted, is no longer physical, sits at an end of its
-        range, stays at its off values or has too small a force of its own (`_idle`) was
+        range, stays at its off values or has too small a force of its own (`idle_reasons`) was
         the short refit's gain, not the term's: it leaves the model and the verdict
         (`claimed`, `trials`, `groups`). A 2 % air sweep kept a position force that
         refitted to 0.45 N at most, against a 1.8 N limit; a reference-plant friction
@@ -310,7 +333,7 @@ class Search:
         s, base = self.s, self.base
         nfev = s.final_nfev if self.claimed else s.max_nfev
         base = refit(data, base.model, base.free, base, max_nfev=nfev)
-        why = self._idle(data, base)
+        why = idle_reasons(self.claimed, data, base, self.force_peak, s)
         idle = list(why)
         if idle:
             for f in self.trials:
@@ -330,34 +353,37 @@ class Search:
         self.base = base
         return base
 
-    def _idle(self, data: Data, base: Fitted) -> dict[str, str]:
-        """Why each claimed term, as refitted on every test (`base`), leaves the verdict:
-        not physical, not an estimate, at its off values, or its own force below the limit
-        a candidate must pass (0.1 % of the peak force, 3 noise σ of a phase mean)."""
-        limit = effect_limit(data.binned(base.residual), self.force_peak, self.s)
-        why: dict[str, str] = {}
-        for n in self.claimed:
-            term = base.model.term(n)
-            if term is None:
-                continue
-            odd = term.implausible(base.model.local_values(term), base.model.spec)
-            if odd:
-                why[n] = f"refitted on every test it is not physical: {odd}"
-                continue
-            pinned = at_range_end(base, term)
-            if pinned:
-                why[n] = f"refitted on every test it is not an estimate: {pinned}"
-                continue
-            if not moved_off(base, term):
-                why[n] = "refitted on every test it stays at its off values"
-                continue
-            peak = own_peak(data, base, n)
-            if peak < limit:
-                why[n] = (
-                    f"refitted on every test its own force peaks at {peak:.2g} N, too small "
-                    f"to matter (< {limit:.2g} N)"
-                )
-        return why
+
+def idle_reasons(
+    claimed: Sequence[str], data: Data, base: Fitted, force_peak: float, s: Settings
+) -> dict[str, str]:
+    """Why each `claimed` term, as refitted on every test (`base`), leaves the verdict:
+    not physical, not an estimate, at its off values, or its own force below the limit
+    a candidate must pass (0.1 % of the peak force, 3 noise σ of a phase mean)."""
+    limit = effect_limit(data.binned(base.residual), force_peak, s)
+    why: dict[str, str] = {}
+    for n in claimed:
+        term = base.model.term(n)
+        if term is None:
+            continue
+        odd = term.implausible(base.model.local_values(term), base.model.spec)
+        if odd:
+            why[n] = f"refitted on every test it is not physical: {odd}"
+            continue
+        pinned = at_range_end(base, term)
+        if pinned:
+            why[n] = f"refitted on every test it is not an estimate: {pinned}"
+            continue
+        if not moved_off(base, term):
+            why[n] = "refitted on every test it stays at its off values"
+            continue
+        peak = own_peak(data, base, n)
+        if peak < limit:
+            why[n] = (
+                f"refitted on every test its own force peaks at {peak:.2g} N, too small "
+                f"to matter (< {limit:.2g} N)"
+            )
+    return why
 
 
 def term_estimates(fitted: Fitted, name: str) -> dict[str, Estimate]:

@@ -249,6 +249,16 @@ class Term:
     # A generic form for what no named term explains: it competes in the diagnosis's
     # search but is claimed only when no named term is.
     open_set: ClassVar[bool] = False
+    # The signals of a recording this term's force follows ("displacement", "velocity",
+    # "direction", "acceleration", "temperature", "position": a force past a point of
+    # the stroke, "presliding": a turn after each reversal, "lag": the force behind the
+    # motion in time). A residual that follows one is this term's physics, and the
+    # diagnosis never discovers it as unnamed physics (diagnose/features.py).
+    follows: ClassVar[tuple[str, ...]] = ()
+    # The parameters that shift the measured force against the measured motion in time,
+    # each with its sign: their signed sum is the term's net shift. A sensor's is one
+    # time for the whole sweep, which the diagnosis checks (diagnose/consistency.py).
+    time_shift: ClassVar[dict[str, float]] = {}
 
     def describe(self, r: Reading) -> str:
         """The fitted physics in words, naming only the parameters the data moved (with

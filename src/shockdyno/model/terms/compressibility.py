@@ -81,6 +81,7 @@ class Compressibility(Term):
     stage = PRESSURE
     stateful = True
     summary = "oil bulk modulus with entrained air: Δp lags, the loop opens near reversal"
+    follows = ("lag",)
     separated_by: ClassVar[dict[str, str]] = {
         "friction": "tests at other frequencies and gas pressures"
     }

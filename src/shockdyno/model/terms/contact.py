@@ -40,6 +40,7 @@ class Contact(Term):
     name = "contact"
     stage = FORCE + 4
     summary = "bump stop / top-out spring: force past a free onset, F·(depth/10 mm)^n"
+    follows = ("position",)
     separated_by: ClassVar[dict[str, str]] = {
         "position_force": "a slow push through the end of the stroke"
     }

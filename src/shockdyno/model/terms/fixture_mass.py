@@ -31,6 +31,7 @@ class FixtureMass(Term):
     stage = FORCE
     sensor = True  # the dyno's hardware, not the damper's: not carried to a car
     summary = "a mass between the load cell and the damper moving with the ram (m·ẍ)"
+    follows = ("acceleration",)
     separated_by: ClassVar[dict[str, str]] = {
         "gas_spring": "tests at other frequencies (m·ẍ grows with f², the gas spring does not)",
         "position_force": (

@@ -31,6 +31,7 @@ class Friction(Term):
     summary = (
         "Stribeck seal friction: breakaway above Coulomb, decaying with speed, plus viscous drag"
     )
+    follows = ("velocity", "direction", "presliding")
     PARAMS = (
         Param(
             "breakaway_n",

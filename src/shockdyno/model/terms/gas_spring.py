@@ -23,6 +23,7 @@ class GasSpring(Term):
     name = "gas_spring"
     stage = CHAMBER
     summary = "gas spring rate: polytropic index and gas volume"
+    follows = ("displacement",)
     separated_by: ClassVar[dict[str, str]] = {
         "position_force": "a test at another gas pressure",
         "contact": (

@@ -26,6 +26,7 @@ class PositionForce(Term):
     name = "position_force"
     stage = FORCE + 5
     summary = "smooth force of displacement (bump stop, top-out, position-dependent seal)"
+    follows = ("displacement", "position")
     open_set = True
     PARAMS = (
         Param("x_lo_m", "m", nominal=-0.035, lo=-1.0, hi=1.0, scale=0.01, off=-0.035, free=False),

@@ -31,6 +31,12 @@ class SensorLag(Term):
     sensor = True
     stateful = True
     summary = "measurement chain: channel delay, load-cell lag, LVDT lag"
+    follows = ("lag",)
+    time_shift: ClassVar[dict[str, float]] = {
+        "delay_s": 1.0,
+        "load_cell_lag_s": 1.0,
+        "lvdt_lag_s": -1.0,
+    }
     separated_by: ClassVar[dict[str, str]] = {
         "compressibility": (
             "tests at other gas pressures (air's lag falls as the charge rises; a sensor's "

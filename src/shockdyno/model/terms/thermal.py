@@ -44,6 +44,7 @@ class Thermal(Term):
     stages = (CHAMBER + 5, PRESSURE - 5)  # and Δp, before a lag or a clamp acts on it
     stateful = True
     summary = "temperature: viscosity falls, gas pressure rises with the oil's temperature"
+    follows = ("temperature",)
     separated_by: ClassVar[dict[str, str]] = {
         "position_force": "a test held at constant temperature"
     }

@@ -12,6 +12,8 @@ from shockdyno.samples import SampleBlock
 
 
 class Fanout:
+    """A Writer that passes every call to the recording first, then to the viewer."""
+
     def __init__(self, recording: Writer, viewer: Writer) -> None:
         self.recording = recording
         self.viewer = viewer

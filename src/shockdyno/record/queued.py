@@ -32,6 +32,10 @@ MAX_PENDING_SAMPLES = 1_000_000  # ~42 MB of SampleBlocks; 1000 s of a 1 kHz DAQ
 
 
 class QueuedWriter:
+    """A RecordingWriter driven from a thread of its own: each call only queues (bounded by
+    samples), so the control loop never waits on the disk; a writer error is raised at the next
+    call."""
+
     def __init__(
         self, writer: RecordingWriter, max_pending_samples: int = MAX_PENDING_SAMPLES
     ) -> None:
@@ -49,6 +53,7 @@ class QueuedWriter:
 
     @property
     def path(self) -> Path:
+        """The recording's path."""
         return self.writer.path
 
     # -- the writer's API, queued ------------------------------------------------------

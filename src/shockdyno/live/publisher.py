@@ -51,14 +51,21 @@ class LiveCounts:
 
     @property
     def dropped_samples(self) -> int:
+        """Samples that never reached the server: refused at the queue, or lost when the view
+        failed."""
         return self.refused_samples + self.lost_samples
 
     @property
     def dropped_calls(self) -> int:
+        """Test records, actuator records and events that never reached the server."""
         return self.refused_calls + self.lost_calls
 
 
 class LivePublisher:
+    """The recording's writer calls sent to a Foxglove server by a thread of its own: each call
+    only queues (bounded; past the bound it is dropped and counted), so the control loop never
+    waits on a viewer."""
+
     def __init__(
         self,
         server: LiveServer,
@@ -145,6 +152,7 @@ class LivePublisher:
         self.server.stop()
 
     def summary(self) -> str:
+        """One line at the end: messages sent and what was dropped."""
         c = self.counts
         said = f"live view closed: {c.messages} messages sent"
         if c.dropped_samples or c.dropped_calls:

@@ -21,7 +21,7 @@ class Daq(Protocol):
 
     @property
     def dropped_frames(self) -> int:
-        """Samples the DAQ's sequence shows were never received."""
+        """Frames the DAQ's sequence numbers show were never received."""
 
     @property
     def corrupt_frames(self) -> int:

@@ -293,8 +293,8 @@ class RecordingWriter:
 
     @_whole_records
     def begin_test(self, meta: TestMeta) -> None:
-        """Open the next test: its metadata written now (a begin record), so a crash leaves it
-        known; RecordingError while another test is open."""
+        """Open the next test: its metadata written as the test channel's begin record;
+        RecordingError while another test is open."""
         self._check_open()
         if self._open is not None:
             raise RecordingError(f"test {self._open.index} is still open (call end_test first)")

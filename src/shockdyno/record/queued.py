@@ -58,19 +58,26 @@ class QueuedWriter:
 
     # -- the writer's API, queued ------------------------------------------------------
     def begin_test(self, meta: TestMeta) -> None:
+        """Queue the writer's `begin_test` (RecordingError for a failure the thread met since the
+        last call, or once closed)."""
         self._put(self.writer.begin_test, meta)
 
     def write_samples(self, block: SampleBlock) -> None:
+        """Queue the writer's `write_samples` (an empty block: nothing); RecordingError when the
+        disk falls `max_pending_samples` behind."""
         if len(block):
             self._put(self.writer.write_samples, block, samples=len(block))
 
     def write_actuator(self, t_s: float, fields: dict[str, float | int | bool | str]) -> None:
+        """Queue the writer's `write_actuator` (the fields copied)."""
         self._put(self.writer.write_actuator, t_s, dict(fields))
 
     def write_event(self, t_s: float, kind: str, message: str) -> None:
+        """Queue the writer's `write_event`."""
         self._put(self.writer.write_event, t_s, kind, message)
 
     def end_test(self, meta: TestMeta) -> None:
+        """Queue the writer's `end_test`."""
         self._put(self.writer.end_test, meta)
 
     def flush(self) -> None:

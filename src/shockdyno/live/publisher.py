@@ -103,9 +103,12 @@ class LivePublisher:
 
     # -- the recording's API, queued (the control loop's thread) ---------------------------
     def begin_test(self, meta: TestMeta) -> None:
+        """Queue a test's begin record (dropped and counted when the queue is full)."""
         self._put("begin", (meta,))
 
     def write_samples(self, block: SampleBlock) -> None:
+        """Queue a block of samples (dropped and counted past `max_samples` waiting, unless
+        `blocking`)."""
         n = len(block)
         if not n:
             return
@@ -120,12 +123,15 @@ class LivePublisher:
         self._put("samples", (block,))
 
     def write_actuator(self, t_s: float, fields: dict[str, float | int | bool | str]) -> None:
+        """Queue an actuator record (dropped and counted when the queue is full)."""
         self._put("actuator", (t_s, dict(fields)))
 
     def write_event(self, t_s: float, kind: str, message: str) -> None:
+        """Queue a session event (dropped and counted when the queue is full)."""
         self._put("event", (t_s, kind, message))
 
     def end_test(self, meta: TestMeta) -> None:
+        """Queue a test's end record (dropped and counted when the queue is full)."""
         self._put("end", (meta,))
 
     def _backlog(self, n: int) -> bool:

@@ -74,7 +74,8 @@ class DamperSpec:
 
     @property
     def annulus_area_m2(self) -> float:
-        """Piston minus rod area (m²): the area Δp acts over, and the flow demand per m/s."""
+        """Piston minus rod area (m²): the area Δp acts over (the Couette drag aside, the oil
+        the piston displaces per m of travel)."""
         return self.piston_area_m2 - self.rod_area_m2
 
     @property

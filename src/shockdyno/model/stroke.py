@@ -56,7 +56,7 @@ class Stroke:
 
     @property
     def period_s(self) -> float:
-        """One cycle (s): four strokes of A at the constant velocity, plus 2v/a of reversals."""
+        """One cycle (s): 4A/v, plus 2v/a where the reversals take acceleration a (a trapezoid)."""
         extra = 0.0 if self.accel_m_s2 is None else 2 * self.velocity_m_s / self.accel_m_s2
         return 4 * self.amplitude_m / self.velocity_m_s + extra
 

@@ -252,6 +252,10 @@ def default_spec_path() -> Path:
 
 
 class SpecInfo(TypedDict):
+    """Which damper spec a command used, as its JSON records it: the path as the user gave it
+    (the built-in default's repository path), the spec's name, and whether it is the built-in
+    default."""
+
     path: str
     name: str
     default: bool

@@ -21,6 +21,10 @@ N_PER_LBF = 4.4482216152605
 
 @dataclass(frozen=True)
 class Units:
+    """A display unit system: label and factor from SI for velocity, force and length (display
+    value of 1 m/s, 1 N, 1 m), the temperature's label, and a click chart's standard velocities
+    (m/s)."""
+
     name: str
     velocity_label: str
     velocity_per_m_s: float  # display value of 1 m/s
@@ -33,18 +37,23 @@ class Units:
 
     @property
     def imperial(self) -> bool:
+        """Whether this is the imperial system (in/s, lbf, in, °F)."""
         return self.name == "imperial"
 
     def velocity(self, v_m_s: float) -> float:
+        """A velocity in m/s, in this system's velocity unit."""
         return v_m_s * self.velocity_per_m_s
 
     def force(self, f_n: float) -> float:
+        """A force in N, in this system's force unit."""
         return f_n * self.force_per_n
 
     def length(self, x_m: float) -> float:
+        """A length in m, in this system's length unit."""
         return x_m * self.length_per_m
 
     def temperature(self, t_c: float) -> float:
+        """A temperature in °C, in this system's (°F for imperial)."""
         return t_c * 9.0 / 5.0 + 32.0 if self.imperial else t_c
 
     def temperature_to_c(self, t: float) -> float:
@@ -56,6 +65,7 @@ class Units:
         return f"{self.velocity(abs(v_m_s)):.3g} {self.velocity_label}"
 
     def force_text(self, f_n: float, signed: bool = False) -> str:
+        """'231 N' or '52 lbf' (whole units; with `signed`, a sign always)."""
         return f"{self.force(f_n):{'+' if signed else ''}.0f} {self.force_label}"
 
 
@@ -114,6 +124,7 @@ def in_units(text: str, u: Units = SI) -> str:
 
 
 def get(name: str) -> Units:
+    """The unit system by name (`si`, `imperial`); ConfigError for another."""
     try:
         return UNITS[name]
     except KeyError:

@@ -31,6 +31,8 @@ UNITS = (("_pa", "Pa"), ("_n", "N"), ("_m2", "m²"), ("_m", "m"), ("_kg", "kg"),
 
 
 def now_utc() -> str:
+    """The time now in UTC as ISO 8601 to the second (YYYY-MM-DDTHH:MM:SSZ), as the history
+    stores times."""
     return time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
 
 

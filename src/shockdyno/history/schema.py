@@ -120,6 +120,7 @@ VERSION = max(STEPS)
 
 
 def version_of(db: sqlite3.Connection) -> int:
+    """The history database's schema version (SQLite's `user_version`; 0: a new file)."""
     return int(db.execute("PRAGMA user_version").fetchone()[0])
 
 

@@ -22,6 +22,9 @@ from shockdyno.history.schema import open_db
 
 @dataclass(frozen=True)
 class GasEntry:
+    """The static gas force (N) of one gas setting of a recording, its sd (N), and where it came
+    from (measured, estimated, given, refused, unknown)."""
+
     gas_clicks: int
     gas_force_n: float | None  # None: not known (an estimate refused)
     sd_n: float | None
@@ -30,6 +33,10 @@ class GasEntry:
 
 @dataclass(frozen=True)
 class RecordingEntry:
+    """One recording in the history, known by its SHA-256: file name, damper, operator, when it
+    was recorded (UTC), rig, notes, the clicks and gas clicks it swept, its test count and gas
+    forces."""
+
     sha256: str
     file: str
     damper_id: str
@@ -45,6 +52,8 @@ class RecordingEntry:
 
 @dataclass(frozen=True)
 class AreaEntry:
+    """A fit's bleed areas at one setting (m², A_bc compression, A_bt rebound), with their sd."""
+
     clicks: int
     gas_clicks: int
     a_bc_m2: float | None
@@ -55,6 +64,9 @@ class AreaEntry:
 
 @dataclass(frozen=True)
 class ParameterEntry:
+    """A fitted number by name (a spec global or a term's qualified parameter), its sd and unit
+    (SI)."""
+
     name: str  # a spec global (friction_n), a term's (friction.breakaway_n)
     value: float | None
     sd: float | None = None
@@ -63,6 +75,10 @@ class ParameterEntry:
 
 @dataclass(frozen=True)
 class ResultEntry:
+    """One fit or diagnosis of a recording: its options, when it was made (UTC), its file and
+    shockdyno version, E_t (before and after, for a diagnosis), the physics, the verdict, areas
+    and parameters."""
+
     kind: str  # "fit" | "diagnose"
     options: dict[str, object]  # a JSON object: stored as text, compared whole
     made_utc: str
@@ -84,6 +100,7 @@ class Visit:
     results: list[ResultEntry] = field(default_factory=list)
 
     def latest(self, kind: str) -> ResultEntry | None:
+        """The newest result of that kind (`fit`, `diagnose`), or None."""
         found = [r for r in self.results if r.kind == kind]
         return max(found, key=lambda r: r.made_utc) if found else None
 
@@ -248,4 +265,5 @@ def grown(visits: list[Visit]) -> tuple[list[Visit], int]:
 
 
 def known(values: Sequence[float | None]) -> list[float]:
+    """The finite values, without the unknown ones."""
     return [float(v) for v in values if v is not None and math.isfinite(v)]

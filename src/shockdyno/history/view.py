@@ -47,6 +47,7 @@ class Series:
 
     @property
     def present(self) -> list[int]:
+        """The recordings (indices) that have a finite value."""
         return [k for k, v in enumerate(self.values) if v is not None and math.isfinite(v)]
 
     def change(self) -> tuple[float, float, str] | None:
@@ -68,6 +69,8 @@ class Series:
         return a, b, CHANGED if d > K_SIGMA * math.hypot(sa, sb) else STEADY
 
     def shown(self, k: int) -> str:
+        """The value of recording `k` in the shown unit, with its σ as a percentage (`–` when
+        unknown)."""
         v = self.values[k]
         if v is None or not math.isfinite(v):
             return "–"
@@ -135,6 +138,8 @@ def series(visits: Sequence[Visit]) -> list[Series]:
 
 
 def gas_text(visit: Visit) -> str:
+    """A recording's gas forces in one cell: `231 N measured`, `240 ±12 N estimated`, or the
+    source where none is known."""
     parts = []
     for g in visit.recording.gas:
         if g.gas_force_n is None:
@@ -146,6 +151,7 @@ def gas_text(visit: Visit) -> str:
 
 
 def diagnosis_text(visit: Visit) -> str:
+    """The physics the recording's latest diagnosis claimed (`–` without one)."""
     d = visit.latest("diagnose")
     if d is None:
         return "–"

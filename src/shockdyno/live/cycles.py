@@ -80,6 +80,7 @@ class CycleCutter:
         self._next = 0  # the next cycle to complete
 
     def begin(self, meta: TestMeta) -> None:
+        """Start a test: its metadata (the plan's amplitude, frequency and cycles), nothing held."""
         self.meta = meta
         self._t0 = None
         self._tail = None
@@ -88,11 +89,14 @@ class CycleCutter:
         self._next = 0
 
     def end(self) -> None:
+        """End the test: a cycle left incomplete is dropped."""
         self.meta = None
         self._tail = None
         self._held = []
 
     def actuator(self, fields: dict[str, float | int | bool | str]) -> None:
+        """Take the ramp cycles the session commanded (`cmd_ramp_cycles`) from an actuator
+        record."""
         ramp = fields.get("cmd_ramp_cycles")
         if isinstance(ramp, int | float) and not isinstance(ramp, bool) and ramp >= 1:
             self.ramp_cycles = int(ramp)
@@ -123,6 +127,9 @@ class CycleCutter:
         return display_velocity(t_all, x_all)[len(t_all) - len(t) :].astype(np.float64)
 
     def feed(self, block: SampleBlock) -> tuple[Stretch, list[Cycle]]:
+        """The block's stretch (its samples, display velocity in m/s, and the planned position
+        where there is a plan) and every cycle it completed; cycles count from the motion bit's
+        first sample, or from the measured window without one."""
         t, x, force = block.t_s, block.displacement_m, block.force_n
         v = self._velocity(t, x)
         m = self.meta

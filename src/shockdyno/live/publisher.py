@@ -51,14 +51,21 @@ class LiveCounts:
 
     @property
     def dropped_samples(self) -> int:
+        """Samples that never reached the server: refused at the queue, or lost when the view
+        failed."""
         return self.refused_samples + self.lost_samples
 
     @property
     def dropped_calls(self) -> int:
+        """Test records, actuator records and events that never reached the server."""
         return self.refused_calls + self.lost_calls
 
 
 class LivePublisher:
+    """The recording's writer calls sent to a Foxglove server by a thread of its own: each call
+    only queues (bounded; past the bound it is dropped and counted), so the control loop never
+    waits on a viewer."""
+
     def __init__(
         self,
         server: LiveServer,
@@ -96,9 +103,12 @@ class LivePublisher:
 
     # -- the recording's API, queued (the control loop's thread) ---------------------------
     def begin_test(self, meta: TestMeta) -> None:
+        """Queue a test's begin record (dropped and counted when the queue is full)."""
         self._put("begin", (meta,))
 
     def write_samples(self, block: SampleBlock) -> None:
+        """Queue a block of samples (dropped and counted past `max_samples` waiting, unless
+        `blocking`)."""
         n = len(block)
         if not n:
             return
@@ -113,12 +123,15 @@ class LivePublisher:
         self._put("samples", (block,))
 
     def write_actuator(self, t_s: float, fields: dict[str, float | int | bool | str]) -> None:
+        """Queue an actuator record (dropped and counted when the queue is full)."""
         self._put("actuator", (t_s, dict(fields)))
 
     def write_event(self, t_s: float, kind: str, message: str) -> None:
+        """Queue a session event (dropped and counted when the queue is full)."""
         self._put("event", (t_s, kind, message))
 
     def end_test(self, meta: TestMeta) -> None:
+        """Queue a test's end record (dropped and counted when the queue is full)."""
         self._put("end", (meta,))
 
     def _backlog(self, n: int) -> bool:
@@ -145,6 +158,7 @@ class LivePublisher:
         self.server.stop()
 
     def summary(self) -> str:
+        """One line at the end: messages sent and what was dropped."""
         c = self.counts
         said = f"live view closed: {c.messages} messages sent"
         if c.dropped_samples or c.dropped_calls:

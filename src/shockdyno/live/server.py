@@ -132,6 +132,7 @@ class LiveServer:
 
     @property
     def url(self) -> str:
+        """The WebSocket URL a Foxglove viewer connects to (`ws://HOST:PORT`)."""
         host = f"[{self.host}]" if ":" in self.host else self.host
         return f"ws://{host}:{self.port}"
 
@@ -154,6 +155,7 @@ class LiveServer:
         self._server.publish_status(text, foxglove.StatusLevel.Warning, id="shockdyno-live")
 
     def send(self, topic: str, log_time_ns: int, payload: bytes) -> None:
+        """Send one encoded message on `topic`, stamped `log_time_ns` (ns since the epoch)."""
         self._channels[topic].log(payload, log_time=max(0, log_time_ns))
 
     def stop(self, flush_s: float = 0.5) -> None:

@@ -26,6 +26,10 @@ from shockdyno.schema import NonNegative, Positive
 
 @dataclass(frozen=True)
 class BleedLaw:
+    """One bleed path's area law (a [bleed.*] table of the spec): the area (m²) from
+    `area_closed_m2` at 0 clicks to `area_open_m2` at `max_clicks`, saturating over
+    `shape_clicks` (module doc), plus `area_per_gas_click_m2` for each gas-bottle click."""
+
     area_closed_m2: NonNegative
     area_open_m2: NonNegative
     shape_clicks: Positive
@@ -33,6 +37,8 @@ class BleedLaw:
     area_per_gas_click_m2: float = 0.0  # either sign: a gas click may open or close the bleed
 
     def area(self, clicks: ArrayLike, gas_clicks: ArrayLike = 0) -> NDArray[np.float64]:
+        """The bleed area (m²) at rod-adjuster `clicks` and gas-bottle `gas_clicks` (counted open
+        from 0 = closed), element by element."""
         n = np.asarray(clicks, dtype=float)
         g = np.asarray(gas_clicks, dtype=float)
         tau = self.shape_clicks

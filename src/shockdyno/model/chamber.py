@@ -88,6 +88,8 @@ class Chamber:
 
     @property
     def rigid(self) -> bool:
+        """Whether the chamber holds no air and its oil does not compress: no compliance to
+        integrate."""
         return self.air_fraction == 0.0 and self.oil_compressibility_per_pa == 0.0
 
     @property
@@ -736,6 +738,10 @@ class Out(NamedTuple):
 
 
 class Segment(NamedTuple):
+    """One segment's integration plan: samples `lo`..`hi`, the first integrated `i0`, `m` chamber
+    steps a sample of spacing `dt` (s), whether a periodic segment is prerolled and whether its
+    steps are guided (`linearised`)."""
+
     lo: int
     hi: int
     i0: int  # the first sample integrated (a periodic segment's preroll starts later)

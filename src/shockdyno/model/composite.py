@@ -99,6 +99,9 @@ class ModelInputs:
         dt_s: float = 1e-3,
         temperature_c: ArrayLike | None = None,
     ) -> ModelInputs:
+        """One test as one segment: displacement `x` (m, compression positive), velocity `v`
+        (m/s) and acceleration `a` (m/s²) per sample (a scalar broadcast), at sample step `dt_s`
+        (s), with the temperature per sample (°C) if known."""
         xs = np.atleast_1d(np.asarray(x, dtype=float))
         vs, acc = (
             np.ascontiguousarray(np.broadcast_to(np.asarray(u, float), xs.shape)) for u in (v, a)
@@ -126,6 +129,8 @@ class ModelInputs:
 
     @staticmethod
     def stack(parts: Sequence[ModelInputs]) -> ModelInputs:
+        """The segments of `parts` one after another, as one input (a part with no temperature or
+        gas charge gets NaN for them; periodic only if every part is)."""
         sizes = np.array([p.x.size for p in parts], dtype=np.intp)
         offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.intp)
         temps = [p.temperature_c for p in parts]
@@ -166,6 +171,7 @@ class ModelInputs:
         return int(self.x.size)
 
     def segment_of_sample(self) -> IntArray:
+        """The index of the segment each sample belongs to."""
         seg = np.zeros(self.size, dtype=np.intp)
         seg[self.starts[1:]] = 1
         return np.cumsum(seg).astype(np.intp)
@@ -212,6 +218,8 @@ class Work:
         return self.inputs.dt_s
 
     def add_part(self, name: str, force: FloatArray) -> None:
+        """Add `force` (N, per sample, positive resisting compression) to the force component
+        `name`, summing with what it already holds."""
         self.parts[name] = self.parts[name] + force if name in self.parts else force
 
     def set_dp(self, name: str, dp: FloatArray) -> None:
@@ -266,17 +274,25 @@ class Term:
         return r.plain(f"{self.name}: {self.summary}")
 
     def params(self) -> tuple[Param, ...]:
+        """The parameters the term declares (`PARAMS`): unit, nominal, bounds, off value."""
         return self.PARAMS
 
     def qualified(self, local: str) -> str:
+        """The parameter's qualified name, `term.local` (`friction.breakaway_n`), as fits and
+        JSON name it."""
         return f"{self.name}.{local}"
 
     def run_stages(self) -> tuple[int, ...]:
+        """The stages the term runs at: `stages`, or its one `stage`."""
         return self.stages or (self.stage,)
 
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:
+        """Act at `stage` on the evaluation's scratch `w`: add a force component (`w.add_part`)
+        or change the motion, Δp or the chamber pressure. `p` holds the term's values by local
+        name, `carry` the state it carried out of the previous single-segment call (or None);
+        returns the state to carry on, or None."""
         raise NotImplementedError
 
     def penalty(self, p: Mapping[str, float]) -> FloatArray:
@@ -284,6 +300,7 @@ class Term:
         return np.zeros(0)
 
     def vehicle_ok(self) -> bool:
+        """Whether the term belongs to the damper on a car (a sensor term does not)."""
         return not self.sensor
 
     def full_rate(self, p: Mapping[str, float], free: Iterable[str]) -> bool:
@@ -341,6 +358,12 @@ class Term:
 
 @dataclass(frozen=True)
 class Evaluation:
+    """One evaluation of the model, per sample: `force` the total (N, positive resisting
+    compression), `components` the force parts by name (summing to `force`), `dp` the pressure
+    drop across the piston and `p_c` the compression-chamber pressure (Pa, absolute), `outputs`
+    what terms report besides force, `state` what each stateful term carries into the next call,
+    `x` the rod's position the damper saw (m)."""
+
     force: FloatArray
     components: dict[str, FloatArray]
     dp: FloatArray
@@ -365,6 +388,8 @@ def _samples(value: ArrayLike, n: int) -> FloatArray:
 
 
 def solve_flow(w: Work) -> FloatArray:
+    """Δp across the piston (Pa, per sample; positive in compression) that passes the flow demand
+    `w.q_demand` through bleed, shim valves and leak (eq. 2-4, 7)."""
     spec = w.spec
     q = w.q_demand
     lam = w.bleed_laminar if w.bleed_laminar.size == q.size else np.zeros_like(q)
@@ -430,15 +455,19 @@ class DamperModel:
         return {id(t): self._local_values(t) for t in self.terms}
 
     def param_list(self) -> list[tuple[str, Param]]:
+        """Every term's parameters as (qualified name, Param), in the model's term order."""
         return [(t.qualified(p.name), p) for t in self.terms for p in t.params()]
 
     def value(self, qualified: str) -> float:
+        """The value of a parameter by qualified name (its nominal when not set); ConfigError if
+        no term declares it."""
         p = self._declared.get(qualified)
         if p is None:
             raise ConfigError(f"unknown term parameter {qualified!r}")
         return float(self.values.get(qualified, p.nominal))
 
     def local_values(self, term: Term) -> dict[str, float]:
+        """`term`'s parameter values by local name (a copy), nominals where not set."""
         got = self._locals.get(id(term))  # a term not of this model is not live under its id
         return dict(got) if got is not None else self._local_values(term)  # a copy: theirs
 
@@ -448,12 +477,15 @@ class DamperModel:
         }
 
     def with_values(self, values: Mapping[str, float]) -> DamperModel:
+        """A copy with `values` (qualified names) set over this model's; ConfigError on a name no
+        term declares."""
         unknown = sorted(set(values) - self._declared.keys())
         if unknown:
             raise ConfigError(f"unknown term parameter {unknown[0]!r}")
         return self._derived(self.spec, {**self.values, **values})
 
     def with_spec(self, spec: DamperSpec) -> DamperModel:
+        """A copy on another damper spec, the same terms and values."""
         return self._derived(spec, dict(self.values))
 
     def _derived(self, spec: DamperSpec, values: dict[str, float]) -> DamperModel:
@@ -468,6 +500,8 @@ class DamperModel:
         return new
 
     def with_terms(self, terms: Iterable[Term]) -> DamperModel:
+        """A model of the same spec with these terms instead, keeping the values of the
+        parameters they declare."""
         terms = tuple(terms)
         keep = {t.qualified(p.name) for t in terms for p in t.params()}
         return DamperModel(self.spec, terms, {k: v for k, v in self.values.items() if k in keep})
@@ -477,6 +511,7 @@ class DamperModel:
         return self.with_values({name: p.off for name, p in self.param_list()})
 
     def without(self, predicate: type[Term] | str) -> DamperModel:
+        """A copy without the terms of a class, or of a name."""
         return self.with_terms(
             t
             for t in self.terms
@@ -497,19 +532,25 @@ class DamperModel:
         return {p.name for p in t.params() if t.qualified(p.name) in qualified}
 
     def needs_full_rate(self, free: Iterable[str] = ()) -> bool:
+        """Whether any term must run at the recording's own sample rate (`Term.full_rate`), with
+        the qualified parameters `free` varied by a fit."""
         free = tuple(free)
         return any(t.full_rate(self.local_values(t), self._local_free(t, free)) for t in self.terms)
 
     def carries_state(self, free: Iterable[str] = ()) -> bool:
+        """Whether a sample's force depends on the motion before it under any term
+        (`Term.carries_state`), with the qualified parameters `free` varied by a fit."""
         free = tuple(free)
         return any(
             t.carries_state(self.local_values(t), self._local_free(t, free)) for t in self.terms
         )
 
     def term(self, name: str) -> Term | None:
+        """The model's term of that name, or None."""
         return next((t for t in self.terms if t.name == name), None)
 
     def penalty(self) -> FloatArray:
+        """Every term's regularising residuals (N), concatenated (`Term.penalty`)."""
         parts = [t.penalty(self.local_values(t)) for t in self.terms]
         return np.concatenate(parts) if parts else np.zeros(0)
 
@@ -598,6 +639,8 @@ class DamperModel:
         return Evaluation(total, w.parts, w.dp, w.p_c, w.outputs, carry_out, w.x)
 
     def force(self, inputs: ModelInputs, a_bc: ArrayLike, a_bt: ArrayLike) -> FloatArray:
+        """The total force per sample (N, positive resisting compression) for bleed areas `a_bc`
+        (compression) and `a_bt` (rebound), m² per sample or scalar."""
         return self.evaluate(inputs, a_bc, a_bt).force
 
     def _coulomb(

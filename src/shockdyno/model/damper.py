@@ -34,6 +34,11 @@ __all__ = ["ATMOSPHERE_PA", "ForceBreakdown", "damper_force", "evaluate", "talbo
 
 @dataclass(frozen=True)
 class ForceBreakdown:
+    """The paper's model at each sample: `force` (N, positive resisting compression) and its
+    parts (inertia, gas, hydraulic, friction; N), Δp across the piston `dp` (Pa, positive in
+    compression), the compression- and rebound-chamber pressures `p_c`, `p_r` (Pa, absolute), and
+    `bleed_share`."""
+
     force: FloatArray
     dp: FloatArray
     p_c: FloatArray

@@ -20,6 +20,8 @@ IntArray = NDArray[np.intp]
 
 
 def segment_bounds(starts: IntArray, n: int) -> list[tuple[int, int]]:
+    """(first, end) sample index of each segment, from the segments' `starts` and the sample
+    count `n`."""
     ends = [*(int(s) for s in starts[1:]), n]
     return [(int(s), e) for s, e in zip(starts, ends, strict=True)]
 

@@ -66,6 +66,7 @@ class QuarterCar:
     tyre_n_m: float = 220_000.0
 
     def validate(self) -> None:
+        """Raise ConfigError unless every mass and stiffness is finite and > 0."""
         for f in fields(self):
             value = getattr(self, f.name)
             if not (math.isfinite(value) and value > 0):
@@ -73,10 +74,13 @@ class QuarterCar:
 
     @property
     def wheel_hop_hz(self) -> float:
+        """The wheel-hop frequency (Hz): the unsprung mass on spring and tyre in parallel, body
+        held."""
         return math.sqrt((self.spring_n_m + self.tyre_n_m) / self.unsprung_mass_kg) / (2 * math.pi)
 
     @property
     def body_hz(self) -> float:
+        """The body's natural frequency (Hz): the sprung mass on spring and tyre in series."""
         k = self.spring_n_m * self.tyre_n_m / (self.spring_n_m + self.tyre_n_m)
         return math.sqrt(k / self.sprung_mass_kg) / (2 * math.pi)
 
@@ -85,9 +89,12 @@ class SuspensionDamper(Protocol):
     """Damper force across the suspension for each run: F(x, v) + m_e ẍ."""
 
     @property
-    def added_mass_kg(self) -> float: ...
+    def added_mass_kg(self) -> float:
+        """m_e (kg): the rod and gas-piston inertia that couples body and wheel accelerations."""
 
-    def force(self, x: FloatArray, v: FloatArray) -> FloatArray: ...
+    def force(self, x: FloatArray, v: FloatArray) -> FloatArray:
+        """The suspension force (N, positive resisting compression) per run at stroke x (m) and
+        velocity v (m/s), less the force at rest, without the m_e ẍ part."""
 
 
 @dataclass(frozen=True)
@@ -98,10 +105,12 @@ class LinearDamper:
     added_mass_kg: float = 0.0
 
     def force(self, x: FloatArray, v: FloatArray) -> FloatArray:
+        """c v (N) per run; x is not used."""
         return np.asarray(self.c_ns_m * v, dtype=float)
 
     @property
     def max_slope_ns_m(self) -> float:
+        """The largest c (N·s/m) of the runs: the stiffest slope, for `stable_step`."""
         return float(np.max(self.c_ns_m))
 
 
@@ -285,6 +294,7 @@ class Trajectory:
 
     @property
     def time_s(self) -> FloatArray:
+        """The time of each column (s), from 0 at the end of the warm-up."""
         return np.arange(self.sprung_accel_m_s2.shape[1], dtype=float) * self.dt_s
 
 

@@ -27,6 +27,7 @@ class Reading:
         return self.reach_m[0] <= x_m <= self.reach_m[1]
 
     def v(self, name: str) -> float:
+        """A parameter's fitted value in SI (NaN when missing or not finite)."""
         est = self.values.get(name)  # a non-finite value (an off value) reads as NaN, as in JSON
         return est.value if est is not None and math.isfinite(est.value) else math.nan
 
@@ -55,18 +56,22 @@ class Reading:
     # Display units: force, length and speed factors and labels, and a damping coefficient.
     @property
     def force(self) -> tuple[float, str]:
+        """(display value of 1 N, label) of the reader's force unit."""
         return self.units.force_per_n, self.units.force_label
 
     @property
     def length(self) -> tuple[float, str]:
+        """(display value of 1 m, label) of the reader's length unit."""
         return self.units.length_per_m, self.units.length_label
 
     @property
     def speed(self) -> tuple[float, str]:
+        """(display value of 1 m/s, label) of the reader's velocity unit."""
         return self.units.velocity_per_m_s, self.units.velocity_label
 
     @property
     def damping(self) -> tuple[float, str]:
+        """(display value of 1 N·s/m, label) of a damping coefficient in the reader's units."""
         u = self.units
         if u.imperial:
             return u.force_per_n / u.length_per_m, f"{u.force_label}·s/{u.length_label}"

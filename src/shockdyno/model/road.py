@@ -64,6 +64,7 @@ class RoadProfile:
 
     @property
     def omega_rad_m(self) -> FloatArray:
+        """The spatial angular frequency of each harmonic, Ω = n ΔΩ (rad/m)."""
         return np.asarray(self.harmonic * (2 * math.pi / self.length_m), dtype=float)
 
     def elevation(self, s_m: ArrayLike) -> FloatArray:
@@ -91,6 +92,7 @@ class RoadProfile:
         return np.asarray(np.fft.irfft(spec, n_samples), dtype=float)
 
     def rms_m(self) -> float:
+        """The elevation's RMS over a period (m): √(Σ amplitude² / 2)."""
         return float(np.sqrt(np.sum(self.amplitude_m**2) / 2))
 
 

@@ -44,6 +44,7 @@ class ShimStack:
 
     @cached_property  # a 3×3 solve; the flow solve asks for it at every evaluation
     def stiffness_n_per_m(self) -> float:
+        """The stack's stiffness at its outer edge (N/m): n shims times one annular plate's."""
         return self.n_shims * annular_plate_edge_stiffness(
             self.thickness_m,
             self.outer_diameter_m / 2,
@@ -54,14 +55,17 @@ class ShimStack:
 
     @property
     def preload_n(self) -> float:
+        """The force (N) the dished face pre-bends the stack with: stiffness × preload_m."""
         return self.stiffness_n_per_m * self.preload_m
 
     @property
     def perimeter_m(self) -> float:
+        """The flow perimeter where the stack lifts off its seat, π × seat diameter (m)."""
         return math.pi * self.seat_diameter_m
 
     @property
     def crack_pressure_pa(self) -> float:
+        """The pressure drop (Pa) at which the stack starts to lift: preload over face area."""
         return self.preload_n / self.face_area_m2
 
 

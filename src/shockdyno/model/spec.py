@@ -64,18 +64,23 @@ class DamperSpec:
     # -- derived geometry -------------------------------------------------------------
     @property
     def piston_area_m2(self) -> float:
+        """The piston's full area (m²)."""
         return math.pi / 4 * self.piston_diameter_m**2
 
     @property
     def rod_area_m2(self) -> float:
+        """The rod's cross-section (m²): what displaces oil into the gas column."""
         return math.pi / 4 * self.rod_diameter_m**2
 
     @property
     def annulus_area_m2(self) -> float:
+        """Piston minus rod area (m²): the area Δp acts over (the Couette drag aside, the oil
+        the piston displaces per m of travel)."""
         return self.piston_area_m2 - self.rod_area_m2
 
     @property
     def gas_piston_area_m2(self) -> float:
+        """The gas (floating) piston's area (m²)."""
         return math.pi / 4 * self.gas_piston_diameter_m**2
 
     @property
@@ -90,6 +95,7 @@ class DamperSpec:
 
     @property
     def viscosity_pa_s(self) -> float:
+        """The oil's dynamic viscosity μ (Pa·s), from its kinematic viscosity (cSt) and density."""
         return self.oil_viscosity_cst * 1e-6 * self.oil_density_kg_m3
 
     @property
@@ -137,6 +143,7 @@ class DamperSpec:
 
     @property
     def adjuster_names(self) -> tuple[str, ...]:
+        """The names of the declared adjusters (empty: the paper's one rod needle)."""
         return tuple(a.name for a in self.adjusters)
 
     def adjuster_law(self, name: str) -> BleedLaw:
@@ -176,11 +183,14 @@ class DamperSpec:
 
     # Any: dataclasses.replace checks each field against its own type (floats, valves, ...)
     def with_changes(self, **changes: Any) -> DamperSpec:
+        """A copy with these fields replaced (dataclasses.replace; not checked again)."""
         return replace(self, **changes)
 
     # A spec value by name: a field ("friction_n") or a valve's field
     # ("rebound_valve.preload_m"). The only place such a name is resolved.
     def value(self, key: str) -> float:
+        """A number of the spec by name: a field (`friction_n`) or a valve's field
+        (`rebound_valve.preload_m`), in SI; ConfigError for any other name."""
         head, _, tail = key.partition(".")
         part = getattr(self, head, None) if not head.startswith("_") else None
         if part is not None and tail:
@@ -242,6 +252,10 @@ def default_spec_path() -> Path:
 
 
 class SpecInfo(TypedDict):
+    """Which damper spec a command used, as its JSON records it: the path as the user gave it
+    (the built-in default's repository path), the spec's name, and whether it is the built-in
+    default."""
+
     path: str
     name: str
     default: bool

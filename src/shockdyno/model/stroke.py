@@ -56,11 +56,13 @@ class Stroke:
 
     @property
     def period_s(self) -> float:
+        """One cycle (s): 4A/v, plus 2v/a where the reversals take acceleration a (a trapezoid)."""
         extra = 0.0 if self.accel_m_s2 is None else 2 * self.velocity_m_s / self.accel_m_s2
         return 4 * self.amplitude_m / self.velocity_m_s + extra
 
     @property
     def frequency_hz(self) -> float:
+        """Cycles per second (Hz), 1 / period."""
         return 1.0 / self.period_s
 
     def shape(self, phase: FloatArray) -> FloatArray:

@@ -49,6 +49,8 @@ def held(name: str, at: Mapping[str, int]) -> str:
 
 
 def line_meta(meta: TestMeta, name: str) -> TestMeta:
+    """The test's metadata with `clicks` set to adjuster `name`'s clicks, as a line of that
+    adjuster reads it."""
     return replace(meta, clicks=meta.adjusters[name])
 
 

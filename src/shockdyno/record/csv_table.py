@@ -46,6 +46,11 @@ DECIMALS_KEY = "csv_decimals"  # TestMeta.extra key: "time_s=3,force_N=2": fixed
 
 @dataclass(frozen=True)
 class ImportOptions:
+    """How `record import` reads a manifest and its data CSVs: the column names and their units
+    (converted to SI on import), the sample rate and motion where the manifest has none, the gas
+    clicks, the delimiter, metadata to store, whether data files may lie outside the manifest's
+    folder, and the largest file read."""
+
     time_column: str = "time_s"
     time_unit: str = "auto"  # numbers in seconds, or ISO 8601 date-times; see TIME_UNITS
     displacement_column: str = "displacement_m"
@@ -63,6 +68,8 @@ class ImportOptions:
     max_file_bytes: int = 1 << 30  # a larger data file is refused before it is read
 
     def check(self) -> None:
+        """RecordingError naming the option when a unit, motion, sample rate, gas clicks or
+        delimiter is not one the import knows."""
         for name, value, allowed in (
             ("time unit", self.time_unit, TIME_UNITS),
             ("displacement unit", self.displacement_unit, tuple(LENGTH_UNITS)),
@@ -228,6 +235,8 @@ class CsvTable:
         self.texts = texts
 
     def column(self, name: str) -> int:
+        """The index of the named column; RecordingError listing the file's columns when it has
+        none."""
         try:
             return self.header.index(name)
         except ValueError:
@@ -238,9 +247,11 @@ class CsvTable:
         return f"{self.path}:{line}: column {self.header[col]!r}"
 
     def where(self, row: int, col: int) -> str:
+        """`FILE:LINE: column 'NAME'` of a row's cell, for an error message."""
         return self._at(int(self.lines[row]), col)
 
     def cells(self, col: int) -> Iterator[tuple[int, str]]:
+        """(row, text) of every cell of a column kept as text, stripped."""
         if col in self.texts:
             yield from enumerate(self.texts[col])
             return
@@ -248,6 +259,7 @@ class CsvTable:
             yield i, row[col].strip()
 
     def numbers(self, col: int) -> NDArray[np.float64]:
+        """A converted column's values (NaN where empty, for `number_or_empty`)."""
         return self.values[col]
 
 

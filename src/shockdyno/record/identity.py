@@ -17,6 +17,8 @@ CHUNK = 1 << 20
 
 
 def recording_sha256(path: Path) -> str:
+    """The hex SHA-256 of a recording's bytes, every file of its set in order; RecordingError
+    when there is none or it cannot be read."""
     digest = hashlib.sha256()
     paths = set_paths(Path(path))
     if not paths:

@@ -12,6 +12,11 @@ SCHEMA_VERSION = 1
 
 
 class InfoTest(TypedDict):
+    """One test's row of `info --json`: its setting, motion and status, damage, sample count and
+    rate (Hz), DAQ times and duration (s), frames lost and damaged, the gas force (N) and where
+    it came from, a stroke's velocity (m/s) and reversal acceleration (m/s²), and each adjuster's
+    clicks."""
+
     index: int
     clicks: int
     gas_clicks: int
@@ -35,6 +40,9 @@ class InfoTest(TypedDict):
 
 
 class FileRow(TypedDict):
+    """One file of the recording's set in `info --json`: size, whether it was cut off and what is
+    wrong with it, and its unreadable chunks and messages."""
+
     path: str
     size_bytes: int
     truncated: bool
@@ -44,11 +52,16 @@ class FileRow(TypedDict):
 
 
 class ForeignPart(TypedDict):
+    """A file beside the recording that looks like a part of its set but is not, and why."""
+
     path: str
     why: str
 
 
 class Totals(TypedDict):
+    """The recording's totals in `info --json`: tests by how they ended, samples, duration (s)
+    and frames lost and damaged."""
+
     tests: int
     complete: int
     aborted: int
@@ -61,6 +74,8 @@ class Totals(TypedDict):
 
 
 class Event(TypedDict):
+    """A session event in `info --json`: DAQ time (s), kind and message."""
+
     t_s: float
     kind: str
     message: str
@@ -164,6 +179,8 @@ def _opt(v: int | None) -> str:
 
 
 def format_text(doc: Info, max_events: int = 20) -> str:
+    """The `info` document as the text `shockdyno info` prints: files, metadata, totals, each
+    test, and the first `max_events` events."""
     lines = [f"recording {doc['path']}"]
     for f in doc["files"]:
         state = "TRUNCATED: " + (f["problem"] or "") if f["truncated"] else "complete file"

@@ -28,6 +28,8 @@ from shockdyno.record.reader import set_members
 
 
 def lock_path(recording: Path) -> Path:
+    """The lock file beside a recording (`.NAME.lock`, the symlink resolved): held while a
+    command writes it."""
     real = Path(os.path.realpath(recording))
     return real.with_name(f".{real.name}.lock")
 

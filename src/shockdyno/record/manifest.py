@@ -56,6 +56,8 @@ SOURCE_KEY = "csv_file"  # TestMeta.extra key: the data file a test was imported
 
 @dataclass
 class ImportedTest:
+    """One test read from a manifest row: its metadata and its samples in SI."""
+
     meta: TestMeta
     block: SampleBlock
 
@@ -94,12 +96,16 @@ class _Row:
         return self.table.rows[self.i][self.cols[name]].strip() if name in self.cols else ""
 
     def where(self, name: str) -> str:
+        """`FILE:LINE: column 'NAME'` of this row's cell, for an error message."""
         return self.table.where(self.i, self.cols[name])
 
     def whole(self, name: str) -> int:
+        """The cell as a whole number; RecordingError naming the cell otherwise."""
         return _int_cell(self.table, self.i, self.cols[name])
 
     def number(self, name: str, *, positive: bool = False) -> float:
+        """The cell as a finite number ≥ 0 (> 0 with `positive`); RecordingError naming the cell
+        otherwise."""
         return _float_cell(self.table, self.i, self.cols[name], positive=positive)
 
 
@@ -108,6 +114,9 @@ def read_manifest(
     opts: ImportOptions,
     progress: Callable[[str, float], None] | None = None,
 ) -> list[ImportedTest]:
+    """Every test a manifest CSV lists (`file,clicks,frequency_hz,amplitude_m`, more columns
+    allowed), each data file read and converted to SI; RecordingError naming the file, line and
+    column of the first problem. `progress` gets (what, share done)."""
     opts.check()
     table = CsvTable(manifest, opts.delimiter, opts.max_file_bytes)
     cols = {name: table.column(name) for name in MANIFEST_REQUIRED}

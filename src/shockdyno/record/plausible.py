@@ -58,5 +58,7 @@ def check_samples(
 
 
 def check_setting(where: str, name: str, value: float, limit: float) -> None:
+    """RecordingError unless `value` is at most `limit`, what any damper dyno could do (a NaN
+    fails too)."""
     if not value <= limit:
         raise RecordingError(f"{where}: {name} {value:g} is beyond any damper dyno (max {limit:g})")

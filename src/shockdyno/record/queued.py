@@ -32,6 +32,10 @@ MAX_PENDING_SAMPLES = 1_000_000  # ~42 MB of SampleBlocks; 1000 s of a 1 kHz DAQ
 
 
 class QueuedWriter:
+    """A RecordingWriter driven from a thread of its own: each call only queues (bounded by
+    samples), so the control loop never waits on the disk; a writer error is raised at the next
+    call."""
+
     def __init__(
         self, writer: RecordingWriter, max_pending_samples: int = MAX_PENDING_SAMPLES
     ) -> None:
@@ -49,23 +53,31 @@ class QueuedWriter:
 
     @property
     def path(self) -> Path:
+        """The recording's path."""
         return self.writer.path
 
     # -- the writer's API, queued ------------------------------------------------------
     def begin_test(self, meta: TestMeta) -> None:
+        """Queue the writer's `begin_test` (RecordingError for a failure the thread met since the
+        last call, or once closed)."""
         self._put(self.writer.begin_test, meta)
 
     def write_samples(self, block: SampleBlock) -> None:
+        """Queue the writer's `write_samples` (an empty block: nothing); RecordingError when the
+        disk falls `max_pending_samples` behind."""
         if len(block):
             self._put(self.writer.write_samples, block, samples=len(block))
 
     def write_actuator(self, t_s: float, fields: dict[str, float | int | bool | str]) -> None:
+        """Queue the writer's `write_actuator` (the fields copied)."""
         self._put(self.writer.write_actuator, t_s, dict(fields))
 
     def write_event(self, t_s: float, kind: str, message: str) -> None:
+        """Queue the writer's `write_event`."""
         self._put(self.writer.write_event, t_s, kind, message)
 
     def end_test(self, meta: TestMeta) -> None:
+        """Queue the writer's `end_test`."""
         self._put(self.writer.end_test, meta)
 
     def flush(self) -> None:

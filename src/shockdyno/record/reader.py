@@ -181,6 +181,8 @@ class Recording:
             raise RecordingError(f"{self.path}: {exc}") from exc
 
     def load(self, index: int | TestMeta) -> TestData:
+        """A test's samples as analysis reads them: time (s), displacement (m, compression
+        positive), force (N) and temperature (°C; None when never read), with its metadata."""
         key = self._key(index)
         block = self.samples(index)
         temp = block.temperature_c
@@ -198,6 +200,7 @@ class Recording:
         return [self.load(i) for i, m in enumerate(self.tests) if damaged or m.status != "damaged"]
 
     def sample_count(self, index: int | TestMeta) -> int:
+        """The number of samples a test holds, from the block headers (nothing decoded)."""
         payloads = self._samples.get(self._key(index), [])
         return sum(s.samples_header(p)[1] for p in payloads)
 

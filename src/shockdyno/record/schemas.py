@@ -90,6 +90,7 @@ def encode_samples(test: int, block: SampleBlock, velocity_m_s: NDArray[np.float
 
 
 def samples_size(n: int, version: int = 2) -> int:
+    """The size (bytes) of an encoded block of `n` samples in layout `version` (1 or 2)."""
     return 52 + 46 * n if version == 2 else 48 + 42 * n
 
 
@@ -240,6 +241,8 @@ _ONLY_WHEN_SET = ("target_velocity_m_s", "reversal_accel_m_s2")
 
 
 def meta_to_json(meta: TestMeta) -> dict[str, object]:
+    """A test's metadata as the recording's test channel stores it (keys a sine does not use, and
+    an empty adjuster setting, left out)."""
     d = asdict(meta)
     d["cycle_start_s"] = [float(v) for v in meta.cycle_start_s]
     for key in _ONLY_WHEN_SET:

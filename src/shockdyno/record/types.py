@@ -65,6 +65,10 @@ class TestMeta:
 
 @dataclass(frozen=True)
 class TestData:
+    """One test as analysis reads it: its metadata, time `t` (s), displacement `x` (m from the
+    stroke centre, compression positive), `force` (N, positive resisting compression) and
+    `temperature` (°C, or None)."""
+
     __test__ = False  # not a pytest test class, despite the name
 
     meta: TestMeta

@@ -293,6 +293,8 @@ class RecordingWriter:
 
     @_whole_records
     def begin_test(self, meta: TestMeta) -> None:
+        """Open the next test: its metadata written as the test channel's begin record;
+        RecordingError while another test is open."""
         self._check_open()
         if self._open is not None:
             raise RecordingError(f"test {self._open.index} is still open (call end_test first)")
@@ -309,6 +311,8 @@ class RecordingWriter:
 
     @_whole_records
     def write_samples(self, block: SampleBlock) -> None:
+        """Add a block of samples (to the open test, or between tests), written in chunks with a
+        display velocity (m/s, central difference) beside them."""
         self._check_open()
         n = len(block)
         if n == 0:
@@ -353,6 +357,7 @@ class RecordingWriter:
 
     @_whole_records
     def write_actuator(self, t_s: float, fields: dict[str, float | int | bool | str]) -> None:
+        """Record the drive's fields at DAQ time `t_s` (s), tagged with the open test."""
         self._check_open()
         obj: dict[str, object] = {"t_s": float(t_s), "test": self._test_field}
         for k, v in fields.items():

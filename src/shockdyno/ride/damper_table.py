@@ -81,6 +81,9 @@ DEFAULT_SPEEDS_M_S: tuple[float, ...] = (
 
 @dataclass(frozen=True)
 class Units:
+    """A unit system of the exported damper tables: the velocity and force units and their size
+    in SI (m/s, N per unit), and the words TeimOrbit's [UNITS] block uses."""
+
     name: str
     velocity: str
     force: str
@@ -101,6 +104,11 @@ Span = tuple[float, float]  # (rebound, compression) speeds a recording reached,
 
 @dataclass(frozen=True)
 class ClickTable:
+    """One click's damper table for vehicle software: quasi-static force (N, compression
+    positive) at mid-stroke against velocity (m/s, rebound negative to compression positive), the
+    bleed areas (m²) it came from (the fit, or the trend between fitted clicks), the gas force at
+    rest (N), and the speeds the recording reached."""
+
     clicks: int
     source: str  # "fit" or "trend"
     a_bc_m2: float
@@ -129,6 +137,7 @@ class ClickTable:
 
     @property
     def damping_force_n(self) -> FloatArray:
+        """The force less the static gas force (N): the damping alone."""
         return self.force_n - self.gas_force_n
 
     @property
@@ -151,6 +160,8 @@ IMPERIAL_SPEEDS_M_S: tuple[float, ...] = tuple(v * M_PER_IN for v in IMPERIAL_SP
 
 
 def velocity_grid(speeds_m_s: Sequence[float] = DEFAULT_SPEEDS_M_S) -> FloatArray:
+    """The table's velocities (m/s): the speeds given, each in rebound (negative) and
+    compression, and 0, ascending; ConfigError without a finite non-zero speed."""
     s = np.asarray(sorted({abs(float(v)) for v in speeds_m_s if v != 0}), dtype=float)
     if s.size == 0 or not np.all(np.isfinite(s)):
         raise ConfigError("the velocity grid needs at least one finite non-zero speed")
@@ -275,6 +286,8 @@ def notes(t: ClickTable, units: Units) -> list[str]:
 
 
 def table_csv(t: ClickTable, units: Units, spec_name: str) -> str:
+    """The table as CSV in `units` (velocity, force, damping force, and a `measured` flag where
+    known), with comment lines on sign, gas force and extrapolation."""
     v = t.velocity_m_s / units.m_s_per_unit
     f = t.force_n / units.n_per_unit
     d = t.damping_force_n / units.n_per_unit
@@ -300,6 +313,8 @@ def table_csv(t: ClickTable, units: Units, spec_name: str) -> str:
 
 
 def table_teimorbit(t: ClickTable, units: Units, spec_name: str, version: str) -> str:
+    """The table as a TeimOrbit damper property file (Adams and similar) in `units`: damping
+    force against velocity, both signs flipped (extension positive there)."""
     # Extension (rebound) positive in the property file: flip both axes of ours.
     v = -t.velocity_m_s[::-1] / units.m_s_per_unit
     f = -t.damping_force_n[::-1] / units.n_per_unit

@@ -148,6 +148,8 @@ def table7_markdown(result: RideResult) -> str:
 
 
 def write_psd_csv(result: RideResult, path: Path) -> None:
+    """Write each run's body-acceleration PSD ((m/s²)²/Hz against Hz) as CSV, a row per run and
+    frequency."""
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["clicks", "road", "speed_kmh", "frequency_hz", "psd_m2_s4_per_hz"])

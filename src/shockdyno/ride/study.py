@@ -84,6 +84,11 @@ def paper_rms(clicks: int | None, road: str, speed_kmh: float) -> float | None:
 
 @dataclass(frozen=True)
 class RideConfig:
+    """The ride study's grid and settings: clicks, ISO 8608 road classes, speeds (km/h), the
+    quarter car, duration and warm-up (s), time step (s), the road's band (rad/m) and waviness,
+    the seed, a linear damper (N·s/m) in place of the fitted one, the proposed or Talbott model,
+    the step check, the damper's travel (m) and the PSD's limits."""
+
     clicks: tuple[int, ...] = (5, 10, 15)
     roads: tuple[str, ...] = ("A", "B", "C", "D", "E")
     speeds_kmh: tuple[float, ...] = (20.0, 60.0, 80.0, 120.0)
@@ -106,13 +111,17 @@ class RideConfig:
 
     @property
     def n_steps(self) -> int:
+        """Time steps recorded per run (after the warm-up)."""
         return round(self.duration_s / self.dt_s)
 
     @property
     def n_warmup(self) -> int:
+        """Time steps of warm-up per run (not recorded)."""
         return round(self.warmup_s / self.dt_s)
 
     def validate(self) -> None:
+        """ConfigError naming the first setting out of range (road class, speed, step, duration,
+        warm-up, waviness, linear rate, travel, model, PSD limit)."""
         self.car.validate()
         if not self.roads or not self.speeds_kmh or not self.clicks:
             raise ConfigError("the grid needs at least one road, one speed and one click setting")
@@ -147,17 +156,24 @@ class RideConfig:
 
 @dataclass(frozen=True)
 class Run:
+    """One run of the grid: clicks (None: the linear damper), road class and speed (km/h)."""
+
     clicks: int | None  # None for the linear damper
     road: str
     speed_kmh: float
 
     @property
     def speed_m_s(self) -> float:
+        """The speed in m/s."""
         return self.speed_kmh / 3.6
 
 
 @dataclass
 class RideResult:
+    """A ride study's results per run: the trajectory, the body's RMS vertical acceleration
+    (m/s²), plain and ISO 2631-1 Wk-weighted, its PSD, the roads, the damper used, the step check
+    and the stable RK4 step (s), and the fit it came from."""
+
     config: RideConfig
     runs: list[Run]
     trajectory: Trajectory
@@ -176,9 +192,11 @@ class RideResult:
     fit_recording: RecordingRef | None = None
 
     def run_index(self, clicks: int | None, road: str, speed_kmh: float) -> int:
+        """The row of that run (ValueError when the grid has none)."""
         return self.runs.index(Run(clicks, road, float(speed_kmh)))
 
     def rms_of(self, clicks: int | None, road: str, speed_kmh: float) -> float:
+        """The body's RMS vertical acceleration (m/s²) of that run."""
         return float(self.rms_m_s2[self.run_index(clicks, road, speed_kmh)])
 
     def rms_wk_of(self, clicks: int | None, road: str, speed_kmh: float) -> float:
@@ -288,6 +306,7 @@ class RideResult:
         )
 
     def to_json(self) -> dict[str, object]:
+        """The RIDE.json document (`doc()`), as JSON values."""
         out: dict[str, object] = to_json(self.doc())
         return out
 

@@ -39,6 +39,10 @@ STATUS_NAMES = ("status_word", "fault_code", "position_actual", "force_actual", 
 
 @dataclass(frozen=True)
 class ActuatorStatus:
+    """One read of the drive: the status word and its named bits, the fault code and its text,
+    the ram's absolute position (m), the drive's own load (N) and cycle count where it has those
+    registers, and any setpoints read back with it."""
+
     word: int
     bits: dict[str, bool]
     fault_code: int
@@ -62,9 +66,12 @@ class ActuatorStatus:
 
     @property
     def target_reached(self) -> bool:
+        """Whether the drive says it reached its target (the hold-mode move's position)."""
         return self.bits.get("target_reached", False)
 
     def fields(self) -> dict[str, float | int | bool]:
+        """The status as flat named values (word, fault code, position, each bit, and force and
+        cycle count where read), as the recording's actuator channel stores them."""
         out: dict[str, float | int | bool] = {
             "status_word": self.word,
             "fault_code": self.fault_code,
@@ -112,6 +119,7 @@ class ModbusActuator:
 
     # -- transport ---------------------------------------------------------------------
     def connect(self) -> None:
+        """Open the TCP or RTU transport; RigFault naming the endpoint when it cannot."""
         try:
             ok = self._client.connect()
         except (ModbusException, OSError) as exc:
@@ -120,6 +128,7 @@ class ModbusActuator:
             raise RigFault(f"{self.rig.actuator.describe()}: cannot connect")
 
     def close(self) -> None:
+        """Release the transport (under the request lock: never mid-request)."""
         with self._lock:
             self._client.close()  # type: ignore[no-untyped-call]
 
@@ -139,12 +148,16 @@ class ModbusActuator:
 
     # -- registers ---------------------------------------------------------------------
     def read_words(self, address: int, count: int) -> list[int]:
+        """`count` raw holding registers from `address` (FC3); RigFault on any failure or
+        refusal."""
         rr = self._call(
             f"read {count} at {address}", self._client.read_holding_registers, address, count=count
         )
         return list(rr.registers)
 
     def read(self, names: Iterable[str]) -> dict[str, float]:
+        """The named registers' engineering values (SI, or counts), in one read of the span they
+        cover."""
         names = list(names)
         lo, count = span_of(self.map, names)
         values = decode_span(self.map, lo, self.read_words(lo, count), names)
@@ -152,6 +165,8 @@ class ModbusActuator:
         return values
 
     def write(self, values: Mapping[str, float]) -> None:
+        """Write each named register's engineering value (FC16, one request a register, in
+        order)."""
         for name, value in values.items():
             reg = self.map[name]
             words = encode(reg, value, self.map.word_order)
@@ -200,8 +215,11 @@ class ModbusActuator:
         )
 
     def beat(self) -> None:
+        """Feed the drive's watchdog: write the next heartbeat count (wraps at 16 bits)."""
         self._heartbeat = (self._heartbeat + 1) & 0xFFFF
         self.write({"heartbeat": self._heartbeat})
 
     def set_mode(self, mode: str) -> None:
+        """Write the drive's mode by name (`hold`, `sine`, ..., as the rig file's `modes` number
+        them)."""
         self.write({"mode": self.map.modes[mode]})

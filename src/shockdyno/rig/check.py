@@ -44,6 +44,7 @@ class Finding:
     note: str = ""
 
     def as_dict(self) -> dict[str, object]:  # `rig check --json`
+        """The finding as `rig check --json` writes it."""
         return {"what": self.what, "value": self.value, "ok": self.ok, "note": self.note}
 
 
@@ -63,6 +64,8 @@ class DaqListen:
 
 @dataclass
 class CheckResult:
+    """`rig check`'s result: one Finding a line for the drive and for the DAQ."""
+
     rig: str
     source: str
     drive: list[Finding] = field(default_factory=list)
@@ -70,13 +73,16 @@ class CheckResult:
 
     @property
     def problems(self) -> list[str]:
+        """One line for each finding that is not fine for a sweep."""
         return [f"{f.what}: {f.note or f.value}" for f in (*self.drive, *self.daq) if not f.ok]
 
     @property
     def ok(self) -> bool:
+        """Whether nothing the check read stands in a sweep's way."""
         return not self.problems
 
     def as_dict(self) -> dict[str, object]:  # `rig check --json`
+        """The result as `rig check --json` writes it."""
         return {
             "rig": self.rig,
             "source": self.source,

@@ -101,6 +101,9 @@ DEFAULT_FAULT_CODES = {
 
 @dataclass(frozen=True)
 class Register:
+    """One register of the drive: its address, type (uint16, int32, float32), the scale from raw
+    to engineering value (value = raw × scale; SI or a count), and whether the host writes it."""
+
     name: str
     address: Port
     type: RegisterType
@@ -109,11 +112,16 @@ class Register:
 
     @property
     def width(self) -> int:
+        """The register's width in 16-bit words (1 or 2)."""
         return REGISTER_WIDTH[self.type]
 
 
 @dataclass(frozen=True)
 class RegisterMap:
+    """The drive's register map as the rig file declares it: the registers by name, the word
+    order of 32-bit values, the control and status bit numbers, the mode numbers and the fault
+    codes' texts."""
+
     registers: dict[str, Register]
     word_order: Literal["big", "little"] = "big"  # which 16-bit word of a 32-bit value comes first
     control_bits: dict[str, Bit] = field(default_factory=lambda: dict(DEFAULT_CONTROL_BITS))
@@ -135,11 +143,15 @@ class RegisterMap:
         return lo, hi - lo
 
     def fault_text(self, code: int) -> str:
+        """The text of a drive fault code (`fault code N` for one the rig file does not name)."""
         return self.fault_codes.get(code, f"fault code {code}")
 
 
 @dataclass(frozen=True)
 class ModbusTransport:
+    """How the drive is reached: Modbus TCP (host, port) or RTU (serial port, baud rate, parity,
+    stop bits), its device id and the timeout of every request (s)."""
+
     kind: Literal["tcp", "rtu"]  # the file's `transport`
     host: NonEmpty = "127.0.0.1"
     port: Port = 502
@@ -151,6 +163,7 @@ class ModbusTransport:
     timeout_s: Positive = 0.3
 
     def describe(self) -> str:
+        """The endpoint for messages: `modbus tcp://HOST:PORT` or `modbus rtu PORT @BAUD`."""
         if self.kind == "tcp":
             return f"modbus tcp://{self.host}:{self.port}"
         return f"modbus rtu {self.serial_port} @{self.baudrate}"
@@ -170,6 +183,10 @@ class Calibration:
 
 @dataclass(frozen=True, kw_only=True)
 class DaqConfig:
+    """The serial DAQ ([daq]): its pyserial URL, sample rate (Hz), calibration from counts to SI,
+    link speed, the trips on a frozen stream or a gap, the frame loss a test may have, and each
+    sensor's plausible range (readings outside are refused)."""
+
     url: NonEmpty
     sample_rate_hz: Positive
     calibration: Calibration
@@ -213,6 +230,9 @@ MAX_WATCHDOG_S = 5.0  # a longer drive watchdog leaves a dead host's ram moving 
 
 @dataclass(frozen=True)
 class Limits:
+    """The rig file's test limits: travel (m from stroke centre), force (N), velocity (m/s) and
+    temperature (°C); the run-time trips sit `trip_margin` beyond them."""
+
     travel_m: Positive  # largest |displacement| from stroke centre
     force_n: Positive
     velocity_m_s: Positive
@@ -222,6 +242,9 @@ class Limits:
 
 @dataclass(frozen=True)
 class RampConfig:
+    """How the ram moves gently: sine amplitude ramped in and out over whole cycles, hold-mode
+    moves at `move_velocity_m_s` (m/s), a controlled stop over `stop_time_s` (s)."""
+
     sine_ramp_cycles: Annotated[int, Meta(ge=1, le=100)] = 1  # amplitude ramps over these cycles
     move_velocity_m_s: Positive = 0.01  # speed of moves in hold mode (to centre, parking)
     stop_time_s: Positive = 0.5  # controlled stop: amplitude ramps to zero over this time
@@ -238,12 +261,19 @@ class VerifyConfig:
 
 @dataclass(frozen=True)
 class HeartbeatConfig:
+    """The drive's watchdog: the host writes a heartbeat every `period_s` (s); the drive stops
+    and disables itself when none comes within `timeout_s` (s)."""
+
     period_s: Positive = 0.1
     timeout_s: Positive = 0.5
 
 
 @dataclass(frozen=True)
 class RigConfig:
+    """One rig file, checked: the drive's transport and register map, the DAQ, the limits, the
+    stroke centre (m, absolute ram position), how the adjuster is set (motorised or an operator),
+    ramps, heartbeat, the drive's poll period (s) and how closely a test must match its plan."""
+
     name: str
     source: str  # file the config came from (for messages)
     actuator: ModbusTransport
@@ -262,11 +292,14 @@ class RigConfig:
 
     @property
     def sample_rate_hz(self) -> float:
+        """The DAQ's sample rate (Hz): a recording's time base."""
         return self.daq.sample_rate_hz
 
     def with_endpoints(
         self, *, host: str | None = None, port: int | None = None, daq_url: str | None = None
     ) -> RigConfig:
+        """A copy with the drive reached at another TCP host or port (which makes it TCP) and/or
+        the DAQ at another URL."""
         act = self.actuator
         if host is not None or port is not None:
             act = replace(

@@ -79,25 +79,32 @@ class SerialDaq:
 
     @property
     def dropped_frames(self) -> int:
+        """Frames the sequence numbers show were never received (since open)."""
         return self._decoder.dropped_frames
 
     @property
     def corrupt_frames(self) -> int:
+        """Frames refused by their CRC (since open)."""
         return self._decoder.corrupt_frames
 
     @property
     def rejected_frames(self) -> int:
+        """Frames that passed the CRC but not a plausibility check (since open)."""
         return self._decoder.rejected_frames
 
     @property
     def garbage_bytes(self) -> int:
+        """Bytes skipped outside any good frame (since open)."""
         return self._decoder.garbage_bytes
 
     @property
     def frames(self) -> int:
+        """Good frames decoded (since open)."""
         return self._decoder.frames
 
     def read_bytes(self) -> bytes:
+        """The bytes the port has now, or within its short timeout; RigFault when closed or the
+        link is lost."""
         if self._closed:
             raise RigFault(f"DAQ {self.config.url}: closed")
         try:
@@ -115,6 +122,7 @@ class SerialDaq:
         return calibrate(raw, self.config.calibration, self.sample_rate_hz, self._centre)
 
     def close(self) -> None:
+        """Close the port (once; errors on close ignored)."""
         if not self._closed:
             self._closed = True
             with contextlib.suppress(serial.SerialException, OSError):

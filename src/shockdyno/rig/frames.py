@@ -165,6 +165,9 @@ class FrameDecoder:
         return self._last_seq
 
     def feed(self, data: bytes) -> RawFrames:
+        """Decode the next bytes of the stream: the good frames now complete, as raw counts (a
+        partial frame is kept for the next call); counts lost, damaged and implausible frames and
+        skipped bytes."""
         buf = self._tail + data if self._tail else bytes(data)
         n = len(buf)
         if n < FRAME_LEN:

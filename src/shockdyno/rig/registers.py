@@ -50,6 +50,7 @@ def decode_span(
 
 
 def span_of(rm: RegisterMap, names: Iterable[str]) -> tuple[int, int]:
+    """(first address, number of registers) of the smallest block covering the named registers."""
     regs = [rm[n] for n in names]
     lo = min(r.address for r in regs)
     hi = max(r.address + r.width for r in regs)

@@ -38,6 +38,10 @@ LOADED_SHARE = 0.005
 
 @dataclass(frozen=True)
 class Tare:
+    """One tare reading with the drive disabled: the load cell's mean (N, with the rig file's
+    calibration) and its sample-to-sample sd, the samples read, the offset the rig file has now,
+    the ram's sd (m) over the reading, and the reading beyond which it is a load, not a zero."""
+
     mean_n: float  # what the load cell reads now, with the rig file's calibration
     sd_n: float  # sample-to-sample noise
     samples: int
@@ -47,6 +51,8 @@ class Tare:
 
     @property
     def loaded(self) -> bool:
+        """Whether the reading is too large to be a zero error (a mounted damper or a hanging
+        load)."""
         return abs(self.mean_n) > self.loaded_above_n
 
     def load_text(self) -> str:
@@ -71,9 +77,12 @@ class Tare:
 
     @property
     def new_offset_n(self) -> float:
+        """The `force_offset_n` that reads the load cell's zero as 0 N: the old offset less the
+        mean."""
         return self.old_offset_n - self.mean_n
 
     def line(self) -> str:
+        """The rig file's line with the new offset (`force_offset_n = ...`, N)."""
         return f"{KEY} = {self.new_offset_n:.3f}"
 
 

@@ -10,6 +10,9 @@ from shockdyno.samples import SampleBlock
 
 @runtime_checkable
 class Daq(Protocol):
+    """A DAQ: samples (force, displacement, temperature, status) on its own clock at
+    `sample_rate_hz`, and counts of what it lost."""
+
     sample_rate_hz: float
 
     def read(self) -> SampleBlock:
@@ -17,16 +20,22 @@ class Daq(Protocol):
         ...
 
     @property
-    def dropped_frames(self) -> int: ...
+    def dropped_frames(self) -> int:
+        """Frames the DAQ's sequence numbers show were never received."""
 
     @property
-    def corrupt_frames(self) -> int: ...
+    def corrupt_frames(self) -> int:
+        """Frames refused as damaged."""
 
-    def close(self) -> None: ...
+    def close(self) -> None:
+        """Release the link."""
 
 
 @runtime_checkable
 class Adjuster(Protocol):
+    """Sets the damper's adjuster clicks before a test: a motor through the drive's registers, or
+    an operator prompted."""
+
     def set_clicks(self, rod_clicks: int, gas_clicks: int) -> None:
         """Set the damper's adjusters (a motor, or an operator prompt that waits)."""
 

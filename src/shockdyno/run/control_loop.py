@@ -57,6 +57,8 @@ class DaqBudget:
             self._t_start, self._wall_start = t, self._clock()
 
     def spent(self, t: float) -> bool:
+        """Whether the wait's time is up at DAQ time `t` (s): its seconds on the DAQ clock since
+        the backlog was read, and MIN_WALL_S of host time."""
         return t - self._t_start > self.seconds and self._clock() - self._wall_start > MIN_WALL_S
 
 
@@ -79,11 +81,15 @@ class ControlLoop:
         self.on_actuator: ActuatorSink | None = None
 
     def act(self) -> ModbusActuator:
+        """The connected drive; RigFault when the session is not open (before connecting, or
+        closed)."""
         if self.actuator is None or self._state.closed:
             raise RigFault("rig session is not open")
         return self.actuator
 
     def connected_daq(self) -> Daq:
+        """The connected DAQ; RigFault when the session is not open (before connecting, or
+        closed)."""
         if self.daq is None or self._state.closed:
             raise RigFault("rig session is not open")
         return self.daq
@@ -152,6 +158,8 @@ class ControlLoop:
         return st
 
     def emit_actuator(self, fields: dict[str, float | int | bool]) -> None:
+        """Send the drive's fields to the recording's actuator channel (if one is attached),
+        stamped with the DAQ time of the latest sample."""
         if self.on_actuator is not None:
             self.on_actuator(self.stream.t, fields)
 

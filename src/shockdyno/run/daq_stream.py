@@ -25,6 +25,10 @@ BlockSink = Callable[[SampleBlock], None]
 
 
 class DaqStream:
+    """The DAQ as the session's clock: each read updates the DAQ time (s), the displacement (m
+    from the stroke centre, compression positive), temperature (°C) and motion bit of the latest
+    sample, checks the limits on every sample, and hands the block to the recording."""
+
     def __init__(self, cfg: DaqConfig, limits: Limits, clock: Callable[[], float]) -> None:
         self.cfg = cfg
         self.clock = clock

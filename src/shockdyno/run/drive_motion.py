@@ -26,6 +26,10 @@ HOLD_TOLERANCE_M = 0.0005  # a hold has arrived when the DAQ's displacement is t
 
 
 class DriveMotion:
+    """The session's drive moves: enabling where the ram stands, hold-mode moves and holds, and
+    the stop sequence (stop command, wait stopped, fault reset, centre, disable), each wait
+    through the control loop."""
+
     def __init__(
         self, rig: RigConfig, loop: ControlLoop, state: SessionState, log: EventLog
     ) -> None:

@@ -13,6 +13,9 @@ EventSink = Callable[[float, str, str], None]
 
 
 class EventLog:
+    """The session's safety events in order, each sent to the attached sink (the recording) as it
+    happens."""
+
     def __init__(self, now: Callable[[], float]) -> None:
         self.events: list[SafetyEvent] = []
         self._now = now  # the session's DAQ time, for the events the log itself writes
@@ -36,6 +39,7 @@ class EventLog:
             )
 
     def record(self, ev: SafetyEvent) -> SafetyEvent:
+        """Keep the event and send it to the sink; returns it."""
         self.events.append(ev)
         self._send(ev)
         return ev

@@ -49,17 +49,26 @@ MAX_HYSTERESIS_N = 100.0  # half the difference of the two rests, beyond which i
 
 
 class Holder(Protocol):
+    """What the gas-force measurement needs of a session: move to an offset and hold still."""
+
     def hold_at(
         self,
         offset_m: float,
         velocity_m_s: float | None,
         dwell_s: float,
         on_block: Callable[[SampleBlock], None],
-    ) -> tuple[float, float]: ...
+    ) -> tuple[float, float]:
+        """Move at `velocity_m_s` (None: the rig's move velocity) to `offset_m` from the stroke
+        centre (+ compression), hold still for `dwell_s` of DAQ time, every sample to `on_block`;
+        returns the DAQ times (s) of arriving and of the hold's end."""
 
 
 @dataclass(frozen=True)
 class GasMeasurement:
+    """The static gas force at mid-stroke (N, positive pushing the rod out: resisting
+    compression): the mean of the forces at rest after arriving in compression and in rebound,
+    and the DAQ time (s) it ended."""
+
     force_n: float  # the static gas force at mid-stroke: the mean of the two rests
     after_compression_n: float  # at rest after arriving in compression
     after_rebound_n: float  # at rest after arriving in rebound
@@ -67,13 +76,18 @@ class GasMeasurement:
 
     @property
     def hysteresis_n(self) -> float:
+        """Half the difference of the two rests (N): friction and trapped oil, which their mean
+        cancels."""
         return (self.after_compression_n - self.after_rebound_n) / 2
 
     @property
     def usable(self) -> bool:
+        """Whether the rests agree within MAX_HYSTERESIS_N, so their mean is a gas force."""
         return abs(self.hysteresis_n) <= MAX_HYSTERESIS_N
 
     def message(self) -> str:
+        """One line for the log and the recording's events: the force, both rests, and why it is
+        not used where it is not."""
         text = (
             f"static gas force {self.force_n:.1f} N at mid-stroke (at rest after compression "
             f"{self.after_compression_n:.1f} N, after rebound {self.after_rebound_n:.1f} N)"

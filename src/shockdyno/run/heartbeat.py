@@ -20,6 +20,9 @@ from collections.abc import Callable
 
 
 class LoopHeartbeat:
+    """The drive's watchdog fed by the control loop itself: `feed` after every DAQ read beats
+    once a period has passed; counts the beats and the longest gap between two (s)."""
+
     def __init__(
         self,
         beat: Callable[[], None],
@@ -41,6 +44,8 @@ class LoopHeartbeat:
         self.feed()
 
     def stop(self) -> None:
+        """Stop beating at `feed` (the drive's watchdog then stops the ram unless disabled
+        first)."""
         self.active = False
 
     def feed(self) -> None:
@@ -58,6 +63,8 @@ class LoopHeartbeat:
         self.beats += 1
 
     def describe(self, watchdog_s: float) -> str:
+        """One line: the beats sent and the longest gap between two against the drive's watchdog
+        (ms)."""
         return (
             f"control loop: {self.beats} heartbeats, longest gap between two "
             f"{self.worst_gap_s * 1e3:.0f} ms (drive watchdog {watchdog_s * 1e3:.0f} ms)"

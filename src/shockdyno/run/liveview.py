@@ -179,6 +179,7 @@ class LiveView:
 
     # -- lifecycle -----------------------------------------------------------------------
     def start(self) -> None:
+        """Show the live display (on a terminal only; no-op when shown already)."""
         if self.interactive and self._live is None:
             self._live = Live(
                 Group(self._progress, _LiveLine(self)),
@@ -188,6 +189,7 @@ class LiveView:
             self._live.start()
 
     def stop(self) -> None:
+        """Take the live display down (no-op when not shown)."""
         if self._live is not None:
             self._live.stop()
             self._live = None
@@ -218,6 +220,7 @@ class LiveView:
 
     # -- per test --------------------------------------------------------------------------
     def start_test(self, meta: TestMeta) -> None:
+        """Begin a test's line: its clicks and frequency, fresh statistics."""
         self.start()
         self.current = meta
         self._progress.update(

@@ -122,11 +122,16 @@ def parse_base(items: Sequence[str], ranges: Mapping[str, int]) -> Setting:
 
 
 def point_key(clicks: int, gas_clicks: int, frequency_hz: float, setting: Setting) -> PointKey:
+    """A test's identity in a sweep (clicks, gas clicks, frequency, adjuster setting), as a
+    resumed sweep matches what is done."""
     return (clicks, gas_clicks, frequency_hz, tuple(sorted(setting)))
 
 
 @dataclass(frozen=True)
 class SweepPoint:
+    """One planned test: rod clicks, gas-bottle clicks, frequency (Hz), and each named adjuster's
+    clicks where the damper has several."""
+
     clicks: int
     gas_clicks: int
     frequency_hz: float
@@ -134,6 +139,7 @@ class SweepPoint:
 
     @property
     def key(self) -> PointKey:
+        """The point's identity (`point_key`)."""
         return point_key(self.clicks, self.gas_clicks, self.frequency_hz, self.adjusters)
 
 
@@ -170,6 +176,11 @@ def parse_adjust(
 
 @dataclass(frozen=True)
 class SweepPlan:
+    """A sweep: which clicks (or adjuster settings, one at a time or factorial) at which
+    frequencies (Hz), the amplitude (m), warm-up and measured cycles, a temperature band (°C) to
+    wait for, the gas charge (Pa, absolute), whether to measure the gas force at each click
+    change, and constant-velocity strokes instead of sines."""
+
     clicks: tuple[int, ...]
     frequencies_hz: tuple[float, ...] = DEFAULT_FREQUENCIES_HZ
     amplitude_m: float = DEFAULT_AMPLITUDE_M
@@ -216,6 +227,7 @@ class SweepPlan:
 
     @property
     def waveform(self) -> str:
+        """The tests' waveform: `sine`, or the strokes' (`triangle`, `trapezoid`)."""
         return self.strokes[0].waveform if self.strokes else WAVEFORMS[0]
 
     def stroke(self, frequency_hz: float) -> Stroke | None:
@@ -259,4 +271,5 @@ class SweepPlan:
         return [SweepPoint(c, self.gas_clicks, f) for c in self.clicks for f in self.frequencies_hz]
 
     def remaining(self, done: set[PointKey]) -> list[SweepPoint]:
+        """The planned tests not in `done` (keys), in plan order: what a resumed sweep runs."""
         return [p for p in self.points() if p.key not in done]

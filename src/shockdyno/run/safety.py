@@ -21,6 +21,9 @@ VELOCITY_WINDOW = 5  # samples
 
 @dataclass(frozen=True)
 class SafetyEvent:
+    """Something safety did or saw, at DAQ time `t_s` (s): its kind (`travel`, `force`,
+    `link_lost`, `enable`, ...) and a one-line message."""
+
     t_s: float  # DAQ time of the event (the last sample seen when it was not a sample)
     kind: str
     message: str
@@ -35,6 +38,9 @@ class SafetyTrip(RigFault):
 
 
 class LimitMonitor:
+    """Checks every sample against the trips: |displacement|, |force| and |velocity| (from a
+    short window of samples) beyond the limits plus `trip_margin`, temperature above its limit."""
+
     def __init__(self, limits: Limits) -> None:
         self.limits = limits
         m = 1.0 + limits.trip_margin
@@ -45,6 +51,7 @@ class LimitMonitor:
         self._t_hist = np.zeros(0)
 
     def reset(self) -> None:
+        """Forget the samples carried for the velocity window (a new stream starts)."""
         self._x_hist = np.zeros(0)
         self._t_hist = np.zeros(0)
 

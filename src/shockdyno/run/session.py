@@ -111,6 +111,11 @@ def exit_reason(exc: BaseException | None) -> str:
 
 
 class RigSession:
+    """The one place safety lives: connects the Modbus drive and the serial DAQ of a rig file,
+    checks every sample against the limits, feeds the drive's watchdog from the loop that reads
+    the samples, and on every way out (exception, signal, close) stops, centres and disables the
+    ram. A context manager: entering connects, runs the preflight checks and enables."""
+
     def __init__(
         self,
         rig: RigConfig,
@@ -142,14 +147,17 @@ class RigSession:
 
     @property
     def enabled(self) -> bool:
+        """Whether this session holds the drive enabled (enabled or moving)."""
         return self._state.armed
 
     @property
     def actuator(self) -> ModbusActuator | None:
+        """The drive driver (None until the session is entered)."""
         return self._loop.actuator
 
     @property
     def daq(self) -> Daq | None:
+        """The DAQ (None until the session is entered)."""
         return self._loop.daq
 
     @property
@@ -159,6 +167,7 @@ class RigSession:
 
     @property
     def events(self) -> list[SafetyEvent]:
+        """The session's safety events so far, in order."""
         return self._log.events
 
     def record_events(self, sink: EventSink | None) -> None:
@@ -230,6 +239,8 @@ class RigSession:
 
     # -- adjusters and waits on a person -------------------------------------------------
     def set_clicks(self, rod_clicks: int, gas_clicks: int) -> None:
+        """Set the rod adjuster and the gas bottle: written and read back on a motorised rig, or
+        the drive disabled while an operator is prompted to set them."""
         _check_clicks({"rod_clicks": rod_clicks, "gas_clicks": gas_clicks})
         self._state.require("adjust", "set_clicks")
         if self.rig.adjuster == "motorised":
@@ -291,6 +302,8 @@ class RigSession:
 
     @_stops_on_interrupt
     def read_temperature_c(self) -> float:
+        """The damper's temperature (°C) at the latest sample, the DAQ's backlog read first
+        (limits checked); RigFault before any temperature."""
         self._state.require("read", "read_temperature_c")
         self._loop.catch_up(check=True)
         if math.isnan(self._stream.temp):

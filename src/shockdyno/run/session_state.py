@@ -26,6 +26,9 @@ from shockdyno.errors import RigFault
 
 
 class State(enum.Enum):
+    """The session's states: idle (connected, drive not enabled), enabled, moving (a sine or a
+    move), parked (disabled for a wait on a person), closed."""
+
     IDLE = "idle"
     ENABLED = "enabled"
     MOVING = "moving"
@@ -60,6 +63,9 @@ ALLOWED: dict[str, frozenset[State]] = {
 
 
 class SessionState:
+    """The session's present state, the reason the drive was last disabled, and the checks of
+    every call and transition against the tables."""
+
     def __init__(self) -> None:
         self.state = State.IDLE
         self.disarm_reason = ""  # why the drive was last disabled (or closed)
@@ -71,6 +77,7 @@ class SessionState:
 
     @property
     def closed(self) -> bool:
+        """Whether the session is closed (every call refused from now on)."""
         return self.state is State.CLOSED
 
     def require(self, kind: str, call: str) -> None:
@@ -80,6 +87,8 @@ class SessionState:
         raise StateError(f"{call} refused: {self.describe()}")
 
     def describe(self) -> str:
+        """The state in words, with the reason the drive was last disabled, for a refusal's
+        message."""
         why = f" ({self.disarm_reason})" if self.disarm_reason else ""
         return {
             State.IDLE: "the actuator is not enabled"

@@ -26,7 +26,11 @@ SETTLE_S = 0.05  # DAQ time allowed after a profile's end for the drive to repor
 
 @dataclass
 class SineOutcome:
-    status: str  # "complete" | "aborted"
+    """How one test ended: `complete`, `degraded` (ran, but not as planned or lossy) or
+    `aborted`, why, the DAQ times (s) of its measured cycles, start and end, the frames lost and
+    damaged in it, its safety events, and whether the sweep must stop."""
+
+    status: str  # "complete" | "degraded" | "aborted"
     reason: str
     measured_start_s: float | None  # DAQ time of the first measured cycle (None: never reached)
     measured_end_s: float | None
@@ -42,6 +46,9 @@ class SineOutcome:
 
 @dataclass(frozen=True)
 class SinePlan:
+    """One test's motion: amplitude (m), frequency (Hz), warm-up and measured cycles, and a
+    constant-velocity stroke instead of the sine (None: a sine)."""
+
     amplitude_m: float
     frequency_hz: float
     warmup_cycles: int
@@ -49,6 +56,7 @@ class SinePlan:
     waveform: Stroke | None = None
 
     def describe(self) -> str:
+        """The test in words (`sine 25 mm at 1 Hz`, or the stroke's velocity and reversals)."""
         a, f, w = self.amplitude_m, self.frequency_hz, self.waveform
         if w is None:
             return f"sine {a * 1e3:g} mm at {f:g} Hz"
@@ -82,6 +90,9 @@ def waveform_setpoints(rig: RigConfig, waveform: Stroke | None) -> dict[str, flo
 
 
 class SineRun:
+    """One test run on the drive's function generator: setpoints written and read back, the
+    start, t0 from the motion bit, the ramp-out, and the verdict on its samples."""
+
     def __init__(
         self, rig: RigConfig, loop: ControlLoop, motion: DriveMotion, log: EventLog, plan: SinePlan
     ) -> None:
@@ -96,6 +107,8 @@ class SineRun:
         self._dropped0 = self._corrupt0 = 0
 
     def run(self, on_block: BlockSink, on_actuator: ActuatorSink | None) -> SineOutcome:
+        """Run the test, every sample to `on_block` and the commands to `on_actuator`; a RigFault
+        (a trip, a lost link) becomes an aborted outcome, the controlled stop made."""
         loop = self._loop
         daq = loop.connected_daq()
         n_events = len(self._log.events)

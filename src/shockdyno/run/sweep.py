@@ -36,7 +36,11 @@ class _Outcome(Protocol):
 
 
 class Session(Holder, Adjuster, Protocol):  # Holder: hold_at, for the gas-force measurement
-    def read_temperature_c(self) -> float: ...
+    """What the sweep runner needs of a rig session: set the adjusters, read the temperature,
+    park the drive for a wait, hold still (the gas force), and run one test."""
+
+    def read_temperature_c(self) -> float:
+        """The damper's temperature now (°C)."""
 
     def parked(self, why: str) -> AbstractContextManager[None]:
         """The drive disabled for a wait on a person (or the damper's temperature)."""
@@ -51,31 +55,49 @@ class Session(Holder, Adjuster, Protocol):  # Holder: hold_at, for the gas-force
         on_block: Callable[[SampleBlock], None],
         on_actuator: Callable[[float, dict[str, float | int | bool]], None] | None = None,
         waveform: Stroke | None = None,  # a constant-velocity stroke instead of the sine
-    ) -> _Outcome: ...
+    ) -> _Outcome:
+        """Run one test (a sine, or the constant-velocity `waveform`) of the given amplitude (m)
+        and frequency (Hz), every sample to `on_block`; its outcome (complete, degraded,
+        aborted)."""
 
 
 class Writer(Protocol):
-    def begin_test(self, meta: TestMeta) -> None: ...
+    """Where a sweep's data go (the recording, or the recording and a live viewer)."""
 
-    def write_samples(self, block: SampleBlock) -> None: ...
+    def begin_test(self, meta: TestMeta) -> None:
+        """Open a test (its metadata as planned)."""
 
-    def write_actuator(self, t_s: float, fields: dict[str, float | int | bool | str]) -> None: ...
+    def write_samples(self, block: SampleBlock) -> None:
+        """Store a block of the test's samples."""
 
-    def write_event(self, t_s: float, kind: str, message: str) -> None: ...
+    def write_actuator(self, t_s: float, fields: dict[str, float | int | bool | str]) -> None:
+        """Store the drive's fields at DAQ time `t_s` (s)."""
 
-    def end_test(self, meta: TestMeta) -> None: ...
+    def write_event(self, t_s: float, kind: str, message: str) -> None:
+        """Store a session event at DAQ time `t_s` (s)."""
+
+    def end_test(self, meta: TestMeta) -> None:
+        """Close a test with its final metadata (status, measured window)."""
 
 
 class View(Protocol):
-    def start_test(self, meta: TestMeta) -> None: ...
+    """The operator's view of a running sweep (progress bar and live line)."""
 
-    def update(self, block: SampleBlock, dropped_frames: int = 0) -> None: ...
+    def start_test(self, meta: TestMeta) -> None:
+        """A test begins."""
 
-    def end_test(self, meta: TestMeta) -> object: ...
+    def update(self, block: SampleBlock, dropped_frames: int = 0) -> None:
+        """The test's newest samples, and the frames lost so far."""
+
+    def end_test(self, meta: TestMeta) -> object:
+        """A test ended; returns what the view summarises of it."""
 
 
 @dataclass
 class SweepResult:
+    """The tests of a sweep by how they ended (complete, aborted, degraded), and why the sweep
+    stopped ("" if it ran to the end)."""
+
     completed: list[TestMeta] = field(default_factory=list)
     aborted: list[TestMeta] = field(default_factory=list)
     degraded: list[TestMeta] = field(default_factory=list)  # ran, but not as planned or lossy
@@ -121,6 +143,11 @@ def run_sweep(
     log: Callable[[str], None] = print,
     temperature_timeout_s: float = 1800.0,
 ) -> SweepResult:
+    """Run `plan`'s remaining tests on `session` (points in `done` skipped; test indices from
+    `first_index`), each recorded through `writer` and shown in `view`: clicks set at each
+    change, the temperature band waited for, the gas force measured. A degraded test is logged
+    and the sweep goes on; an aborted one (or one whose motion did not match its plan) stops it
+    with RigFault after it is recorded."""
     result = SweepResult()
     index = first_index
     setting = _Setting()

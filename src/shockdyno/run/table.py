@@ -11,6 +11,8 @@ TABLE_VELOCITIES_M_S = (-0.3, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.3)
 
 
 def click_table(spec: DamperSpec, gas_clicks: int = 0) -> Table:
+    """The model's force (N, gas force included, compression positive) at ±0.05-0.3 m/s at
+    mid-stroke, and both bleed areas (mm²), for every rod click at `gas_clicks`: a rich table."""
     v = np.array(TABLE_VELOCITIES_M_S)
     zero = np.zeros_like(v)
     # Raw force, as a load cell reads it: the sweep's lines and the reports show damping

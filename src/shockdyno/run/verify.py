@@ -31,6 +31,9 @@ MAX_KEPT_SAMPLES = 1_000_000
 
 @dataclass(frozen=True)
 class MeasuredSine:
+    """The motion a test actually made: frequency (Hz), amplitude (m) and centre (m from the
+    stroke centre)."""
+
     frequency_hz: float
     amplitude_m: float
     centre_m: float  # relative to the stroke centre
@@ -130,6 +133,8 @@ class CycleExtremes:
         self.bottom = np.full(n, np.inf)
 
     def add(self, t: NDArray[np.float64], x: NDArray[np.float64]) -> None:
+        """Count the samples and keep the highest and lowest displacement of each whole cycle
+        they fall in."""
         n = self.count.size
         if not n or not t.size:
             return
@@ -159,11 +164,16 @@ class CycleExtremes:
 
 
 def frame_loss(lost: int, expected: int) -> float:
+    """The share of `expected` frames that were `lost` (inf when none were expected but some
+    lost)."""
     return lost / expected if expected > 0 else (math.inf if lost else 0.0)
 
 
 @dataclass(frozen=True)
 class Judgement:
+    """A finished test judged by its samples: `complete` or `degraded`, why, the event to log,
+    and whether the sweep must stop."""
+
     status: str  # "complete" | "degraded"
     reason: str
     event: str | None  # the safety event to log ("plan_mismatch", "degraded"), if any
@@ -184,6 +194,8 @@ class RunKeeper:
         self.cycles: CycleExtremes | None = None
 
     def add(self, block: SampleBlock) -> None:
+        """Keep a block (the oldest let go beyond `keep` samples) and add it to the cycles'
+        extremes."""
         if not len(block):
             return
         self.samples += len(block)
@@ -204,6 +216,7 @@ class RunKeeper:
 
     @property
     def tail(self) -> SampleBlock:
+        """The samples kept (the whole run unless `trimmed`)."""
         return SampleBlock.concat(list(self._blocks)) if self._blocks else SampleBlock.empty()
 
 

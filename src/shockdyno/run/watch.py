@@ -15,6 +15,9 @@ from shockdyno.run.safety import SafetyEvent, SafetyTrip
 
 
 class DriveWatch:
+    """The setpoints this session wrote and the running state a sine must keep, checked at every
+    status poll: a difference is a trip."""
+
     def __init__(self) -> None:
         self.setpoints: dict[str, float] = {}  # register -> the value this session wrote
         # DAQ time until which a running sine must keep the drive's running bit, and the
@@ -23,9 +26,13 @@ class DriveWatch:
         self.running_cycles = 0.0
 
     def expect(self, values: dict[str, float]) -> None:
+        """Note setpoints the host wrote (register → engineering value), to be read back at every
+        poll."""
         self.setpoints.update(values)
 
     def sine_running(self, until: float | None, cycles: float = 0.0) -> None:
+        """Note that a sine must keep the drive running until DAQ time `until` (s; None: no sine)
+        and count `cycles`."""
         self.running_until = until
         self.running_cycles = cycles
 

@@ -45,17 +45,23 @@ START_TOLERANCE_M = 0.002
 
 @dataclass
 class Knots:
+    """A piecewise-linear function of sim time (s), held constant before the first knot and after
+    the last."""
+
     t: list[float]
     y: list[float]
 
     def at(self, t: FloatArray) -> FloatArray:
+        """The function's values at the times `t` (s)."""
         return np.asarray(np.interp(t, self.t, self.y), np.float64)
 
     def value(self, t: float) -> float:
+        """The function's value at one time `t` (s)."""
         return float(np.interp(t, self.t, self.y))
 
     @property
     def end(self) -> float:
+        """The last knot's time (s)."""
         return self.t[-1]
 
     def integral(self, t: FloatArray) -> FloatArray:
@@ -73,6 +79,7 @@ class Knots:
 
     @staticmethod
     def const(t: float, y: float) -> Knots:
+        """`y` from time `t` on (one knot)."""
         return Knots([t], [y])
 
     def ramp_to(self, t: float, target: float, rate: float) -> Knots:
@@ -86,6 +93,10 @@ class Knots:
 
 @dataclass
 class DriveParams:
+    """The simulated drive's own properties: stroke centre (m, absolute), travel either side of
+    it (m), force capacity (N), velocity limit (m/s), stop and quick-stop ramp times (s), the
+    most acceleration a reversal may ask (m/s²)."""
+
     centre_m: float
     travel_m: float
     force_capacity_n: float
@@ -97,6 +108,10 @@ class DriveParams:
 
 @dataclass
 class SimDrive:
+    """The simulated drive: the registers the host sets, its state (enabled, fault code, mode)
+    and the commanded motion profile as knots of sim time, evaluated for a whole batch of samples
+    at once."""
+
     params: DriveParams
     position_m: float  # last actual position (absolute)
     enabled: bool = False
@@ -135,6 +150,8 @@ class SimDrive:
 
     # -- the profile -------------------------------------------------------------------
     def command(self, t: FloatArray) -> FloatArray:
+        """The commanded ram position (m, absolute) at each sim time `t` (s): base plus the sine
+        (or the constant-velocity stroke)."""
         x = self.base.at(t)
         if self.cv_constant is not None:
             phase = self.phase0 + self.rate.integral(t)
@@ -149,9 +166,12 @@ class SimDrive:
         return (t >= self.t0) & (t < self.sine_end)
 
     def running(self, t: float) -> bool:
+        """Whether a profile (a sine, a stroke, a hold-mode move) is still under way at `t` (s)."""
         return t < self.sine_end or t < self.base.end
 
     def cycle_count(self, t: float) -> int:
+        """Full cycles the sine has run by `t` (s), ramps included; a stopped sine counts no
+        further than its stop."""
         if self.sine_end < 0:
             return 0
         # Cycles run: a stopped sine counts no further than its stop.
@@ -194,6 +214,8 @@ class SimDrive:
             self.target_m = x
 
     def trip(self, code: int, t: float, *, disable: bool = False) -> None:
+        """Set a fault code (the first one stays) and make the quick stop; with `disable`,
+        disable shortly after the stop ends."""
         if self.fault_code:
             return
         self.fault_code = code
@@ -208,6 +230,7 @@ class SimDrive:
             self.disable(t)
 
     def enable(self, t: float) -> None:
+        """Enable where the ram stands (nothing moves)."""
         if not self.enabled:
             self.enabled = True
             self.base = Knots.const(t, self.position_m)
@@ -215,6 +238,7 @@ class SimDrive:
             self.target_m = self.position_m
 
     def disable(self, t: float) -> None:
+        """Disable and lock the ram where it is (a profile under way ends at once)."""
         # A real drive locks the ram where it is: the host must stop and centre first.
         self.enabled = False
         self.disable_at = None
@@ -225,6 +249,8 @@ class SimDrive:
         self.target_m = self.position_m
 
     def move(self, t: float, target: float, velocity: float) -> None:
+        """Ramp to `target` (m, absolute) at `velocity` (m/s) in hold mode; ignored when
+        disabled, faulted or a profile runs."""
         if not self.enabled or self.fault_code or t < self.sine_end:
             return
         self._settle(t)
@@ -232,6 +258,9 @@ class SimDrive:
         self.base = self.base.ramp_to(t, target, velocity)
 
     def start(self, t: float) -> None:
+        """The start command: in sine mode, the sine or stroke the registers describe (fault 7
+        for bad parameters, fault 6 unless the ram is within 2 mm of the sine's centre); in hold
+        mode, the move to `position_command`."""
         if not self.enabled or self.fault_code or t < self.sine_end:
             return
         if self.mode != 1:
@@ -284,6 +313,8 @@ class SimDrive:
         self.target_m = c
 
     def stop(self, t: float, quick: bool = False) -> None:
+        """Ramp the motion out over the stop time (quick: the quick-stop time; a sine's envelope
+        over at least a cycle, half a cycle when quick) and hold where it ends."""
         p = self.params
         if quick:
             self._stop_motion(t, p.quick_stop_time_s, 0.5)
@@ -291,9 +322,12 @@ class SimDrive:
             self._stop_motion(t, p.stop_time_s, 1.0)
 
     def fault_reset(self) -> None:
+        """Clear the fault code."""
         self.fault_code = 0
 
     def status_bits(self, t: float) -> dict[str, bool]:
+        """The status word's bits at `t` (s): ready, enabled, running, target reached (stopped
+        within 0.5 mm of the target), fault, warning."""
         running = self.running(t)
         return {
             "ready": self.fault_code == 0,

@@ -84,6 +84,8 @@ class SimParams:
 
     @staticmethod
     def from_rig(rig: RigConfig) -> SimParams:
+        """The rig file's [simulation] table checked (the initial position defaults to the stroke
+        centre and must lie within the drive's travel of it); ConfigError naming the key."""
         data = dict(rig.simulation)
         if "jam_force_n" in data:
             raise fail(rig.source, "simulation.jam_force_n", "unknown key (a fault sets it)")
@@ -126,6 +128,11 @@ class _State:
 
 
 class SimEngine:
+    """The simulated rig's physics, sample by sample on the DAQ's clock: the drive's profile
+    through a second-order servo, the damper's force (the library's model with the scenario's
+    terms, or the reference plant), sensor noise and the frames the DAQ sends, with faults
+    injected on schedule; its noise from `seed`."""
+
     def __init__(
         self,
         rig: RigConfig,
@@ -198,6 +205,7 @@ class SimEngine:
     # -- commands from the Modbus side ----------------------------------------------------
     @property
     def drive(self) -> SimDrive:
+        """The simulated drive's state machine."""
         return self.state.drive
 
     @property

@@ -27,6 +27,9 @@ KINDS = (
 
 @dataclass(frozen=True)
 class Fault:
+    """One injected fault: its kind (module doc), when (s of sim time), a frame count, a duration
+    (s), and the jam force (N) of an over-force."""
+
     kind: str
     at_s: float = 0.0
     count: int = 1

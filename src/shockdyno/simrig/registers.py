@@ -34,6 +34,8 @@ class DriveRegisters:
 
     # -- reads -------------------------------------------------------------------------
     def value(self, name: str) -> float:
+        """A register's engineering value now (SI or a count), read from the simulated drive and
+        engine; 0 for one it does not model."""
         e = self.engine
         d = e.drive
         t = e.now_s
@@ -70,6 +72,8 @@ class DriveRegisters:
         return float(values.get(name, 0.0))
 
     def refresh(self, registers: list[int], block_start: int) -> None:
+        """Encode every register's value now into `registers` (the block starting at
+        `block_start`)."""
         wo = self.map.word_order
         for reg in self.map.registers.values():
             try:
@@ -88,6 +92,9 @@ class DriveRegisters:
     def write(
         self, registers: list[int], block_start: int, address: int, values: list[int]
     ) -> ExcCodes | None:
+        """A host's write of `values` at `address`: the words merged and each touched register
+        acted on (control bits, setpoints, clicks); the Modbus exception for a word outside any
+        writable register or a value the drive refuses, else None."""
         touched: list[str] = []
         for a in range(address, address + len(values)):
             name = self._owner.get(a)

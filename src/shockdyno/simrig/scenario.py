@@ -33,6 +33,10 @@ from shockdyno.simrig.reference import PlantParams
 
 @dataclass
 class Scenario:
+    """A simulation scenario (sim/scenarios/*.toml): the physics terms switched on in the
+    simulated damper and their values (qualified names), the LVDT's lag (s), or the reference
+    plant instead of the library's model."""
+
     name: str
     description: str = ""
     terms: list[Term] = field(default_factory=list)
@@ -43,6 +47,8 @@ class Scenario:
 
 
 def scenario_dir() -> Path:
+    """The folder of the shipped scenarios (the repository's sim/scenarios, else relative to the
+    working directory)."""
     here = Path(__file__).resolve().parents[3] / "sim" / "scenarios"
     return here if here.exists() else Path("sim/scenarios")
 

@@ -21,6 +21,8 @@ class _PtySink:
     pending: bytearray = field(default_factory=bytearray)
 
     def write(self, data: bytes) -> None:
+        """Queue `data` (dropped when SINK_LIMIT bytes are waiting already) and write what the
+        pty takes now."""
         if len(self.pending) < SINK_LIMIT:
             self.pending += data
         try:
@@ -33,6 +35,7 @@ class _PtySink:
         del self.pending[:n]
 
     def close(self) -> None:
+        """Close both ends of the pty."""
         for fd in (self.master, self.slave):
             with contextlib.suppress(OSError):
                 os.close(fd)
@@ -79,6 +82,8 @@ class SerialStream:
             writer.close()
 
     def send(self, data: bytes) -> None:
+        """Send the DAQ's bytes to every listener; a listener with SINK_LIMIT bytes waiting
+        misses them."""
         for w in list(self._writers):
             if w.is_closing():
                 self._writers.remove(w)
@@ -102,6 +107,7 @@ class SerialStream:
             self._pty = None
 
     async def close(self) -> None:
+        """Stop listening and close every client and the pty."""
         if self._server is not None:
             self._server.close()
         for w in list(self._writers):

@@ -123,6 +123,8 @@ class SimRig:
 
     # -- lifecycle ---------------------------------------------------------------------
     def start(self) -> SimRig:
+        """Start the Modbus server and the serial stream in a thread of their own; returns once
+        both listen (RigFault if they do not within 10 s)."""
         self._thread = threading.Thread(target=self._run, name="sim-rig", daemon=True)
         self._thread.start()
         self._ready.wait(10)
@@ -141,6 +143,7 @@ class SimRig:
         self.close()
 
     def close(self) -> None:
+        """Stop the servers and wait (at most 10 s) for their thread; idempotent."""
         if self._closed:
             return
         self._closed = True
@@ -320,6 +323,8 @@ class SimRig:
         return self._with_daq(url)
 
     def pty_config(self) -> RigConfig:
+        """The rig config with the DAQ read from this instance's pty; ConfigError when it has
+        none."""
         if not self.pty_path:
             raise ConfigError("this sim-rig has no pty (start it with serial='pty' or 'both')")
         return self._with_daq(self.pty_path)
@@ -339,6 +344,8 @@ class SimRig:
         return rig
 
     def true_bleed_areas(self, clicks: ArrayLike, gas_clicks: ArrayLike = 0) -> tuple[float, float]:
+        """The simulated damper's true bleed areas (A_bc, A_bt; m²) at the given clicks, to check
+        a fit against."""
         a_bc, a_bt = self.spec.bleed_areas(clicks, gas_clicks)
         return float(a_bc), float(a_bt)
 

@@ -25,6 +25,8 @@ class _OneMasterHandler(ServerRequestHandler):
     server: SingleMasterTcpServer
 
     async def handle_request(self) -> None:
+        """Answer a write from any connection but the holder's with "server device busy"; the
+        first connection that writes becomes the holder."""
         pdu = self.last_pdu
         if pdu is not None and pdu.function_code in WRITE_FUNCTION_CODES:
             holder = self.server.master
@@ -40,17 +42,22 @@ class _OneMasterHandler(ServerRequestHandler):
         await super().handle_request()  # type: ignore[no-untyped-call]
 
     def callback_disconnected(self, exc: Exception | None) -> None:
+        """Release the drive when its holder disconnects."""
         if self.server.master is self:
             self.server.master = None
         super().callback_disconnected(exc)
 
 
 class SingleMasterTcpServer(ModbusTcpServer):
+    """A Modbus TCP server whose first writing connection holds the drive: other connections'
+    writes are refused (counted in `refused`), reads are open to all."""
+
     def __init__(self, *args: Any, **kwargs: Any) -> None:  # Any: ModbusTcpServer's own
         super().__init__(*args, **kwargs)
         self.master: _OneMasterHandler | None = None
         self.refused = 0  # writes answered "busy"
 
     def callback_new_connection(self) -> _OneMasterHandler:
+        """Each connection's handler, the one that enforces the single master."""
         handler = _OneMasterHandler(self, self.trace_packet, self.trace_pdu, self.trace_connect)  # type: ignore[no-untyped-call]
         return handler

@@ -28,6 +28,9 @@ _Job = tuple[
 
 
 class Stepper:
+    """A daemon thread that runs a slow plant's steps one at a time, in order, each result handed
+    to the event loop as a future."""
+
     def __init__(self, nice: int | None = None, name: str = "sim-plant") -> None:
         """`nice`: the niceness the steps run at (None: the calling thread's)."""
         self._jobs: queue.SimpleQueue[_Job | None] = queue.SimpleQueue()
@@ -38,6 +41,7 @@ class Stepper:
     def submit(
         self, loop: asyncio.AbstractEventLoop, fn: Callable[..., T], *args: object
     ) -> asyncio.Future[T]:
+        """Queue `fn(*args)` for the thread; the future on `loop` it resolves."""
         fut: asyncio.Future[T] = loop.create_future()
         self._jobs.put((loop, fut, fn, args))
         return fut

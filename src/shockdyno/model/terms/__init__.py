@@ -36,6 +36,7 @@ LIBRARY: dict[str, type[Term]] = {
 
 
 def make_term(name: str) -> Term:
+    """A new term of the library by its interface name; ConfigError naming the known ones."""
     cls = LIBRARY.get(name)
     if cls is None:
         raise ConfigError(f"unknown physics term {name!r} (one of {', '.join(LIBRARY)})")

@@ -77,6 +77,9 @@ def bulk_modulus_pa(p: Mapping[str, float], pressure_pa: float, charge_pa: float
 
 
 class Compressibility(Term):
+    """Entrained air and oil compliance: the rebound chamber's pressure integrated as a state
+    through the piston's flow law (Wood's law), so Δp lags its static value."""
+
     name = "compressibility"
     stage = PRESSURE
     stateful = True
@@ -113,6 +116,8 @@ class Compressibility(Term):
     )
 
     def describe(self, r: Reading) -> str:
+        """The effective bulk modulus at the gas charge (MPa), and the free air (% by volume)
+        when the data moved it."""
         alpha = r.v("air_fraction")
         c_oil = r.v("oil_compressibility_per_gpa") * 1e-9
         comp = (1 - alpha) * c_oil + alpha / r.spec_gas_pa
@@ -128,11 +133,15 @@ class Compressibility(Term):
         return f"{head}, about {100 * alpha:.2g}{pm} % free air"
 
     def nesting_free(self) -> tuple[str, ...]:
+        """Both the air fraction and the oil's compressibility: only with both free can the term
+        reach the paper's rigid oil."""
         # The oil alone lags (β = 1.5 GPa): only with its compressibility free too can the
         # term fall back to the paper's rigid oil.
         return ("air_fraction", "oil_compressibility_per_gpa")
 
     def implausible(self, p: Mapping[str, float], spec: DamperSpec) -> str:
+        """Refuses an effective bulk modulus at the charge pressure stiffer than any oil (2.2
+        GPa)."""
         # Mineral oil is 1.5-2 GPa; oil with any air is softer. A fit that needs stiffer
         # oil at the charge pressure is using a tiny lag to stand in for something else
         # (a sensor's lag). 2.2 GPa leaves 10 % over the stiffest oil.
@@ -142,9 +151,12 @@ class Compressibility(Term):
         return ""
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
+        """Starts at 0.1 %, 1 % and 5 % free air."""
         return [{"air_fraction": a} for a in (0.001, 0.01, 0.05)]
 
     def chamber(self, w: Work, p: Mapping[str, float]) -> Chamber:
+        """The chamber this term's values describe: air fraction at the spec's gas charge, the
+        oil's compressibility per Pa, no vapour floor, the spec's oil column."""
         return Chamber(
             air_fraction=p["air_fraction"],
             charge_pa=w.spec.gas_pressure_pa,
@@ -156,6 +168,9 @@ class Compressibility(Term):
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:
+        """Integrate the rebound chamber (PRESSURE stage): replaces Δp and p_c with the
+        integrated ones (the change is this term's force part), reports the bulk modulus per
+        sample (`compressibility.bulk_modulus_pa`), and returns the chamber's state to carry."""
         assert w.dp is not None
         chamber = self.chamber(w, p)
         w.chamber = chamber

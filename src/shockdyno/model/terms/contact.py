@@ -37,6 +37,10 @@ MIN_DEPTH_SHARE = 0.10
 
 
 class Contact(Term):
+    """Bump stop (x > onset, force positive: pushes the rod out) and top-out spring (x < onset,
+    force negative: pulls it in), each a power law of the depth past a free onset, with optional
+    hysteresis and viscous loss going in."""
+
     name = "contact"
     stage = FORCE + 4
     summary = "bump stop / top-out spring: force past a free onset, F·(depth/10 mm)^n"
@@ -130,6 +134,8 @@ class Contact(Term):
     )
 
     def describe(self, r: Reading) -> str:
+        """Each side the data reached and moved: its onset (x, compression positive) and its
+        force 10 mm past it, then any loss going in."""
         (fn, fl), (ln, ll) = r.force, r.length
         sides = []
         for key, what in (("bump", "a bump stop"), ("topout", "a top-out spring")):
@@ -157,6 +163,8 @@ class Contact(Term):
         return text + (", " + " and ".join(losses) if losses else "")
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
+        """Onsets at 50, 70 and 85 % of the stroke the data cover (`seen.x`; ±30 mm without it),
+        each side alone and both, at 100 N."""
         # Past the onset the force grows fast, before it there is none: a start whose
         # onset lies beyond the stroke has no gradient. So the onsets start inside the
         # stroke the data cover, one side at a time and both.
@@ -173,6 +181,8 @@ class Contact(Term):
         return out
 
     def unseen(self, p: Mapping[str, float], x: FloatArray) -> dict[str, float]:
+        """Off values for a side the data reach less than 10 % of the half-stroke past its onset
+        (or not at all), and for the loss parameters that then move nothing."""
         # A side whose onset the stroke never reaches is not measured; one reached only in
         # its last 10 % is not placed (see `unplaced`), and along that edge the fit can
         # trade onset for force without end (a 50 kN top-out 0.01 mm deep fits a reversal
@@ -199,6 +209,8 @@ class Contact(Term):
         return out
 
     def unplaced(self, p: Mapping[str, float], x: FloatArray) -> str:
+        """Names a side with force that the data reach only in the last 10 % of the half-stroke:
+        at reversal only, where a lag or friction acts too."""
         if not x.size:
             return ""
         for side, force, _, depth in _sides(p, x):
@@ -213,6 +225,8 @@ class Contact(Term):
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:
+        """Add the contact force (N, positive resisting compression) at the FORCE stage; no
+        state."""
         n = p["exponent"]
         bump = np.maximum(w.x - p["bump_onset_m"], 0.0) / REFERENCE_DEPTH_M
         top = np.maximum(p["topout_onset_m"] - w.x, 0.0) / REFERENCE_DEPTH_M

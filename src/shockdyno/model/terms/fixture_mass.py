@@ -27,6 +27,10 @@ from shockdyno.model.spec import DamperSpec
 
 
 class FixtureMass(Term):
+    """A mass between the load cell and the damper moving with the ram: the cell reports m·ẍ more
+    (a negative m: a cell on the fixed end, which misses the rod's own inertia). A sensor term,
+    not carried to a car."""
+
     name = "fixture_mass"
     stage = FORCE
     sensor = True  # the dyno's hardware, not the damper's: not carried to a car
@@ -53,6 +57,7 @@ class FixtureMass(Term):
     )
 
     def describe(self, r: Reading) -> str:
+        """The mass (kg, with σ), and where it sits by its sign."""
         m = r.v("mass_kg")
         where = (
             "between the load cell and the damper, moving with the ram"
@@ -65,6 +70,7 @@ class FixtureMass(Term):
         )
 
     def implausible(self, p: Mapping[str, float], spec: DamperSpec) -> str:
+        """Refuses a mass more negative than the rod's own (`piston_rod_mass_kg`)."""
         # A cell on the fixed end misses at most the rod's own mass; a larger negative mass
         # is a negative mass, which is something else at the reversals (a lag, a spring).
         if p["mass_kg"] < -spec.piston_rod_mass_kg:
@@ -77,5 +83,6 @@ class FixtureMass(Term):
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:
+        """Add m·ẍ (N) at the FORCE stage; no state."""
         w.add_part(self.name, p["mass_kg"] * w.a)
         return None

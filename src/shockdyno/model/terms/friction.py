@@ -26,6 +26,9 @@ from shockdyno.model.spec import DamperSpec
 
 
 class Friction(Term):
+    """Seal friction beyond the spec's Coulomb level: a Stribeck breakaway decaying with speed,
+    and viscous drag (module doc), on the seal's presliding state where the spec has one."""
+
     name = "friction"
     stage = FORCE
     summary = (
@@ -66,6 +69,8 @@ class Friction(Term):
     )
 
     def describe(self, r: Reading) -> str:
+        """The breakaway above Coulomb and its Stribeck velocity, and the viscous drag, each when
+        the data moved it, in the reader's units."""
         (fn, fl), (vn, vl), (cn, cl) = r.force, r.speed, r.damping
         parts = []
         if r.moved("breakaway_n"):
@@ -81,6 +86,8 @@ class Friction(Term):
         return "seal friction: " + (", ".join(parts) or "beyond the spec's Coulomb friction")
 
     def implausible(self, p: Mapping[str, float], spec: DamperSpec) -> str:
+        """Refuses a breakaway that decays within the reversal's sign change, or one over 5 times
+        the sliding friction."""
         # A breakaway that decays within the sign change of the Coulomb term lives where
         # the velocity estimate cannot resolve it (a fit patching the reversal); seals do
         # not break away at many times their sliding friction.
@@ -94,11 +101,15 @@ class Friction(Term):
         return ""
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
+        """Stribeck velocities of 2, 5, 15 and 40 mm/s."""
         return [{"stribeck_velocity_m_s": v} for v in (0.002, 0.005, 0.015, 0.04)]
 
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:
+        """Add the breakaway and viscous force (N, the sign of v: resisting the motion) at the
+        FORCE stage; returns the seal's deflection state where the spec has a presliding
+        distance."""
         v = w.v
         vs = p["stribeck_velocity_m_s"]
         spec = w.spec

@@ -20,6 +20,9 @@ from shockdyno.model.reading import Reading
 
 
 class GasSpring(Term):
+    """The gas spring corrected: the gas volume as a factor on the spec's, and a polytropic index
+    n, p = p0·(V/(V - A·x))^n, in place of eq. 5's isothermal gas."""
+
     name = "gas_spring"
     stage = CHAMBER
     summary = "gas spring rate: polytropic index and gas volume"
@@ -61,17 +64,21 @@ class GasSpring(Term):
     )
 
     def describe(self, r: Reading) -> str:
+        """The gas volume as a factor on the spec's (with σ) and the polytropic index."""
         return (
             f"gas spring: gas volume {r.v('volume_factor'):.3g}{r.sd('volume_factor')} × the "
             f"spec's (polytropic index {r.v('polytropic_index'):.3g})"
         )
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
+        """Gas volumes of 0.5, 1 and 2 times the spec's."""
         return [{"volume_factor": f} for f in (0.5, 1.0, 2.0)]
 
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:
+        """Rescale the compression chamber's gas pressure (CHAMBER stage; the gas-piston inertia
+        kept) and leave the gas column and index for the chamber terms; no state."""
         spec = w.spec
         v0 = spec.gas_volume_m3
         swept = spec.rod_area_m2 * w.x

@@ -23,6 +23,9 @@ MEAN_WEIGHT = 1.0
 
 
 class PositionForce(Term):
+    """A smooth force of displacement, piecewise linear through 8 knots over the recorded stroke,
+    for what no named physics explains."""
+
     name = "position_force"
     stage = FORCE + 5
     summary = "smooth force of displacement (bump stop, top-out, position-dependent seal)"
@@ -47,6 +50,8 @@ class PositionForce(Term):
     )
 
     def describe(self, r: Reading) -> str:
+        """The largest knot force and where it is (x, compression positive), in the reader's
+        units."""
         (fn, fl), (ln, ll) = r.force, r.length
         knots = [r.v(f"f{k}_n") for k in range(8)]
         lo, hi = r.v("x_lo_m"), r.v("x_hi_m")
@@ -58,22 +63,28 @@ class PositionForce(Term):
         )
 
     def placed(self, x: FloatArray) -> dict[str, float]:
+        """The knots' span from the data: the recording's smallest and largest x (m)."""
         return {"x_lo_m": float(np.min(x)), "x_hi_m": float(np.max(x))}
 
     @staticmethod
     def knot_values(p: Mapping[str, float]) -> np.ndarray:
+        """The force at each knot (N)."""
         return np.array([p[f"f{k}_n"] for k in range(N_KNOTS)])
 
     @staticmethod
     def knots(p: Mapping[str, float]) -> np.ndarray:
+        """The knots' positions (m), evenly from x_lo_m to x_hi_m."""
         return np.linspace(p["x_lo_m"], p["x_hi_m"], N_KNOTS)
 
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:
+        """Add s(x) (N), linear between the knots and flat beyond them, at the FORCE stage."""
         w.add_part(self.name, np.interp(w.x, self.knots(p), self.knot_values(p)))
         return None
 
     def penalty(self, p: Mapping[str, float]) -> FloatArray:
+        """Residuals (N) for smoothness (the knots' second differences) and for their mean, which
+        the gas pressure already sets."""
         c = self.knot_values(p)
         return np.concatenate([SMOOTHING * np.diff(c, 2), [MEAN_WEIGHT * float(np.mean(c))]])

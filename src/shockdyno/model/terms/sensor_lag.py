@@ -25,6 +25,9 @@ from shockdyno.model.reading import Reading
 
 
 class SensorLag(Term):
+    """The measurement chain: the force channel's delay behind the motion, the load cell's
+    first-order lag and the LVDT's. A sensor term, not carried to a car."""
+
     name = "sensor_lag"
     stage = SENSOR
     stages = (MOTION, SENSOR)
@@ -67,6 +70,8 @@ class SensorLag(Term):
     )
 
     def describe(self, r: Reading) -> str:
+        """The total time the force lags the motion (ms), and the delay and lags the data moved;
+        a delay and an LVDT lag both moved are read as their difference."""
         shift = r.v("delay_s") + r.v("load_cell_lag_s") - r.v("lvdt_lag_s")
         # A delay of the force and a lag of the LVDT differ only beyond first order in the
         # shift (x(t - δ) ≈ x - δ ẋ against x + τ_x ẋ), far below the noise at a few ms, so
@@ -96,19 +101,25 @@ class SensorLag(Term):
         return f"sensor lag: force lags the motion by {1e3 * shift:.3g} ms in all{detail}"
 
     def nesting_free(self) -> tuple[str, ...]:
+        """Delay and both lags: only sharp events tell a delay from a lag, so the diagnosis tries
+        all three."""
         # A delay and a lag differ only at sharp events (the friction flip at reversal):
         # the diagnosis tries both, the fit by default only the delay.
         return ("delay_s", "load_cell_lag_s", "lvdt_lag_s")
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
+        """Load-cell lags of 0, 1, 3 and 8 ms."""
         # A lag and a delay trade off near zero; start from a few lags so the refit
         # does not stall at the bound with the delay doing all the work.
         return [{"load_cell_lag_s": t} for t in (0.0, 0.001, 0.003, 0.008)]
 
     def full_rate(self, p: Mapping[str, float], free: Iterable[str]) -> bool:
+        """Only a load-cell lag (set or freed) needs the recording's own rate."""
         return p["load_cell_lag_s"] > 0 or "load_cell_lag_s" in set(free)
 
     def carries_state(self, p: Mapping[str, float], free: Iterable[str]) -> bool:
+        """Only the load cell's lag carries state; the delay and the LVDT lag act sample by
+        sample."""
         # The delay and the LVDT lag act on the motion sample by sample: a force then
         # follows its own (delayed) motion alone. Only the load cell's lag carries state.
         return self.full_rate(p, free)
@@ -116,6 +127,8 @@ class SensorLag(Term):
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:
+        """At MOTION, shift the motion the damper sees (LVDT lag inverted, then the delay); at
+        SENSOR, lag the total force through the load cell and return the lag's state."""
         if stage == MOTION:
             tx = p["lvdt_lag_s"]
             if tx:

@@ -39,6 +39,9 @@ DAMPING_RISE_PER_K = 0.005  # how far a fit's damping may rise per K (noise, not
 
 
 class Thermal(Term):
+    """The oil's temperature (°C: the channel plus its lead, or an energy balance without one)
+    acting on the leak and bleed viscosity, the gas pressure and Δp."""
+
     name = "thermal"
     stage = CHAMBER + 5  # after the gas spring: the temperature scales the gas it gives
     stages = (CHAMBER + 5, PRESSURE - 5)  # and Δp, before a lag or a clamp acts on it
@@ -116,6 +119,8 @@ class Thermal(Term):
     )
 
     def describe(self, r: Reading) -> str:
+        """What the data moved: the gas force's coupling to the oil temperature, viscosity and
+        damping falling per K, the oil's lead on the measured body."""
         parts = []
         if r.moved("gas_coupling"):
             parts.append(
@@ -134,6 +139,7 @@ class Thermal(Term):
         return "temperature: " + (", ".join(parts) or "the force drifts with the oil temperature")
 
     def implausible(self, p: Mapping[str, float], spec: DamperSpec) -> str:
+        """Refuses values with which the damping rises as the oil warms (by more than 0.5 %/K)."""
         # Oil thins as it warms, and a thinner oil damps less through every path. The
         # term thins the laminar land and leak at b per K and scales all of Δp by
         # exp(-d ΔT): whatever the laminar share, the damping falls while d ≥ -b, and
@@ -150,18 +156,24 @@ class Thermal(Term):
         return ""
 
     def full_rate(self, p: Mapping[str, float], free: Iterable[str]) -> bool:
+        """Never: the thermal lag is minutes, which the fit's samples resolve."""
         return False  # minutes of thermal lag: the fit's 5 ms samples resolve it
 
     def nesting_free(self) -> tuple[str, ...]:
+        """The gas coupling, the viscosity and damping coefficients and the oil's lead."""
         return ("gas_coupling", "viscosity_coeff_per_k", "damping_coeff_per_k", "oil_lead_s")
 
     def vehicle_values(self) -> dict[str, float]:
+        """The heating off (`heat_rate_k_s_m2` = 0) for the damper on a car."""
         # No heating on the car: a ride run is seconds, the oil's warm-up minutes.
         return {"heat_rate_k_s_m2": 0.0}
 
     def temperature(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None
     ) -> tuple[FloatArray, FloatArray | None]:
+        """The oil's temperature per sample (°C) and the heating lag's state: the body's channel
+        plus `oil_lead_s` × its rate of rise where the channel reads, else the reference plus the
+        energy balance's rise (from rest at each test)."""
         ref = p["reference_c"]
         tau = p["cooling_time_s"]
         # The rise starts at nothing (the oil at T_ref), not at the first sample's
@@ -182,6 +194,9 @@ class Thermal(Term):
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:
+        """At CHAMBER + 5, thin the leak and the bleed's land by the viscosity's fall, scale the
+        gas pressure to the oil's temperature and report it (`thermal.temperature_c`), returning
+        the heating state; at PRESSURE - 5, scale Δp by exp(-d ΔT)."""
         if stage != self.stage:
             d = p["damping_coeff_per_k"]
             if d:

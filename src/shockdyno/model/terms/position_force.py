@@ -53,10 +53,10 @@ class PositionForce(Term):
         """The largest knot force and where it is (x, compression positive), in the reader's
         units."""
         (fn, fl), (ln, ll) = r.force, r.length
-        knots = [r.v(f"f{k}_n") for k in range(8)]
+        knots = [r.v(f"f{k}_n") for k in range(N_KNOTS)]
         lo, hi = r.v("x_lo_m"), r.v("x_hi_m")
-        k = max(range(8), key=lambda i: abs(knots[i]))
-        x = lo + (hi - lo) * k / 7
+        k = max(range(N_KNOTS), key=lambda i: abs(knots[i]))
+        x = lo + (hi - lo) * k / (N_KNOTS - 1)
         return (
             f"a force of position no named physics explains: up to {fn * knots[k]:+.3g} {fl} "
             f"at x = {ln * x:+.3g} {ll} (bump stop, top-out or a seal that grips at one end?)"

@@ -7,8 +7,8 @@ never leaves a recording locked:
   holder's PID and command line, which a refused writer names;
 - the file itself: every existing file of the set is locked by its inode, and a writer
   locks the file it creates (record/writer.py). A hard link or a symlink is another name
-  for the same inode, so a second sweep through it is refused too (issue 46.3: a sweep
-  through a link once replaced the file another sweep was writing).
+  for the same inode, so a second sweep through it is refused too (through a link it
+  would replace the file another sweep is writing).
 
 A second `sweep --resume`, a `sweep --force` or an `import -o` onto a recording another
 process is writing is refused in one line before it touches the file.

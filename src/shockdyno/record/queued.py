@@ -1,5 +1,5 @@
 """A recording written by a thread of its own, so that the control loop never waits on a
-file (issue 46.1 and 46.12).
+file.
 
 A sweep's control loop reads the DAQ, checks the limits and feeds the drive's watchdog;
 writing and fsyncing the recording (a chunk, a test's end, each event) can take a slow

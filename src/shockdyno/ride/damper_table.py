@@ -21,7 +21,7 @@ are the model extrapolated, not a measurement: the CSV marks each row (`measured
 and the property file's comments give the span; `within_measured` stops the table at it
 (its edges added as rows). A click from the trend takes the narrower span of the fitted
 clicks either side. A fit that does not record it (older, or the demo's) marks nothing
-and says so (issue 47.5: a table to 1000 mm/s from a sweep that reached 330 said nothing).
+and says so.
 
 **Friction band.** The fitted Coulomb friction steps from 0 to ±F_f within the model's
 `friction_velocity_m_s` (1 mm/s): 35 N within the first 2.5 mm/s row, a slope vehicle-

@@ -4,8 +4,8 @@ Control paths use short timeouts and no retries: a request that fails raises `Ri
 at once and the caller (RigSession) decides what to do. Calls are serialised by a lock.
 Each request runs inside `guard()` (RigSession passes run/signals.hold): a signal that
 arrives mid-request is raised when its answer is in, so the stop command that follows goes
-out on a clean line (an RTU request torn by Ctrl-C left its answer to be read as the
-stop's, which then timed out: 0.73 s before the stop reached the drive).
+out on a clean line (an RTU request torn by Ctrl-C would leave its answer to be read as
+the stop's, which would then time out, delaying the stop).
 """
 
 from __future__ import annotations

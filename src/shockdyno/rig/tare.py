@@ -7,11 +7,11 @@ carry nothing: a mounted damper pushes with its gas force, which is a force the 
 measures, not an offset (unbolt the upper eye, or tare before mounting).
 
 A load is told from a zero by its size: a zero error left after commissioning is a few
-newtons, a mounted damper's gas force 100-2000 N (231 N on the simulated S46). A reading
+newtons, a mounted damper's gas force 100-2000 N. A reading
 beyond `LOADED_MIN_N`, or `LOADED_SHARE` of the rig's force limit if more, is refused as a
 load, with how to tare (unbolt the upper eye, or tare before mounting); an operator whose
-load cell really is free and this far off zero says so with `--unloaded` (issue 47.7: the
-simulated rig's tare proposed cancelling its mounted damper's gas force, -230.9 N).
+load cell really is free and this far off zero says so with `--unloaded` (a tare taken
+under a mounted damper would cancel its gas force from every later reading).
 
 The zero goes where the DAQ's calibration already reads it, `[daq.calibration]
 force_offset_n` (force = counts × force_n_per_count + force_offset_n): the new offset is

@@ -5,7 +5,7 @@ written by the loop that reads the DAQ's samples and checks the limits (`Control
 never by a thread of its own: a thread that beats on its own keeps the drive enabled while
 the main thread is blocked (an operator prompt, a file that never opens) and nothing
 watches the ram. So when the loop stops, the beats stop, and the drive stops the ram in
-its watchdog time (issue 46.1).
+its watchdog time.
 
 `feed` is called after every read; it beats once a period has passed since the last beat.
 The longest time between two beats is kept: how close the loop came to the watchdog

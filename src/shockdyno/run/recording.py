@@ -290,7 +290,7 @@ def _check_resume_matches(tests: list[TestMeta], plan: SweepPlan, output: Path) 
 def _check_same_set(before: dict[str, str], now: dict[str, str], output: Path) -> None:
     """One recording set holds one damper, measured by one operator, on one rig set-up
     (another rig file, its limits or calibration), to one plan (another gas pressure, other
-    frequencies or clicks): a resumed part must be all of that (issue 46.8)."""
+    frequencies or clicks): a resumed part must be all of that."""
     for key, flag in (("damper_id", "--damper-id"), ("operator", "--operator")):
         if before.get(key, "") != now.get(key, ""):
             raise ConfigError(

@@ -5,7 +5,7 @@ Modbus master rewrote a register, a drive ignores a setpoint) produces data labe
 the wrong test; and a test that lost many frames has fewer samples than its label says.
 Either is not "complete".
 
-Memory is bounded whatever the test's length (issue 46.6): a run is kept as per-cycle
+Memory is bounded whatever the test's length: a run is kept as per-cycle
 extremes over its measured window (a few numbers a cycle) and the last `MAX_KEPT_SAMPLES`
 samples (`RunKeeper`); the motion's frequency, amplitude and centre are measured on those,
 every cycle's range on the extremes. A test of up to MAX_KEPT_SAMPLES is judged on every

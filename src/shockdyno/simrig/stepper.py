@@ -4,8 +4,7 @@ One step at a time, in order, its result handed to the loop as an asyncio future
 thread is a daemon and nothing waits for it without a bound: a step that never returns
 (a plant stuck in its solver) must not keep the process alive after its session ended.
 A `concurrent.futures` executor did: its threads are joined at interpreter exit, so a
-sweep that had printed its error, stopped and disabled the drive, never exited (CI: a
-frozen DAQ, then 240 s of a process that would not end).
+sweep that had printed its error, stopped and disabled the drive, never exited.
 """
 
 from __future__ import annotations

@@ -8,10 +8,7 @@ T is the oil's temperature. A recording's temperature channel is the body's (a s
 the outside of the tube), and the oil that heats the body runs ahead of it: the body's heat
 balance C_b dT_b/dt = G (T_oil - T_b) - (loss to ambient) gives T_oil ≈ T_b + L dT_b/dt with
 the lead L = C_b/G (the loss folds into the coefficients' reference), dT_b/dt each test's
-slope of the channel. On a reference-plant sweep whose oil heated 5x its dissipated power
-the fit found L = 377 s (the plant's C_b/G: 150 s, with its body also warmed from a 40 °C
-ambient) and the viscosity falling 3.5 %/K where the plant's fell 3 %/K. Off: L = 0, the
-channel as the oil's. Without a channel an energy
+slope of the channel. Off: L = 0, the channel as the oil's. Without a channel an energy
 balance estimates it, C dT/dt = c_eq v² - h (T - T_ref), written as a first-order lag of
 k τ v² with τ = C/h and k = c_eq/C, starting each test at T_ref (the sim-rig carries it
 across a whole session). Off: b = g = d = 0. The leak's share of the flow is small, so b

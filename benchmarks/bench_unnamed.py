@@ -13,7 +13,8 @@ user would:
     shockdyno diagnose REC.mcap --json DIAG.json
 
     .venv/bin/python benchmarks/bench_unnamed.py [--seeds N] [--first-seed S] [--cache DIR]
-                                                  [--jobs J] [--only NAME[,NAME...]]
+                                                  [--jobs J] [--workers W]
+                                                  [--only NAME[,NAME...]]
 
 A seed draws every strength from its case's range (unnamed/effects.py CASES,
 bench_holdout.py BASE) and the sensors' noise, so each seed is a new plant.
@@ -92,7 +93,7 @@ def record(job: Job, d: Path) -> None:
         run_sweep(holdout.draw(case, job.seed), d, seed=holdout.noise_seed(case, job.seed))
 
 
-def run_one(job: Job, cache: Path) -> dict[str, Any]:
+def run_one(job: Job, cache: Path, workers: int | None = None) -> dict[str, Any]:
     """Sweep, import and diagnose one recording (reusing what the cache holds)."""
     d = cache / f"{job.name}-s{job.seed}"
     manifest, rec, diag = d / "manifest.csv", d / "REC.mcap", d / "DIAG.json"
@@ -105,7 +106,8 @@ def run_one(job: Job, cache: Path) -> dict[str, Any]:
         _run([_cli(), "import", str(manifest), "-o", str(rec)], d / "import.log")
     if not diag.exists():
         t = time.perf_counter()
-        _run([_cli(), "diagnose", str(rec), "--json", str(diag)], d / "diagnose.log")
+        more = [] if workers is None else ["--workers", str(workers)]
+        _run([_cli(), "diagnose", str(rec), "--json", str(diag), *more], d / "diagnose.log")
         timing["diagnose_s"] = time.perf_counter() - t
     truth = json.loads((d / "truth.json").read_text())
     return {"job": job, "truth": truth, "diag": json.loads(diag.read_text()), "timing": timing}
@@ -212,6 +214,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--first-seed", type=int, default=950, help="first seed (default 950)")
     ap.add_argument("--cache", type=Path, default=None, help="keep recordings here")
     ap.add_argument("--jobs", type=int, default=1, help="recordings at once (default 1)")
+    ap.add_argument(
+        "--workers", type=int, default=None, help="each diagnosis's --workers (default: its own)"
+    )
     ap.add_argument("--only", default="", help="cases, comma-separated (default: all)")
     args = ap.parse_args(argv)
     names = [*EXPECTED, "fixture", *NAMED]
@@ -224,7 +229,7 @@ def main(argv: list[str] | None = None) -> None:
     rows = []
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        futures = {pool.submit(run_one, j, cache): j for j in jobs}
+        futures = {pool.submit(run_one, j, cache, args.workers): j for j in jobs}
         for fut, j in futures.items():
             try:
                 r = fut.result()

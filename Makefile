@@ -43,9 +43,10 @@ browser:
 # Three workers on the CI machine's two cores: a third of the suite waits on real-time
 # simulated rigs, and a third worker fills those waits (benchmarks/results/suite-workers-
 # 2026-11-29.txt). A module stays on one worker (--dist loadscope), so its recordings
-# fixture is made once.
+# fixture is made once; the modules marked slow go first (tests/conftest.py orders them,
+# --no-loadscope-reorder keeps that order), so none of them starts at the end.
 test: lint
-	$(BIN)/pytest -q -n 3 --dist loadscope
+	$(BIN)/pytest -q -n 3 --dist loadscope --no-loadscope-reorder
 
 # The benchmarks' own extras (pysindy for bench_diagnose's baseline).
 $(VENV)/.bench: $(VENV)/.runtime

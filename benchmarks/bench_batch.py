@@ -5,7 +5,10 @@
 Prints the serial and the cluster wall time (the cluster's with and without its start),
 the throughput ratio (aim >= 1.7x on 2 cores), the per-task scheduling overhead (a
 no-op task's round trip through the same client), and from those a projection of
-recordings per hour at 16 and 128 workers, with what would limit it.
+recordings per hour at 16 and 128 workers, with what would limit it. Also the CPU each
+took (getrusage: the serial loop's process; the cluster's client and scheduler, and its
+workers once reaped): on a machine shared with other work the wall ratio follows the
+other work's load, while the CPU the cluster spends beyond the serial loop's does not.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ import argparse
 import contextlib
 import io
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -79,6 +83,13 @@ def serial_seconds(recs: list[Path], out: Path) -> float:
     return time.perf_counter() - t0
 
 
+def cpu_seconds() -> tuple[float, float]:
+    """CPU (user + sys) of this process and of its reaped children."""
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime, kids.ru_utime + kids.ru_stime
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--recordings", type=int, default=24)
@@ -99,7 +110,9 @@ def main() -> None:
             f"each) made in {time.perf_counter() - t0:.0f} s; {os.cpu_count()} cpus, load "
             f"average {os.getloadavg()[0]:.1f}"
         )
+        own0 = cpu_seconds()[0]
         serial = serial_seconds(recs, tmp / "serial")
+        serial_cpu = cpu_seconds()[0] - own0
         per_task = serial / len(recs)
         # The same serial loop with one BLAS thread, as each Dask worker runs (distributed
         # sets OMP/OPENBLAS/MKL_NUM_THREADS=1 in its workers): the plain loop above already
@@ -116,6 +129,7 @@ def main() -> None:
         started: list[float] = []
         cluster_out = tmp / "cluster"
         jobs = plan_jobs("fit", recs, cluster_out, {"seed": 0})
+        cpu0 = cpu_seconds()
         t0 = time.perf_counter()
         rows = run_batch(
             jobs,
@@ -124,6 +138,8 @@ def main() -> None:
             on_cluster=lambda _: started.append(time.perf_counter()),
         )
         total = time.perf_counter() - t0
+        cpu1 = cpu_seconds()  # the cluster is closed: its workers are reaped
+        client_cpu, workers_cpu = cpu1[0] - cpu0[0], cpu1[1] - cpu0[1]
         assert all(r.status == "done" for r in rows), rows
         run_s = time.perf_counter() - started[0]
         overhead = task_overhead(args.workers)
@@ -137,6 +153,12 @@ def main() -> None:
             f"{run_s:.1f} s from its start; throughput {serial / total:.2f}x serial "
             f"({serial / run_s:.2f}x without the start; aim >= 1.7x); against the one-thread "
             f"serial loop {serial_1t / total:.2f}x ({serial_1t / run_s:.2f}x without the start)"
+        )
+        cluster_cpu = client_cpu + workers_cpu
+        print(
+            f"CPU: serial {serial_cpu:.1f} s; cluster {cluster_cpu:.1f} s (client and "
+            f"scheduler {client_cpu:.1f} s, workers {workers_cpu:.1f} s), "
+            f"{cluster_cpu / serial_cpu:.2f}x the serial loop's for the same fits"
         )
         print(f"per-task scheduling overhead (no-op round trip): {overhead * 1e3:.2f} ms")
         for n in (16, 128):

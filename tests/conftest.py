@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import os
 import threading
+from collections import Counter
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -42,12 +43,29 @@ def _browser() -> Any:
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    _slow_modules_first(items)
     if config.getoption("--rig"):
         return
     skip = pytest.mark.skip(reason="needs a real rig: pytest --rig rigs/<file>.toml")
     for item in items:
         if "hardware" in item.keywords:
             item.add_marker(skip)
+
+
+def _slow_modules_first(items: list[pytest.Item]) -> None:
+    """The modules marked slow (a minute or more each, in a few tests) first, then the
+    rest by their number of tests, most first. `make test` runs --dist loadscope with
+    --no-loadscope-reorder, so the workers take modules in this order; xdist's own order
+    (number of tests only) put the slow modules, two or three tests each, among the last
+    (places 96-150 of 157), where a module of a minute can still run on one worker after
+    the others have finished (benchmarks/results/suitebatch-2026-11-29.txt)."""
+
+    def scope(item: pytest.Item) -> str:  # xdist's loadscope unit: a module, or a class
+        return item.nodeid.rsplit("::", 1)[0]
+
+    count = Counter(scope(item) for item in items)
+    # A stable sort: each module keeps its own order.
+    items.sort(key=lambda item: ("slow" not in item.keywords, -count[scope(item)]))
 
 
 @pytest.fixture(autouse=True)

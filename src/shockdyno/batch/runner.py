@@ -90,8 +90,14 @@ def _client(scheduler: str | None, workers: int) -> tuple[Client, LocalCluster |
     # Distributed starts its workers with MALLOC_TRIM_THRESHOLD_=65536, returning freed
     # memory to the OS at once; a fit allocates and frees large arrays all the time, and
     # with it ran 36 % slower (6 fits on 2 workers: 17.1 s, 12.6 s with glibc's 128 MiB).
+    # Each worker's statistical profiler samples the task thread's stack every 10 ms (for
+    # the dashboard's profile page): a fit's deep SciPy stacks made that about 0.1 s of
+    # CPU per task, taken from the fits (benchmarks/results/suitebatch-2026-11-29.txt).
     with dask.config.set(
-        {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": MALLOC_TRIM}
+        {
+            "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": MALLOC_TRIM,
+            "distributed.worker.profile.enabled": False,
+        }
     ):
         cluster = LocalCluster(  # type: ignore[no-untyped-call]
             n_workers=workers,

@@ -4,16 +4,13 @@ says nothing more than before."""
 
 from __future__ import annotations
 
-import socket
 from pathlib import Path
 
 import pytest
 
+from rig_files import rig_on_closed_ports
 from shockdyno.cli import main
 from shockdyno.run.plan import SweepPlan, duration_text
-
-REPO = Path(__file__).resolve().parents[2]
-SIM_RIG = REPO / "rigs" / "sim.toml"
 
 
 def test_a_tests_motion_is_its_cycles_over_its_frequency() -> None:
@@ -32,27 +29,10 @@ def test_a_duration_reads_as_a_person_says_it() -> None:
     assert duration_text(2 * 86400 + 7 * 3600 + 59) == "2 d 7 h"
 
 
-def _closed_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-def _rig_on_closed_ports(folder: Path) -> Path:
-    """The simulated rig's file pointing where nothing answers: the sweep gets as far as
-    connecting, and says what it says before that."""
-    text = SIM_RIG.read_text()
-    text = text.replace("port = 5020", f"port = {_closed_port()}")
-    text = text.replace("socket://127.0.0.1:5021", f"socket://127.0.0.1:{_closed_port()}")
-    path = folder / "sim.toml"
-    path.write_text(text)
-    return path
-
-
 def test_a_long_sweep_says_how_long_before_it_starts(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    rig = _rig_on_closed_ports(tmp_path)
+    rig = rig_on_closed_ports(tmp_path)
     args = ["sweep", "--rig", str(rig), "--clicks", "0", "--freq", "1"]
     # 1 test of 100 004 cycles at 1 Hz (one ramp cycle each way, 2 warm-up): 27 h 47 min.
     assert main([*args, "--cycles", "100000", "-o", str(tmp_path / "long.mcap")]) == 3

@@ -8,7 +8,6 @@ from __future__ import annotations
 import argparse
 import csv
 import re
-import socket
 import subprocess
 import sys
 from dataclasses import replace
@@ -17,6 +16,7 @@ from pathlib import Path
 import pytest
 
 from report_helpers import sweep_tests, write_recording
+from rig_files import rig_on_closed_ports
 from shockdyno.cli import build_parser, main
 from shockdyno.fit.result import FitResult
 from shockdyno.model.spec import default_spec_path
@@ -108,27 +108,10 @@ def test_sweep_start_sim_refuses_an_existing_recording_before_the_rig_starts(
     assert out.read_bytes() == b"an earlier recording"
 
 
-def _closed_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-def _rig_on_closed_ports(folder: Path, simulated: bool) -> Path:
-    text = SIM_RIG.read_text()
-    text = text.replace("port = 5020", f"port = {_closed_port()}")
-    text = text.replace("socket://127.0.0.1:5021", f"socket://127.0.0.1:{_closed_port()}")
-    if not simulated:
-        text = text[: text.index("[simulation]")]
-    path = folder / ("sim.toml" if simulated else "real.toml")
-    path.write_text(text)
-    return path
-
-
 def test_an_unreachable_rig_says_what_to_try(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    sim = _rig_on_closed_ports(tmp_path, simulated=True)
+    sim = rig_on_closed_ports(tmp_path, simulated=True)
     out = tmp_path / "new.mcap"
     assert main(["sweep", "--rig", str(sim), "--clicks", "0", "--freq", "1", "-o", str(out)]) == 3
     line = _one_line(capsys)
@@ -137,7 +120,7 @@ def test_an_unreachable_rig_says_what_to_try(
     for command in ("check", "tare"):
         assert main(["rig", command, "--rig", str(sim)]) == 3
         assert f"shockdyno sim-rig --rig {sim}" in _one_line(capsys)
-    real = _rig_on_closed_ports(tmp_path, simulated=False)
+    real = rig_on_closed_ports(tmp_path, simulated=False)
     assert main(["rig", "check", "--rig", str(real)]) == 3
     line = _one_line(capsys)
     assert "is the drive powered" in line and "sim-rig" not in line

@@ -122,6 +122,9 @@ def build_parser() -> argparse.ArgumentParser:
             each.formatter_class = DefaultsHelpFormatter
             # SUPPRESS: an option given before the command is not reset by the command's default
             _add_logging_options(each, argparse.SUPPRESS)
+            # What its one-line errors start with, as argparse's own do: "shockdyno rig
+            # jog", not "shockdyno rig" (the innermost parser's default wins).
+            each.set_defaults(command_prog=each.prog)
     return parser
 
 
@@ -145,10 +148,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 128 + int(signal.SIGINT)
     args = parser.parse_args(argv)
     configure_logging(args.log_level)
+    prog = args.command_prog
     try:
         code = args.func(args)
     except ShockdynoError as exc:
-        print(f"shockdyno {args.command}: error: {exc}", file=sys.stderr)
+        print(f"{prog}: error: {exc}", file=sys.stderr)
         return exc.exit_code
     except BrokenPipeError:  # the reader of the output went away (`| head`): not an error
         with contextlib.suppress(OSError):  # nor at exit, when Python flushes stdout again
@@ -156,7 +160,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     except OSError as exc:  # a path the user named cannot be read or written
         where = f": {exc.filename}" if exc.filename else ""
-        print(f"shockdyno {args.command}: error: {exc.strerror or exc}{where}", file=sys.stderr)
+        print(f"{prog}: error: {exc.strerror or exc}{where}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:
         signum = getattr(exc, "signum", signal.SIGINT)
@@ -165,7 +169,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             if signum == signal.SIGINT
             else f"stopped by {signal.Signals(signum).name}"
         )
-        print(f"shockdyno {args.command}: {name}", file=sys.stderr)
+        print(f"{prog}: {name}", file=sys.stderr)
         return 128 + int(signum)
     return int(code or 0)
 

@@ -26,7 +26,7 @@ import re
 import tomllib
 from dataclasses import MISSING, Field, fields, is_dataclass
 from pathlib import Path
-from typing import Annotated, Any, Literal, TypeVar, Union
+from typing import Annotated, Any, Literal, SupportsFloat, TypeVar, Union
 
 import msgspec
 from msgspec import inspect as mi
@@ -143,6 +143,12 @@ def to_json(doc: object) -> Any:  # Any: a JSON value, for json.dumps
     if isinstance(doc, dict):
         return {k: to_json(v) for k, v in doc.items()}
     return doc
+
+
+def finite_or_none(x: SupportsFloat | None) -> float | None:
+    """A number as a result file holds it: null when not finite or absent (JSON has no
+    NaN, and a result file refuses one)."""
+    return float(x) if x is not None and math.isfinite(x) else None
 
 
 def _default(f: Field[Any]) -> Any:

@@ -189,6 +189,8 @@ def _report(job: Job, row: Row) -> None:
     with staged_dir(out) as folder:  # whole, or not at all: a killed worker leaves none
         build_report(tests, folder, title=title, metadata=metadata, fit=fit, diagnose=diag,
                      diagnose_dir=diag_path.parent, gas_limit=limit)  # fmt: skip
+    if fit is not None and fit_path is not None:
+        row.note = forces.computed_note(fit, fit_path)
     _from_tests(row, tests)
     row.damper_id = rec.metadata.get("damper_id", "")
     if diag is not None:
@@ -225,6 +227,25 @@ def sidecar_notes(jobs: list[Job]) -> list[str]:
         if path is not None and path not in notes:
             notes[path] = forces.read(path)[1]
     return [note for note in notes.values() if note]
+
+
+def computed_notes(jobs: list[Job], rows: list[Row]) -> list[str]:
+    """`batch report`, after the work: one line for each fit whose saved model forces did
+    not hold what its pages drew (`report`'s note), naming the pages that computed it."""
+    fit_of = {(j.name, j.kind): fit_for(j) for j in jobs}
+    by_fit: dict[str, list[Row]] = {}
+    for row in rows:
+        path = fit_of.get((row.name, row.kind))
+        if row.note and path is not None:
+            by_fit.setdefault(path, []).append(row)
+    lines = []
+    for noted in by_fit.values():
+        names = ", ".join(r.name for r in noted[:5]) + (
+            f" and {len(noted) - 5} more" if len(noted) > 5 else ""
+        )
+        page = "page" if len(noted) == 1 else "pages"
+        lines.append(f"{noted[0].note}, for {len(noted)} {page} ({names})")
+    return lines
 
 
 def _damper_id(recording: str) -> str:

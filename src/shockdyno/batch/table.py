@@ -47,6 +47,9 @@ class Row:
     physics: str = ""
     calibration: str = ""
     result: str = ""
+    # `batch report`: what the page computed from the fit that its saved model forces did
+    # not hold, as `report` says it (fit/forces.computed_note); "" when it read them all.
+    note: str = ""
     wall_s: float = 0.0
     version: str = __version__
 

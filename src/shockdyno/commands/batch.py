@@ -89,7 +89,7 @@ def _options(args: argparse.Namespace) -> Options:
 def run(args: argparse.Namespace) -> int:
     # Imported when a batch runs: +7 ms CPU at every command's start-up otherwise (runner,
     # with jobs; measured).
-    from shockdyno.batch.jobs import missing_fits, sidecar_notes
+    from shockdyno.batch.jobs import computed_notes, missing_fits, sidecar_notes
     from shockdyno.batch.runner import collect, plan_jobs, run_batch
 
     if args.workers is not None and args.workers < 1:
@@ -154,6 +154,8 @@ def run(args: argparse.Namespace) -> int:
             history=history,
             warn=lambda text: print(f"batch: warning: {text}", file=sys.stderr),
         )
+    for note in computed_notes(jobs, rows):  # as `report` says it, once per fit
+        print(f"batch report: note: {note}", file=sys.stderr)
     return _print_outcome(args.kind, rows, kept, counts, len(jobs), out, history)
 
 

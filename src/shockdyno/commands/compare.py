@@ -6,6 +6,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from shockdyno import units as units_mod
 from shockdyno.atomic import staged_dir
@@ -13,6 +14,10 @@ from shockdyno.commands.args import Subparsers, add_gas_arguments
 from shockdyno.errors import ConfigError
 from shockdyno.outputs import check_output, check_report_dir, write_output
 from shockdyno.report.gas import parse_given, warnings
+from shockdyno.units import Units
+
+if TYPE_CHECKING:
+    from shockdyno.compare.table import Row
 
 
 def register(sub: Subparsers) -> None:
@@ -61,17 +66,11 @@ def run_compare(args: argparse.Namespace) -> int:
     # inputs and table +10 and +13 ms (measured).
     from shockdyno.compare.inputs import default_labels, load_input
     from shockdyno.compare.page import render
-    from shockdyno.compare.table import difference_rows, differences, shared_settings, to_json
+    from shockdyno.compare.table import difference_rows, shared_settings, to_json
 
     units = units_mod.get(args.units)
     paths = [*args.inputs, *args.fit]
-    if len(paths) < 2:
-        raise ConfigError("give two or more inputs to compare (recordings or fits)")
-    seen: dict[Path, str] = {}
-    for p in paths:
-        again = seen.setdefault(Path(p).resolve(), p)
-        if again != p or paths.count(p) > 1:
-            raise ConfigError(f"{p}: given twice (as {again}); compare needs different inputs")
+    _check_distinct(paths)
     out = Path(args.output)
     check_report_dir(out, paths, args.force, flag="-o")
     if args.json:
@@ -111,6 +110,28 @@ def run_compare(args: argparse.Namespace) -> int:
     if args.json:
         text = json.dumps(to_json(inputs, rows), indent=2, allow_nan=False) + "\n"
         write_output(args.json, text, force=args.force, inputs=paths)
+    _say_verdict(rows, units)
+    # With --json - the table owns standard output.
+    print(f"compare: {index}", file=sys.stderr if args.json == "-" else sys.stdout)
+    return 0
+
+
+def _check_distinct(paths: list[str]) -> None:
+    """Two or more inputs, no file given twice (under two spellings either)."""
+    if len(paths) < 2:
+        raise ConfigError("give two or more inputs to compare (recordings or fits)")
+    seen: dict[Path, str] = {}
+    for p in paths:
+        again = seen.setdefault(Path(p).resolve(), p)
+        if again != p or paths.count(p) > 1:
+            raise ConfigError(f"{p}: given twice (as {again}); compare needs different inputs")
+
+
+def _say_verdict(rows: list[Row], units: Units) -> None:
+    """On standard error: the values that differ beyond the scatter, largest first, or
+    that none do (and how many could not be judged)."""
+    from shockdyno.compare.table import differences
+
     found = [r for r in rows if r.verdict == "difference"]
     if found:
         lines = differences(rows, units)
@@ -134,6 +155,3 @@ def run_compare(args: argparse.Namespace) -> int:
             ),
             file=sys.stderr,
         )
-    # With --json - the table owns standard output.
-    print(f"compare: {index}", file=sys.stderr if args.json == "-" else sys.stdout)
-    return 0

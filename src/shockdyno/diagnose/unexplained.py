@@ -15,11 +15,8 @@ import math
 
 from shockdyno.diagnose.discover import Coefficient, Described, Discovered, hint, phase_words
 from shockdyno.report import documents as docs
+from shockdyno.schema import finite_or_none
 from shockdyno.units import IMPERIAL, SI, Units
-
-
-def _json_num(x: float) -> float | None:
-    return float(x) if math.isfinite(x) else None
 
 
 def coefficient_text(c: Coefficient, u: Units = SI) -> str:
@@ -143,18 +140,18 @@ def _term_doc(t: Discovered) -> docs.UnnamedTerm:
                 family=c.feature.family,
                 symbol=c.feature.symbol_in(SI),
                 symbol_imperial=c.feature.symbol_in(IMPERIAL),
-                value=_json_num(c.value),
-                sd=_json_num(c.sd),
+                value=finite_or_none(c.value),
+                sd=finite_or_none(c.sd),
                 unit=c.feature.coefficient_unit,
                 text=coefficient_text(c, SI),
                 text_imperial=coefficient_text(c, IMPERIAL),
             )
             for c in t.coefficients
         ),
-        heldout_gain=_json_num(t.heldout_gain),
+        heldout_gain=finite_or_none(t.heldout_gain),
         heldout_detail=t.heldout_detail,
-        in_sample_share=_json_num(t.in_sample_share),
-        effect_peak_n=_json_num(t.effect_peak_n),
+        in_sample_share=finite_or_none(t.in_sample_share),
+        effect_peak_n=finite_or_none(t.effect_peak_n),
         hint=hint(t),
         why_not=t.why_not,
     )

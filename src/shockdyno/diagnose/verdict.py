@@ -15,10 +15,11 @@ from shockdyno.diagnose.diagnosis import CalibrationRow, Diagnosis, Trial
 from shockdyno.diagnose.locate import Location
 from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.unexplained import described_doc, described_text
-from shockdyno.model.params import Estimate
+from shockdyno.fit.result_doc import EstimateDoc
 from shockdyno.model.reading import Reading
 from shockdyno.model.terms import LIBRARY
 from shockdyno.report import documents as docs
+from shockdyno.schema import finite_or_none
 from shockdyno.units import IMPERIAL, SI, Units, in_units
 
 
@@ -255,16 +256,6 @@ def fit_terms(claimed: list[Trial]) -> str:
     return ",".join(names)
 
 
-def _num(x: float) -> float | None:
-    return float(x) if math.isfinite(x) else None
-
-
-def _parameter(e: Estimate) -> docs.Parameter:
-    value = e.value if math.isfinite(e.value) else None
-    sd = e.sd if math.isfinite(e.sd) else None
-    return docs.Parameter(value=value, sd=sd, unit=e.unit, fixed=e.fixed, at_bound=e.at_bound)
-
-
 def finding(t: Trial) -> docs.Finding:
     """A trial of the search as a row of DIAG.json's `findings`: the one place the
     in-memory result becomes the file's."""
@@ -273,12 +264,12 @@ def finding(t: Trial) -> docs.Finding:
         round=t.round,
         claimed=t.claimed,
         p_value=t.p_value,
-        heldout_gain=_num(t.heldout_gain),
+        heldout_gain=finite_or_none(t.heldout_gain),
         heldout_detail=t.heldout_detail,
         lr_n2=t.lr_n2,
         effect_rms_n=t.effect_rms_n,
         effect_peak_n=t.effect_peak_n,
-        parameters={k: _parameter(e) for k, e in t.parameters.items()},
+        parameters={k: EstimateDoc.of(e) for k, e in t.parameters.items()},
         ambiguous_with=tuple(t.ambiguous_with),
         why_not=t.why_not,
     )
@@ -299,7 +290,7 @@ def _verdict(d: Diagnosis) -> docs.Verdict:
                 parameter=r.parameter,
                 spec_value=r.spec_value,
                 fitted=r.fitted,
-                sd=_num(r.sd),
+                sd=finite_or_none(r.sd),
                 unit=r.unit,
                 moved=r.moved,
                 # beyond the spec's tolerance: a finding, not a calibration
@@ -313,8 +304,8 @@ def _verdict(d: Diagnosis) -> docs.Verdict:
         # The same words in in/s, lbf, in: a report in imperial units shows them
         # (report may not import diagnose to write them itself).
         text_imperial=verdict_text(d, IMPERIAL),
-        remaining_rms_n=_num(d.remaining.structured_rms_n),
-        remaining_p_value=_num(d.remaining.p_value),
+        remaining_rms_n=finite_or_none(d.remaining.structured_rms_n),
+        remaining_p_value=finite_or_none(d.remaining.p_value),
     )
 
 
@@ -326,10 +317,10 @@ def document(d: Diagnosis) -> docs.DiagnosisDoc:
         mismatch=docs.Mismatch(
             tested=d.testable,
             significant=d.testable and m.p_value < d.alpha,
-            p_value=_num(m.p_value),
-            noise_floor_n=_num(m.noise_floor_n),
-            structured_rms_n=_num(m.structured_rms_n),
-            structured_share=_num(m.structured_share),
+            p_value=finite_or_none(m.p_value),
+            noise_floor_n=finite_or_none(m.noise_floor_n),
+            structured_rms_n=finite_or_none(m.structured_rms_n),
+            structured_share=finite_or_none(m.structured_share),
             effective_values=m.effective_values,
             lone_cells=m.lone_cells,
             where=tuple(r.doc() for r in d.location.regions),
@@ -352,8 +343,8 @@ def document(d: Diagnosis) -> docs.DiagnosisDoc:
                 index=t.index,
                 clicks=t.clicks,
                 frequency_hz=t.frequency_hz,
-                E_t_before=_num(t.e_t_before),
-                E_t_after=_num(t.e_t_after),
+                E_t_before=finite_or_none(t.e_t_before),
+                E_t_after=finite_or_none(t.e_t_after),
             )
             for t in d.tests
         ),

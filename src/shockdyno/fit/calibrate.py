@@ -11,14 +11,22 @@ samples. Its covariance, inflated for correlated residuals, gives each uncertain
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from shockdyno.fit.parameters import AREA_BC, AREA_BT, GLOBAL, TERM, Parameter, calibration_set
+from shockdyno.fit.parameters import (
+    AREA_BC,
+    AREA_BT,
+    GLOBAL,
+    TERM,
+    Parameter,
+    ParameterSet,
+    calibration_set,
+)
 from shockdyno.fit.problem import StackedProblem
 from shockdyno.model.chamber import linearised
 from shockdyno.model.composite import DamperModel
@@ -94,7 +102,6 @@ def calibrate(
     accepts instead of differencing the model again there (a quasi-Newton least squares;
     its final σ are the updated Jacobian's). Without the robust loss only."""
     assert jac0 is None or not robust
-    n = prob.n_groups
     declared: dict[str, Param] = dict(base.param_list())
     ps = calibration_set(
         [replace(g, value=prob.base.value(g.name)) for g in params],  # from the problem's spec
@@ -111,53 +118,79 @@ def calibrate(
     lb, ub = ps.bounds()
     scales = np.array([q.scale for q in ps.items], dtype=float)
     p0 = np.clip(ps.theta0(), lb, np.where(ub > lb, ub - 1e-12 * np.maximum(np.abs(ub), 1), ub))
-    shared = ps.span(GLOBAL, TERM)  # one Jacobian column each
-    bc_at, bt_at = ps.span(AREA_BC), ps.span(AREA_BT)  # all areas in one evaluation
-    in_group = [prob.group == g for g in range(n)]
-    penalty_weight = math.sqrt(prob.size)
-    history = base.carries_state(free)  # not a channel delay alone: see jacobian
-    cache: dict[bytes, FloatArray] = {}
+    res = _Residuals(prob, base, ps, ub, history=base.carries_state(free))
+    jac = res.jacobian if jac0 is None else _Broyden(res.residual, jac0 * scales).jacobian
+    p, r_all, jac_end, nfev = _solve(res, jac, p0, (lb, ub), max_nfev, robust, jac0 is None)
+    return _calibration(prob, ps, p, r_all, jac_end, nfev, scales)
 
-    def model_at(p: FloatArray) -> DamperModel:
-        return base.with_spec(prob.spec_with(ps.values(p, GLOBAL))).with_values(ps.values(p, TERM))
 
-    def evaluated(p: FloatArray) -> FloatArray:
-        model = model_at(p)
+class _Residuals:
+    """The calibration's residual (samples, then the terms' penalties) at a parameter
+    vector, the last one kept, and its Jacobian by finite differences."""
+
+    def __init__(
+        self,
+        prob: StackedProblem,
+        base: DamperModel,
+        ps: ParameterSet,
+        ub: FloatArray,
+        history: bool,  # not a channel delay alone: see _area_columns
+    ) -> None:
+        self.prob, self.base, self.ps, self.ub, self.history = prob, base, ps, ub, history
+        self.shared = ps.span(GLOBAL, TERM)  # one Jacobian column each
+        self.bc_at, self.bt_at = ps.span(AREA_BC), ps.span(AREA_BT)  # all in one evaluation
+        self.in_group = [prob.group == g for g in range(prob.n_groups)]
+        self.penalty_weight = math.sqrt(prob.size)
+        self.cache: dict[bytes, FloatArray] = {}
+
+    def model_at(self, p: FloatArray) -> DamperModel:
+        ps = self.ps
+        return self.base.with_spec(self.prob.spec_with(ps.values(p, GLOBAL))).with_values(
+            ps.values(p, TERM)
+        )
+
+    def evaluated(self, p: FloatArray) -> FloatArray:
+        model = self.model_at(p)
+        prob, ps = self.prob, self.ps
         r = prob.force(model, ps.vector(p, AREA_BC), ps.vector(p, AREA_BT)) - prob.f
         pen = model.penalty()
-        return np.concatenate([r, penalty_weight * pen]) if pen.size else r
+        return np.concatenate([r, self.penalty_weight * pen]) if pen.size else r
 
-    def residual(p: FloatArray) -> FloatArray:
+    def residual(self, p: FloatArray) -> FloatArray:
         key = p.tobytes()
-        if key not in cache:
-            cache.clear()
-            cache[key] = evaluated(p)
-        return cache[key]
+        if key not in self.cache:
+            self.cache.clear()
+            self.cache[key] = self.evaluated(p)
+        return self.cache[key]
 
-    def jacobian(p: FloatArray) -> FloatArray:
+    def jacobian(self, p: FloatArray) -> FloatArray:
         # A chamber's columns are one Newton step a chamber step from its trajectory at p
         # (model/chamber.linearised: 1 balance a step where a solve takes 2.3), within the
         # columns' own finite-difference error. So p is evaluated first, in the block.
         with linearised() as guides:
-            base = evaluated(p)  # solved in full: the guide of every column
+            base = self.evaluated(p)  # solved in full: the guide of every column
             if guides:
                 # The columns' base is p's own guided evaluation, not the solve: a
                 # parameter nothing depends on (a release pressure never reached) then
                 # has a column of exact zeros, not the solve's leftover over h, which
                 # was a gradient that walked it into the data and a σ from noise.
-                base = evaluated(p)
-            return differenced(p, base)
+                base = self.evaluated(p)
+            return self.differenced(p, base)
 
-    def differenced(p: FloatArray, r0: FloatArray) -> FloatArray:
+    def differenced(self, p: FloatArray, r0: FloatArray) -> FloatArray:
         jac = np.zeros((r0.size, p.size))
         h = 1e-6 * np.maximum(np.abs(p), 0.1)
-        h = np.where(p + h > ub, -h, h)
-        for j in range(shared.start, shared.stop):
+        h = np.where(p + h > self.ub, -h, h)
+        for j in range(self.shared.start, self.shared.stop):
             q = p.copy()
             q[j] += h[j]
-            jac[:, j] = (evaluated(q) - r0) / h[j]
-        m = prob.size
-        if history:
+            jac[:, j] = (self.evaluated(q) - r0) / h[j]
+        self._area_columns(jac, p, h, r0)
+        return jac
+
+    def _area_columns(self, jac: FloatArray, p: FloatArray, h: FloatArray, r0: FloatArray) -> None:
+        bc_at, bt_at, n = self.bc_at, self.bt_at, self.prob.n_groups
+        if self.history:
             # A state carries each area's effect past reversal (a chamber's pressure, a
             # lag): a compression sample depends on the rebound area too. Each group's
             # samples depend on its own areas only, so one step of every group's
@@ -170,34 +203,39 @@ def calibrate(
             for at in (bc_at, bt_at):
                 q = p.copy()
                 q[at] += h[at]
-                dr = evaluated(q) - r0
+                dr = self.evaluated(q) - r0
                 for g in range(n):
-                    rows = np.flatnonzero(in_group[g])  # the penalty rows stay 0
+                    rows = np.flatnonzero(self.in_group[g])  # the penalty rows stay 0
                     jac[rows, at.start + g] = dr[rows] / h[at.start + g]
-            return jac
+            return
+        m = self.prob.size
         q = p.copy()
         q[bc_at.start :] += h[bc_at.start :]
-        dr = evaluated(q) - r0
-        _, v, _ = model_at(p).motion(prob.inputs)  # the split the areas follow
+        dr = self.evaluated(q) - r0
+        _, v, _ = self.model_at(p).motion(self.prob.inputs)  # the split the areas follow
         comp, reb = v > 0, v < 0
         for g in range(n):
-            rows_bc = np.flatnonzero(in_group[g] & comp)
-            rows_bt = np.flatnonzero(in_group[g] & reb)
+            rows_bc = np.flatnonzero(self.in_group[g] & comp)
+            rows_bt = np.flatnonzero(self.in_group[g] & reb)
             jac[rows_bc, bc_at.start + g] = dr[:m][rows_bc] / h[bc_at.start + g]
             jac[rows_bt, bt_at.start + g] = dr[:m][rows_bt] / h[bt_at.start + g]
-        return jac
 
-    from scipy.optimize import least_squares  # here: a quarter of a second to import
 
-    quasi: dict[str, FloatArray] = {}
+class _Broyden:
+    """A Jacobian without differencing: `start` (per unit of each parameter's scale) at
+    the first point; after, the last one with Broyden's update for the step to p:
+    J + (Δr - J s) sᵀ / sᵀs, which maps the step onto the change it made."""
 
-    def updated(p: FloatArray) -> FloatArray:
-        """jac0 at the start; after, the last one with Broyden's update for the step to p:
-        J + (Δr - J s) sᵀ / sᵀs, which maps the step onto the change it made."""
-        r = residual(p)
+    def __init__(self, residual: Callable[[FloatArray], FloatArray], start: FloatArray) -> None:
+        self.residual, self.start = residual, start
+        self.last: dict[str, FloatArray] = {}
+
+    def jacobian(self, p: FloatArray) -> FloatArray:
+        r = self.residual(p)
+        quasi = self.last
         if not quasi:
-            assert jac0 is not None and jac0.shape == (r.size, p.size)
-            jac = np.asarray(jac0 * scales, dtype=float)
+            assert self.start.shape == (r.size, p.size)
+            jac = np.asarray(self.start, dtype=float)
         else:
             step = p - quasi["p"]
             jac = quasi["jac"]
@@ -207,9 +245,23 @@ def calibrate(
         quasi.update(p=p.copy(), r=r.copy(), jac=jac)
         return jac
 
+
+def _solve(
+    res: _Residuals,
+    jac: Callable[[FloatArray], FloatArray],
+    p0: FloatArray,
+    bounds: tuple[FloatArray, FloatArray],
+    max_nfev: int,
+    robust: bool,
+    differenced: bool,
+) -> tuple[FloatArray, FloatArray, FloatArray, int]:
+    """trf from p0 (then soft-L1 from its end, if robust): the end point, the residual
+    and Jacobian there, and the model evaluations the solver asked for."""
+    from scipy.optimize import least_squares  # here: a quarter of a second to import
+
     common: dict[str, Any] = {
-        "jac": jacobian if jac0 is None else updated,
-        "bounds": (lb, ub),
+        "jac": jac,
+        "bounds": bounds,
         "method": "trf",
         "x_scale": "jac",
         "ftol": 1e-10,
@@ -217,23 +269,37 @@ def calibrate(
         "gtol": 1e-10,
         "max_nfev": max_nfev,
     }
+    residual, size = res.residual, res.prob.size
     sol = least_squares(residual, p0, **common)
     nfev = int(sol.nfev)
     if robust:
-        r = residual(sol.x)[: prob.size]
+        r = residual(sol.x)[:size]
         scale = 3 * 1.4826 * float(np.median(np.abs(r - np.median(r))))
         sol = least_squares(residual, sol.x, loss="soft_l1", f_scale=max(scale, 1e-3), **common)
         nfev += int(sol.nfev)
     p = sol.x
     if robust:
-        r_all, jac = residual(p), jacobian(p)  # the soft-L1 solve's are its scaled ones
-    else:
-        # The solver's own residual and Jacobian at its end: trf evaluates both at every
-        # point it accepts, so these are residual(p) and jacobian(p) as computed there
-        # (a second Jacobian here was one of every nine model evaluations of a diagnosis).
-        r_all, jac = np.asarray(sol.fun), np.asarray(sol.jac)
-        if CHECK_SOLVER_JACOBIAN and jac0 is None:
-            assert np.array_equal(jac, jacobian(p)) and np.array_equal(r_all, residual(p))
+        return p, residual(p), res.jacobian(p), nfev  # the soft-L1 solve's are its scaled ones
+    # The solver's own residual and Jacobian at its end: trf evaluates both at every
+    # point it accepts, so these are residual(p) and jacobian(p) as computed there
+    # (a second Jacobian here was one of every nine model evaluations of a diagnosis).
+    r_all, jac_end = np.asarray(sol.fun), np.asarray(sol.jac)
+    if CHECK_SOLVER_JACOBIAN and differenced:
+        assert np.array_equal(jac_end, res.jacobian(p)) and np.array_equal(r_all, residual(p))
+    return p, r_all, jac_end, nfev
+
+
+def _calibration(
+    prob: StackedProblem,
+    ps: ParameterSet,
+    p: FloatArray,
+    r_all: FloatArray,
+    jac: FloatArray,
+    nfev: int,
+    scales: FloatArray,
+) -> Calibration:
+    """The values at p and their σ: the covariance from the Jacobian, scaled by the
+    residual's variance and inflated for its correlation."""
     r = r_all[: prob.size]
     dof = max(r.size - p.size, 1)
     tau = autocorrelation_factor(r, prob.test_id)

@@ -32,7 +32,7 @@ from shockdyno.model.spec import DamperSpec, load_spec
 from shockdyno.model.terms import LIBRARY, make_term
 from shockdyno.record import adjusters
 from shockdyno.result_files import special_file
-from shockdyno.schema import check, to_json
+from shockdyno.schema import check, finite_or_none, to_json
 
 # A damper spec is a few kB of TOML; a "spec" far larger is no spec (and is not read).
 MAX_SPEC_BYTES = 1 << 20
@@ -96,8 +96,8 @@ class TestValidation:
             n_samples=self.n_samples,
             duration_s=self.duration_s,
             temperature_mean_C=self.temperature_mean_c,
-            proposed={k: _nan_to_none(v) for k, v in self.proposed.items()},
-            talbott={k: _nan_to_none(v) for k, v in self.talbott.items()},
+            proposed={k: finite_or_none(v) for k, v in self.proposed.items()},
+            talbott={k: finite_or_none(v) for k, v in self.talbott.items()},
         )
 
     @staticmethod
@@ -368,15 +368,15 @@ class FitResult:
                     A_bc_m2=c.a_bc_m2,
                     A_bt_m2=c.a_bt_m2,
                     A_b_talbott_m2=c.a_b_talbott_m2,
-                    A_bc_sd_m2=_nan_to_none(c.a_bc_sd_m2),
-                    A_bt_sd_m2=_nan_to_none(c.a_bt_sd_m2),
-                    A_b_talbott_sd_m2=_nan_to_none(c.a_b_talbott_sd_m2),
+                    A_bc_sd_m2=finite_or_none(c.a_bc_sd_m2),
+                    A_bt_sd_m2=finite_or_none(c.a_bt_sd_m2),
+                    A_b_talbott_sd_m2=finite_or_none(c.a_b_talbott_sd_m2),
                     identifiable_bc=c.identifiable_bc,
                     identifiable_bt=c.identifiable_bt,
-                    objective_n=_nan_to_none(c.objective_n),
-                    objective_talbott_n=_nan_to_none(c.objective_talbott_n),
-                    bleed_share_bc=_nan_to_none(c.bleed_share_bc),
-                    bleed_share_bt=_nan_to_none(c.bleed_share_bt),
+                    objective_n=finite_or_none(c.objective_n),
+                    objective_talbott_n=finite_or_none(c.objective_talbott_n),
+                    bleed_share_bc=finite_or_none(c.bleed_share_bc),
+                    bleed_share_bt=finite_or_none(c.bleed_share_bt),
                 )
                 for c in self.clicks
             ),
@@ -450,7 +450,3 @@ def _off(term: str, local: str) -> float:
         if p.name == local:
             return p.off
     return math.nan
-
-
-def _nan_to_none(v: float) -> float | None:
-    return None if not np.isfinite(v) else float(v)

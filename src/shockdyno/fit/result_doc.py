@@ -22,7 +22,7 @@ from msgspec import Meta
 from shockdyno.fit.trend import TrendDoc, nan
 from shockdyno.model.params import Estimate
 from shockdyno.result_files import RecordingRef, read_result
-from shockdyno.schema import OMITTED_AT_DEFAULT, convert
+from shockdyno.schema import OMITTED_AT_DEFAULT, convert, finite_or_none
 
 Clicks = Annotated[int, Meta(ge=0)]
 _OMIT = OMITTED_AT_DEFAULT
@@ -85,8 +85,8 @@ class EstimateDoc:
     @staticmethod
     def of(e: Estimate) -> EstimateDoc:
         return EstimateDoc(
-            value=_finite(e.value),
-            sd=_finite(e.sd),
+            value=finite_or_none(e.value),
+            sd=finite_or_none(e.sd),
             unit=e.unit,
             fixed=e.fixed,
             at_bound=e.at_bound,
@@ -192,8 +192,3 @@ def read_fit_doc(path: Path, flag: str) -> FitDoc:
     ConfigError line naming `flag`, the file and the key."""
     doc = read_result(path, flag, "fit")
     return convert(doc, FitDoc, f"{flag}: {path}", unknown_keys=True)
-
-
-def _finite(v: float) -> float | None:
-    """A number as FIT.json holds it: null when not finite (JSON has no NaN)."""
-    return None if v != v or v in (float("inf"), float("-inf")) else float(v)

@@ -52,6 +52,7 @@ from shockdyno.model.composite import DamperModel
 from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec, default_spec_path, load_spec
 from shockdyno.record.types import TestData
+from shockdyno.schema import finite_or_none
 
 FloatArray = NDArray[np.float64]
 Progress = Callable[[str, float], None]
@@ -436,29 +437,26 @@ def _fit_info(
         seed=seed,
         terms=tuple(selection.names),
         free_term_parameters=tuple(selection.free),
-        wall_s=_finite(time.perf_counter() - wall0),
+        wall_s=finite_or_none(time.perf_counter() - wall0),
         model_evaluations=prob.evaluations,
         model_samples_evaluated=prob.samples_evaluated,
-        objective_rate_hz=_finite(objective_rate_hz),
+        objective_rate_hz=finite_or_none(objective_rate_hz),
         objective_samples=prob.size,
-        objective_n=_finite(np.sum(areas.objective)),
-        objective_talbott_n=_finite(np.sum(obj_tal)),
+        objective_n=finite_or_none(np.sum(areas.objective)),
+        objective_talbott_n=finite_or_none(np.sum(obj_tal)),
         calibration=CalibrationInfo(
             least_squares_evaluations=cal.nfev,
             start=start,
-            rms_residual_n=_finite(cal.cost_rms_n),
-            residual_correlation_factor=_finite(cal.tau),
+            rms_residual_n=finite_or_none(cal.cost_rms_n),
+            residual_correlation_factor=finite_or_none(cal.tau),
             # Kept for readers of older results: the sensor_lag term's delay.
-            force_delay_s=_finite(delay.value) if delay is not None else 0.0,
-            force_delay_sd_s=_finite(delay.sd) if delay is not None else None,
-            globals_nominal={p.name: _finite(pb.model.spec.value(p.name)) for p in pb.params},
-            globals_sd={k: _finite(v) for k, v in cal.globals_sd.items()},
+            force_delay_s=finite_or_none(delay.value) if delay is not None else 0.0,
+            force_delay_sd_s=finite_or_none(delay.sd) if delay is not None else None,
+            globals_nominal={
+                p.name: finite_or_none(pb.model.spec.value(p.name)) for p in pb.params
+            },
+            globals_sd={k: finite_or_none(v) for k, v in cal.globals_sd.items()},
         ),
         n_tests=len(pb.prepared),
         skipped=tuple(pb.notes),
     )
-
-
-def _finite(v: float) -> float | None:
-    """An info number as FIT.json holds it: null when not finite (JSON has no NaN)."""
-    return float(v) if math.isfinite(v) else None

@@ -24,6 +24,7 @@ from shockdyno.record.identity import recording_sha256
 from shockdyno.record.types import TestData
 from shockdyno.report.documents import DiagnosisDoc
 from shockdyno.report.gas import gas_forces, limit_for
+from shockdyno.schema import finite_or_none
 
 # A spec global's unit by its name's ending (the fit JSON's globals are SI by name).
 UNITS = (("_pa", "Pa"), ("_n", "N"), ("_m2", "m²"), ("_m", "m"), ("_kg", "kg"),
@@ -53,7 +54,7 @@ def recording_entry(path: Path, tests: list[TestData] | None = None) -> Recordin
     )
     forces = gas_forces(tests, limit=limit_for(tests, metadata=meta))
     gas = tuple(
-        GasEntry(g, f.value_n if f.value_n is not None else None, _finite(f.sd_n), f.source)
+        GasEntry(g, f.value_n if f.value_n is not None else None, finite_or_none(f.sd_n), f.source)
         for g, f in sorted(forces.items())
     )
     return RecordingEntry(
@@ -71,10 +72,6 @@ def recording_entry(path: Path, tests: list[TestData] | None = None) -> Recordin
     )
 
 
-def _finite(x: float | None) -> float | None:
-    return float(x) if x is not None and math.isfinite(x) else None
-
-
 def _mean(values: list[float | None]) -> float | None:
     ok = [float(v) for v in values if v is not None and math.isfinite(v)]
     return statistics.fmean(ok) if ok else None
@@ -85,11 +82,11 @@ def fit_entry(result: FitResult, options: dict[str, object], result_file: str) -
     cal = result.info.calibration
     sd = cal.globals_sd if cal is not None else {}
     params = [
-        ParameterEntry(k, float(v), _finite(sd.get(k)), _unit(k))
+        ParameterEntry(k, float(v), finite_or_none(sd.get(k)), _unit(k))
         for k, v in sorted(result.globals.items())
     ]
     params += [
-        ParameterEntry(f"{term}.{k}", _finite(est.value), _finite(est.sd), est.unit)
+        ParameterEntry(f"{term}.{k}", finite_or_none(est.value), finite_or_none(est.sd), est.unit)
         for term, values in sorted(result.terms.items())
         for k, est in sorted(values.items())
     ]
@@ -98,8 +95,8 @@ def fit_entry(result: FitResult, options: dict[str, object], result_file: str) -
     names = result.adjuster_names()
     clicks = result.for_adjuster(names[0]).clicks if names else result.clicks
     areas = [
-        AreaEntry(c.clicks, c.gas_clicks, _finite(c.a_bc_m2), _finite(c.a_bt_m2),
-                  _finite(c.a_bc_sd_m2), _finite(c.a_bt_sd_m2))
+        AreaEntry(c.clicks, c.gas_clicks, finite_or_none(c.a_bc_m2), finite_or_none(c.a_bt_m2),
+                  finite_or_none(c.a_bc_sd_m2), finite_or_none(c.a_bt_sd_m2))
         for c in clicks
     ]  # fmt: skip
     return ResultEntry(  # made now, by this version
@@ -119,7 +116,7 @@ def diagnosis_entry(doc: DiagnosisDoc, options: dict[str, object], result_file: 
     """A DiagnosisDoc: the physics claimed, the verdict, E_t before and after, and the spec
     values it calibrated."""
     params = [
-        ParameterEntry(c.parameter, _finite(c.fitted), _finite(c.sd), c.unit)
+        ParameterEntry(c.parameter, finite_or_none(c.fitted), finite_or_none(c.sd), c.unit)
         for c in doc.verdict.calibration
     ]
     return ResultEntry(  # made now, by this version

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from shockdyno.errors import ConfigError
 from shockdyno.history.schema import open_db
+from shockdyno.schema import finite_or_none
 
 
 @dataclass(frozen=True)
@@ -105,10 +106,6 @@ class Visit:
         return max(found, key=lambda r: r.made_utc) if found else None
 
 
-def _num(x: float | None) -> float | None:
-    return float(x) if x is not None and math.isfinite(x) else None
-
-
 @contextmanager
 def history(path: Path) -> Iterator[sqlite3.Connection]:
     """The database at `path`, closed after; any SQLite error (a lock held past the 30 s
@@ -144,8 +141,8 @@ def add(path: Path, rec: RecordingEntry, result: ResultEntry) -> None:
             db.execute("DELETE FROM gas_forces WHERE sha256 = ?", (rec.sha256,))
             db.executemany(
                 "INSERT INTO gas_forces VALUES (?, ?, ?, ?, ?)",
-                [(rec.sha256, g.gas_clicks, _num(g.gas_force_n), _num(g.sd_n), g.source)
-                 for g in rec.gas],
+                [(rec.sha256, g.gas_clicks, finite_or_none(g.gas_force_n), finite_or_none(g.sd_n),
+                  g.source) for g in rec.gas],
             )  # fmt: skip
             db.execute(
                 "DELETE FROM results WHERE sha256 = ? AND kind = ? AND options = ?",
@@ -155,18 +152,22 @@ def add(path: Path, rec: RecordingEntry, result: ResultEntry) -> None:
                 """INSERT INTO results (sha256, kind, options, made_utc, result_file, version,
                        e_t, e_t_before, physics, verdict) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)""",
                 (rec.sha256, result.kind, options, result.made_utc, result.result_file,
-                 result.version, _num(result.e_t), _num(result.e_t_before), result.physics,
-                 result.verdict),
+                 result.version, finite_or_none(result.e_t), finite_or_none(result.e_t_before),
+                 result.physics, result.verdict),
             )  # fmt: skip
             rid = cur.lastrowid
             db.executemany(
                 "INSERT INTO areas VALUES (?, ?, ?, ?, ?, ?, ?)",
-                [(rid, a.clicks, a.gas_clicks, _num(a.a_bc_m2), _num(a.a_bt_m2),
-                  _num(a.a_bc_sd_m2), _num(a.a_bt_sd_m2)) for a in result.areas],
+                [(rid, a.clicks, a.gas_clicks, finite_or_none(a.a_bc_m2), finite_or_none(a.a_bt_m2),
+                  finite_or_none(a.a_bc_sd_m2), finite_or_none(a.a_bt_sd_m2))
+                 for a in result.areas],
             )  # fmt: skip
             db.executemany(
                 "INSERT INTO parameters VALUES (?, ?, ?, ?, ?)",
-                [(rid, p.name, _num(p.value), _num(p.sd), p.unit) for p in result.parameters],
+                [
+                    (rid, p.name, finite_or_none(p.value), finite_or_none(p.sd), p.unit)
+                    for p in result.parameters
+                ],
             )
             db.execute("COMMIT")
         except BaseException:

@@ -63,15 +63,3 @@ class Estimate:
     unit: str
     fixed: bool = False
     at_bound: bool = False
-
-    def to_json(self) -> dict[str, object]:
-        """The estimate as the fit JSON writes it: value, sd (null where not finite), unit, and
-        `fixed` / `at_bound` only when set."""
-        sd = self.sd if math.isfinite(self.sd) else None
-        value = self.value if math.isfinite(self.value) else None
-        out: dict[str, object] = {"value": value, "sd": sd, "unit": self.unit}
-        if self.fixed:
-            out["fixed"] = True
-        if self.at_bound:
-            out["at_bound"] = True
-        return out

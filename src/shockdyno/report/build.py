@@ -41,6 +41,7 @@ from shockdyno.report.diagnose_section import render_diagnose, render_figures
 from shockdyno.report.documents import DiagnosisDoc, RideDoc, typed
 from shockdyno.report.html import SUMMARY_LEGEND, Page, shown_path, summary_header, summary_row
 from shockdyno.report.interactive import Interactive
+from shockdyno.report.interactive_charts import click_charts, peak_charts
 from shockdyno.report.ride_section import render_ride
 from shockdyno.report.summary import TestSummary, summarise
 from shockdyno.units import SI, Units
@@ -391,7 +392,7 @@ def _click_chart_section(
             else "; none known)."
         )
     )
-    page.raw(live.figure(png, caption, live.click_chart(chart, band, label)))
+    page.raw(live.figure(png, caption, click_charts(live.units, chart, band, label)))
     write_text_atomic(out_dir / f"{stem}.csv", clickchart.to_csv(chart, units))
     header, rows = clickchart.table_rows(chart, "measured", units)
     page.subheading(f"Measured ({u})")
@@ -483,7 +484,7 @@ def _peaks_and_overlays(
         f"One curve per click through its test frequencies; complete tests only; {force_note}. "
         "Bars: ±2 SD of the test's per-cycle peak force (cycle-to-cycle band)."
     )
-    page.raw(live.figure(peaks.name, caption, live.peaks(complete, band)))
+    page.raw(live.figure(peaks.name, caption, peak_charts(live.units, complete, band)))
     page.section(f"Overlays across clicks{of}")
     by_freq: dict[float, list[plots.Curves]] = {}
     for c in complete:

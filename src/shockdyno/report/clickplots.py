@@ -7,11 +7,14 @@ Compression and rebound side by side; measured as solid lines with filled marker
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
 
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
+from matplotlib.typing import ColorType
 
 from shockdyno.report.clickchart import ClickChart, Setting
 from shockdyno.report.plots import DPI, readable_colours
@@ -43,55 +46,92 @@ def force_vs_clicks(
             ax.set_ylim(*(units.force(f) for f in ylims_n[k]))
         for speed in speeds:
             target = sign * speed
-            colour = colours[speed]
-            pts = sorted((c, row[target]) for (c, g), row in chart.measured.items() if g == gas)
-            pts = [(c, r) for c, r in pts if math.isfinite(r.force_n)]
-            if pts:
-                ax.plot(
-                    [c for c, _ in pts],
-                    [units.force(r.force_n) for _, r in pts],
-                    "-",
-                    color=colour,
-                    lw=1.4,
-                )
-                for c, r in pts:
-                    ax.plot(
-                        c,
-                        units.force(r.force_n),
-                        "o",
-                        ms=5,
-                        color=colour,
-                        mfc="white" if r.extrapolated else colour,
-                    )
-                    half = (band or {}).get((c, gas), {}).get(target, math.nan)
-                    if math.isfinite(half) and not r.extrapolated:
-                        ax.errorbar(
-                            c,
-                            units.force(r.force_n),
-                            yerr=units.force(half),
-                            color=colour,
-                            capsize=3,
-                            lw=1.0,
-                        )
+            _measured_line(ax, chart, gas, target, colours[speed], band, units)
             if chart.model_curve:
                 clicks = sorted(chart.model_curve)
                 ax.plot(
                     clicks,
                     [units.force(chart.model_curve[c][target]) for c in clicks],
                     "--",
-                    color=colour,
+                    color=colours[speed],
                     lw=1.1,
                 )
-        ax.set_title(f"{title} (velocity {'+' if sign > 0 else '−'}, force at each speed)")
-        ax.set_xlabel(f"{clicks_label} (open →)")
-        ax.set_ylabel(
-            f"force F ({units.force_label})"
-            if chart.raw_force
-            else f"damping force ({units.force_label}, gas removed)"
+        _label_side(ax, title, sign, chart.raw_force, clicks_label, units)
+    _legend(fig, speeds, colours, chart, band, units)
+    if len(gas_values) > 1:
+        fig.suptitle(f"gas clicks {gas} (the table lists every gas setting)", fontsize=10)
+    fig.savefig(path, dpi=DPI, format="png")
+    return path
+
+
+def _measured_line(
+    ax: Axes,
+    chart: ClickChart,
+    gas: int,
+    target: float,
+    colour: ColorType,
+    band: dict[Setting, dict[float, float]] | None,
+    units: Units,
+) -> None:
+    """The measured force at one signed velocity across the clicks: a line, a marker per
+    click (hollow where extrapolated), and the cycle-to-cycle band as error bars."""
+    pts = sorted((c, row[target]) for (c, g), row in chart.measured.items() if g == gas)
+    pts = [(c, r) for c, r in pts if math.isfinite(r.force_n)]
+    if not pts:
+        return
+    ax.plot(
+        [c for c, _ in pts],
+        [units.force(r.force_n) for _, r in pts],
+        "-",
+        color=colour,
+        lw=1.4,
+    )
+    for c, r in pts:
+        ax.plot(
+            c,
+            units.force(r.force_n),
+            "o",
+            ms=5,
+            color=colour,
+            mfc="white" if r.extrapolated else colour,
         )
-        ax.xaxis.set_major_locator(MaxNLocator(integer=True, nbins=8))
-        ax.yaxis.set_major_locator(MaxNLocator(nbins=7))
-        ax.grid(True, alpha=0.3)
+        half = (band or {}).get((c, gas), {}).get(target, math.nan)
+        if math.isfinite(half) and not r.extrapolated:
+            ax.errorbar(
+                c,
+                units.force(r.force_n),
+                yerr=units.force(half),
+                color=colour,
+                capsize=3,
+                lw=1.0,
+            )
+
+
+def _label_side(
+    ax: Axes, title: str, sign: float, raw_force: bool, clicks_label: str, units: Units
+) -> None:
+    """One direction's title, axis labels, ticks and grid."""
+    ax.set_title(f"{title} (velocity {'+' if sign > 0 else '−'}, force at each speed)")
+    ax.set_xlabel(f"{clicks_label} (open →)")
+    ax.set_ylabel(
+        f"force F ({units.force_label})"
+        if raw_force
+        else f"damping force ({units.force_label}, gas removed)"
+    )
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True, nbins=8))
+    ax.yaxis.set_major_locator(MaxNLocator(nbins=7))
+    ax.grid(True, alpha=0.3)
+
+
+def _legend(
+    fig: Figure,
+    speeds: list[float],
+    colours: Mapping[float, ColorType],
+    chart: ClickChart,
+    band: dict[Setting, dict[float, float]] | None,
+    units: Units,
+) -> None:
+    """A line per speed, then what the markers, dashes and bars mean (only those drawn)."""
     handles = [
         Line2D([], [], color=colours[s], marker="o", lw=1.4, label=units.speed_text(s))
         for s in speeds
@@ -102,7 +142,3 @@ def force_vs_clicks(
     if band:
         handles.append(Line2D([], [], color="0.3", marker="|", ms=12, lw=0, label="±2 SD, cycles"))
     fig.legend(handles=handles, loc="outside right center", fontsize=9, frameon=False)
-    if len(gas_values) > 1:
-        fig.suptitle(f"gas clicks {gas} (the table lists every gas setting)", fontsize=10)
-    fig.savefig(path, dpi=DPI, format="png")
-    return path

@@ -14,7 +14,8 @@ later, or that a hand-written sample may leave out, has the default that shows n
 key every writer has written is required: without it the file is not that result. A
 garbled value is one ConfigError line naming the file and the key.
 
-No project imports beyond the utilities: report may not import diagnose or ride.
+Project imports: the utilities, and fit's EstimateDoc (a finding's term parameter is
+FIT.json's term parameter, one definition); report may not import diagnose or ride.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal, TypeVar
 
+from shockdyno.fit.result_doc import EstimateDoc
 from shockdyno.result_files import RecordingRef, read_result
 from shockdyno.schema import OMITTED_AT_DEFAULT, Positive, convert, to_json
 
@@ -145,17 +147,6 @@ class Mismatch:
 
 
 @dataclass(frozen=True, kw_only=True)
-class Parameter:
-    """One fitted parameter of a finding's term, in SI `unit`; null where not estimated."""
-
-    value: float | None
-    sd: float | None
-    unit: str
-    fixed: bool = field(default=False, metadata=_OMIT)
-    at_bound: bool = field(default=False, metadata=_OMIT)
-
-
-@dataclass(frozen=True, kw_only=True)
 class Finding:
     """One candidate term of one round of the search, as tried and scored."""
 
@@ -168,7 +159,7 @@ class Finding:
     lr_n2: float | None = None  # the likelihood ratio's statistic, N²
     effect_rms_n: float | None = None  # the term's own force, RMS and peak
     effect_peak_n: float | None = None
-    parameters: dict[str, Parameter]
+    parameters: dict[str, EstimateDoc]  # FIT.json's shape of a term parameter
     ambiguous_with: tuple[str, ...]
     why_not: str = ""  # why a term that fitted better is not claimed
 

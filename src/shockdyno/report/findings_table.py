@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import math
 
-from shockdyno.report.documents import Finding, Parameter
+from shockdyno.fit.result_doc import EstimateDoc
+from shockdyno.report.documents import Finding
 from shockdyno.report.html import Page
 from shockdyno.units import SI, Units, in_units
 
@@ -47,7 +48,7 @@ def _in_units(unit: str, units: Units) -> tuple[float, float, str]:
     }.get(unit, (1.0, 0.0, unit))
 
 
-def parameters_text(value: dict[str, Parameter], units: Units = SI) -> str:
+def parameters_text(value: dict[str, EstimateDoc], units: Units = SI) -> str:
     """A finding's parameters: "breakaway_n = 24 ± 0.4 N; ...", in ``units``."""
     out = []
     for name, p in value.items():

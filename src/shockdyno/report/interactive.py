@@ -29,7 +29,6 @@ import numpy as np
 from matplotlib.colors import to_hex
 from matplotlib.typing import ColorType
 
-from shockdyno.report.clickchart import ClickChart, Setting
 from shockdyno.report.plots import (
     CMAP,
     Curves,
@@ -88,7 +87,7 @@ def _script_json(value: Any) -> str:  # Any: whatever json.dumps takes
     return json.dumps(value, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
 
 
-def _num(value: float) -> float | None:
+def page_value(value: float) -> float | None:
     """A value as the page stores it: DIGITS significant digits; None (a gap) if not finite."""
     if not math.isfinite(value):
         return None
@@ -96,7 +95,7 @@ def _num(value: float) -> float | None:
 
 
 def _nums(values: Sequence[float] | np.ndarray) -> list[float | None]:
-    return [_num(float(v)) for v in values]
+    return [page_value(float(v)) for v in values]
 
 
 def css_colour(colour: ColorType) -> str:
@@ -277,7 +276,7 @@ class Interactive:
         finite = [v for col in xs for v in col if v is not None]
         if not finite:
             return []
-        f = _num(self.units.force(gas_force_n))
+        f = page_value(self.units.force(gas_force_n))
         return [
             Series(
                 "static gas force",
@@ -286,166 +285,6 @@ class Interactive:
                 [f, f],
                 dotted=True,
                 width=1.0,
-            )
-        ]
-
-    def click_chart(
-        self,
-        chart: ClickChart,
-        band: dict[Setting, dict[float, float]] | None = None,
-        clicks_label: str = "rod clicks",
-    ) -> list[Chart]:
-        """Force against clicks at each standard speed, compression and rebound; ``band``
-        (N, half-widths per setting and signed speed) is read out on hover, as ±2 SD."""
-        u = self.units
-
-        speeds = sorted({abs(v) for v in chart.velocities_m_s})
-        colours = [css_colour(c) for c in readable_colours(len(speeds))]
-        gas_values = sorted({g for _, g in chart.settings})
-        gas = gas_values[0] if gas_values else 0  # as the PNG: the first gas setting
-
-        def spread(c: int, target: float) -> str:
-            h = (band or {}).get((c, gas), {}).get(target, math.nan)
-            return f", ±{u.force(h):.1f} {u.force_label} (2 SD, cycles)" if math.isfinite(h) else ""
-
-        y_label, y_name, y_unit = self._force_axis()
-        if not chart.raw_force:
-            y_label = f"damping force ({u.force_label}, gas removed)"
-        out = []
-        for sign, title in ((1.0, "compression"), (-1.0, "rebound")):
-            series: list[Series] = []
-            hollow_x: list[float | None] = []
-            hollow_y: list[float | None] = []
-            for speed, colour in zip(speeds, colours, strict=True):
-                target = sign * speed
-                name = u.speed_text(speed)
-                pts = sorted(
-                    (c, row[target])
-                    for (c, g), row in chart.measured.items()
-                    if g == gas and math.isfinite(row[target].force_n)
-                )
-                if pts:
-                    series.append(
-                        Series(
-                            name,
-                            colour,
-                            [float(c) for c, _ in pts],
-                            [_num(u.force(r.force_n)) for _, r in pts],
-                            points=True,
-                            notes=[
-                                " (extrapolated)"
-                                if r.extrapolated
-                                else f", {r.n_tests} test(s){spread(c, target)}"
-                                for c, r in pts
-                            ],
-                        )
-                    )
-                    hollow_x += [float(c) for c, r in pts if r.extrapolated]
-                    hollow_y += [_num(u.force(r.force_n)) for _, r in pts if r.extrapolated]
-                if chart.model_curve:
-                    clicks = sorted(chart.model_curve)
-                    series.append(
-                        Series(
-                            name,
-                            colour,
-                            [float(c) for c in clicks],
-                            [_num(u.force(chart.model_curve[c][target])) for c in clicks],
-                            dash=True,
-                            width=1.1,
-                            notes=[" (fitted model, x = 0)"] * len(clicks),
-                        )
-                    )
-            if hollow_x:
-                series.append(
-                    Series(
-                        "extrapolated",
-                        "#505050",
-                        hollow_x,
-                        hollow_y,
-                        line=False,
-                        points=True,
-                        hollow=True,
-                        notes=[" (extrapolated)"] * len(hollow_x),
-                    )
-                )
-            out.append(
-                Chart(
-                    f"{title} (velocity {'+' if sign > 0 else '−'})",
-                    f"{clicks_label} (open →)",
-                    y_label,
-                    "clicks",
-                    "",
-                    y_name,
-                    y_unit,
-                    series,
-                    x_integer=True,
-                )
-            )
-        return out
-
-    def peaks(
-        self, curves: Sequence[Curves], band: dict[int, tuple[float, float]] | None = None
-    ) -> list[Chart]:
-        """Peak force against peak velocity, one curve per click through its frequencies;
-        ``band`` (N, per test index: compression, rebound half-widths) read out on hover."""
-        u = self.units
-
-        def spread(c: Curves, branch: int) -> str:
-            cv = c.summary.cv
-            if cv is not None:  # a constant-velocity test: its mean force's sd
-                sd = u.force(cv[branch].force_sd_n)
-                return f", ±{sd:.1f} {u.force_label} (1 SD, constant velocity)"
-            h = (band or {}).get(c.summary.meta.index, (math.nan, math.nan))[branch]
-            return f", ±{u.force(h):.1f} {u.force_label} (2 SD, cycles)" if math.isfinite(h) else ""
-
-        by_click: dict[tuple[int, int], list[Curves]] = {}
-        for c in curves:
-            by_click.setdefault((c.test.meta.clicks, c.test.meta.gas_clicks), []).append(c)
-        several_gas = len({g for _, g in by_click}) > 1
-        clicks = [k for k, _ in sorted(by_click)]
-        norm_lo, norm_hi = min(clicks), max(clicks)
-        series: list[Series] = []
-        for (click, gas), group in sorted(by_click.items()):
-            group = sorted(group, key=lambda c: c.test.meta.frequency_hz)
-            frac = 0.0 if norm_hi == norm_lo else (click - norm_lo) / (norm_hi - norm_lo)
-            colour = css_colour(CMAP(frac))
-            label = click_label(click, gas, several_gas)
-            for branch, (vel, force) in enumerate(
-                (
-                    (
-                        [c.summary.point(0)[0] for c in group],
-                        [c.summary.point(0)[1] for c in group],
-                    ),
-                    (
-                        [c.summary.point(1)[0] for c in group],
-                        [c.summary.point(1)[1] for c in group],
-                    ),
-                )
-            ):
-                notes = [f" at {c.test.meta.frequency_hz:g} Hz{spread(c, branch)}" for c in group]
-                series.append(
-                    Series(
-                        label,
-                        colour,
-                        [_num(u.velocity(v)) for v in vel],
-                        [_num(u.force(f)) for f in force],
-                        points=True,
-                        width=1.2,
-                        notes=notes,
-                    )
-                )
-        removed = bool(curves) and all(c.summary.gas_removed_n is not None for c in curves)
-        what = "peak damping force" if removed else "peak force"
-        return [
-            Chart(
-                f"{what} vs peak velocity per click",
-                f"peak velocity ({u.velocity_label}, + compression, − rebound)",
-                f"{what} ({u.force_label}{', gas removed' if removed else ''})",
-                "v",
-                u.velocity_label,
-                "F",
-                u.force_label,
-                series,
             )
         ]
 

@@ -286,63 +286,98 @@ def peak_curves(
     by_click: dict[tuple[int, int], list[TestSummary]] = {}
     for s in summaries:
         by_click.setdefault((s.meta.clicks, s.meta.gas_clicks), []).append(s)
-    markers = "osD^v<>"
     gas_values = sorted({g for _, g in by_click})
     ends: list[tuple[float, float, str, ColorType]] = []  # fast end of each compression curve
     for (clicks, gas), group in sorted(by_click.items()):
         group = sorted(group, key=lambda s: s.meta.frequency_hz)
         colour = cmap(norm(clicks))
-        marker = markers[gas_values.index(gas) % len(markers)]
-        branches = (
-            ([s.point(0)[0] for s in group], [s.point(0)[1] for s in group]),
-            ([s.point(1)[0] for s in group], [s.point(1)[1] for s in group]),
-        )
-        for branch, (vel, force) in enumerate(branches):
-            ax.plot(
-                [units.velocity(v) for v in vel],
-                [units.force(f) for f in force],
-                "-",
-                marker=marker,
-                ms=4,
-                color=colour,
-                lw=1.0,
-                # One legend entry per click: its compression branch.
-                label=None if branch else click_label(clicks, gas, len(gas_values) > 1),
-            )
+        marker = _GAS_MARKERS[gas_values.index(gas) % len(_GAS_MARKERS)]
+        label = click_label(clicks, gas, len(gas_values) > 1)
+        _peak_branches(ax, group, colour, marker, label, units)
+        _peak_error_bars(ax, group, colour, band, units)
         fast = group[-1].point(0)
         ends.append((units.velocity(fast[0]), units.force(fast[1]), str(clicks), colour))
-        for s in group:
-            for p in s.cv or ():
-                ax.errorbar(
-                    units.velocity(p.velocity_m_s),
-                    units.force(p.force_n),
-                    yerr=units.force(p.force_sd_n),
-                    color=colour,
-                    capsize=3,
-                    lw=1.0,
-                )
-        for s in group if band else ():
-            half = band.get(s.meta.index) if band and s.cv is None else None
-            if half is None:
-                continue
-            for vel1, f1, h in (
-                (s.peak_compression_velocity_m_s, s.peak_compression_force_n, half[0]),
-                (s.peak_rebound_velocity_m_s, s.peak_rebound_force_n, half[1]),
-            ):
-                if math.isfinite(h):
-                    ax.errorbar(
-                        units.velocity(vel1),
-                        units.force(f1),
-                        yerr=units.force(h),
-                        color=colour,
-                        capsize=3,
-                        lw=1.0,
-                    )
     ax.axhline(0.0, color="0.6", lw=0.6)
     ax.axvline(0.0, color="0.6", lw=0.6)
     ax.grid(True, alpha=0.3)
     _ticks(ax)
     _direct_labels(ax, ends)
+    _label_peak_axes(ax, summaries, gas_values, units)
+    _click_legend(fig, [ax], len(by_click))
+    return _save(fig, path)
+
+
+_GAS_MARKERS = "osD^v<>"  # peak_curves: one marker per gas setting
+
+
+def _peak_branches(
+    ax: Axes,
+    group: Sequence[TestSummary],
+    colour: ColorType,
+    marker: str,
+    label: str,
+    units: Units,
+) -> None:
+    """One click's compression and rebound peaks through its frequencies."""
+    branches = (
+        ([s.point(0)[0] for s in group], [s.point(0)[1] for s in group]),
+        ([s.point(1)[0] for s in group], [s.point(1)[1] for s in group]),
+    )
+    for branch, (vel, force) in enumerate(branches):
+        ax.plot(
+            [units.velocity(v) for v in vel],
+            [units.force(f) for f in force],
+            "-",
+            marker=marker,
+            ms=4,
+            color=colour,
+            lw=1.0,
+            # One legend entry per click: its compression branch.
+            label=None if branch else label,
+        )
+
+
+def _peak_error_bars(
+    ax: Axes,
+    group: Sequence[TestSummary],
+    colour: ColorType,
+    band: dict[int, tuple[float, float]] | None,
+    units: Units,
+) -> None:
+    """A constant-velocity test's mean ± sd, and a sine's cycle-to-cycle band if given."""
+    for s in group:
+        for p in s.cv or ():
+            ax.errorbar(
+                units.velocity(p.velocity_m_s),
+                units.force(p.force_n),
+                yerr=units.force(p.force_sd_n),
+                color=colour,
+                capsize=3,
+                lw=1.0,
+            )
+    for s in group if band else ():
+        half = band.get(s.meta.index) if band and s.cv is None else None
+        if half is None:
+            continue
+        for vel1, f1, h in (
+            (s.peak_compression_velocity_m_s, s.peak_compression_force_n, half[0]),
+            (s.peak_rebound_velocity_m_s, s.peak_rebound_force_n, half[1]),
+        ):
+            if math.isfinite(h):
+                ax.errorbar(
+                    units.velocity(vel1),
+                    units.force(f1),
+                    yerr=units.force(h),
+                    color=colour,
+                    capsize=3,
+                    lw=1.0,
+                )
+
+
+def _label_peak_axes(
+    ax: Axes, summaries: Sequence[TestSummary], gas_values: Sequence[int], units: Units
+) -> None:
+    """Axis labels and title: peak or constant-velocity force, damping or raw."""
     cv = any(s.cv is not None for s in summaries)
     what = "velocity (sines: peak; constant-velocity tests: their speed)" if cv else "peak velocity"
     ax.set_xlabel(f"{what} ({units.velocity_label}, + compression, − rebound)")
@@ -357,11 +392,10 @@ def peak_curves(
     if cv:
         title = f"{'damping ' if removed else ''}force vs velocity per click"
     if len(gas_values) > 1:
+        marks = _GAS_MARKERS
         title += (
             " (marker: gas clicks "
-            + ", ".join(f"{g}={markers[i % len(markers)]}" for i, g in enumerate(gas_values))
+            + ", ".join(f"{g}={marks[i % len(marks)]}" for i, g in enumerate(gas_values))
             + ")"
         )
     ax.set_title(title, fontsize=10)
-    _click_legend(fig, [ax], len(by_click))
-    return _save(fig, path)

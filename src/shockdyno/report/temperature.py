@@ -246,6 +246,30 @@ def _caveats(c: CorrectedChart) -> list[str]:
     return notes
 
 
+def _table(c: CorrectedChart, gas: bool, units: Units) -> tuple[list[str], list[list[str]]]:
+    """The corrected chart's header and rows: a setting a row, its tests' mean temperature,
+    the corrected force at each velocity (* where the measured value was extrapolated)."""
+    header = [
+        "clicks",
+        *(["gas"] if gas else []),
+        f"T test ({units.temperature_label})",
+        *(clickchart.velocity_label(v, units) for v in c.velocities_m_s),
+    ]
+    rows = []
+    for key, row in sorted(c.corrected.items()):
+        t_c = units.temperature(c.temperatures_c[key])
+        cells = [str(key[0]), *([str(key[1])] if gas else []), f"{t_c:.1f}"]
+        star = c.extrapolated.get(key, {})
+        cells += [
+            f"{units.force(row[v]):.0f}{'*' if star.get(v) else ''}"
+            if math.isfinite(row[v])
+            else "–"
+            for v in c.velocities_m_s
+        ]
+        rows.append(cells)
+    return header, rows
+
+
 def render(
     page: Page,
     tests: Sequence[TestData],
@@ -295,24 +319,7 @@ def render(
     for note in _caveats(c):
         page.paragraph(note, warn=True)
     gas = len({g for _, g in c.measured}) > 1
-    header = [
-        "clicks",
-        *(["gas"] if gas else []),
-        f"T test ({tl})",
-        *(clickchart.velocity_label(v, units) for v in c.velocities_m_s),
-    ]
-    rows = []
-    for key, row in sorted(c.corrected.items()):
-        t_c = units.temperature(c.temperatures_c[key])
-        cells = [str(key[0]), *([str(key[1])] if gas else []), f"{t_c:.1f}"]
-        star = c.extrapolated.get(key, {})
-        cells += [
-            f"{units.force(row[v]):.0f}{'*' if star.get(v) else ''}"
-            if math.isfinite(row[v])
-            else "–"
-            for v in c.velocities_m_s
-        ]
-        rows.append(cells)
+    header, rows = _table(c, gas, units)
     page.subheading(
         f"Corrected to {temp(reference_c)} "
         f"({units.force_label}; velocity in {units.velocity_label})"

@@ -273,3 +273,25 @@ class SweepPlan:
     def remaining(self, done: set[PointKey]) -> list[SweepPoint]:
         """The planned tests not in `done` (keys), in plan order: what a resumed sweep runs."""
         return [p for p in self.points() if p.key not in done]
+
+    def motion_s(self, ramp_cycles: int, points: Sequence[SweepPoint]) -> float:
+        """Seconds the drive moves for `points`: each test's ramp in and out
+        (`ramp_cycles` each, the rig's sine_ramp_cycles), warm-up and measured cycles at
+        its frequency. Click changes, gas measurements and temperature waits come on top."""
+        cycles = 2 * ramp_cycles + self.warmup_cycles + self.measured_cycles
+        return sum(cycles / p.frequency_hz for p in points)
+
+
+LONG_SWEEP_S = 600.0  # a sweep planned longer than this says how long before it starts
+
+
+def duration_text(seconds: float) -> str:
+    """A long duration as a person says it: '12 min', '3 h 20 min', '2 d 7 h'."""
+    minutes = max(1, round(seconds / 60))
+    days, rest = divmod(minutes, 24 * 60)
+    hours, mins = divmod(rest, 60)
+    if days:
+        return f"{days} d {hours} h"
+    if hours:
+        return f"{hours} h {mins} min"
+    return f"{mins} min"

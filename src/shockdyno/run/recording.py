@@ -21,7 +21,7 @@ from shockdyno.record import open_recording
 from shockdyno.record.lock import recording_lock
 from shockdyno.record.queued import QueuedWriter
 from shockdyno.record.writer import RecordingWriter
-from shockdyno.run.plan import PointKey, SweepPlan
+from shockdyno.run.plan import LONG_SWEEP_S, PointKey, SweepPlan, SweepPoint, duration_text
 from shockdyno.run.refusals import check_band, check_sine
 from shockdyno.units import SI, Units
 
@@ -99,6 +99,7 @@ def _record_sweep(
         console.print("nothing left to run")
         return None
     _refuse_before_the_rig(rig, plan)
+    _say_if_long(rig, plan, todo, console)
     try:
         output.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -321,3 +322,23 @@ def _check_same_identity(before: dict[str, str], now: dict[str, str], output: Pa
                 f"{output} was recorded with another {what} ({said}); --resume continues "
                 "the same sweep: give the same rig file and plan, or start a new recording"
             )
+
+
+def _say_if_long(rig: RigConfig, plan: SweepPlan, todo: list[SweepPoint], console: Console) -> None:
+    """A sweep planned over LONG_SWEEP_S says, before the rig moves, about how long its
+    motion takes (a simulated rig's at its --speed) and how to stop it."""
+    motion_s = plan.motion_s(rig.ramp.sine_ramp_cycles, todo)
+    wall_s = motion_s / rig.daq.time_scale
+    if wall_s <= LONG_SWEEP_S:
+        return
+    scaled = rig.daq.time_scale != 1.0
+    console.print(
+        f"sweep: {len(todo)} test{'s' * (len(todo) > 1)} of {plan.warmup_cycles} warm-up and "
+        f"{plan.measured_cycles} measured cycles: about {duration_text(wall_s)} of motion"
+        + (f" ({duration_text(motion_s)} of rig time at x{rig.daq.time_scale:g})" if scaled else "")
+        + ", click changes and temperature waits on top. Ctrl-C stops safely and keeps what "
+        "was recorded; --resume continues.",
+        markup=False,
+        highlight=False,
+        soft_wrap=True,
+    )

@@ -144,16 +144,12 @@ def integrate(
     sample, the factor a term applied to the algebraic solve's Δp (the flow law is taken
     at Δp / scale, so a rigid chamber gives the same Δp); None: 1.
     """
-    valves = np.array([_valve_row(spec.compression_valve), _valve_row(spec.rebound_valve)])
-    c = spec.discharge_coefficient * math.sqrt(2.0 / spec.oil_density_kg_m3)
-    a_q = spec.annulus_area_m2 - spec.couette_area_m2
     use_carry = carry is not None and starts.size == 1
     cin = np.full(5, math.nan)  # (p, vapour, Δp, and the step before's p and vapour)
     if use_carry:
         assert carry is not None
         got = np.asarray(carry, dtype=float)
         cin[: min(got.size, 5)] = got[:5]  # a 3-state carry: the next step is Euler's
-    floor = chamber.release_pa
     lam = np.zeros(x.size) if bleed_laminar is None else bleed_laminar
     gas = np.zeros(x.size) if gas_volume is None else gas_volume
     sc = np.ones(x.size) if dp_scale is None else dp_scale
@@ -166,21 +162,7 @@ def integrate(
     )
     guide = guides.get(layout) if guides is not None and not use_carry else None
     g_pre, g_fin, g_used = guide if guide is not None else (_NONE, _NONE, _NO_PASSES)
-    k = constants(
-        valves=valves,
-        c=c,
-        a_q=a_q,
-        a_r=spec.annulus_area_m2,
-        length=chamber.length_m,
-        air0=chamber.air_fraction * spec.annulus_area_m2 * chamber.length_m,
-        p0=chamber.charge_pa,
-        c_oil=chamber.oil_compressibility_per_pa,
-        floor=floor if math.isfinite(floor) else -1.0e300,
-        has_floor=math.isfinite(floor),
-        r_form=chamber.form_resistance_pa_s_m3,
-        r_cond=chamber.condense_resistance_pa_s_m3,
-        gas_n=gas_index,
-    )
+    k = _constants_of(spec, chamber, gas_index)
     arrays = (x, v, p_c, dp_static, bleed_compression_m2, bleed_rebound_m2, k_leak, lam, sc, gas)
     smp = Samples(*(_per_sample(a, x.size) for a in arrays))
     dp, vap, pce, state, p_pre, p_fin, used = _recent_run(
@@ -196,6 +178,28 @@ def integrate(
     if guides is not None and guide is None and not use_carry:
         guides[layout] = (p_pre, p_fin, used)
     return dp, vap, pce, state
+
+
+def _constants_of(spec: DamperSpec, chamber: Chamber, gas_index: float) -> Constants:
+    """What a whole integration holds fixed: the valves, the orifice constant, the areas,
+    the chamber's contents and the gas index, as one `CONSTANTS` record."""
+    valves = np.array([_valve_row(spec.compression_valve), _valve_row(spec.rebound_valve)])
+    floor = chamber.release_pa
+    return constants(
+        valves=valves,
+        c=spec.discharge_coefficient * math.sqrt(2.0 / spec.oil_density_kg_m3),
+        a_q=spec.annulus_area_m2 - spec.couette_area_m2,
+        a_r=spec.annulus_area_m2,
+        length=chamber.length_m,
+        air0=chamber.air_fraction * spec.annulus_area_m2 * chamber.length_m,
+        p0=chamber.charge_pa,
+        c_oil=chamber.oil_compressibility_per_pa,
+        floor=floor if math.isfinite(floor) else -1.0e300,
+        has_floor=math.isfinite(floor),
+        r_form=chamber.form_resistance_pa_s_m3,
+        r_cond=chamber.condense_resistance_pa_s_m3,
+        gas_n=gas_index,
+    )
 
 
 _NONE = np.zeros(0)

@@ -330,18 +330,7 @@ class SimRig:
         return self._with_daq(self.pty_path)
 
     def _with_daq(self, url: str) -> RigConfig:
-        rig = self.rig.with_endpoints(host="127.0.0.1", port=self.modbus_port, daq_url=url)
-        # Its DAQ delivers `speed` DAQ seconds of frames per wall second (the host checks).
-        rig = replace(rig, daq=replace(rig.daq, time_scale=self.speed))
-        if self._modbus == "rtu":
-            act = replace(
-                self.rig.actuator,
-                kind="rtu",
-                serial_port=f"socket://127.0.0.1:{self.modbus_port}",
-                baudrate=115200,
-            )
-            rig = replace(rig, actuator=act)
-        return rig
+        return loopback_config(self.rig, self.modbus_port, url, self.speed, self._modbus)
 
     def true_bleed_areas(self, clicks: ArrayLike, gas_clicks: ArrayLike = 0) -> tuple[float, float]:
         """The simulated damper's true bleed areas (A_bc, A_bt; m²) at the given clicks, to check
@@ -445,3 +434,22 @@ def start_sim_rig(
         clock=clock,
         single_master=single_master,
     ).start()
+
+
+def loopback_config(
+    rig: RigConfig, port: int, daq_url: str, speed: float, modbus: str
+) -> RigConfig:
+    """`rig` pointed at a sim-rig on this machine: its Modbus server on `port` (TCP, or RTU
+    framed over a socket), its DAQ at `daq_url`, delivering `speed` DAQ seconds of frames
+    per wall second (the host checks)."""
+    out = rig.with_endpoints(host="127.0.0.1", port=port, daq_url=daq_url)
+    out = replace(out, daq=replace(out.daq, time_scale=speed))
+    if modbus == "rtu":
+        act = replace(
+            rig.actuator,
+            kind="rtu",
+            serial_port=f"socket://127.0.0.1:{port}",
+            baudrate=115200,
+        )
+        out = replace(out, actuator=act)
+    return out

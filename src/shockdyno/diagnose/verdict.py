@@ -358,7 +358,7 @@ def document(d: Diagnosis) -> docs.DiagnosisDoc:
     )
 
 
-def to_json(d: Diagnosis) -> dict[str, Any]:
+def to_json(d: Diagnosis) -> dict[str, Any]:  # Any: a JSON object's values, for json.dumps
     """DIAG.json's value (before `diagnose_file`'s info.recording and info.spec)."""
     doc: dict[str, Any] = schema.to_json(document(d))
     return doc

@@ -259,7 +259,7 @@ def _solve(
     and Jacobian there, and the model evaluations the solver asked for."""
     from scipy.optimize import least_squares  # here: a quarter of a second to import
 
-    common: dict[str, Any] = {
+    common: dict[str, Any] = {  # Any: least_squares' options, each of its own type
         "jac": jac,
         "bounds": bounds,
         "method": "trf",

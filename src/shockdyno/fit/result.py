@@ -389,7 +389,7 @@ class FitResult:
             info=self.info,
         )
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, Any]:  # Any: a JSON object's values, for json.dumps
         out: dict[str, Any] = to_json(self.doc())
         return out
 

@@ -117,7 +117,7 @@ class Series:
     notes: list[str] | None = None  # per point, appended to the readout
 
     def as_json(self) -> dict[str, Any]:  # Any: a JSON object's values, for json.dumps
-        out: dict[str, Any] = {
+        out: dict[str, Any] = {  # Any: as above
             "label": self.label,
             "colour": self.colour,
             "x": self.x,

@@ -183,7 +183,7 @@ def _holdout_values(truth: Any) -> dict[str, float]:
     from holdout.plant import P_VAPOUR
 
     v = truth.values
-    out = {"release_kpa": P_VAPOUR / 1e3}
+    out = {"release_kpa": v.get("release_pressure_pa", P_VAPOUR) / 1e3}
     if "bulk_modulus_at_charge_pa" in v:
         out["beta_eff_mpa"] = v["bulk_modulus_at_charge_pa"] / 1e6
     if "breakaway_n" in v:  # the lip's static force; the library's is above Coulomb
@@ -276,6 +276,7 @@ def run_case(case: Case) -> Row:
     try:
         import tempfile
 
+        from shockdyno import schema
         from shockdyno.diagnose.engine import diagnose
         from shockdyno.diagnose.file import diagnose_file
         from shockdyno.diagnose.verdict import to_json
@@ -305,7 +306,10 @@ def run_case(case: Case) -> Row:
             d = json.loads(out.read_text())
             row.reused = True
         else:
-            d = to_json(diagnose(tests)) if case.plant == "reference" else diagnose_file(rec)[1]
+            if case.plant == "reference":
+                d = to_json(diagnose(tests))
+            else:  # the document as DIAG.json holds it
+                d = schema.to_json(diagnose_file(rec)[1])
             if out is not None:
                 out.write_text(json.dumps(d, default=str))
         if scratch is not None:

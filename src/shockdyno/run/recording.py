@@ -55,39 +55,27 @@ def record_sweep(
     with recording_lock(output):
         if not resume:
             check_recording_output(output, force=overwrite)
-        return _record_sweep(
-            rig,
-            plan,
-            output,
-            metadata=metadata,
-            overwrite=overwrite,
-            resume=resume,
-            console=console,
-            units=units,
-            live=live,
-        )
+        options = (overwrite, resume, units, live)
+        return _record_sweep(rig, plan, output, metadata, console or Console(), options)
 
 
 def _record_sweep(
     rig: RigConfig,
     plan: SweepPlan,
     output: Path,
-    *,
     metadata: dict[str, str],
-    overwrite: bool = False,
-    resume: bool = False,
-    console: Console | None = None,
-    units: Units = SI,
-    live: Writer | None = None,
+    console: Console,
+    options: tuple[bool, bool, Units, Writer | None],
 ) -> SweepResult | None:
-    """`record_sweep` once the recording is locked."""
+    """`record_sweep` once the recording is locked (`options`: its overwrite, resume,
+    units and live)."""
+    overwrite, resume, units, live = options
     # here: the rig session and the live view add 28 and 7 ms to every command's start
     from shockdyno.run.fanout import Fanout
     from shockdyno.run.liveview import LiveView
     from shockdyno.run.session import RigSession, exit_reason
     from shockdyno.run.sweep import run_sweep
 
-    console = console or Console()
     ident = identity(rig, plan)
     if resume:
         done, first_index = _resumed(output, plan, metadata, ident, console)

@@ -7,12 +7,14 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
+import psutil
 import pytest
 
 from shockdyno.batch.table import read_table
@@ -82,10 +84,13 @@ def test_a_local_cluster_batch_is_the_single_command_and_resumes(
     assert [rows[f"r{i}"].status for i in range(4)] == ["skipped"] * 4
     assert [rows[f"r{i}"].damper_id for i in range(4)] == ["D0", "D1", "D2", "D3"]
     assert {p.name: p.stat().st_mtime_ns for p in out.glob("*.fit.json")} == mtimes
-    # Other options are another result: not skipped.
-    other = _cli("batch", "fit", str(recordings / "r0.mcap"), "--out", str(out), "--workers",
-                 "1", "--terms", "none")  # fmt: skip
-    assert other.returncode == 0
+    # Other options are another result: not skipped. In this process, as a caller would:
+    # the workers forked from it are all gone when the call returns.
+    before = _children()
+    other = main(["batch", "fit", str(recordings / "r0.mcap"), "--out", str(out), "--workers",
+                  "2", "--terms", "none"])  # fmt: skip
+    assert other == 0
+    assert _children() == before
     rows = {r.name: r.status for r in read_table(out)}
     assert rows["r0"] == "done" and rows["r1"] == "skipped"  # the others' rows are kept
     # The README's second command into the same folder (issue 47.2: it rewrote the table
@@ -125,6 +130,88 @@ def test_a_damaged_results_table_is_refused_before_any_work(
     assert done.stderr.count("\n") == 1 and "results.parquet cannot be read" in done.stderr
     assert (out / "results.parquet").read_bytes() == b"PAR1 torn"
     assert sorted(p.name for p in out.iterdir()) == ["results.parquet"]
+
+
+def _children(pid: int | None = None) -> set[int]:
+    """The live processes under this one (or pid), zombies aside."""
+    kids = psutil.Process(pid).children(recursive=True)
+    return {p.pid for p in kids if _alive(p)}
+
+
+def _alive(p: psutil.Process) -> bool:
+    try:
+        return p.is_running() and p.status() != psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return False
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_stopped_batch_leaves_no_process_and_every_finished_row(
+    recordings: Path, tmp_path: Path, sig: signal.Signals
+) -> None:
+    out = tmp_path / "out"
+    # Each worker's first task waits 2 s first: both are busy when the signal comes.
+    env = {**os.environ, "SHOCKDYNO_BATCH_TEST_DELAY_S": "2"}
+    paths = [str(recordings / n) for n in ("bad.mcap", "cut.mcap", "r0.mcap", "r1.mcap",
+                                           "r2.mcap", "r3.mcap")]  # fmt: skip
+    batch = subprocess.Popen(
+        [*CLI, "batch", "fit", *paths, "--out", str(out), "--workers", "2"],
+        cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        workers: set[int] = set()
+        deadline = time.monotonic() + 120
+        while not (out / "results.csv").exists():  # written as the first result arrives
+            assert batch.poll() is None and time.monotonic() < deadline, batch.stderr
+            workers |= _children(batch.pid)
+            time.sleep(0.05)
+        workers |= _children(batch.pid)
+        assert len(workers) >= 2  # the two workers, seen while they worked
+        batch.send_signal(sig)
+        _, stderr = batch.communicate(timeout=60)
+    finally:
+        if batch.poll() is None:
+            batch.kill()
+            batch.wait()
+    assert batch.returncode == 128 + sig, stderr
+    name = "interrupted" if sig == signal.SIGINT else "stopped by SIGTERM"
+    assert f"shockdyno batch: {name}" in stderr and "Traceback" not in stderr
+    assert not [pid for pid in workers if psutil.pid_exists(pid) and _alive(psutil.Process(pid))]
+    rows = {r.name: r.status for r in read_table(out)}
+    assert rows and len(rows) < 6  # stopped mid-run, with what had finished
+    said = re.findall(r"^batch: \d+/6 (\w+) (\w+)", stderr, re.M)  # its progress lines
+    assert all(rows.get(name) == status for status, name in said)  # each one said is kept
+    assert all(rows[n] == "done" for n in rows if n.startswith("r"))
+    for p in out.glob("*.fit.json"):
+        json.loads(p.read_text())  # whole, not torn
+
+
+def test_a_killed_local_worker_has_its_task_run_again(recordings: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    env = {**os.environ, "SHOCKDYNO_BATCH_TEST_DELAY_S": "4"}
+    paths = [str(recordings / f"r{i}.mcap") for i in range(3)]
+    batch = subprocess.Popen(
+        [*CLI, "batch", "fit", *paths, "--out", str(out), "--workers", "2", "--no-history"],
+        cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 120
+        while len(_children(batch.pid)) < 2:  # both workers are in their first task's wait
+            assert batch.poll() is None and time.monotonic() < deadline
+            time.sleep(0.05)
+        victim = min(_children(batch.pid))
+        os.kill(victim, signal.SIGKILL)
+        stdout, stderr = batch.communicate(timeout=180)
+    finally:
+        if batch.poll() is None:
+            batch.kill()
+            batch.wait()
+    assert batch.returncode == 0, stderr
+    assert "3 done" in stdout
+    rows = read_table(out)
+    assert [(r.name, r.status) for r in rows] == [("r0", "done"), ("r1", "done"), ("r2", "done")]
+    for p in out.glob("*.fit.json"):
+        json.loads(p.read_text())  # whole, not torn
 
 
 def _start(cmd: list[str], env: dict[str, str]) -> subprocess.Popen[bytes]:

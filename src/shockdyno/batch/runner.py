@@ -1,10 +1,12 @@
-"""Run many recordings on Dask distributed: a local cluster by default, or a scheduler.
+"""Run many recordings: on local worker processes by default, or on a Dask scheduler.
 
-One recording is one task (`jobs.run_job`), submitted with `pure=False` and retried on
-another worker when the one running it dies (Dask's `allowed_failures`). The results
-table is rewritten, atomically, each time a task finishes, so Ctrl-C or a lost scheduler
-leaves every finished result and a readable table of them (rewritten at most once a
-second while results arrive, and at the end).
+One recording is one task (`jobs.run_job`). Locally, the tasks run on processes forked
+from this one (batch/local.py); with `--scheduler`, on Dask distributed, submitted with
+`pure=False`. Either way a task whose worker dies is run again on another worker (locally
+batch/local.ALLOWED_FAILURES, on Dask its `allowed_failures`). The results table is
+rewritten, atomically, each time a task finishes, so Ctrl-C or a lost scheduler leaves
+every finished result and a readable table of them (rewritten at most once a second while
+results arrive, and at the end).
 """
 
 from __future__ import annotations
@@ -14,20 +16,21 @@ import hashlib
 import logging
 import math
 import time
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
-from shockdyno.batch.jobs import Job, Options, run_job
+from shockdyno.batch.jobs import Job, Options, run_job, warm_up
+from shockdyno.batch.local import LocalWorkers
 from shockdyno.batch.table import Row, earlier_rows, merged, write_table
 from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError, ShockdynoError
 from shockdyno.history import record_result_file
 from shockdyno.record.identity import recording_sha256
 
-if TYPE_CHECKING:  # for the types only: distributed is imported when a batch runs
-    from distributed import Client, LocalCluster
+if TYPE_CHECKING:  # for the types only: distributed is imported when a batch runs on it
+    from distributed import Client
 
 Progress = Callable[[Row, int, int], None]
 T = TypeVar("T")
@@ -35,7 +38,6 @@ R = TypeVar("R")
 # The table is rewritten whole: at most this often while results arrive (thousands of rows
 # rewritten per result would be quadratic), and always at the end, Ctrl-C included.
 TABLE_EVERY_S = 1.0
-MALLOC_TRIM = 128 * 1024 * 1024  # bytes: glibc's own upper bound, not distributed's 64 KiB
 
 
 def collect(paths: Sequence[str]) -> list[Path]:
@@ -75,58 +77,26 @@ def plan_jobs(kind: str, recordings: Iterable[Path], out_dir: Path, options: Opt
     return jobs
 
 
-def _client(scheduler: str | None, workers: int) -> tuple[Client, LocalCluster | None]:
-    # Dask is imported when a batch runs: +300 ms CPU (distributed) and +70 ms (dask) at
-    # every command's start-up otherwise (measured).
-    from distributed import Client, LocalCluster
+def _client(scheduler: str) -> Client:
+    # Dask is imported when a batch runs on a scheduler: +300 ms CPU (distributed) and
+    # +70 ms (dask) at every command's start-up otherwise (measured).
+    from distributed import Client
 
-    if scheduler:
-        try:
-            return Client(scheduler, timeout="10s"), None  # type: ignore[no-untyped-call]
-        except OSError as exc:
-            raise ConfigError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
-    # here: dask loads 107 modules (72 ms CPU) that no other command needs (measured)
-    import dask
-
-    # Distributed starts its workers with MALLOC_TRIM_THRESHOLD_=65536, returning freed
-    # memory to the OS at once; a fit allocates and frees large arrays all the time, and
-    # with it ran 36 % slower (6 fits on 2 workers: 17.1 s, 12.6 s with glibc's 128 MiB).
-    # Each worker's statistical profiler samples the task thread's stack every 10 ms (for
-    # the dashboard's profile page): a fit's deep SciPy stacks made that about 0.1 s of
-    # CPU per task, taken from the fits (benchmarks/results/suitebatch-2026-11-29.txt).
-    with dask.config.set(
-        {
-            "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": MALLOC_TRIM,
-            "distributed.worker.profile.enabled": False,
-        }
-    ):
-        cluster = LocalCluster(  # type: ignore[no-untyped-call]
-            n_workers=workers,
-            silence_logs=logging.ERROR,
-            threads_per_worker=1,
-            processes=True,
-            host="127.0.0.1",
-            dashboard_address="127.0.0.1:0",
-        )
-    return Client(cluster), cluster  # type: ignore[no-untyped-call]
+    try:
+        return Client(scheduler, timeout="10s")  # type: ignore[no-untyped-call]
+    except OSError as exc:
+        raise ConfigError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
 
 
 @contextmanager
-def dask_client(
-    scheduler: str | None, workers: int | None, on_cluster: Callable[[str], None] | None = None
-) -> Iterator[Client]:
-    """A client of the scheduler at `scheduler`, else of a LocalCluster of `workers`
-    processes (default: the cores this process may run on) on 127.0.0.1; closed, cluster and all."""
+def dask_client(scheduler: str) -> Iterator[Client]:
+    """A client of the Dask scheduler at `scheduler`; closed at the end."""
     logging.getLogger("distributed").setLevel(logging.ERROR)  # its shutdown chatter
-    client, cluster = _client(scheduler, workers or usable_cores())
+    client = _client(scheduler)
     try:
-        if on_cluster is not None:
-            on_cluster(str(client.dashboard_link or "no dashboard"))
         yield client
     finally:
         client.close()  # type: ignore[no-untyped-call]
-        if cluster is not None:
-            cluster.close()
 
 
 def map_tasks(
@@ -136,13 +106,36 @@ def map_tasks(
     scheduler: str | None = None,
     workers: int | None = None,
     on_cluster: Callable[[str], None] | None = None,
+    warm: Callable[[], None] | None = None,
+) -> Generator[tuple[T, R | BaseException], None, None]:
+    """fn(item) for every item, each a task, yielded as they finish: (item, result) or
+    (item, the exception). On `workers` local processes (default: the cores this process
+    may run on), or on the Dask scheduler at `scheduler`. A task whose worker dies is run
+    again elsewhere. `on_cluster` is told where the tasks run once the workers are up.
+    `warm` (local workers only) is run in this process before they are forked from it.
+    `fn` is a module-level function. The benchmarks run their recordings through this
+    too, so they can use a cluster."""
+    if scheduler:
+        yield from _on_dask(fn, items, scheduler, on_cluster)
+        return
+    n = workers or usable_cores()
+    with LocalWorkers(fn, n, warm) as pool:
+        if on_cluster is not None:
+            on_cluster(f"{n} local worker process{'es' if n > 1 else ''}")
+        yield from pool.results(items)
+
+
+def _on_dask(
+    fn: Callable[[T], R],
+    items: Sequence[T],
+    scheduler: str,
+    on_cluster: Callable[[str], None] | None,
 ) -> Iterator[tuple[T, R | BaseException]]:
-    """fn(item) for every item on Dask, each a task, yielded as they finish: (item, result)
-    or (item, the exception). A task whose worker dies is run again elsewhere. The
-    benchmarks run their recordings through this too, so they can use a cluster."""
     from distributed import as_completed  # +300 ms at start-up, as in _client
 
-    with dask_client(scheduler, workers, on_cluster) as client:
+    with dask_client(scheduler) as client:
+        if on_cluster is not None:
+            on_cluster(f"{scheduler}; dashboard {client.dashboard_link or 'none'}")
         futures = {
             client.submit(fn, item, pure=False, key=f"task-{i}-{id(item):x}"): item
             for i, item in enumerate(items)
@@ -154,7 +147,7 @@ def map_tasks(
                 except Exception as exc:  # the task raised, or its workers kept dying
                     yield futures[future], exc
         finally:
-            # Release every task before the cluster goes: nothing is left to recompute.
+            # Release every task before the client goes: nothing is left to recompute.
             client.cancel(list(futures))  # type: ignore[no-untyped-call]
             futures.clear()
 
@@ -179,10 +172,11 @@ def run_batch(
     out_dir.mkdir(parents=True, exist_ok=True)
     rows: dict[str, Row] = {}
     last_write = -math.inf
+    kinds = {j.kind for j in jobs}
+    tasks = map_tasks(run_job, jobs, scheduler=scheduler, workers=workers, on_cluster=on_cluster,
+                      warm=lambda: warm_up(kinds))  # fmt: skip
     try:
-        for job, got in map_tasks(
-            run_job, jobs, scheduler=scheduler, workers=workers, on_cluster=on_cluster
-        ):
+        for job, got in tasks:
             if isinstance(got, BaseException):
                 row = Row(job.recording, job.name, job.sha256, job.kind, "failed")
                 row.error = f"{type(got).__name__}: {' '.join(str(got).split())[:300]}"
@@ -198,6 +192,7 @@ def run_batch(
             if progress is not None:
                 progress(row, len(rows), len(jobs))
     finally:
+        tasks.close()  # the workers stopped (a Ctrl-C's too) before the last table
         write_table(out_dir, merged(earlier, _ordered(rows, jobs)))
     return _ordered(rows, jobs)
 

@@ -14,10 +14,10 @@ from shockdyno.batch.table import KINDS, Row, earlier_rows
 from shockdyno.commands.args import Subparsers, add_seed, add_spec
 from shockdyno.commands.history import add_history_argument, database
 from shockdyno.diagnose.file import parse_candidates
-from shockdyno.diagnose.workers import usable_cores
 from shockdyno.errors import ConfigError
 from shockdyno.fit.terms import parse_terms
 from shockdyno.record.identity import add_allow_argument
+from shockdyno.run.signals import stop_on_signals
 
 if TYPE_CHECKING:  # the batch's runner and jobs are imported when it runs (below)
     from shockdyno.batch.jobs import Options
@@ -121,27 +121,33 @@ def run(args: argparse.Namespace) -> int:
         print(f"batch report: note: {note}", file=sys.stderr)
     console = Console(stderr=True)
     counts = {"done": 0, "skipped": 0, "failed": 0}
-    with Progress(
-        TextColumn("batch " + args.kind),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("{task.fields[counts]}"),
-        console=console,
-        disable=not console.is_terminal,
-    ) as bar:
+    # Redrawn as results arrive, not by a thread: the local workers are forked from this
+    # process, which it keeps to one thread (batch/local.py). SIGTERM and SIGHUP unwind
+    # as Ctrl-C does: the workers stopped, the table written with every finished row.
+    with (
+        stop_on_signals(),
+        Progress(
+            TextColumn("batch " + args.kind),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("{task.fields[counts]}"),
+            console=console,
+            disable=not console.is_terminal,
+            auto_refresh=False,
+        ) as bar,
+    ):
         task = bar.add_task("batch", total=len(jobs), counts="")
 
         def progress(row: Row, n: int, total: int) -> None:
             counts[row.status] = counts.get(row.status, 0) + 1
             text = ", ".join(f"{v} {k}" for k, v in counts.items()) + f", {total - n} to go"
-            bar.update(task, completed=n, counts=text)
+            bar.update(task, completed=n, counts=text, refresh=True)
             if not console.is_terminal:
                 line = f"batch: {n}/{total} {row.status} {row.name}"
                 print(line + (f": {row.error}" if row.error else ""), file=sys.stderr)
 
-        def on_cluster(link: str) -> None:
-            where = args.scheduler or f"local cluster, {args.workers or usable_cores()} workers"
-            console.print(f"batch: {len(jobs)} recordings on {where}; dashboard {link}")
+        def on_cluster(where: str) -> None:
+            console.print(f"batch: {len(jobs)} recordings on {where}")
 
         history = None if args.no_history or args.kind == "report" else database(args)
         rows = run_batch(

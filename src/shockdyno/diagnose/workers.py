@@ -56,10 +56,10 @@ def _context() -> BaseContext | None:
     return None
 
 
-def _die_with_parent(parent: int | None) -> None:
-    """A worker's start: it ends when the process that started it does (a diagnosis
-    killed by SIGTERM or SIGKILL would otherwise leave its workers computing, forever
-    waiting for the next item)."""
+def die_with_parent(parent: int | None) -> None:
+    """A worker's start: it ends when the process that started it does (a diagnosis or a
+    batch killed by SIGTERM or SIGKILL would otherwise leave its workers computing,
+    forever waiting for the next item)."""
     if sys.platform.startswith("linux"):
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
@@ -87,7 +87,7 @@ class Workers:
             self.start_method = ctx.get_start_method()
             parent = os.getpid() if self.start_method == "fork" else None
             self._pool = ProcessPoolExecutor(
-                self.n, mp_context=ctx, initializer=_die_with_parent, initargs=(parent,)
+                self.n, mp_context=ctx, initializer=die_with_parent, initargs=(parent,)
             )
             # Started now, so their imports overlap the baseline fit.
             for _ in range(self.n):

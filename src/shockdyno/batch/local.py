@@ -28,7 +28,6 @@ from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from multiprocessing.connection import Connection, wait
 from multiprocessing.process import BaseProcess
-from types import TracebackType
 from typing import Any, Generic, TypeVar
 
 from shockdyno.diagnose.workers import die_with_parent
@@ -174,12 +173,7 @@ class LocalWorkers(Generic[T, R]):
             raise
         return self
 
-    def __exit__(
-        self,
-        kind: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.stop()
 
     def results(self, items: Sequence[T]) -> Iterator[tuple[T, R | BaseException]]:

@@ -1,6 +1,7 @@
-"""`shockdyno batch` on real Dask clusters (issue 18): a LocalCluster of 2 worker processes,
-and a `dask scheduler` with two `dask worker` processes on 127.0.0.1, one of them killed
-while it holds a task. The batch's JSONs equal the single command's (wall time aside); a
+"""`shockdyno batch` on 2 local worker processes (one of them killed while it holds a task;
+the batch stopped by SIGINT and SIGTERM mid-run) and on a real Dask cluster: a `dask
+scheduler` with two `dask worker` processes on 127.0.0.1, one of them killed while it
+holds a task. The batch's JSONs equal the single command's (wall time aside); a
 bad recording is a row with its error; a re-run skips what is done."""
 
 from __future__ import annotations

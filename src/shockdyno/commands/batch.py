@@ -26,11 +26,11 @@ if TYPE_CHECKING:  # the batch's runner and jobs are imported when it runs (belo
 def register(sub: Subparsers) -> None:
     p = sub.add_parser(
         "batch",
-        help="fit, diagnose or report many recordings on Dask (local cluster or a scheduler)",
+        help="fit, diagnose or report many recordings (local processes or a Dask scheduler)",
         description=(
             "Run `fit`, `diagnose` or `report` on every recording in PATHS (files, folders, "
-            "globs), one task a recording, on Dask distributed: an embedded local cluster of "
-            "processes, or an existing cluster (--scheduler). Writes DIR/NAME.fit.json, "
+            "globs), one task a recording: on worker processes of this machine, or on an "
+            "existing Dask cluster (--scheduler). Writes DIR/NAME.fit.json, "
             "NAME.diag.json or NAME/index.html, and DIR/results.parquet and results.csv. "
             "A recording whose result exists for the same content, options and version is "
             "skipped; a bad recording is a row with its error (docs/batch.md)."
@@ -46,7 +46,7 @@ def register(sub: Subparsers) -> None:
         "--workers",
         type=int,
         metavar="N",
-        help="worker processes of the local cluster (default: the cores this process may run on)",
+        help="local worker processes (default: the cores this process may run on)",
     )
     g = p.add_argument_group("options passed to each command")
     g.add_argument("--terms", metavar="LIST", help="fit: default sensor_lag; diagnose: all")

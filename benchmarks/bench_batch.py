@@ -111,7 +111,7 @@ def batch_local(recs: list[Path], out: Path, workers: int) -> dict[str, Any]:
         t1 = time.perf_counter()
         list(pool.results(range(400)))
         overhead = (time.perf_counter() - t1) / 400
-    return _figures(rows, total, started[0] - t0, cpu0, cpu1, workers, overhead, method)
+    return _figures(rows, total, started[0] - t0, cpu0, cpu1, overhead, method)
 
 
 def batch_dask(recs: list[Path], out: Path, workers: int) -> dict[str, Any]:
@@ -150,7 +150,7 @@ def batch_dask(recs: list[Path], out: Path, workers: int) -> dict[str, Any]:
         cluster.close()  # type: ignore[no-untyped-call]
     cpu1 = cpu_seconds()  # its workers are reaped; the no-op tasks' CPU is in it (small)
     assert all(r.status == "done" for r in rows), rows
-    return _figures(rows, total, started - t0, cpu0, cpu1, workers, overhead, "spawn")
+    return _figures(rows, total, started - t0, cpu0, cpu1, overhead, "spawn")
 
 
 def _figures(
@@ -159,7 +159,6 @@ def _figures(
     start: float,
     cpu0: tuple[float, float],
     cpu1: tuple[float, float],
-    workers: int,
     overhead: float,
     method: str,
 ) -> dict[str, Any]:

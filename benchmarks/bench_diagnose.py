@@ -523,8 +523,8 @@ def main() -> None:
     t0 = time.perf_counter()
     rows: list[Row] = []
     try:
-        # Through the batch runner (shockdyno.batch): a local Dask cluster of --jobs
-        # workers, or --scheduler's; a case whose worker dies runs again elsewhere.
+        # Through the batch runner (shockdyno.batch): --jobs local worker processes
+        # or --scheduler's Dask cluster; a case whose worker dies runs again elsewhere.
         ordered = sorted(enumerate(cases), key=lambda ic: run_order(ic[1]))
         items = [(c, str(workdir), f"{i:03d}") for i, c in ordered]
         for item, got in map_tasks(

@@ -20,6 +20,7 @@ from __future__ import annotations
 import contextlib
 import multiprocessing
 import os
+import pickle
 import signal
 import subprocess
 import sys
@@ -76,7 +77,7 @@ def _spawned() -> None:
     process's import path, then the function, from the pipe."""
     conn = Connection(int(sys.argv[1]))
     sys.path[:] = conn.recv()  # where the function's module is found, as in the batch's
-    _serve(conn.recv(), conn, int(sys.argv[2]))
+    _serve(pickle.loads(conn.recv_bytes()), conn, int(sys.argv[2]))
 
 
 # SIGINT ignored first: a Ctrl-C while the interpreter imports is the batch's to handle.
@@ -107,8 +108,12 @@ class _Worker:
                     pass_fds=[theirs.fileno()],
                     stdin=subprocess.DEVNULL,
                 )
+                # By value when it is a script's (`__main__` is not the worker's), as Dask
+                # sends its tasks (cloudpickle comes with it; here only: forks need none).
+                import cloudpickle
+
                 self.conn.send(sys.path)
-                self.conn.send(fn)
+                self.conn.send_bytes(cloudpickle.dumps(fn))
         finally:
             theirs.close()
 

@@ -2,8 +2,8 @@
 
 The batch's process has already imported the fit, the diagnosis and the report, so a
 forked worker starts with all of it: no interpreter start and no imports per worker, no
-scheduler and no nannies (Dask's LocalCluster spent 1-2 s of CPU a worker on those, which
-capped 24 fits on 2 cores at 1.3x the serial loop; benchmarks/results). Each worker is
+scheduler and no nannies (what Dask's LocalCluster spends on those does not grow with the
+fits, and on a few cores it is a large part of a batch; benchmarks/bench_batch.py). Each worker is
 given one task at a time over its own pipe, so this process always knows which recording
 a worker holds: a worker that dies (killed, out of memory) has its recording run again on
 a new worker, up to ALLOWED_FAILURES times, then the recording's row says so (Dask's
@@ -25,6 +25,7 @@ import signal
 import subprocess
 import sys
 import threading
+import warnings
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from multiprocessing.connection import Connection, wait
@@ -100,7 +101,14 @@ class _Worker:
                 self._forked = multiprocessing.get_context("fork").Process(
                     target=_serve, args=(fn, theirs, os.getpid()), daemon=True
                 )
-                self._forked.start()
+                with warnings.catch_warnings():
+                    # Python >= 3.12 warns on any fork of a process with native threads. The
+                    # only ones here are BLAS's pool (forking() saw one Python thread), and
+                    # OpenBLAS re-makes its pool in the child (its pthread_atfork handlers).
+                    warnings.filterwarnings(
+                        "ignore", r"This process .* is multi-threaded", DeprecationWarning
+                    )
+                    self._forked.start()
             else:  # not multiprocessing's spawn: it starts a resource tracker that stays
                 fd = str(theirs.fileno())
                 self._spawned = subprocess.Popen(

@@ -34,7 +34,7 @@ from shockdyno.diagnose.diagnosis import Trial
 from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted, refit
 from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.stats import MismatchStat, mismatch_test, noise_draws
-from shockdyno.diagnose.tolerance import Asked, hold
+from shockdyno.diagnose.tolerance import Asked, hold, unhold
 from shockdyno.diagnose.workers import SERIAL, Workers
 from shockdyno.model.composite import FORCE, PRESSURE, DamperModel
 from shockdyno.model.params import Estimate
@@ -71,6 +71,7 @@ class Search:
     ) -> None:
         self.tests = tests  # the search's clicks (search_subset)
         self.base = base
+        self.start = base  # what a calibration the search takes was before it
         self.s = s
         self.rng = rng
         self.folds = fold_list
@@ -117,11 +118,11 @@ class Search:
             search.drawing, search.asked = limits
         search.run(mismatch)
         report("scores", 0.95)
-        freed = bool(search.base.limits)
+        freed = bool(search.base.limits or search.asked)
         if freed:
             search.base = replace(search.base, limits={})
         if search.claimed or search.tests is not data or freed:
-            search.final_refit(data)
+            search.final_refit(data, freed)
         return search
 
     def run(self, mismatch: MismatchStat) -> None:
@@ -319,20 +320,26 @@ class Search:
             self.groups[:] = [g for g in self.groups if name not in g.group]
             self.base = reduced
 
-    def final_refit(self, data: Data) -> Fitted:
-        """The model refitted on every test of `data` (not only the search's clicks),
-        whose values the verdict reports: a candidate's refit is cut at max_nfev, and with
-        the gas spring calibrated beside it a bump stop's onset stopped at 24.1 mm where it
-        was 21. A claim whose term, refitted, is no longer physical, sits at an end of its
-        range, stays at its off values or has too small a force of its own (`idle_reasons`) was
-        the short refit's gain, not the term's: it leaves the model and the verdict
-        (`claimed`, `trials`, `groups`). A 2 % air sweep kept a position force that
-        refitted to 0.45 N at most, against a 1.8 N limit; a reference-plant friction
-        sweep's cavitation floor, claimed above vacuum less the gas charge, refitted to
-        -2.55 MPa absolute."""
+    def final_refit(self, data: Data, freed: bool = False) -> Fitted:
+        """The model refitted on every test of `data` (not only the search's clicks), whose values
+        the verdict reports: a candidate's refit is cut at max_nfev, and with the gas spring
+        calibrated beside it a bump stop's onset stopped at 24.1 mm where it was 21. `freed`: the
+        search held spec values, now free: the refit has the final budget whether or not a term
+        was claimed, and starts also from where the recording put them (tolerance.unhold). A
+        claim whose term, refitted, is no longer physical, sits at an end of its range, stays at
+        its off values or has too small a force of its own (`idle_reasons`) was the short refit's
+        gain, not the term's: it leaves the model and the verdict (`claimed`, `trials`,
+        `groups`). A 2 % air sweep kept a position force that refitted to 0.45 N at most, against
+        a 1.8 N limit; a reference-plant friction sweep's cavitation floor, claimed above vacuum
+        less the gas charge, refitted to -2.55 MPa absolute."""
         s, base = self.s, self.base
-        nfev = s.final_nfev if self.claimed else s.max_nfev
-        base = refit(data, base.model, base.free, base, max_nfev=nfev)
+        nfev = s.final_nfev if self.claimed or freed else s.max_nfev
+        if freed:
+            spec = self.start.model.spec
+            taken = {k: spec.value(k) for k in base.globals if k not in self.start.globals}
+            base = unhold(data, base, self.asked, taken, nfev)
+        else:
+            base = refit(data, base.model, base.free, base, max_nfev=nfev)
         why = idle_reasons(self.claimed, data, base, self.force_peak, s)
         idle = list(why)
         if idle:
@@ -345,7 +352,7 @@ class Search:
             kept, free, calibrated = without(data, base, idle, self.came_with)
             for n in idle:
                 self.came_with.pop(n, None)
-            nfev = s.final_nfev if self.claimed else s.max_nfev
+            nfev = s.final_nfev if self.claimed or freed else s.max_nfev
             base = refit(data, kept, free, base, max_nfev=nfev, calibrated=calibrated)
         for f in self.trials:
             if f.claimed:

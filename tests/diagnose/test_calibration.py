@@ -117,15 +117,30 @@ def test_a_spec_value_beyond_its_tolerance_is_held_while_the_search_runs(
         assert "Held within its tolerance" in text and "claimed friction" in text, text
     else:
         # Nothing took its place: the final refit frees it, the model keeps what the
-        # recording asks, and the move is a finding.
-        if row["fitted"] / spec_n == pytest.approx(2.0, rel=1e-3):
-            # Known defect, not understood: in one full-suite run (a sim-rig recording
-            # made under load) the final refit left the value at its limit and nothing was
-            # claimed. Run alone the same test frees it; issue 44's note has it.
-            pytest.xfail(f"the final refit left friction_n at its limit: {text}")
-        assert row["fitted"] / spec_n == pytest.approx(3.0, rel=0.1), row
+        # recording asks, and the move is a finding (on some recordings the held search
+        # takes a bleed land beside it, which the freed refit drops again).
+        assert row["fitted"] / spec_n == pytest.approx(3.0, rel=0.1), (row, text)
         assert row["beyond_tolerance"], row
         assert "A finding, not a calibration" in text and "while the search ran" in text, text
+
+
+def test_a_freed_value_is_refitted_with_the_final_budget(clean: Path, tmp_path: Path) -> None:
+    # The value the verdict reports is the final refit's, with its own budget
+    # (Settings.final_nfev), however short the search's refits are (max_nfev). Given the
+    # search's 15 evaluations when nothing was claimed, a freed value stayed where the
+    # search had held it: on sim-rig recordings made under load the held search took a
+    # 28 mm bleed land beside the held friction, and the freed refit moved it by 1e-4 of
+    # the spec's (the test above then failed in full-suite runs, not alone: the recording
+    # varies from run to run, the diagnosis of one recording does not). Cut to one
+    # evaluation the search's refits cannot move at all, so only the final refit's own
+    # budget can free it, on any recording.
+    spec_n = RIG_FRICTION_N / 3
+    spec = _spec_with(tmp_path, "friction_n", spec_n)
+    d = _diagnose(clean, spec, candidates=(), calibrations=(), max_nfev=1)
+    row = _row(d, "friction_n")
+    assert row["asked"] / spec_n == pytest.approx(3.0, rel=0.1), row
+    assert row["fitted"] == pytest.approx(row["asked"], rel=0.01), (row, d["verdict"]["text"])
+    assert row["beyond_tolerance"], row
 
 
 def test_a_spec_value_within_its_tolerance_is_calibrated_and_not_held(

@@ -113,6 +113,10 @@ def test_a_spec_value_beyond_its_tolerance_is_held_while_the_search_runs(
     assert row["asked"] / spec_n == pytest.approx(3.0, rel=0.1), row
     text = d["verdict"]["text"]
     assert "Calibrated, not physics: the spec's Coulomb friction" not in text, text
+    # The mismatch is the held baseline's, and says so: the spec within its tolerance.
+    assert text.startswith(
+        "Mismatch, with the spec's Coulomb friction held within its tolerance: "
+    ), text
     if d["verdict"]["physics"] == ["friction"] and not row["beyond_tolerance"]:
         assert "Held within its tolerance" in text and "claimed friction" in text, text
     else:

@@ -124,6 +124,10 @@ class Diagnosis:
     short_tests: list[ShortTest] = field(default_factory=list)  # left out, see ShortTest
     # What the search left (significant), described, with a discovered term (discover.py)
     described: list[Described] = field(default_factory=list)
+    # Spec values held within their tolerance in the baseline `mismatch` is measured on
+    # (diagnose/tolerance.py): what the spec leaves within what a damper departs from its
+    # drawing by, which the search was offered.
+    held: tuple[str, ...] = ()
 
     @property
     def alpha(self) -> float:

@@ -142,6 +142,7 @@ def _diagnose(
         sensor=sensor,
         short_tests=short,
         described=described,
+        held=tuple(held.limits),
     )
 
 

@@ -188,22 +188,28 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
     spec_gas = d.final.model.spec.gas_pressure_pa
     m = d.mismatch
     fl = u.force_label
+    # Measured with spec values held within their tolerance: the spec as a damper may
+    # depart from it, which is what the search was offered; the free fit took the
+    # structure as a calibration beyond it (a finding, calibration_text).
+    held = " and ".join(f"the spec's {_CALIBRATION_WORDS.get(k, k)}" for k in d.held)
+    its = "its" if len(d.held) == 1 else "their"
+    held = f", with {held} held within {its} tolerance" if held else ""
     if m.p_value >= d.alpha:
         return (
-            f"No mismatch beyond noise: the model's residual repeats by "
+            f"No mismatch beyond noise{held}: the model's residual repeats by "
             f"{u.force(m.structured_rms_n):.2g} {fl} RMS against {u.force(m.noise_floor_n):.2g} "
             f"{fl} of noise (p = {m.p_value:.2g}). Nothing claimed."
         )
     where = _signature(d.location, d.settings)
     lines = [
-        f"Mismatch: {u.force(m.structured_rms_n):.3g} {fl} RMS repeats every cycle "
+        f"Mismatch{held}: {u.force(m.structured_rms_n):.3g} {fl} RMS repeats every cycle "
         f"(noise {u.force(m.noise_floor_n):.2g} {fl})" + (f", {where}" if where else "") + "."
     ]
     claimed = [f for f in d.trials if f.claimed]
     if not claimed:
-        lines.append(
-            "No candidate physics explains it on held-out tests; see the unexplained regions."
-        )
+        # Freed, a held value can take it all back: then no region is left to point to.
+        see = "" if held and not d.unexplained.regions else "; see the unexplained regions"
+        lines.append(f"No candidate physics explains it on held-out tests{see}.")
     for f in claimed:
         alike = (
             f" (indistinguishable here from {', '.join(f.ambiguous_with)})"

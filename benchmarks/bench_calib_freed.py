@@ -17,13 +17,15 @@ spec's. The recordings are kept in --work and reused.
 from __future__ import annotations
 
 import argparse
-import json
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "benchmarks"))
+from diag_equal import child  # noqa: E402  (benchmarks/ is not a package)
+
 SPEC = REPO / "sim" / "ohlins-s46.toml"
 RIG_FRICTION_N = 35.0
 
@@ -85,16 +87,7 @@ def main(argv: list[str] | None = None) -> None:
     spec.write_text(text)
     for rec in sorted(args.work.glob("*.mcap")):
         for py in args.python:
-            done = subprocess.run(
-                [py, "-c", CHILD, str(rec), str(spec)],
-                capture_output=True,
-                text=True,
-                check=False,
-                cwd=tempfile.gettempdir(),  # not the repo: each venv imports its own checkout
-            )
-            if done.returncode != 0:
-                raise SystemExit(f"{py} on {rec}: failed\n{done.stderr[-2000:]}")
-            r = json.loads(done.stdout.strip().splitlines()[-1])
+            r = child(py, CHILD, rec, str(spec))
             asked = r["asked"] / spec_n if r["asked"] is not None else float("nan")
             print(
                 f"{rec.name:14s} {py:40s} friction {r['fitted'] / spec_n:.4f}x (asked "

@@ -70,10 +70,10 @@ def _strip(doc: Any) -> Any:
     return doc
 
 
-def run(python: str, rec: Path, out: Path) -> tuple[str, float]:
-    """(DIAG.json's text without timings, CPU seconds of the diagnosis) by `python`."""
+def child(python: str, code: str, rec: Path, *args: str) -> dict[str, Any]:
+    """The JSON `code` printed last, run by `python` on `rec` (each venv its own checkout)."""
     done = subprocess.run(
-        [python, "-c", CHILD, str(rec), str(out)],
+        [python, "-c", code, str(rec), *args],
         capture_output=True,
         text=True,
         check=False,
@@ -81,7 +81,13 @@ def run(python: str, rec: Path, out: Path) -> tuple[str, float]:
     )
     if done.returncode != 0:
         raise SystemExit(f"{python} on {rec}: failed\n{done.stderr[-2000:]}")
-    cpu = float(json.loads(done.stdout.strip().splitlines()[-1])["cpu_s"])
+    out: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
+    return out
+
+
+def run(python: str, rec: Path, out: Path) -> tuple[str, float]:
+    """(DIAG.json's text without timings, CPU seconds of the diagnosis) by `python`."""
+    cpu = float(child(python, CHILD, rec, str(out))["cpu_s"])
     text = json.dumps(_strip(json.loads(out.read_text())), indent=2, sort_keys=True)
     return text, cpu
 

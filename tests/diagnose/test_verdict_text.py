@@ -173,6 +173,7 @@ def test_the_verdict_judges_significance_at_the_search_s_alpha() -> None:
             calibration=[],
             sensor=[],
             described=[],
+            held=(),
             testable=True,
             short_tests=[],
             final=SimpleNamespace(

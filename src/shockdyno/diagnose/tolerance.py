@@ -11,14 +11,14 @@ to explain. So whenever a fit of the search (the baseline, the fit after a claim
 moved a value beyond its tolerance by more than 3σ, the value is held within it and the
 fit refitted; every refit started from that one holds it too (`Fitted.limits`), so the
 candidates are scored on the structure it could not take. The final refit frees it again
-(engine.py): a claimed term that took its place keeps it there, and one that did not is
-dropped by the final refit's rules; where the value still moves beyond, the drawing is not
-the damper's (or the physics is not the library's), and the model keeps the value the
-recording asks, reported as a finding, not a calibration. A value within its tolerance is
-not bounded at all: trf scales its steps by the distance to the bounds, and a bound that
-never binds still changes a short refit's path (a branch that bounded every value from
-the start moved the friction claims' held-out gains by 0.04-0.08 on sweeps where nothing
-bound).
+(`unhold`, from Search.final_refit): a claimed term that took its place keeps it there,
+and one that did not is dropped by the final refit's rules; where the value still moves
+beyond, the drawing is not the damper's (or the physics is not the library's), and the
+model keeps the value the recording asks, reported as a finding, not a calibration. A
+value within its tolerance is not bounded at all: trf scales its steps by the distance to
+the bounds, and a bound that never binds still changes a short refit's path (a branch that
+bounded every value from the start moved the friction claims' held-out gains by 0.04-0.08
+on sweeps where nothing bound).
 """
 
 from __future__ import annotations

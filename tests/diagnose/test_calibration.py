@@ -182,6 +182,13 @@ def test_a_held_value_reads_as_a_finding_or_as_the_claim_that_took_its_place() -
     text = calibration_text(SimpleNamespace(calibration=[stuck], trials=[]))  # type: ignore[arg-type]
     assert text.startswith("A finding, not a calibration: the spec's Coulomb friction is 2.7×")
     assert "held within it while the search ran" in text and "Calibrated" not in text
+    assert "no candidate physics took its place" in text
+    # Held, a claim made, and the value still beyond: the text must not say nothing took it.
+    text = calibration_text(
+        SimpleNamespace(calibration=[stuck], trials=[friction])  # type: ignore[arg-type]
+    )
+    assert "the claimed friction did not take all of its place" in text
+    assert "no candidate physics" not in text
     # Held, and the claimed friction took its place: the row is a calibration again.
     taken = row(38.5)
     assert not taken.beyond

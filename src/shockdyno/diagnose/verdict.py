@@ -117,8 +117,9 @@ def calibration_text(d: Diagnosis) -> str:
         text.append(
             "Calibrated, not physics: " + "; ".join(describe_calibration(r) for r in moved) + "."
         )
+    held_any = any(math.isfinite(r.asked) for r in d.calibration)
     claims = (
-        " and ".join(t.physics.replace("_", " ") for t in d.trials if t.claimed) if taken else ""
+        " and ".join(t.physics.replace("_", " ") for t in d.trials if t.claimed) if held_any else ""
     )
     for r in taken:
         now = f"{r.fitted / r.spec_value:.2g}× the spec's" if r.spec_value else f"{r.fitted:.3g}"
@@ -129,11 +130,13 @@ def calibration_text(d: Diagnosis) -> str:
             + f" (now {now})."
         )
     for r in beyond:
-        held = (
-            "; held within it while the search ran, no candidate physics took its place"
-            if math.isfinite(r.asked)
-            else ""
+        # A claim beside a value that still ends beyond took part of its place, not all.
+        took = (
+            f"the claimed {claims} did not take all of its place"
+            if claims
+            else "no candidate physics took its place"
         )
+        held = f"; held within it while the search ran, {took}" if math.isfinite(r.asked) else ""
         text.append(
             f"A finding, not a calibration: {describe_calibration(r)}, beyond the "
             f"{_tolerance(r)} a damper departs from its drawing by{held}; physics the library "

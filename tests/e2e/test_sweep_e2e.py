@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from inprocess import cli
 from shockdyno.errors import RecordingError
 from shockdyno.fit import fit_sweep
 from shockdyno.model.spec import default_spec_path, load_spec
@@ -128,11 +129,15 @@ def test_fit_of_a_simulated_sweep_recovers_the_true_bleed_areas(swept):
     assert all(t.proposed["E_t"] <= 0.05 for t in result.tests)
 
 
-def _sweep_cmd(out: Path, *extra: str) -> list[str]:
+def _sweep_args(out: Path, *extra: str) -> list[str]:
     return [
-        *CLI, "sweep", "--rig", str(SIM_RIG), "--start-sim", "--clicks", "0,10,20",
+        "sweep", "--rig", str(SIM_RIG), "--start-sim", "--clicks", "0,10,20",
         "--freq", "1,1.5", "--cycles", "2", "--warmup-cycles", "1", "-o", str(out), *extra,
     ]  # fmt: skip
+
+
+def _sweep_cmd(out: Path, *extra: str) -> list[str]:
+    return [*CLI, *_sweep_args(out, *extra)]
 
 
 def _wait_for_complete_tests(path: Path, n: int, proc: subprocess.Popen[bytes], limit_s: float):
@@ -169,8 +174,7 @@ def test_kill_mid_sweep_keeps_completed_tests_and_resume_finishes(tmp_path):
     for i, meta in enumerate(rec.tests):
         if meta.status == "complete":
             assert rec.load(i).t.size > 1000
-    resumed = subprocess.run(_sweep_cmd(out, "--speed", "40", "--resume"), cwd=REPO,
-                             capture_output=True, text=True, timeout=120)  # fmt: skip
+    resumed = cli(*_sweep_args(out, "--speed", "40", "--resume"))
     assert resumed.returncode == 0, resumed.stderr
     final = open_recording(out)
     expected = {(c, 0, f) for c in (0, 10, 20) for f in (1.0, 1.5)}
@@ -221,8 +225,7 @@ def test_ctrl_c_stops_safely_and_keeps_what_was_recorded(tmp_path):
 )
 def test_bad_plans_are_refused_in_one_line_before_anything_moves(tmp_path, flags, words):
     out = tmp_path / "absurd.mcap"
-    res = subprocess.run(_sweep_cmd(out, "--speed", "40", *flags), cwd=REPO, capture_output=True,
-                         text=True, timeout=60)  # fmt: skip
+    res = cli(*_sweep_args(out, "--speed", "40", *flags))
     assert res.returncode == 2
     assert "Traceback" not in res.stderr
     errors = [line for line in res.stderr.splitlines() if "error" in line]
@@ -234,10 +237,9 @@ def test_operator_adjuster_without_a_terminal_is_refused_before_anything_moves(t
     rig = tmp_path / "operator.toml"
     rig.write_text(SIM_RIG.read_text().replace('adjuster = "motorised"', 'adjuster = "operator"'))
     out = tmp_path / "op.mcap"
-    cmd = [*CLI, "sweep", "--rig", str(rig), "--start-sim", "--clicks", "0", "--freq", "1",
-           "-o", str(out)]  # fmt: skip
-    res = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=60,
-                         stdin=subprocess.DEVNULL)  # fmt: skip
+    args = ["sweep", "--rig", str(rig), "--start-sim", "--clicks", "0", "--freq", "1",
+            "-o", str(out)]  # fmt: skip
+    res = cli(*args, stdin="")
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert "terminal" in res.stderr and not out.exists()
 
@@ -245,10 +247,10 @@ def test_operator_adjuster_without_a_terminal_is_refused_before_anything_moves(t
 def test_resume_with_a_different_plan_is_refused(swept):
     path, *_ = swept
     before = path.read_bytes()
-    cmd = [*CLI, "sweep", "--rig", str(SIM_RIG), "--start-sim", "--speed", "40", "--clicks",
-           "3,12,15", "--freq", "1,1.5", "--warmup-cycles", "1", "--cycles", "3",
-           "--amplitude-mm", "20", "--resume", "-o", str(path)]  # fmt: skip
-    res = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=60)
+    args = ["sweep", "--rig", str(SIM_RIG), "--start-sim", "--speed", "40", "--clicks",
+            "3,12,15", "--freq", "1,1.5", "--warmup-cycles", "1", "--cycles", "3",
+            "--amplitude-mm", "20", "--resume", "-o", str(path)]  # fmt: skip
+    res = cli(*args)
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert "--resume must use the same" in res.stderr
     assert path.read_bytes() == before
@@ -258,8 +260,7 @@ def test_resume_with_a_different_plan_is_refused(swept):
 def test_a_path_that_is_a_file_is_a_one_line_error(tmp_path):
     blocker = tmp_path / "not-a-dir"
     blocker.write_text("")
-    res = subprocess.run([*CLI, "demo", "--no-fit", "--out-dir", str(blocker)], cwd=REPO,
-                         capture_output=True, text=True, timeout=60)  # fmt: skip
+    res = cli("demo", "--no-fit", "--out-dir", str(blocker))
     assert res.returncode == 2
     assert "Traceback" not in res.stderr and len(res.stderr.strip().splitlines()) == 1
     assert str(blocker) in res.stderr
@@ -268,8 +269,7 @@ def test_a_path_that_is_a_file_is_a_one_line_error(tmp_path):
 def test_existing_recording_is_not_overwritten(tmp_path):
     out = tmp_path / "keep.mcap"
     out.write_bytes(b"precious")
-    res = subprocess.run(_sweep_cmd(out, "--speed", "40"), cwd=REPO, capture_output=True,
-                         text=True, timeout=60)  # fmt: skip
+    res = cli(*_sweep_args(out, "--speed", "40"))
     assert res.returncode != 0 and "--force" in res.stderr
     assert out.read_bytes() == b"precious"
 
@@ -289,11 +289,8 @@ def test_demo_writes_recording_fit_and_report(tmp_path):
     rec = open_recording(tmp_path / "demo.mcap")
     assert len(rec.tests) == 6 and all(m.status == "complete" for m in rec.tests)
     # The demo's fit names its recording: a report of the two together is accepted.
-    again = subprocess.run(
-        [*CLI, "report", str(tmp_path / "demo.mcap"), "--fit", str(tmp_path / "demo-fit.json"),
-         "-o", str(tmp_path / "again")],
-        cwd=REPO, capture_output=True, text=True, timeout=110,
-    )  # fmt: skip
+    again = cli("report", str(tmp_path / "demo.mcap"), "--fit", str(tmp_path / "demo-fit.json"),
+                "-o", str(tmp_path / "again"))  # fmt: skip
     assert again.returncode == 0, again.stderr
     # ... reading the model's forces the demo's fit saved beside it (fit/forces.py).
     assert (tmp_path / "demo-fit.forces.npz").exists() and "note:" not in again.stderr
@@ -308,8 +305,7 @@ def test_unreachable_rig_is_one_line_and_leaves_no_file(tmp_path):
     rig = tmp_path / "away.toml"
     rig.write_text(SIM_RIG.read_text().replace("port = 5020", f"port = {port}"))
     out = tmp_path / "never.mcap"
-    cmd = [*CLI, "sweep", "--rig", str(rig), "--clicks", "1", "-o", str(out)]
-    res = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=60)
+    res = cli("sweep", "--rig", str(rig), "--clicks", "1", "-o", str(out))
     assert res.returncode == 3  # a rig fault, not a usage error
     assert "Traceback" not in res.stderr and len(res.stderr.strip().splitlines()) == 1
     assert "cannot connect" in res.stderr

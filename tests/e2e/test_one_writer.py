@@ -11,6 +11,8 @@ import sys
 import time
 from pathlib import Path
 
+from inprocess import cli
+from shockdyno.errors import RecordingError
 from shockdyno.record import open_recording
 from shockdyno.record.lock import lock_path
 
@@ -26,6 +28,20 @@ def _wait_for(path: Path, timeout_s: float = 30.0) -> None:
         time.sleep(0.05)
 
 
+def _until_a_test_is_done(rec: Path, first: subprocess.Popen[bytes]) -> None:
+    """The refused writers take a fraction of a second each: the first is stopped only
+    once it has finished a test, so that what it wrote can be checked."""
+    end = time.monotonic() + 60
+    while True:
+        assert first.poll() is None and time.monotonic() < end, "the first writer did no test"
+        try:
+            if any(t.status == "complete" for t in open_recording(rec).tests):
+                return
+        except RecordingError:  # read between two writes; try again
+            pass
+        time.sleep(0.1)
+
+
 def _first_writer(rec: Path) -> subprocess.Popen[bytes]:
     """A long sweep writing `rec` (22 tests at 4x): the one every other writer meets."""
     return subprocess.Popen(
@@ -36,12 +52,10 @@ def _first_writer(rec: Path) -> subprocess.Popen[bytes]:
 
 
 def _second(out: Path, *extra: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [*SWEEP, "--speed", "50", "--clicks", "0", "--freq", "1", "-o", str(out), *extra],
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    """The second writer in this process (the first is another process: the lock is
+    between processes), refused before it starts a rig."""
+    args = [*SWEEP[len(CLI) :], "--speed", "50", "--clicks", "0", "--freq", "1", "-o", str(out)]
+    return cli(*args, *extra)
 
 
 def test_a_second_writer_is_refused_by_name_and_the_first_goes_on(tmp_path: Path) -> None:
@@ -59,13 +73,9 @@ def test_a_second_writer_is_refused_by_name_and_the_first_goes_on(tmp_path: Path
             assert rec.exists() and first.poll() is None  # the first still runs, its file kept
         # `import -o` onto it is refused the same way.
         csv = REPO / "recordings" / "examples" / "csv" / "manifest.csv"
-        imp = subprocess.run(
-            [*CLI, "import", str(csv), "-o", str(rec), "--force"],
-            capture_output=True,
-            text=True,
-            timeout=60,
-        )
+        imp = cli("import", str(csv), "-o", str(rec), "--force")
         assert imp.returncode != 0 and f"process {first.pid}" in imp.stderr
+        _until_a_test_is_done(rec, first)
     finally:
         first.send_signal(signal.SIGINT)
         first.wait(timeout=60)
@@ -94,6 +104,7 @@ def test_a_link_to_a_recording_being_written_is_the_same_recording(tmp_path: Pat
             assert first.poll() is None
         assert not (tmp_path / "wlink.new.mcap").exists()
         assert not (tmp_path / "whard.new.mcap").exists()
+        _until_a_test_is_done(rec, first)
     finally:
         first.send_signal(signal.SIGINT)
         first.wait(timeout=60)

@@ -12,10 +12,10 @@ from pathlib import Path
 
 import pytest
 
+from inprocess import cli
 from shockdyno.atomic import staged_dir
 
 REPO = Path(__file__).resolve().parents[2]
-CLI = [sys.executable, "-m", "shockdyno.cli"]
 
 
 # The CLI with Ctrl-C's handler set: a suite started where SIGINT is ignored (a background
@@ -64,8 +64,7 @@ def test_a_report_stopped_half_way_leaves_nothing_and_the_rerun_is_not_refused(
     done = _stop_midway(["report", str(recording), "-o", str(out)], out, signum)
     assert done.returncode == 128 + signum  # 130 "interrupted", 143 "stopped by SIGTERM"
     assert not out.exists() and _hidden(out) == []  # no PNG, no CSV, no staged folder
-    again = subprocess.run([*CLI, "report", str(recording), "-o", str(out)], cwd=REPO,
-                           capture_output=True, text=True, timeout=240)  # fmt: skip
+    again = cli("report", str(recording), "-o", str(out))
     assert again.returncode == 0, again.stderr
     assert (out / "index.html").is_file() and (out / "click_chart.csv").is_file()
     assert _hidden(out) == []
@@ -75,8 +74,7 @@ def test_a_replacing_report_stopped_half_way_leaves_the_earlier_one_as_it_was(
     recording: Path, small_recording: Path, tmp_path: Path
 ) -> None:
     out = tmp_path / "page"
-    first = subprocess.run([*CLI, "report", str(small_recording), "-o", str(out)], cwd=REPO,
-                           capture_output=True, text=True, timeout=240)  # fmt: skip
+    first = cli("report", str(small_recording), "-o", str(out))
     assert first.returncode == 0, first.stderr
     (out / "notes.txt").write_text("the operator's own notes\n")
     before = _files(out)
@@ -94,7 +92,7 @@ def test_a_finished_replacement_keeps_the_users_own_files(
     (out / "old").mkdir()
     (out / "old" / "photo.jpg").write_bytes(b"\xff\xd8 a photo")
     args = ["report", str(small_recording), "-o", str(out), "--force"]
-    done = subprocess.run([*CLI, *args], cwd=REPO, capture_output=True, text=True, timeout=240)
+    done = cli(*args)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == f"report: {out / 'index.html'}"  # the final path, not the staged
     files = _files(out)

@@ -6,12 +6,11 @@ workers (`--dist loadscope`) can share them; each recording is made when first a
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 
+from inprocess import cli
 from shockdyno.diagnose.engine import diagnose
 from shockdyno.diagnose.fitting import full_rate_force
 from shockdyno.diagnose.settings import Settings
@@ -19,7 +18,6 @@ from shockdyno.diagnose.verdict import to_json
 from shockdyno.record import open_recording
 
 REPO = Path(__file__).resolve().parents[2]
-CLI = [sys.executable, "-m", "shockdyno.cli"]
 
 # Scenario files under neutral names; their physics, not their names, is the answer.
 SCENARIOS = {
@@ -88,7 +86,8 @@ class Recordings(dict):  # type: ignore[type-arg]
         i = list(SCENARIOS).index(name)  # the seed: each case keeps its own noise
         body = SCENARIOS[name]
         rec = self.root / f"r{i}.mcap"
-        cmd = [*CLI, "sweep", "--rig", str(REPO / "rigs" / "sim.toml"), "--start-sim"]
+        # In this process: a `shockdyno` process costs a second of CPU to start.
+        cmd = ["sweep", "--rig", str(REPO / "rigs" / "sim.toml"), "--start-sim"]
         cmd += ["--speed", "50", "--clicks", "0,14", "-o", str(rec), "--seed", str(i)]
         spec = spec_file(self.root, name)
         if spec is not None:
@@ -97,7 +96,7 @@ class Recordings(dict):  # type: ignore[type-arg]
             sc = self.root / f"p{i}.toml"
             sc.write_text(f"[scenario]\nname = 'p{i}'\ndescription = 'x'\n{body}")
             cmd += ["--scenario", str(sc)]
-        done = subprocess.run(cmd, capture_output=True, text=True, timeout=120, cwd=REPO)
+        done = cli(*cmd)
         assert done.returncode == 0, done.stderr
         self[name] = rec
         return rec

@@ -4,13 +4,12 @@ said so (DIAG.json `verdict.calibration`), never claimed as missing physics."""
 from __future__ import annotations
 
 import re
-import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+from inprocess import cli
 from shockdyno.diagnose.engine import diagnose
 from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.verdict import to_json
@@ -19,7 +18,6 @@ from shockdyno.record import open_recording
 
 REPO = Path(__file__).resolve().parents[2]
 SPEC = REPO / "sim" / "ohlins-s46.toml"
-CLI = [sys.executable, "-m", "shockdyno.cli"]
 pytestmark = pytest.mark.timeout(300)
 
 
@@ -40,9 +38,9 @@ def _spec_with_gas_length(tmp: Path, length_m: float) -> Path:
 @pytest.fixture(scope="module")
 def clean(tmp_path_factory: pytest.TempPathFactory) -> Path:
     rec = tmp_path_factory.mktemp("cal") / "clean.mcap"
-    cmd = [*CLI, "sweep", "--rig", str(REPO / "rigs" / "sim.toml"), "--start-sim"]
+    cmd = ["sweep", "--rig", str(REPO / "rigs" / "sim.toml"), "--start-sim"]
     cmd += ["--speed", "50", "--clicks", "0,14", "-o", str(rec), "--seed", "31"]
-    done = subprocess.run(cmd, capture_output=True, text=True, timeout=120, cwd=REPO)
+    done = cli(*cmd)  # in this process: a `shockdyno` process costs a second to start
     assert done.returncode == 0, done.stderr
     return rec
 

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from inprocess import cli
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.problem import prepared_inputs
 from shockdyno.model import DamperModel, load_spec
@@ -16,7 +15,6 @@ from shockdyno.model.composite import ATMOSPHERE_PA
 from shockdyno.record import open_recording
 
 REPO = Path(__file__).resolve().parents[2]
-CLI = [sys.executable, "-m", "shockdyno.cli"]
 
 
 def _csv(path: Path, t: np.ndarray, x: np.ndarray, f: np.ndarray) -> None:
@@ -34,9 +32,7 @@ def test_the_manifest_column_reaches_the_model(tmp_path: Path) -> None:
         "a.csv,5,1,0.03,1.0e6\nb.csv,5,1,0.03,2.0e6\n"
     )
     rec = tmp_path / "r.mcap"
-    done = subprocess.run(
-        [*CLI, "import", str(tmp_path / "m.csv"), "-o", str(rec)], capture_output=True, text=True
-    )
+    done = cli("import", str(tmp_path / "m.csv"), "-o", str(rec))
     assert done.returncode == 0, done.stderr
     tests = open_recording(rec).load_all()
     assert [tt.meta.gas_pressure_pa for tt in tests] == [1.0e6, 2.0e6]
@@ -55,18 +51,12 @@ def test_the_manifest_column_reaches_the_model(tmp_path: Path) -> None:
 
 def test_the_sweep_flag_is_stored_with_every_test(tmp_path: Path) -> None:
     rec = tmp_path / "s.mcap"
-    cmd = [*CLI, "sweep", "--rig", str(REPO / "rigs" / "sim.toml"), "--start-sim"]
+    cmd = ["sweep", "--rig", str(REPO / "rigs" / "sim.toml"), "--start-sim"]
     cmd += ["--speed", "50", "--clicks", "7", "--freq", "1.5", "--cycles", "2"]
     cmd += ["--gas-pressure-bar", "16", "-o", str(rec)]
-    done = subprocess.run(cmd, capture_output=True, text=True, timeout=120, cwd=REPO)
+    done = cli(*cmd)  # in this process: a `shockdyno` process costs a second to start
     assert done.returncode == 0, done.stderr
     assert [t.gas_pressure_pa for t in open_recording(rec).tests] == [1.6e6]
-    bad = subprocess.run(
-        [*cmd[:-2], "--gas-pressure-bar", "900", "-o", str(tmp_path / "x.mcap")],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        cwd=REPO,
-    )
+    bad = cli(*cmd[:-2], "--gas-pressure-bar", "900", "-o", str(tmp_path / "x.mcap"))
     assert bad.returncode != 0 and "gas pressure must be" in bad.stderr
     assert "Traceback" not in bad.stderr

@@ -4,12 +4,11 @@ measured, not extrapolated."""
 from __future__ import annotations
 
 import csv
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
+from inprocess import cli
 from shockdyno.model import load_spec
 from shockdyno.record import open_recording
 from shockdyno.report import summarise
@@ -17,16 +16,16 @@ from shockdyno.report.clickchart import spec_static_force_n
 from shockdyno.report.gas import with_gas_force
 
 REPO = Path(__file__).resolve().parents[2]
-CLI = [sys.executable, "-m", "shockdyno.cli"]
 
 
 def test_sweep_by_velocity_then_report(tmp_path: Path) -> None:
     rec = tmp_path / "low.mcap"
-    sweep = [*CLI, "sweep", "--rig", str(REPO / "rigs" / "sim.toml"), "--start-sim",
+    # Both commands in this process (a `shockdyno` process costs a second to start).
+    sweep = ["sweep", "--rig", str(REPO / "rigs" / "sim.toml"), "--start-sim",
              "--speed", "50", "--clicks", "12", "--velocities-mm-s", "25,100",
              "--amplitude-mm", "10", "--cycles", "2", "--warmup-cycles", "1",
              "--no-gas-measure", "-o", str(rec)]  # fmt: skip
-    res = subprocess.run(sweep, cwd=REPO, capture_output=True, text=True, timeout=120)
+    res = cli(*sweep)
     assert res.returncode == 0, res.stderr
     tests = open_recording(rec).load_all()
     # No gas measurement: none stored, and the report estimates it from the reversals, which
@@ -46,8 +45,7 @@ def test_sweep_by_velocity_then_report(tmp_path: Path) -> None:
     assert peaks == [pytest.approx(0.025, rel=0.05), pytest.approx(0.11, rel=0.03)]
 
     out = tmp_path / "report"
-    res = subprocess.run([*CLI, "report", str(rec), "-o", str(out)], cwd=REPO,
-                         capture_output=True, text=True, timeout=120)  # fmt: skip
+    res = cli("report", str(rec), "-o", str(out))
     assert res.returncode == 0, res.stderr
     rows = list(csv.DictReader((out / "click_chart.csv").read_text().splitlines()))
     extrapolated = {

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from inprocess import cli
 from shockdyno.errors import RigFault
 from shockdyno.run.session import RigSession
 from shockdyno.run.sweep import wait_for_temperature
@@ -19,12 +20,13 @@ CLI = [sys.executable, "-m", "shockdyno.cli"]
 
 
 def _replay(path: Path, *extra: str) -> subprocess.CompletedProcess[str]:
+    """A `shockdyno replay` process: its pace is the process's own."""
     cmd = [*CLI, "replay", str(path), *extra]
     return subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=60)
 
 
 def test_replay_prints_one_line_per_test_with_the_recorded_peaks():
-    res = _replay(EXAMPLE, "--fast")
+    res = cli("replay", str(EXAMPLE), "--fast")  # in this process: what it prints
     assert res.returncode == 0, res.stderr
     lines = [ln for ln in res.stdout.splitlines() if ln.startswith("test ")]
     assert len(lines) == 2
@@ -49,7 +51,7 @@ def test_replay_of_a_cut_off_recording_plays_what_survived(tmp_path):
     data = EXAMPLE.read_bytes()
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(data[: int(len(data) * 0.8)])
-    res = _replay(cut, "--fast")
+    res = cli("replay", str(cut), "--fast")
     assert res.returncode == 0, res.stderr
     assert "cut off" in res.stdout
     assert 1 <= sum(ln.startswith("test ") for ln in res.stdout.splitlines()) <= 2
@@ -57,7 +59,7 @@ def test_replay_of_a_cut_off_recording_plays_what_survived(tmp_path):
 
 @pytest.mark.parametrize("speed", ["-1", "0"])
 def test_replay_refuses_a_speed_that_is_not_positive_in_one_line(speed):
-    res = _replay(EXAMPLE, "--speed", speed)
+    res = cli("replay", str(EXAMPLE), "--speed", speed)
     assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1
     assert "--fast" in res.stderr  # 0 used to mean "as fast as it can": say where that went
 

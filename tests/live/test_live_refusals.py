@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from inprocess import cli
 from shockdyno.live.publisher import LivePublisher
 from shockdyno.live.server import LiveServer
 from shockdyno.record.types import TestMeta
@@ -62,11 +63,8 @@ def test_a_busy_port_is_one_line_and_the_drive_is_never_enabled(tmp_path, monkey
 
 
 def test_a_bad_live_host_is_one_line(tmp_path):
-    proc = subprocess.run(
-        [*CLI, "sweep", "--rig", str(SIM_RIG), "--start-sim", "--clicks", "0", "--freq", "1",
-         "-o", str(tmp_path / "x.mcap"), "--live", "--live-host", "192.0.2.1"],
-        cwd=REPO, capture_output=True, text=True, timeout=60,
-    )  # fmt: skip
+    proc = cli("sweep", "--rig", str(SIM_RIG), "--start-sim", "--clicks", "0", "--freq", "1",
+               "-o", str(tmp_path / "x.mcap"), "--live", "--live-host", "192.0.2.1")  # fmt: skip
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     # An address of no interface here (TEST-NET-1: binding to it sends nothing anywhere).
@@ -173,11 +171,8 @@ def test_a_port_out_of_range_is_refused(port):
 
 
 def test_live_port_without_live_is_refused(tmp_path):
-    proc = subprocess.run(
-        [*CLI, "sweep", "--rig", str(SIM_RIG), "--start-sim", "--clicks", "0", "--freq", "1",
-         "-o", str(tmp_path / "x.mcap"), "--live-port", "9000"],
-        cwd=REPO, capture_output=True, text=True, timeout=60,
-    )  # fmt: skip
+    proc = cli("sweep", "--rig", str(SIM_RIG), "--start-sim", "--clicks", "0", "--freq", "1",
+               "-o", str(tmp_path / "x.mcap"), "--live-port", "9000")  # fmt: skip
     assert proc.returncode == 2
     assert proc.stderr.strip().endswith("error: --live-port is for the live view: add --live")
     assert "modbus" not in proc.stdout and not (tmp_path / "x.mcap").exists()
@@ -186,10 +181,7 @@ def test_live_port_without_live_is_refused(tmp_path):
 def test_an_existing_recording_is_refused_before_the_live_view_starts(tmp_path):
     out = tmp_path / "x.mcap"
     out.write_bytes(b"")
-    proc = subprocess.run(
-        [*CLI, "sweep", "--rig", str(SIM_RIG), "--clicks", "0", "--freq", "1", "-o", str(out),
-         "--live"],
-        cwd=REPO, capture_output=True, text=True, timeout=60,
-    )  # fmt: skip
+    proc = cli("sweep", "--rig", str(SIM_RIG), "--clicks", "0", "--freq", "1", "-o", str(out),
+               "--live")  # fmt: skip
     assert proc.returncode == 2 and "exists: use --force" in proc.stderr
     assert "live view" not in proc.stdout  # no URL to open for a sweep that never runs

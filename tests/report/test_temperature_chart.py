@@ -6,14 +6,13 @@ from __future__ import annotations
 
 import csv
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 from rich.console import Console
 
+from inprocess import cli
 from shockdyno.cli import main
 from shockdyno.fit.result import FitResult
 from shockdyno.model import load_spec
@@ -147,9 +146,8 @@ def test_report_without_a_thermal_fit_says_why_in_one_line(full_report: Path):
 @pytest.mark.parametrize("value", ["500", "hot", "nan"])
 def test_an_absurd_reference_temperature_is_a_one_line_error(small_recording, tmp_path, value):
     """Refused before anything is read or written (argparse would print its usage too)."""
-    cmd = [sys.executable, "-m", "shockdyno.cli", "report", str(small_recording)]
-    cmd += ["-o", str(tmp_path / "r"), f"--reference-temperature-c={value}"]
-    res = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
+    args = ["report", str(small_recording), "-o", str(tmp_path / "r")]
+    res = cli(*args, f"--reference-temperature-c={value}")  # in this process: what it says
     assert res.returncode == 2
     assert len(res.stderr.strip().splitlines()) == 1, res.stderr
     assert "--reference-temperature-c" in res.stderr

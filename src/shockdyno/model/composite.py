@@ -24,6 +24,7 @@ the next (`Evaluation.state`), never on the term or the model.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -653,7 +654,7 @@ class DamperModel:
         the seal's deflection state (model/seal.py), carried as "coulomb"."""
         spec = self.spec
         if spec.friction_presliding_m <= 0.0 or spec.friction_n <= 0.0:
-            return np.asarray(spec.friction_n * np.tanh(w.v / spec.friction_velocity_m_s))
+            return np.asarray(spec.friction_n * _smoothed_sign(w.v, spec.friction_velocity_m_s))
         force, end = seal_force(
             w.v,
             w.starts,
@@ -666,6 +667,30 @@ class DamperModel:
         )
         carry_out["coulomb"] = end
         return force
+
+
+# The smoothed signs last worked out: (speeds, smoothing speed, tanh(speeds / smoothing)).
+# A fit evaluates the model dozens of times on the same motion, and tanh over every sample
+# was a twentieth of a diagnosis (issue 44). Given back only for the same bits, so the
+# value is the one tanh would give.
+_SIGNS: list[tuple[FloatArray, float, FloatArray]] = []
+
+
+def _smoothed_sign(v: FloatArray, v_f: float) -> FloatArray:
+    """tanh(v / v_f), read-only (one of the last few when v and v_f are the same bits)."""
+    flat = type(v) is np.ndarray and v.dtype == np.float64 and v.flags.c_contiguous
+    if flat:
+        bits = v.view(np.int64)
+        for seen, f, sign in _SIGNS:
+            same_f = f == v_f and math.copysign(1.0, f) == math.copysign(1.0, v_f)
+            if same_f and seen.shape == v.shape and np.array_equal(seen.view(np.int64), bits):
+                return sign
+    sign = np.tanh(v / v_f)
+    if flat:
+        sign.flags.writeable = False
+        _SIGNS.insert(0, (v.copy(), v_f, sign))
+        del _SIGNS[4:]
+    return sign
 
 
 def gas_volume(spec: DamperSpec, x: FloatArray) -> FloatArray:

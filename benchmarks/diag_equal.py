@@ -14,6 +14,12 @@ that imports them at the top is not timed as faster).
 
     .venv/bin/python benchmarks/diag_equal.py --before /work/main/.venv/bin/python \\
         [--after .venv/bin/python] [--work DIR] [--seed 101] [--only example,fric_mid]
+        [--verdict]
+
+--verdict: for a change that may move figures (issue 44: solves that stop once converged),
+the documents must agree on what bench_diagnose_speed.py's `verdict` holds (the physics
+claimed, the calibrations that moved, the unexplained regions), and the largest move of a
+claimed parameter or a calibrated value in units of its σ is printed.
 """
 
 from __future__ import annotations
@@ -92,6 +98,23 @@ def run(python: str, rec: Path, out: Path) -> tuple[str, float]:
     return text, cpu
 
 
+def _verdicts(name: str, before: str, after: str) -> bool:
+    """Whether two DIAG.json texts give the same verdict (said, with how far the figures
+    moved)."""
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    import bench_diagnose_speed as bds
+
+    a, b = json.loads(before), json.loads(after)
+    same = bool(bds.verdict(a) == bds.verdict(b))
+    moved = f", figures within {bds.figures_moved(a, b):.2f} σ" if same else ""
+    print(
+        f"{name:10s} verdict {'the same' if same else 'DIFFERENT'}: {bds.short(a)} | "
+        f"{bds.short(b)}{moved}; E_t after {bds.mean_e_t_after(a):.4f}/"
+        f"{bds.mean_e_t_after(b):.4f}"
+    )
+    return same
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--before", required=True, help="Python of the reference checkout")
@@ -99,6 +122,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--work", type=Path, default=Path(tempfile.gettempdir()) / "diag_equal")
     ap.add_argument("--seed", type=int, default=101, help="the held-out plants' seed")
     ap.add_argument("--only", default="example,fric_mid,comp_mid")
+    ap.add_argument("--verdict", action="store_true", help="the verdicts equal, not the bytes")
     args = ap.parse_args(argv)
     args.work.mkdir(parents=True, exist_ok=True)
     names = args.only.split(",")
@@ -115,12 +139,15 @@ def main(argv: list[str] | None = None) -> None:
             cpu_total[side] += cpu
             print(f"{name:10s} {side:6s} CPU {cpu:7.1f} s", flush=True)
         same = texts["before"] == texts["after"]
-        equal &= same
         claimed = json.loads(texts["after"])["verdict"]["physics"]
         print(f"{name:10s} DIAG.json {'byte-equal' if same else 'DIFFERS'}; physics {claimed}")
+        if args.verdict and not same:
+            same = _verdicts(name, texts["before"], texts["after"])
+        equal &= same
     ratio = cpu_total["after"] / cpu_total["before"]
+    agree = ("verdicts the same" if args.verdict else "byte-equal") if equal else "DIFFERENT"
     print(
-        f"all: {'byte-equal' if equal else 'DIFFERENT'}; CPU before {cpu_total['before']:.1f} s, "
+        f"all: {agree}; CPU before {cpu_total['before']:.1f} s, "
         f"after {cpu_total['after']:.1f} s (after/before {ratio:.3f})"
     )
     if not equal:

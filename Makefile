@@ -45,8 +45,17 @@ browser:
 # 2026-11-29.txt). A module stays on one worker (--dist loadscope), so its recordings
 # fixture is made once; the modules marked slow go first (tests/conftest.py orders them,
 # --no-loadscope-reorder keeps that order), so none of them starts at the end.
-test: lint
-	$(BIN)/pytest -q -n 3 --dist loadscope --no-loadscope-reorder
+# mypy (about 20 s on one core) runs beside the tests rather than before them, so that its
+# core is not idle while it checks; its output follows the tests', and either failing fails
+# `make test`.
+test: $(VENV)/.installed
+	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/ruff format --check src tests benchmarks
+	@echo "$(BIN)/mypy src (beside the tests; its result after them)"
+	@$(BIN)/mypy src > $(VENV)/mypy.out 2>&1 & mypy=$$!; \
+	$(BIN)/pytest -q -n 3 --dist loadscope --no-loadscope-reorder; tests=$$?; \
+	wait $$mypy; types=$$?; echo "$(BIN)/mypy src"; cat $(VENV)/mypy.out; \
+	test $$tests -eq 0 && test $$types -eq 0
 
 # The benchmarks' own extras (pysindy for bench_diagnose's baseline).
 $(VENV)/.bench: $(VENV)/.runtime

@@ -24,7 +24,6 @@ import pickle
 import signal
 import subprocess
 import sys
-import threading
 import warnings
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
@@ -32,7 +31,7 @@ from multiprocessing.connection import Connection, wait
 from multiprocessing.process import BaseProcess
 from typing import Any, Generic, TypeVar
 
-from shockdyno.diagnose.workers import die_with_parent
+from shockdyno.diagnose.workers import can_fork, die_with_parent
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -42,11 +41,6 @@ STOP_WAIT_S = 5.0  # a worker asked to stop that is still alive after this is ki
 
 class WorkerDied(RuntimeError):
     """The recording's workers died under it ALLOWED_FAILURES times."""
-
-
-def forking() -> bool:
-    """Workers forked from here (this process runs one thread), else spawned."""
-    return "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
 
 
 def _serve(fn: Callable[[Any], Any], conn: Connection, parent: int) -> None:
@@ -103,7 +97,7 @@ class _Worker:
                 )
                 with warnings.catch_warnings():
                     # Python >= 3.12 warns on any fork of a process with native threads. The
-                    # only ones here are BLAS's pool (forking() saw one Python thread), and
+                    # only ones here are BLAS's pool (can_fork() saw one Python thread), and
                     # OpenBLAS re-makes its pool in the child (its pthread_atfork handlers).
                     warnings.filterwarnings(
                         "ignore", r"This process .* is multi-threaded", DeprecationWarning
@@ -168,7 +162,7 @@ class LocalWorkers(Generic[T, R]):
         self.fn = fn
         self.n = max(1, n)
         self.warm = warm  # run here first, when the workers are forked from here
-        self.fork = forking()
+        self.fork = can_fork()  # else spawned
         self._workers: list[_Worker] = []
 
     @property

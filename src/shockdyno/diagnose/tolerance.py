@@ -16,9 +16,8 @@ and one that did not is dropped by the final refit's rules; where the value stil
 beyond, the drawing is not the damper's (or the physics is not the library's), and the
 model keeps the value the recording asks, reported as a finding, not a calibration. A
 value within its tolerance is not bounded at all: trf scales its steps by the distance to
-the bounds, and a bound that never binds still changes a short refit's path (a branch that
-bounded every value from the start moved the friction claims' held-out gains by 0.04-0.08
-on sweeps where nothing bound).
+the bounds, and a bound that never binds still changes a short refit's path, and with it
+the claims' held-out gains.
 """
 
 from __future__ import annotations
@@ -113,16 +112,10 @@ def unhold(
     refitted on `data` from where the search left it, from there with the held values at
     what they asked, and from there with the calibrations `taken` by the held search also
     back at their values before it: the best fit of these. From the held end a claim that
-    took a value's place keeps it. But where a calibration took it instead (a bleed land
-    of 19-28 mm beside a Coulomb friction held at 2x its spec's, on sim-rig recordings
-    whose free fit asked 3x), trf from the held end stopped short of the value asked,
-    where the free baseline fitted the recording better at 3.0x with no land: 2x after the
-    search's 15 evaluations (6 steps; 41 reached 3.0x), 2.49x (stalled after 20
-    evaluations at 1.24x the free baseline's squared error) and 2.22x (60). Neither other
-    start is always the better: with the land undone one recording reached the free
-    baseline's fit where, with the land kept, 60 evaluations ended 2 % above it; on
-    another, undoing a seal turn the search had calibrated ended 16 % above the start
-    that kept it."""
+    took a value's place keeps it; but where a calibration took it instead (a bleed land
+    beside a Coulomb friction held at its edge), trf from the held end can stop short of
+    the value the recording asks. Neither other start is always the better one
+    (benchmarks/results/calib-freed-2026-11-29.txt)."""
     back = {k: a.value for k, a in asked.items()}
     starts = [fitted.model, fitted.model.with_spec(fitted.model.spec.with_values(back))]
     if taken:

@@ -5,12 +5,16 @@ Each item is a pure function of the round's inputs (the bootstrap's draws are ma
 before, in this process), so the results are those of running them one after another,
 in the same order; only the wall time changes. The worker processes live for one
 diagnosis. They are forked from this process when it runs one thread (they inherit what
-it imported and compiled); with other threads running (a progress bar's refresh), a lock
-one of them holds would be inherited held, so they come from a fork server started with
-the diagnosis imported instead (its workers import the main module again, as spawned
-ones do: a script needs Python's `if __name__ == "__main__":`). Serial with one worker,
-and in a daemonic process (a Dask worker running `batch diagnose` may not have
-children)."""
+it imported and compiled), at the first map that needs them, not before: forked after the
+baseline fit, they inherit scipy's optimisers and the numba kernels and registries the
+fit loaded, which each worker forked at the start loaded again in its first refit (about
+a second of CPU each, most of it in the round's first candidates, while the other core
+waited). With other threads running (a progress bar's refresh), a lock one of them holds
+would be inherited held, so they come from a fork server started with the diagnosis
+imported instead, at once, so that its imports overlap the baseline fit (its workers
+import the main module again, as spawned ones do: a script needs Python's
+`if __name__ == "__main__":`). Serial with one worker, and in a daemonic process (a Dask
+worker running `batch diagnose` may not have children)."""
 
 from __future__ import annotations
 
@@ -82,22 +86,36 @@ class Workers:
     def __init__(self, n: int = 1) -> None:
         self.n = n
         self._pool: ProcessPoolExecutor | None = None
-        self.start_method = ""  # how the workers were started ("": none, items run here)
+        self._deferred = False  # to be forked at the first map that needs them
+        self.start_method = ""  # how the workers are started ("": none, items run here)
 
     def __enter__(self) -> Workers:
         ctx = _context() if self.n > 1 else None
         if ctx is not None:
+            self._deferred = True
+            self.start_method = ctx.get_start_method()
+            if self.start_method != "fork":
+                self._started()  # the fork server's imports overlap the baseline fit
+        return self
+
+    def _started(self) -> ProcessPoolExecutor | None:
+        """The pool, started at the first call (None: the items run here)."""
+        if self._pool is None and self._deferred:
+            self._deferred = False
+            ctx = _context()  # again: a thread started since rules a fork out
+            if ctx is None:
+                self.start_method = ""
+                return None
+            self.start_method = ctx.get_start_method()
             # A forked worker's parent is this process; a fork server's, the server (which
             # ends with this process).
-            self.start_method = ctx.get_start_method()
             parent = os.getpid() if self.start_method == "fork" else None
             self._pool = ProcessPoolExecutor(
                 self.n, mp_context=ctx, initializer=die_with_parent, initargs=(parent,)
             )
-            # Started now, so their imports overlap the baseline fit.
-            for _ in range(self.n):
+            for _ in range(self.n):  # every worker started now, not one per item as asked
                 self._pool.submit(_ready)
-        return self
+        return self._pool
 
     def __exit__(
         self,
@@ -105,6 +123,7 @@ class Workers:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
+        self._deferred = False
         if self._pool is not None:
             if kind is not None:
                 # Stopped (Ctrl-C, an error): what the workers are on will not be used.
@@ -123,7 +142,8 @@ class Workers:
     ) -> list[R]:
         """[fn(shared, x) for x in items]; `done(i)` is called here as item i finishes
         (for progress). `fn` is a module-level function (it is sent by name)."""
-        if self._pool is None or len(items) < 2:
+        pool = self._started() if len(items) >= 2 else None
+        if pool is None:
             out = []
             for i, x in enumerate(items):
                 out.append(fn(shared, x))
@@ -131,7 +151,7 @@ class Workers:
                     done(i)
             return out
         futures: dict[Future[R], int] = {
-            self._pool.submit(fn, shared, x): i for i, x in enumerate(items)
+            pool.submit(fn, shared, x): i for i, x in enumerate(items)
         }
         results: dict[int, R] = {}
         try:

@@ -11,12 +11,16 @@ a sensor, whatever it explains.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.fitting import Fitted
+from shockdyno.diagnose.workers import SERIAL, Workers
+from shockdyno.fit.problem import StackedProblem
 from shockdyno.model.composite import DamperModel, Term
 from shockdyno.model.terms import LIBRARY
 
@@ -71,7 +75,11 @@ def _refined_minimum(points: np.ndarray, sse: np.ndarray) -> float:
 
 
 def delay_spread(
-    data: Data, fitted: Fitted, min_gain: float, min_shift_s: float = 5e-4
+    data: Data,
+    fitted: Fitted,
+    min_gain: float,
+    min_shift_s: float = 5e-4,
+    workers: Workers = SERIAL,
 ) -> DelaySpread | None:
     """The time that fits each test alone: the fitted sensor's delay and lags scaled
     together (a sensor's form kept, so a load cell's lag is not read as a delay at a
@@ -79,7 +87,8 @@ def delay_spread(
     test is the scale × the sensor's net shift (delay + load-cell lag - LVDT lag). Only
     tests where their best scale removes at least `min_gain` of the squared error place
     it. None when the sensor shifts by less than `min_shift_s` (no time to compare) or
-    fewer than three tests place it."""
+    fewer than three tests place it. The tests are independent: up to `workers`
+    processes score them (workers.py)."""
     model = fitted.model
     term = _shifting(model)
     if term is None:
@@ -88,25 +97,35 @@ def delay_spread(
     shift = _net(term, values)
     if abs(shift) < min_shift_s:
         return None
-    delays: list[float] = []
+    tests = []
     for i in range(len(data.prepared)):
         one = data.subset([i])
         areas = fitted.covered_areas(one)
-        if areas is None:
-            continue
-        bc, bt = areas
-        prob = one.prob.for_model(model, fitted.free)
-        sse = np.empty(SCALES.size)
-        for j, k in enumerate(SCALES):
-            m = model.with_values({term.qualified(t): float(k) * v for t, v in values.items()})
-            r = prob.force(m, bc, bt) - prob.f
-            sse[j] = float(r @ r)
+        if areas is not None:
+            tests.append((one.prob.for_model(model, fitted.free), *areas))
+    scaled = [{term.qualified(t): float(k) * v for t, v in values.items()} for k in SCALES]
+    delays: list[float] = []
+    for sse in workers.map(_scaled_sse, (model, scaled), tests):
         if sse[0] > 0 and float(np.min(sse)) <= (1 - min_gain) * sse[0]:
             delays.append(_refined_minimum(SCALES, sse) * shift)
     if len(delays) < 3:
         return None
     arr = np.asarray(delays)
     return DelaySpread(delays, float(np.min(arr)), float(np.max(arr)), float(np.median(arr)))
+
+
+def _scaled_sse(
+    shared: tuple[DamperModel, Sequence[dict[str, float]]],
+    test: tuple[StackedProblem, NDArray[np.float64], NDArray[np.float64]],
+) -> NDArray[np.float64]:
+    """One test's squared error with the sensor's times at each of the scaled values."""
+    model, scaled = shared
+    prob, bc, bt = test
+    sse = np.empty(len(scaled))
+    for j, values in enumerate(scaled):
+        r = prob.force(model.with_values(values), bc, bt) - prob.f
+        sse[j] = float(r @ r)
+    return sse
 
 
 def net_shift_s(fitted: Fitted) -> float:

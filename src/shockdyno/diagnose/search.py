@@ -274,7 +274,11 @@ class Search:
             c.name: alike(c.fitted, s.sensor_delay_min_shift_s)
             or inconsistent(
                 delay_spread(
-                    self.tests, c.fitted, s.sensor_delay_min_gain, s.sensor_delay_min_shift_s
+                    self.tests,
+                    c.fitted,
+                    s.sensor_delay_min_gain,
+                    s.sensor_delay_min_shift_s,
+                    self.workers,
                 ),
                 s.sensor_delay_spread_s,
                 s.sensor_delay_spread_share,

@@ -150,9 +150,7 @@ class Workers:
                 if done is not None:
                     done(i)
             return out
-        futures: dict[Future[R], int] = {
-            pool.submit(fn, shared, x): i for i, x in enumerate(items)
-        }
+        futures: dict[Future[R], int] = {pool.submit(fn, shared, x): i for i, x in enumerate(items)}
         results: dict[int, R] = {}
         try:
             for fut in as_completed(futures):

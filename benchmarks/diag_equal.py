@@ -14,12 +14,16 @@ that imports them at the top is not timed as faster).
 
     .venv/bin/python benchmarks/diag_equal.py --before /work/main/.venv/bin/python \\
         [--after .venv/bin/python] [--work DIR] [--seed 101] [--only example,fric_mid]
-        [--verdict]
+        [--verdict] [--workers 2]
 
 --verdict: for a change that may move figures (issue 44: solves that stop once converged),
 the documents must agree on what bench_diagnose_speed.py's `verdict` holds (the physics
 claimed, the calibrations that moved, the unexplained regions), and the largest move of a
 claimed parameter or a calibrated value in units of its σ is printed.
+
+--workers N: each diagnosis with N worker processes (`diagnose --workers N`; default 1),
+for a change to how the work is spread; the CPU printed is then the diagnosis's and its
+workers'.
 """
 
 from __future__ import annotations
@@ -38,15 +42,16 @@ TIMING_KEYS = {"wall_s"}
 
 # Run in the child: one diagnose, its document as DIAG.json's text, and its CPU time.
 CHILD = """
-import json, sys, time
+import json, resource, sys, time
 from pathlib import Path
 from shockdyno import schema
 from shockdyno.diagnose.file import diagnose_file
 import shockdyno.diagnose.engine, shockdyno.diagnose.verdict  # loaded before the clock
-rec, out = Path(sys.argv[1]), Path(sys.argv[2])
+rec, out, workers = Path(sys.argv[1]), Path(sys.argv[2]), int(sys.argv[3])
 t = time.process_time()
-_, doc = diagnose_file(rec)
-cpu = time.process_time() - t
+_, doc = diagnose_file(rec, workers=workers)
+done = resource.getrusage(resource.RUSAGE_CHILDREN)  # the workers, ended with the diagnosis
+cpu = time.process_time() - t + done.ru_utime + done.ru_stime
 out.write_text(json.dumps(schema.to_json(doc), indent=2, sort_keys=True))
 print(json.dumps({"cpu_s": cpu}))
 """
@@ -91,9 +96,10 @@ def child(python: str, code: str, rec: Path, *args: str) -> dict[str, Any]:
     return out
 
 
-def run(python: str, rec: Path, out: Path) -> tuple[str, float]:
-    """(DIAG.json's text without timings, CPU seconds of the diagnosis) by `python`."""
-    cpu = float(child(python, CHILD, rec, str(out))["cpu_s"])
+def run(python: str, rec: Path, out: Path, workers: int = 1) -> tuple[str, float]:
+    """(DIAG.json's text without timings, CPU seconds of the diagnosis and its workers) by
+    `python`."""
+    cpu = float(child(python, CHILD, rec, str(out), str(workers))["cpu_s"])
     text = json.dumps(_strip(json.loads(out.read_text())), indent=2, sort_keys=True)
     return text, cpu
 
@@ -123,6 +129,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--seed", type=int, default=101, help="the held-out plants' seed")
     ap.add_argument("--only", default="example,fric_mid,comp_mid")
     ap.add_argument("--verdict", action="store_true", help="the verdicts equal, not the bytes")
+    ap.add_argument("--workers", type=int, default=1, help="diagnose --workers (default 1)")
     args = ap.parse_args(argv)
     args.work.mkdir(parents=True, exist_ok=True)
     names = args.only.split(",")
@@ -135,7 +142,7 @@ def main(argv: list[str] | None = None) -> None:
         texts = {}
         for side in ("before", "after"):
             out = args.work / f"{name}.{side}.DIAG.json"
-            texts[side], cpu = run(getattr(args, side), rec, out)
+            texts[side], cpu = run(getattr(args, side), rec, out, args.workers)
             cpu_total[side] += cpu
             print(f"{name:10s} {side:6s} CPU {cpu:7.1f} s", flush=True)
         same = texts["before"] == texts["after"]

@@ -537,7 +537,10 @@ class HeldOut:
     `Search.round`). The baseline's structure on each fold (and on each halves split some
     candidate is judged on) is refitted once, the first time it is needed, and shared by
     every batch after: a candidate's score is the same whether it is asked for alone or
-    with others (each refit is a pure function of its fold and its start)."""
+    with others (each refit is a pure function of its fold and its start). So candidates
+    a later batch will likely ask for can be refitted in an earlier one's map
+    (`prefetch`): one map, not two one after the other, each ending with a worker idle
+    while the other finishes its last fold."""
 
     def __init__(
         self, fold_list: Sequence[Fold], base: Fitted, max_nfev: int, workers: Workers = SERIAL
@@ -548,31 +551,45 @@ class HeldOut:
         self.workers = workers
         self._whole: list[FloatArray] | None = None
         self._halves: list[FloatArray | None] = [None] * len(self.fold_list)
+        self._outcomes: dict[str, list[FoldOutcome]] = {}  # by candidate, refitted already
 
-    def gains(self, cands: Sequence[Candidate]) -> list[tuple[float, str]]:
-        """`heldout_gain` of each of `cands`: every (candidate, fold) refit, and the
-        baseline's on each fold the first time, items of one map (as many items as folds
-        times candidates, so the workers stay busy where one candidate's folds one after
-        another kept a worker waiting); then the baseline on each halves split some
-        candidate is judged on and no earlier batch needed."""
-        if not cands:
-            return []
+    def prefetch(self, cands: Sequence[Candidate]) -> None:
+        """Every (candidate, fold) refit of `cands` not made yet, and the baseline's on
+        each fold the first time, items of one map (as many items as folds times
+        candidates, so the workers stay busy where one candidate's folds one after
+        another kept a worker waiting). Their scores are not taken: `gains` does."""
+        todo = list({c.name: c for c in cands if c.name not in self._outcomes}.values())
+        if not todo:
+            return
         nf = len(self.fold_list)
         items: list[tuple[Fold, Candidate | None]] = []
         if self._whole is None:
             items += [(f, None) for f in self.fold_list]
-        items += [(f, c) for c in cands for f in self.fold_list]
-        shared = (self.base, self.max_nfev)
-        got = self.workers.map(_fold_task, shared, items)
+        items += [(f, c) for c in todo for f in self.fold_list]
+        got = self.workers.map(_fold_task, (self.base, self.max_nfev), items)
         if self._whole is None:
             self._whole = [cast(FloatArray, g) for g in got[:nf]]
             got = got[nf:]
-        outcomes = [cast(list[FoldOutcome], got[i * nf : (i + 1) * nf]) for i in range(len(cands))]
+        for i, c in enumerate(todo):
+            self._outcomes[c.name] = cast(list[FoldOutcome], got[i * nf : (i + 1) * nf])
+
+    def gains(self, cands: Sequence[Candidate]) -> list[tuple[float, str]]:
+        """`heldout_gain` of each of `cands`: their refits (`prefetch`), then the baseline
+        on each halves split one of them is judged on and no earlier batch needed."""
+        if not cands:
+            return []
+        self.prefetch(cands)
+        assert self._whole is not None
+        outcomes = [self._outcomes[c.name] for c in cands]
         need = [
-            i for i in range(nf) if self._halves[i] is None and any(o[i].halves for o in outcomes)
+            i
+            for i in range(len(self.fold_list))
+            if self._halves[i] is None and any(o[i].halves for o in outcomes)
         ]
         split = self.workers.map(
-            _fold_task, shared, [(cast(Fold, self.fold_list[i].halves), None) for i in need]
+            _fold_task,
+            (self.base, self.max_nfev),
+            [(cast(Fold, self.fold_list[i].halves), None) for i in need],
         )
         for i, h in zip(need, split, strict=True):
             self._halves[i] = cast(FloatArray, h)

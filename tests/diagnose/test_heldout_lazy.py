@@ -28,13 +28,18 @@ N = 60  # phase means of the explained shapes
 
 
 class Fake:
-    """HeldOut's stand-in: each candidate's gain from a table; what was asked, in order."""
+    """HeldOut's stand-in: each candidate's gain from a table; what was asked, in order,
+    and what was refitted ahead of being asked (HeldOut.prefetch)."""
 
     asked: ClassVar[list[str]] = []
     table: ClassVar[dict[str, float]] = {}
+    prefetched: ClassVar[list[str]] = []
 
     def __init__(self, *args: object) -> None:
         pass
+
+    def prefetch(self, cands: Sequence[Candidate]) -> None:
+        Fake.prefetched += [c.name for c in cands]
 
     def gains(self, cands: Sequence[Candidate]) -> list[tuple[float, str]]:
         Fake.asked += [c.name for c in cands]
@@ -113,9 +118,9 @@ def test_scoring_only_what_decides_decides_as_scoring_all(
     monkeypatch.setattr(claim_rules, "HeldOut", Fake)
     s = Settings()
     rng = np.random.default_rng(44 + joining)
-    claims = saved = total = 0
+    claims = saved = total = guessed = wasted = 0
     for _ in range(400):
-        Fake.table, Fake.asked = {}, []
+        Fake.table, Fake.asked, Fake.prefetched = {}, [], []
         cands, refused = _round(rng, s)
         shapes = [("claimed", rng.normal(size=N))] if joining else []
         screened = sorted(
@@ -125,6 +130,10 @@ def test_scoring_only_what_decides_decides_as_scoring_all(
         every = {c.name: (Fake.table[c.name], f"folds of {c.name}") for c in top}
         lazy = _scored(top, s, shapes, refused, ["fold"])
         assert len(Fake.asked) == len(set(Fake.asked)), "a candidate scored twice"
+        # Refitted ahead only among those scoring all would refit, and mostly then asked.
+        assert set(Fake.prefetched) <= set(every)
+        guessed += len(Fake.prefetched)
+        wasted += len(set(Fake.prefetched) - set(Fake.asked))
         assert set(lazy) <= set(every) and all(lazy[n] == every[n] for n in lazy)
         want = _outcome(cands, every, refused, s, shapes)
         got = _outcome(cands, lazy, refused, s, shapes)
@@ -134,6 +143,7 @@ def test_scoring_only_what_decides_decides_as_scoring_all(
         total += len(every)
     # The rounds drawn claim something in some and save scoring in many.
     assert 50 < claims < 400 and saved > total / 4, (claims, saved, total)
+    assert wasted < guessed / 4, (wasted, guessed)
 
 
 def test_a_real_effect_below_refused_candidates_is_scored_and_claimed(

@@ -44,6 +44,29 @@ def test_results_come_back_in_the_items_order_from_other_processes() -> None:
     assert os.getpid() not in {g[1] for g in got}  # not run here
 
 
+LOADED = "at import"
+
+
+def _loaded(shared: None, x: int) -> tuple[str, int]:
+    return LOADED, os.getpid()
+
+
+def test_forked_at_the_first_map_they_inherit_what_was_loaded_before_it() -> None:
+    # Forked at the start, each worker loaded again what the baseline fit loaded here
+    # (scipy's optimisers, the numba kernels) in its first refit.
+    global LOADED
+    with Workers(2) as w:
+        assert w.start_method == "fork" and not multiprocessing.active_children()
+        LOADED = "after the start"
+        try:
+            got = w.map(_loaded, None, [0, 1, 2])
+        finally:
+            LOADED = "at import"
+        assert len(multiprocessing.active_children()) == 2
+    assert [g[0] for g in got] == ["after the start"] * 3
+    assert os.getpid() not in {g[1] for g in got}
+
+
 def test_with_another_thread_running_they_come_from_a_fork_server() -> None:
     # A thread (a progress bar's refresh) could hold a lock a fork would inherit held.
     stop = threading.Event()

@@ -1,4 +1,5 @@
-"""The local workers' default number is the cores this process may run on (its affinity)."""
+"""How many local workers a batch starts: the cores this process may run on (its affinity),
+never more than there are recordings."""
 
 from __future__ import annotations
 
@@ -9,12 +10,15 @@ import pytest
 from shockdyno.batch import runner
 
 
-def test_the_default_is_one_local_worker_per_usable_core(monkeypatch: pytest.MonkeyPatch) -> None:
-    sizes: list[int] = []
+@pytest.fixture
+def sizes(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """The number of workers each map_tasks call would start, without starting them, on a
+    process pinned to 3 of the machine's cores (taskset, a container's cpuset)."""
+    started: list[int] = []
 
-    class Workers:  # what the workers would be started with, without starting them
+    class Workers:
         def __init__(self, fn: Any, n: int, warm: Any) -> None:
-            sizes.append(n)
+            started.append(n)
 
         def __enter__(self) -> Workers:
             return self
@@ -26,10 +30,22 @@ def test_the_default_is_one_local_worker_per_usable_core(monkeypatch: pytest.Mon
             return [(x, x) for x in items]
 
     monkeypatch.setattr(runner, "LocalWorkers", Workers)
-    # A process pinned to 3 of the machine's cores (taskset, a container's cpuset).
     monkeypatch.setattr(runner, "usable_cores", lambda: 3)
+    return started
+
+
+def test_the_default_is_one_local_worker_per_usable_core(sizes: list[int]) -> None:
     seen: list[str] = []
-    assert list(runner.map_tasks(abs, [1, 2], on_cluster=seen.append)) == [(1, 1), (2, 2)]
-    assert list(runner.map_tasks(abs, [1], workers=5)) == [(1, 1)]
-    assert sizes == [3, 5]
+    items = [1, 2, 3, 4]
+    assert list(runner.map_tasks(abs, items, on_cluster=seen.append)) == [(x, x) for x in items]
+    assert list(runner.map_tasks(abs, items, workers=4)) == [(x, x) for x in items]
+    assert sizes == [3, 4]
     assert seen == ["3 local worker processes"]
+
+
+def test_no_more_local_workers_than_recordings(sizes: list[int]) -> None:
+    seen: list[str] = []
+    assert list(runner.map_tasks(abs, [1], workers=5, on_cluster=seen.append)) == [(1, 1)]
+    assert list(runner.map_tasks(abs, [1, 2])) == [(1, 1), (2, 2)]
+    assert sizes == [1, 2]
+    assert seen == ["1 local worker process"]

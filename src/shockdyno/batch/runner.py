@@ -110,15 +110,15 @@ def map_tasks(
 ) -> Generator[tuple[T, R | BaseException], None, None]:
     """fn(item) for every item, each a task, yielded as they finish: (item, result) or
     (item, the exception). On `workers` local processes (default: the cores this process
-    may run on), or on the Dask scheduler at `scheduler`. A task whose worker dies is run
-    again elsewhere. `on_cluster` is told where the tasks run once the workers are up.
-    `warm` (local workers only) is run in this process before they are forked from it.
-    `fn` is a module-level function. The benchmarks run their recordings through this
-    too, so they can use a cluster."""
+    may run on; never more than there are items), or on the Dask scheduler at
+    `scheduler`. A task whose worker dies is run again elsewhere. `on_cluster` is told
+    where the tasks run once the workers are up. `warm` (local workers only) is run in
+    this process before they are forked from it. `fn` is a module-level function. The
+    benchmarks run their recordings through this too, so they can use a cluster."""
     if scheduler:
         yield from _on_dask(fn, items, scheduler, on_cluster)
         return
-    n = workers or usable_cores()
+    n = max(1, min(workers or usable_cores(), len(items)))
     with LocalWorkers(fn, n, warm) as pool:
         if on_cluster is not None:
             on_cluster(f"{n} local worker process{'es' if n > 1 else ''}")

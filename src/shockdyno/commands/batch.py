@@ -147,7 +147,8 @@ def run(args: argparse.Namespace) -> int:
                 print(line + (f": {row.error}" if row.error else ""), file=sys.stderr)
 
         def on_cluster(where: str) -> None:
-            console.print(f"batch: {len(jobs)} recordings on {where}")
+            plural = "s" if len(jobs) != 1 else ""
+            console.print(f"batch: {len(jobs)} recording{plural} on {where}")
 
         history = None if args.no_history or args.kind == "report" else database(args)
         rows = run_batch(

@@ -97,3 +97,28 @@ def test_the_gas_outlives_the_void_and_lags_the_rebound_force() -> None:
     calm = no_void & (a.outputs["cavitation.vapour_m3"] == 0.0)
     moved = b.force - a.force
     assert np.sqrt(np.mean(moved[calm] ** 2)) > 1.0
+
+
+def _words(floor: float, release: float, sd: float, fixed: bool = False) -> str:
+    from shockdyno.model.params import Estimate
+    from shockdyno.model.reading import Reading
+
+    term = make_term("cavitation")
+    values = {p.name: Estimate(p.nominal, math.nan, p.unit, fixed=True) for p in term.params()}
+    values["release_pressure_pa"] = Estimate(floor, 500.0, "Pa")
+    values["gas_release_cm3_s"] = Estimate(release, sd, "cm³/s", fixed=fixed)
+    return term.describe(Reading(term.PARAMS, values))
+
+
+def test_the_released_gas_is_read_once_and_only_where_it_is_one() -> None:
+    text = _words(82e3, 2.5, 0.3)
+    assert "holds at 82 kPa absolute" in text, text
+    assert "2.5 ± 0.3 cm³/s (at 1 atm)" in text and "over 5 s" in text, text
+    # Within its noise of none: no gas is read (beside a floor that says nothing of it).
+    assert "air comes out" not in _words(82e3, 0.2, 0.3), _words(82e3, 0.2, 0.3)
+    assert "air comes out" not in _words(82e3, 0.0, math.nan, fixed=True)
+    assert "2 cm³/s" in _words(82e3, 2.0, math.nan, fixed=True)  # given and held: as given
+    # A floor below vacuum is no pressure a chamber holds: no gas is released at it, and
+    # the text says none.
+    below = _words(-20e3, 2.5, 0.3)
+    assert "below vacuum" in below and "air comes out" not in below, below

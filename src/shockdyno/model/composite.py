@@ -345,10 +345,10 @@ class Term:
         return [{}]
 
     def refinements(self) -> dict[str, tuple[float, ...]]:
-        """Held parameters (local name: its starts) the diagnosis tries freeing from the
-        term's own fit, keeping them only where they explain significantly more: a second
-        parameter freed beside the first in a short refit can cost the first its place.
-        None by default."""
+        """Held parameters (local name: its starts) the diagnosis tries freeing after the
+        term's own fit (its starts beside the fit and beside each of `start_grid`'s),
+        keeping them only where they explain significantly more: a second parameter freed
+        beside the first in a short refit can cost the first its place. None by default."""
         return {}
 
     def placed(self, x: FloatArray) -> dict[str, float]:

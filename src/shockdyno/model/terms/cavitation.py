@@ -20,7 +20,8 @@ atmosphere); above the floor it redissolves at G (p - p_v)/(P_atm τ), so after 
 collapses the chamber keeps a Boyle compliance, G P_atm / p, and the rebound force lags
 after the top reversal for strokes after (model/chamber.py). Off: no release. Both held
 unless named (τ at 5 s at 1 atm over the floor: about 1 s at a few bar); the diagnosis
-tries the release rate from the floor's own fit and keeps it where it is significant.
+tries the release rate after the floor's own fit, from it and from the floor's starts,
+and keeps it where it is significant.
 """
 
 from __future__ import annotations
@@ -212,8 +213,10 @@ class Cavitation(Term):
         return [{"release_pressure_pa": p} for p in sorted({min(p, hi) for p in fixed})]
 
     def refinements(self) -> dict[str, tuple[float, ...]]:
-        # The released gas, tried from the floor's own fit (none, and 3 cm³/s: a 0.1 cm³
-        # void a few tenths of a second a cycle). Freed beside the floor from the start,
+        # The released gas, tried after the floor's own fit, from it and from each of the
+        # floor's starts (none, and 3 cm³/s: a 0.1 cm³ void a few tenths of a second a
+        # cycle): beside another term the floor alone can be fitted where it does nothing,
+        # and gas tried only from there could not act. Freed beside the floor from the start,
         # it cost the sim-rig's hard 3 kPa floor its place (9.4 kPa, with 0.1 cm³/s of
         # gas the plant did not have) in diagnose's short refits.
         return {"gas_release_cm3_s": (0.0, 3.0)}

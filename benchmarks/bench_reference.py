@@ -45,6 +45,7 @@ import json
 import math
 import os
 import pickle
+import resource
 import sys
 import time
 import traceback
@@ -131,6 +132,7 @@ class Row:
     e_after: float = math.nan
     sweep_s: float = math.nan
     diag_s: float = math.nan
+    diag_cpu_s: float = math.nan  # user + sys of this process and its children
     recovered: dict[str, tuple[float, float]] = field(default_factory=dict)
     error: str = ""
     reused: bool = False
@@ -271,6 +273,14 @@ def _holdout_sweep(case: Case, where: Path) -> tuple[Path, set[str], dict[str, f
     return rec, set(truth.physics()), _holdout_values(truth)
 
 
+def _cpu_s() -> float:
+    """User + system CPU of this process and its waited-for children: wall time is the
+    machine's load, CPU is what the diagnosis costs."""
+    me = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
+
+
 def run_case(case: Case) -> Row:
     row = Row(case)
     try:
@@ -297,7 +307,7 @@ def run_case(case: Case) -> Row:
         if os.environ.get("BENCH_REFERENCE_SWEEP_ONLY"):
             return row
         row.truth = tuple(sorted(real))
-        t1 = time.perf_counter()
+        t1, cpu1 = time.perf_counter(), _cpu_s()
         out = None
         if cached is not None:  # the verdict beside its sweep, to read again
             name = f"{case.plant}_{case.name.replace(' ', '_').replace('+', '-')}.diag.json"
@@ -315,6 +325,7 @@ def run_case(case: Case) -> Row:
         if scratch is not None:
             scratch.cleanup()
         row.diag_s = time.perf_counter() - t1
+        row.diag_cpu_s = math.nan if row.reused else _cpu_s() - cpu1
         row.claimed = list(d["verdict"]["physics"])
         row.calibrated = [
             c["parameter"] for c in d["verdict"].get("calibration", []) if c.get("moved")
@@ -399,7 +410,7 @@ def print_row(r: Row) -> None:
         f"  {c.name:40s} truth {'+'.join(r.truth) or 'clean':34s} claimed "
         f"{','.join(r.claimed) or '-':34s} calibrated {','.join(r.calibrated) or '-':30s} "
         f"E_t {r.e_before:.4f}->{r.e_after:.4f}  sweep {r.sweep_s:4.0f} s "
-        + ("diag reused" if r.reused else f"diag {r.diag_s:4.0f} s"),
+        + ("diag reused" if r.reused else f"diag {r.diag_s:4.0f} s, CPU {r.diag_cpu_s:4.0f} s"),
         flush=True,
     )
 

@@ -94,7 +94,7 @@ def test_a_lazy_bracket_gives_the_eager_step_bit_for_bit(air: float) -> None:
         k = C.constants(
             valves=valves, c=c, air0=air0, p0=p0, c_oil=c_oil, floor=-1.0e300, gas_n=1.0
         )
-        occ_old, _ = C._occupied(p_old, vol, k)
+        occ_old, _ = C._occupied(p_old, vol, 0.0, k)
         area = rng.choice([1.0e-7, 1.0e-6, 5.0e-6])
         s = C.Step(
             occ_old, 0.0, base, q, dt, vol, area, area * rng.uniform(0.3, 3.0), 1.0e-12,

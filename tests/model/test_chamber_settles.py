@@ -104,7 +104,7 @@ def test_steps_near_reversal_end_at_their_roots(air: float) -> None:
     for _ in range(300):
         base = p0 * rng.uniform(0.9, 1.2)
         p_old = base + rng.normal(0.0, 2e3)
-        occ_old, _ = C._occupied(p_old, vol, k)
+        occ_old, _ = C._occupied(p_old, vol, 0.0, k)
         s = C.Step(
             occ_old, 0.0, base, rng.normal(0.0, 2e-6), rng.choice([2e-4, 6.667e-4, 1e-3]), vol,
             rng.uniform(1e-7, 6e-6), rng.uniform(1e-7, 6e-6), 4.7e-13, 0.0, 1.0, 5.8e-5,

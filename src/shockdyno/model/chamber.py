@@ -23,6 +23,20 @@ force after reversal of a cavitating damper). Neither need be instant: vapour fo
 so a fast stroke pulls the chamber under p_v and a condensing one holds it over;
 R_e = R_c = 0 is the hard floor.
 
+Released gas: an oil that holds dissolved air gives some of it up while the chamber sits
+at its floor, and that gas does not go back with the vapour. While the chamber holds
+vapour, gas comes out at a fixed rate ṅ (its volume at one atmosphere per second), so
+G = ṅ t over a void held t; above the floor it goes back into solution at
+dG/dt = -G (p - p_v)/(P_atm τ) (Henry's law: driven by how far the pressure stands over
+the one it was released at, in proportion to the gas there to dissolve). It takes
+G P_atm / p (isothermal, Boyle), beside the air in occ(p), so after the void collapses
+the chamber keeps a compliance the next strokes must compress: the rebound force lags
+after the top reversal. G is advanced explicitly at each step's start (its rates are
+seconds, the step a millisecond), and the step's balance sees what it released as new
+volume. A periodic segment's passes move G to the fixed point of the cycle map the last
+two passes show (Aitken), since it settles over seconds where the chamber's pressure
+settles in a fraction of a cycle.
+
 Each step is implicit and at most 1 ms long (sub-steps between samples further apart,
 the motion interpolated linearly), so a fit's 5 ms samples see the state a 1 kHz
 recording does: the balance is monotone in Δp, so a safeguarded Newton iteration finds
@@ -50,6 +64,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from shockdyno.model.composite import ATMOSPHERE_PA  # released gas: its volume at 1 atm
 from shockdyno.model.recent import Recent
 from shockdyno.model.shims import ShimStack
 from shockdyno.model.spec import DamperSpec
@@ -85,6 +100,11 @@ class Chamber:
     # (Pa·s/m³); 0: at once (a hard floor).
     form_resistance_pa_s_m3: float = 0.0
     condense_resistance_pa_s_m3: float = 0.0
+    # Gas that comes out of solution while the chamber holds vapour, at this rate (m³/s of
+    # gas at one atmosphere), and goes back into it above the floor at G (p - p_v)/(P_atm τ)
+    # (`redissolve_s` τ: a gas 1 atm over the floor redissolves by 1/e in τ). 0: none.
+    gas_release_m3_s: float = 0.0
+    redissolve_s: float = math.inf
 
     @property
     def rigid(self) -> bool:
@@ -129,9 +149,9 @@ def integrate(
     gas_volume: FloatArray | None = None,
     gas_index: float = 1.0,
     dp_scale: FloatArray | None = None,
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """(Δp, vapour volume m³, compression-chamber pressure, final state) for every sample,
-    segment by segment.
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """(Δp, vapour volume m³, compression-chamber pressure, final state, released gas m³ at
+    the chamber's pressure) for every sample, segment by segment.
 
     A segment starts in the static state (Δp = dp_static, no vapour) unless `carry`
     (single segment: the previous call's final state) is given, or `periodic` (whole
@@ -145,11 +165,12 @@ def integrate(
     at Δp / scale, so a rigid chamber gives the same Δp); None: 1.
     """
     use_carry = carry is not None and starts.size == 1
-    cin = np.full(5, math.nan)  # (p, vapour, Δp, and the step before's p and vapour)
+    # (p, vapour, Δp, the step before's p and vapour, the released gas now and before)
+    cin = np.array([math.nan] * 5 + [0.0, 0.0])
     if use_carry:
         assert carry is not None
         got = np.asarray(carry, dtype=float)
-        cin[: min(got.size, 5)] = got[:5]  # a 3-state carry: the next step is Euler's
+        cin[: min(got.size, 7)] = got[:7]  # a 3-state carry: the next step is Euler's
     lam = np.zeros(x.size) if bleed_laminar is None else bleed_laminar
     gas = np.zeros(x.size) if gas_volume is None else gas_volume
     sc = np.ones(x.size) if dp_scale is None else dp_scale
@@ -165,7 +186,7 @@ def integrate(
     k = _constants_of(spec, chamber, gas_index)
     arrays = (x, v, p_c, dp_static, bleed_compression_m2, bleed_rebound_m2, k_leak, lam, sc, gas)
     smp = Samples(*(_per_sample(a, x.size) for a in arrays))
-    dp, vap, pce, state, p_pre, p_fin, used = _recent_run(
+    dp, vap, pce, state, p_pre, p_fin, used, gas_out = _recent_run(
         smp,
         np.ascontiguousarray(starts, dtype=np.int64),
         np.ascontiguousarray(dt_s, dtype=float),
@@ -177,7 +198,7 @@ def integrate(
     )
     if guides is not None and guide is None and not use_carry:
         guides[layout] = (p_pre, p_fin, used)
-    return dp, vap, pce, state
+    return dp, vap, pce, state, gas_out
 
 
 def _constants_of(spec: DamperSpec, chamber: Chamber, gas_index: float) -> Constants:
@@ -199,6 +220,10 @@ def _constants_of(spec: DamperSpec, chamber: Chamber, gas_index: float) -> Const
         r_form=chamber.form_resistance_pa_s_m3,
         r_cond=chamber.condense_resistance_pa_s_m3,
         gas_n=gas_index,
+        # Released gas needs a release pressure that is one (above vacuum): Boyle's volume
+        # of gas at a floor below it would be no volume at all.
+        release=chamber.gas_release_m3_s if math.isfinite(floor) and floor > 0.0 else 0.0,
+        dissolve=1.0 / (ATMOSPHERE_PA * chamber.redissolve_s),
     )
 
 
@@ -257,6 +282,8 @@ CONSTANTS = np.dtype(
         ("r_form", np.float64),  # R_e, R_c: `_vapour_at`
         ("r_cond", np.float64),
         ("gas_n", np.float64),  # the gas column's polytropic index
+        ("release", np.float64),  # released gas: m³/s at 1 atm while vapour is held
+        ("dissolve", np.float64),  # 1/(P_atm τ): its redissolution per Pa over the floor
     ],
     align=True,
 )
@@ -279,6 +306,8 @@ class Constants(Protocol):
     r_form: float
     r_cond: float
     gas_n: float
+    release: float
+    dissolve: float
 
 
 def constants(**fields: object) -> Constants:
@@ -306,6 +335,7 @@ class Step(NamedTuple):
     lam: float  # the bleed's laminar land
     sc: float  # the Δp scale of a term (1: none)
     gas_volume: float  # the gas column's volume (0: p_c as given)
+    gas: float = 0.0  # released gas at the step's end, m³ at one atmosphere
 
 
 @njit(cache=True)
@@ -361,17 +391,19 @@ def _signed_flow(d: float, s: Step, k: Constants) -> tuple[float, float]:
 
 
 @njit(cache=True)
-def _occupied(p: float, vol: float, k: Constants) -> tuple[float, float]:
-    """Volume the chamber's oil and air take up at pressure p (up to a constant), and its
-    derivative (negative: compliance). The air is a fixed amount, air0 of volume at p0
-    (isothermal), so its part is an exact differential: a cycle returns every bubble to
-    its size and pumps no oil (an air volume scaled with the chamber's, V(x) α p₀/p²,
-    does not: around a loop in x and p it moves oil through the piston every cycle)."""
+def _occupied(p: float, vol: float, gas: float, k: Constants) -> tuple[float, float]:
+    """Volume the chamber's oil, air and released gas take up at pressure p (up to a
+    constant), and its derivative (negative: compliance). The air is a fixed amount, air0
+    of volume at p0 (isothermal), so its part is an exact differential: a cycle returns
+    every bubble to its size and pumps no oil (an air volume scaled with the chamber's,
+    V(x) α p₀/p², does not: around a loop in x and p it moves oil through the piston every
+    cycle). The released gas, `gas` m³ at one atmosphere, is as isothermal (Boyle)."""
     air0 = k.air0
     pe = max(p, MIN_PRESSURE_PA)
     oil = max(vol - air0, 0.0)
-    occ = air0 * k.p0 / pe - oil * k.c_oil * p
-    docc = -(air0 * k.p0 / (pe * pe) + oil * k.c_oil)
+    free = air0 * k.p0 + gas * ATMOSPHERE_PA
+    occ = free / pe - oil * k.c_oil * p
+    docc = -(free / (pe * pe) + oil * k.c_oil)
     return occ, docc
 
 
@@ -386,7 +418,7 @@ def _gas(
     base, gas_volume, n = s.base, s.gas_volume, k.gas_n
     if gas_volume <= 0.0:
         return base, 0.0, 0.0
-    occ_ref, _ = _occupied(k.p0, s.vol, k)
+    occ_ref, _ = _occupied(k.p0, s.vol, 0.0, k)  # released gas, like vapour, is growth
     grow = occ_now - occ_ref + vapour
     cap = GAS_CAP * gas_volume
     if grow >= cap:  # beyond any damper: held, so the balance stays monotone
@@ -423,7 +455,7 @@ def _balance(p: float, s: Step, k: Constants) -> tuple[float, float, float, floa
     g, dg = 0.0, 0.0
     if k.has_floor:
         g, dg = _vapour_at(p, s.vap_old, s.dt, k)
-    occ, docc = _occupied(p, s.vol, k)
+    occ, docc = _occupied(p, s.vol, s.gas, k)
     pc, dpc_dp, dpc_dv = _gas(occ, docc, g, s, k)
     q, dq = _signed_flow(pc - p, s, k)
     f = s.vap_old + s.dt * (s.q_demand - q) - occ + s.occ_old - g
@@ -476,7 +508,7 @@ def _floor_balance(vv: float, rest: float, s: Step, k: Constants) -> tuple[float
     G(V) = V - rest - dt (Q - q(p_c(floor, V) - floor)), the volume left unaccounted for.
     It rises in V: more vapour shortens the gas column, p_c rises and so does the outflow."""
     floor = k.floor
-    occ, docc = _occupied(floor, s.vol, k)
+    occ, docc = _occupied(floor, s.vol, s.gas, k)
     pc, _, dpc_dv = _gas(occ, docc, vv, s, k)
     q, dq = _signed_flow(pc - floor, s, k)
     return vv - rest - s.dt * (s.q_demand - q), 1.0 + s.dt * dq * dpc_dv, pc
@@ -541,7 +573,7 @@ def _at_floor(s: Step, k: Constants) -> tuple[int, float, float, float, float]:
     vap_old = s.vap_old
     v_min = vap_old if k.r_cond > 0.0 else 0.0
     v_max = vap_old if k.r_form > 0.0 else math.inf
-    occ_f, _ = _occupied(k.floor, s.vol, k)
+    occ_f, _ = _occupied(k.floor, s.vol, s.gas, k)
     rest = vap_old - occ_f + s.occ_old
     g_min, _, pc = _floor_balance(v_min, rest, s, k)
     g_max = -1.0
@@ -732,13 +764,15 @@ class Guide(NamedTuple):
 
 
 class Out(NamedTuple):
-    """Per sample: Δp, vapour, p_c, and the pressures a guide is made of."""
+    """Per sample: Δp, vapour, p_c, the pressures a guide is made of, and the released
+    gas's volume at the chamber's pressure."""
 
     dp: FloatArray
     vap: FloatArray
     pce: FloatArray
     p_pre: FloatArray
     p_fin: FloatArray
+    gas: FloatArray
 
 
 class Segment(NamedTuple):
@@ -764,6 +798,8 @@ class State(NamedTuple):
     p_prev: float  # the step before's p and vapour, for BDF2 (NaN: none, Euler's next)
     vv_prev: float
     off: float  # guided: the departure from the guide's pressure
+    gas: float  # released gas, m³ at one atmosphere
+    gas_prev: float  # the step before's (BDF2: its contents)
 
 
 @njit(cache=True)
@@ -821,10 +857,11 @@ def _substep(
     vol = k.a_r * max(k.length + xi, 0.05 * k.length)
     gv = smp.gas_volume[k0] + w * (smp.gas_volume[i] - smp.gas_volume[k0])
     p, vv = st.p, st.vv
-    occ_old, _ = _occupied(p, vol, k)
+    gas = _released(st.gas, p, vv, h, k)
+    occ_old, _ = _occupied(p, vol, st.gas, k)  # the gas this step releases is new volume
     guess = p
     if vv == 0.0 and st.vv_prev == 0.0 and math.isfinite(st.p_prev):
-        occ_m, _ = _occupied(st.p_prev, vol, k)
+        occ_m, _ = _occupied(st.p_prev, vol, st.gas_prev, k)
         h, occ_old = 2.0 * h / 3.0, occ_old + (occ_old - occ_m) / 3.0
         # Newton's start on the line through the last two steps' ends (they are a step
         # apart) rather than at the last: 3.1 balances a step where it took 3.6
@@ -832,7 +869,7 @@ def _substep(
         guess = 2.0 * p - st.p_prev
     s = Step(
         occ_old, vv, base, k.a_q * vi, h, vol, smp.a_bc[i], smp.a_bt[i], smp.k_leak[i],
-        smp.lam[i], smp.sc[i], gv,
+        smp.lam[i], smp.sc[i], gv, gas,
     )  # fmt: skip
     solve = True
     p_new, vv_new, pci = math.nan, math.nan, math.nan
@@ -849,7 +886,23 @@ def _substep(
     if solve:
         p_new, vv_new, pci = _step(guess, s, k)
     off = p_new - g0 if guided else st.off
-    return State(p_new, vv_new, pci - p_new, p, vv, off), pci
+    return State(p_new, vv_new, pci - p_new, p, vv, off, gas, st.gas), pci
+
+
+@njit(cache=True, inline="always")
+def _released(gas: float, p: float, vv: float, h: float, k: Constants) -> float:
+    """The released gas (m³ at one atmosphere) after a step of length h from pressure p
+    and vapour vv: while the chamber holds vapour, gas comes out into it at a fixed rate;
+    above the floor it goes back into solution at G (p - p_v)/(P_atm τ) (implicit in G, so
+    it never goes negative). Explicit in p and vv: the step's own balance then sees the
+    gas as new volume (a release) or lost volume (redissolution) at its start."""
+    if k.release <= 0.0 and gas <= 0.0:
+        return gas
+    if vv > 0.0:
+        return gas + h * k.release
+    if p > k.floor:
+        return gas / (1.0 + h * (p - k.floor) * k.dissolve)
+    return gas
 
 
 @njit(cache=True, inline="always")
@@ -875,8 +928,12 @@ def _pass(
             out.pce[i] = smp.p_c[i]
             out.p_pre[i] = st.p
             out.p_fin[i] = st.p
+            out.gas[i] = st.gas * ATMOSPHERE_PA / max(st.p, MIN_PRESSURE_PA)
             if seg.guided:
-                st = State(st.p, st.vv, st.d, st.p_prev, st.vv_prev, st.p - guide[i])
+                st = State(
+                    st.p, st.vv, st.d, st.p_prev, st.vv_prev, st.p - guide[i], st.gas,
+                    st.gas_prev,
+                )  # fmt: skip
             continue
         k0 = i - 1 if i > seg.lo else (seg.hi - 1 if it > 0 else i)
         g0 = guide[i] if seg.guided else math.nan
@@ -886,6 +943,7 @@ def _pass(
         out.dp[i] = st.d
         out.vap[i] = st.vv
         out.pce[i] = pci
+        out.gas[i] = st.gas * ATMOSPHERE_PA / max(st.p, MIN_PRESSURE_PA)
         if seg.preroll and it == 0:
             out.p_pre[i] = st.p
         out.p_fin[i] = st.p
@@ -917,11 +975,11 @@ def _layout(
 def _start(smp: Samples, i0: int, carry: FloatArray, use_carry: bool, k: Constants) -> State:
     """A segment's first state: the carried one, or sample i0's static state (no vapour)."""
     if use_carry:
-        return State(carry[0], carry[1], carry[2], carry[3], carry[4], 0.0)
+        return State(carry[0], carry[1], carry[2], carry[3], carry[4], 0.0, carry[5], carry[6])
     p = smp.p_c[i0] - smp.dp_static[i0]
     if k.has_floor and p < k.floor:
         p = k.floor
-    return State(p, 0.0, smp.p_c[i0] - p, math.nan, math.nan, 0.0)
+    return State(p, 0.0, smp.p_c[i0] - p, math.nan, math.nan, 0.0, 0.0, 0.0)
 
 
 @njit(cache=True, inline="always")
@@ -931,7 +989,27 @@ def _done(seg: Segment, it: int, passes: int, start: State, st: State) -> bool:
     if seg.guided or it + 1 >= passes or (seg.preroll and it == 0):
         return False
     close = abs(st.p - start.p) <= 1.0e-6 * (abs(start.p) + 1.0e3)
-    return close and abs(st.vv - start.vv) <= 1.0e-12
+    gas = abs(st.gas - start.gas) <= 1.0e-6 * start.gas + 1.0e-18
+    return close and abs(st.vv - start.vv) <= 1.0e-12 and gas
+
+
+@njit(cache=True, inline="always")
+def _gas_ahead(before: float, start: State, st: State) -> State:
+    """`st` with its released gas moved to the fixed point of the cycle map the last two
+    passes show (Aitken's Δ²: `before`, `start`.gas and `st`.gas each a pass apart). The
+    gas redissolves over seconds, so a 1.5 Hz cycle's passes close on it at 0.25-0.7 of
+    the gap a pass: four would leave a quarter of it. Where the map is contracting."""
+    d1, d2 = start.gas - before, st.gas - start.gas
+    if not (math.isfinite(before) and d1 != 0.0):
+        return st
+    a = d2 / d1
+    if not 0.0 < a < 0.95:
+        return st
+    jump = d2 * a / (1.0 - a)
+    return State(
+        st.p, st.vv, st.d, st.p_prev, st.vv_prev, st.off, st.gas + jump,
+        max(st.gas_prev + jump, 0.0),
+    )  # fmt: skip
 
 
 @njit(cache=True)
@@ -945,7 +1023,14 @@ def _run(
     use_carry: bool,
     guide: Guide,
 ) -> tuple[
-    FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.int64]
+    FloatArray,
+    FloatArray,
+    FloatArray,
+    FloatArray,
+    FloatArray,
+    FloatArray,
+    NDArray[np.int64],
+    FloatArray,
 ]:
     """(Δp, vapour, p_c, final state) per sample, and the trajectory a later call may be
     guided by (`linearised`): the chamber pressure per sample in a periodic segment's
@@ -955,10 +1040,13 @@ def _run(
     would at the least takes them, each step one Newton step from the guide's pressure
     where the balance is smooth about it."""
     n = smp.x.size
-    out = Out(np.empty(n), np.empty(n), np.empty(n), np.full(n, math.nan), np.full(n, math.nan))
+    out = Out(
+        np.empty(n), np.empty(n), np.empty(n), np.full(n, math.nan), np.full(n, math.nan),
+        np.empty(n),
+    )  # fmt: skip
     nseg = starts.size
     used = np.zeros(nseg, dtype=np.int64)
-    state = np.zeros(5)
+    state = np.zeros(7)
     for j in range(nseg):
         lo = starts[j]
         hi = starts[j + 1] if j + 1 < nseg else n
@@ -969,6 +1057,7 @@ def _run(
         st = _start(smp, seg.i0, carry, use_carry, k)
         # The passes here, not in a part of their own: numba copies an inlined part's
         # code into each caller, so a chain of them copies the innermost over and over.
+        before = math.nan  # the released gas a full pass before `start` (`_gas_ahead`)
         for it in range(passes):
             start = st
             along = guide.pre if seg.preroll and it == 0 else guide.fin
@@ -976,12 +1065,21 @@ def _run(
             used[j] = it + 1
             if _done(seg, it, passes, start, st):
                 break
+            if (seg.preroll and it == 0) or seg.guided or st.gas <= 0.0:
+                continue
+            if it + 1 < passes and math.isfinite(before):
+                st = _gas_ahead(before, start, st)
+                before = math.nan  # two passes from the moved gas before it moves again
+            else:
+                before = start.gas
         state[0] = st.p
         state[1] = st.vv
         state[2] = st.d
         state[3] = st.p_prev
         state[4] = st.vv_prev
-    return out.dp, out.vap, out.pce, state, out.p_pre, out.p_fin, used
+        state[5] = st.gas
+        state[6] = st.gas_prev
+    return out.dp, out.vap, out.pce, state, out.p_pre, out.p_fin, used, out.gas
 
 
 # A Jacobian column of a parameter that acts after the chamber repeats its inputs exactly,

@@ -344,6 +344,13 @@ class Term:
         the model without the term on the data, for grids placed where the data are."""
         return [{}]
 
+    def refinements(self) -> dict[str, tuple[float, ...]]:
+        """Held parameters (local name: its starts) the diagnosis tries freeing after the
+        term's own fit (its starts beside the fit and beside each of `start_grid`'s),
+        keeping them only where they explain significantly more: a second parameter freed
+        beside the first in a short refit can cost the first its place. None by default."""
+        return {}
+
     def placed(self, x: FloatArray) -> dict[str, float]:
         """Values the data fix before any fit, by local name (a spline's knots span the
         stroke the recording covers); none by default."""

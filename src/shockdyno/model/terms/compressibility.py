@@ -34,8 +34,9 @@ MAX_BULK_MODULUS_PA = 2.2e9
 
 def run_chamber(
     w: Work, chamber: Chamber, carry: FloatArray | None
-) -> tuple[FloatArray, FloatArray, FloatArray | None, FloatArray]:
-    """(Δp, vapour volume, state, p_c) of the chamber on the work's samples, from the static
+) -> tuple[FloatArray, FloatArray, FloatArray | None, FloatArray, FloatArray]:
+    """(Δp, vapour volume, state, p_c, released gas's volume) of the chamber on the work's
+    samples, from the static
     Δp and p_c the flow solve gave (kept in w.dp_static and w.p_c_static for the next
     chamber term); the compression chamber's pressure follows what the chamber's
     contents took from the gas side (w.set_p_c, the term's own part)."""
@@ -45,8 +46,9 @@ def run_chamber(
         w.p_c_static = w.p_c
     assert w.dp_static is not None and w.p_c_static is not None
     if chamber.inert:
-        return w.dp_static, np.zeros_like(w.dp_static), None, w.p_c_static
-    dp, vapour, p_c, state = integrate(
+        none = np.zeros_like(w.dp_static)
+        return w.dp_static, none, None, w.p_c_static, none
+    dp, vapour, p_c, state, gas = integrate(
         w.spec,
         chamber,
         w.x,
@@ -65,7 +67,7 @@ def run_chamber(
         w.gas_index,
         w.dp_scale if w.dp_scale.size == w.x.size else None,
     )
-    return dp, vapour, state, p_c
+    return dp, vapour, state, p_c, gas
 
 
 def bulk_modulus_pa(p: Mapping[str, float], pressure_pa: float, charge_pa: float) -> float:
@@ -174,7 +176,7 @@ class Compressibility(Term):
         assert w.dp is not None
         chamber = self.chamber(w, p)
         w.chamber = chamber
-        dp, _, state, p_c = run_chamber(w, chamber, carry)
+        dp, _, state, p_c, _ = run_chamber(w, chamber, carry)
         w.set_p_c(self.name, p_c)
         w.set_dp(self.name, dp)
         p_r = w.p_c - dp

@@ -22,6 +22,7 @@ from shockdyno.fit.parameters import (
     DIAGNOSE_ONLY,
     Parameter,
     global_parameters,
+    spec_global,
 )
 from shockdyno.fit.prepare import ClickKey, PreparedTest
 from shockdyno.fit.problem import prepared_inputs
@@ -200,10 +201,14 @@ def refit(
     Warm start: the globals from `model.spec`, term values from `model.values`, areas
     from `start` (else a grid search). `calibrated`: the spec values to calibrate (by
     default the start's, else GLOBALS). The globals are bounded about `bounds_from`'s
-    values (default: the start's). `warm`: `model` is the start's, on some of its tests:
-    the solve starts from the start's Jacobian there and updates it (calibrate's jac0)
-    rather than differencing the model at every step (where the start has no rows for
-    these tests, as on a test's halves, it differences as usual). `limits`: ranges (SI)
+    values (default: the start's), and never beyond their declared range about the
+    spec the data were built with (the drawing: fit/parameters.SPEC_GLOBALS): a range
+    taken about each refit's own value let chained refits walk the seal's smoothing
+    speed to 1e-7 of the drawing's, where the declared floor is 0.01x. `warm`: `model`
+    is the start's, on some of its tests: the solve starts from the start's Jacobian
+    there and updates it (calibrate's jac0) rather than differencing the model at every
+    step (where the start has no rows for these tests, as on a test's halves, it
+    differences as usual). `limits`: ranges (SI)
     some spec values are held within (Fitted.limits; by default the start's).
     """
     names = tuple(calibrated) if calibrated is not None else (start.globals if start else GLOBALS)
@@ -218,8 +223,10 @@ def refit(
     else:
         bc0, bt0 = start_areas(prob, model, a_max)
     held = dict(limits if limits is not None else (start.limits if start else {}))
+    drawing = data.prob.base
     params = [
-        within(p, held.get(p.name)) for p in global_parameters(bounds_from or model.spec, names)
+        within(within(p, spec_global(p.name).bounds(drawing.value(p.name))), held.get(p.name))
+        for p in global_parameters(bounds_from or model.spec, names)
     ]
     jac0 = None
     if warm and start is not None and tuple(free) == start.free and names == start.globals:

@@ -64,9 +64,7 @@ def with_calibration(fitted: Fitted, name: str) -> tuple[str, ...]:
 
 def companion_keys(fitted: Fitted, name: str) -> tuple[str, ...]:
     """The spec values term `name` frees beside it that `fitted` does not calibrate yet."""
-    if name not in COMPANIONS:
-        return ()
-    return tuple(k for k in CALIBRATIONS[COMPANIONS[name]] if k not in fitted.globals)
+    return tuple(k for k in COMPANIONS.get(name, ()) if k not in fitted.globals)
 
 
 def best_start(data: Data, model: DamperModel, name: str, base: Fitted) -> DamperModel:
@@ -100,19 +98,27 @@ def calibration_start(data: Data, base: Fitted, name: str) -> DamperModel:
     of `SpecGlobal.starts`, each within its range) with the least squared error, the
     rest held."""
     keys = [k for k in CALIBRATIONS[name] if k not in base.globals]
-    spec = base.model.spec
+    return spec_start(data, base, base.model, keys)
+
+
+def spec_start(data: Data, base: Fitted, model: DamperModel, keys: Sequence[str]) -> DamperModel:
+    """`model` with spec values `keys` at the start (each its own value or one of
+    `SpecGlobal.starts`, within its range) with the least squared error, the rest held:
+    a seal's travel fitted from the spec's 0 stays there (the force hardly moves with
+    the first µm), where the recording's seal turns over tenths of a mm."""
+    spec = model.spec
     choices = []
     for k in keys:
         g = spec_global(k)
         lo, hi = g.bounds(spec.value(k))
         choices.append(sorted({spec.value(k), *(min(max(v, lo), hi) for v in g.starts)}))
     if all(len(c) < 2 for c in choices):
-        return base.model
+        return model
     starts = (
-        base.model.with_spec(spec.with_values(dict(zip(keys, values, strict=True))))
+        model.with_spec(spec.with_values(dict(zip(keys, values, strict=True))))
         for values in itertools.product(*choices)
     )
-    return least_error(data, base, base.model, starts)
+    return least_error(data, base, model, starts)
 
 
 def binned_jacobian(data: Data, fitted: Fitted) -> tuple[FloatArray, int]:
@@ -240,6 +246,7 @@ def try_candidate(
         model = best_start(data, with_term(base.model, name, data), name, base)
         mine = default_free(name)
         extra = companion_keys(base, name)
+        model = spec_start(data, base, model, extra)
         calibrated = (*base.globals, *extra)
         fitted = refit(
             data, model, (*base.free, *mine), base, max_nfev=max_nfev, calibrated=calibrated

@@ -220,6 +220,8 @@ class Candidate:
     own_peak_n: float = math.inf
     # A calibration candidate's spec values before it moved them (the base spec's).
     spec_values: dict[str, float] = field(default_factory=dict)
+    # Why the force the term makes on these tests is not physics (Term.implausible_on).
+    implausible_on: str = ""
 
 
 def try_candidate(
@@ -277,8 +279,18 @@ def try_candidate(
     before = spec_values(data, name) if name in CALIBRATIONS else {}
     return Candidate(
         name, fitted, lr, p, effect, peak, base_means - means, own_peak_n=own,
-        spec_values=before,
+        spec_values=before, implausible_on=seen_implausible(data, fitted, name),
     )  # fmt: skip
+
+
+def seen_implausible(data: Data, fitted: Fitted, name: str) -> str:
+    """Why the force term `name` makes as `fitted` on `data` is not physics
+    (Term.implausible_on; "" when it is, or the term is not in)."""
+    term = fitted.model.term(name)
+    ev = evaluate(data, fitted) if term is not None else None
+    if term is None or ev is None:
+        return ""
+    return term.implausible_on(fitted.model.local_values(term), fitted.model.spec, ev)
 
 
 def _unseen(data: Data, fitted: Fitted, name: str) -> dict[str, float]:

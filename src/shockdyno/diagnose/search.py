@@ -18,6 +18,7 @@ from shockdyno.diagnose.candidates import (
     folds,
     heldout_gains,
     own_peak,
+    seen_implausible,
     try_candidate,
 )
 from shockdyno.diagnose.claims import (
@@ -374,6 +375,7 @@ def idle_reasons(
         if term is None:
             continue
         odd = term.implausible(base.model.local_values(term), base.model.spec)
+        odd = odd or seen_implausible(data, base, n)
         if odd:
             why[n] = f"refitted on every test it is not physical: {odd}"
             continue

@@ -70,3 +70,42 @@ def test_a_gas_spring_claimed_before_the_bump_stop_is_dropped(tmp_path: Path) ->
     assert groups == []
     # What is left is the bump stop's model: the onset where the rig put it.
     assert kept.model.value("contact.bump_onset_m") == pytest.approx(0.021, abs=0.001)
+
+
+SEAL = "[[term]]\nkind = 'friction'\nbreakaway_n = 40.0\nstribeck_velocity_m_s = 0.005\n"
+
+
+@pytest.mark.parametrize(("scenario", "back"), [(SEAL, True), ("", False)])
+def test_a_claim_dropped_beside_a_dropped_one_is_tried_again_beside_what_stays(
+    tmp_path: Path, scenario: str, back: bool
+) -> None:
+    # The backward check dropped the seal beside a later claim, then that claim beside
+    # the rest: the seal was never judged beside what stays. Tried there again, a real
+    # breakaway rejoins the model; on a clean recording nothing does.
+    path = tmp_path / "s.toml"
+    path.write_text(f"[scenario]\nname = 's'\ndescription = 'x'\n{scenario}")
+    rec = tmp_path / "r.mcap"
+    cmd = ["sweep", "--rig", str(REPO / "rigs" / "sim.toml"), "--start-sim", "--speed"]
+    cmd += ["50", "--clicks", "0,14", "-o", str(rec), "--seed", "5", "--scenario", str(path)]
+    done = cli(*cmd)
+    assert done.returncode == 0, done.stderr
+    prepared, _ = prepare_tests(open_recording(rec).load_all())
+    data = Data.build(load_spec(), prepared)
+    base = refit(data, DamperModel(load_spec()), (), None, max_nfev=30)
+    s = Settings(n_boot=199)
+    force_peak = float(np.max(np.abs(data.prob.f)))
+    search = Search(data, base, s, np.random.default_rng(0), folds(data), force_peak)
+    seal = _finding("friction")
+    seal.claimed, seal.why_not = False, "dropped in the backward check: with contact ..."
+    search.trials = [seal]
+    search.restore("friction")
+    assert seal.claimed is back, seal.why_not
+    assert search.claimed == (["friction"] if back else [])
+    assert (search.base.model.term("friction") is not None) is back
+    if back:
+        # Judged as the forward search would: its travel freed beside it, and what came
+        # with it goes with it if it is dropped again.
+        assert search.came_with["friction"] == ("friction_presliding_m",)
+        assert seal.why_not == ""
+    else:
+        assert search.base is base

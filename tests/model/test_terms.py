@@ -651,6 +651,32 @@ def test_friction_says_when_its_fit_is_not_physics() -> None:
     assert "over 5x" in term.implausible(huge, SPEC)
 
 
+def test_a_seal_on_its_travel_is_judged_on_the_breakaway_it_reaches() -> None:
+    """On a presliding travel the seal deflects toward F_c + F_b over δ (F_c + F_b)/F_c of
+    travel, by when a rod reversing at 0.5 Hz is past a 6.6 mm/s Stribeck speed: a 270 N
+    breakaway (7.7x a 35 N Coulomb level; fitted beside aerated oil) reaches far less,
+    and that is what the 5x rule reads. A slow Stribeck decay reaches it."""
+    term = make_term("friction")
+    spec = SPEC.with_values({"friction_presliding_m": 5e-5})
+    bc, bt = (float(a) for a in spec.bleed_areas(2, 0))
+    big = {"breakaway_n": 270.0, "stribeck_velocity_m_s": 0.0066, "viscous_n_s_m": 60.0}
+
+    def judged(p: dict[str, float]) -> tuple[str, float]:
+        model = DamperModel(spec, (term,), {f"friction.{k}": v for k, v in p.items()})
+        ev = model.evaluate(_sine_at(1000.0, 0.5), bc, bt)
+        return term.implausible_on(p, spec, ev), float(
+            np.max(np.abs(ev.outputs["friction.seal_n"]))
+        )
+
+    assert term.implausible(big, spec) == ""  # the level alone is not the rule here
+    assert "over 5x" in term.implausible(big, SPEC)  # on the smoothed sign it is reached
+    odd, reached = judged(big)
+    assert odd == "" and reached < spec.friction_n + 5 * spec.friction_n, reached
+    slow = {**big, "stribeck_velocity_m_s": 0.05}
+    odd, reached = judged(slow)
+    assert "over 5x" in odd and reached > 6 * spec.friction_n, reached
+
+
 def test_thermal_says_a_damping_that_rises_as_the_oil_warms_is_not_physics() -> None:
     """Oil thins as it warms: with Δp scaled by exp(-d ΔT) and the laminar paths thinned
     at b, the damping rises everywhere once d < -b (a reference-plant 60 N seal, no heat:

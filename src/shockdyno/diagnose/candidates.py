@@ -66,9 +66,7 @@ def with_calibration(fitted: Fitted, name: str) -> tuple[str, ...]:
 
 def companion_keys(fitted: Fitted, name: str) -> tuple[str, ...]:
     """The spec values term `name` frees beside it that `fitted` does not calibrate yet."""
-    if name not in COMPANIONS:
-        return ()
-    return tuple(k for k in CALIBRATIONS[COMPANIONS[name]] if k not in fitted.globals)
+    return tuple(k for k in COMPANIONS.get(name, ()) if k not in fitted.globals)
 
 
 def best_start(data: Data, model: DamperModel, name: str, base: Fitted) -> DamperModel:
@@ -102,19 +100,27 @@ def calibration_start(data: Data, base: Fitted, name: str) -> DamperModel:
     of `SpecGlobal.starts`, each within its range) with the least squared error, the
     rest held."""
     keys = [k for k in CALIBRATIONS[name] if k not in base.globals]
-    spec = base.model.spec
+    return spec_start(data, base, base.model, keys)
+
+
+def spec_start(data: Data, base: Fitted, model: DamperModel, keys: Sequence[str]) -> DamperModel:
+    """`model` with spec values `keys` at the start (each its own value or one of
+    `SpecGlobal.starts`, within its range) with the least squared error, the rest held:
+    a seal's travel fitted from the spec's 0 stays there (the force hardly moves with
+    the first µm), where the recording's seal turns over tenths of a mm."""
+    spec = model.spec
     choices = []
     for k in keys:
         g = spec_global(k)
         lo, hi = g.bounds(spec.value(k))
         choices.append(sorted({spec.value(k), *(min(max(v, lo), hi) for v in g.starts)}))
     if all(len(c) < 2 for c in choices):
-        return base.model
+        return model
     starts = (
-        base.model.with_spec(spec.with_values(dict(zip(keys, values, strict=True))))
+        model.with_spec(spec.with_values(dict(zip(keys, values, strict=True))))
         for values in itertools.product(*choices)
     )
-    return least_error(data, base, base.model, starts)
+    return least_error(data, base, model, starts)
 
 
 def binned_jacobian(data: Data, fitted: Fitted) -> tuple[FloatArray, int]:
@@ -216,6 +222,8 @@ class Candidate:
     own_peak_n: float = math.inf
     # A calibration candidate's spec values before it moved them (the base spec's).
     spec_values: dict[str, float] = field(default_factory=dict)
+    # Why the force the term makes on these tests is not physics (Term.implausible_on).
+    implausible_on: str = ""
 
 
 def try_candidate(
@@ -242,6 +250,7 @@ def try_candidate(
         model = best_start(data, with_term(base.model, name, data), name, base)
         mine = default_free(name)
         extra = companion_keys(base, name)
+        model = spec_start(data, base, model, extra)
         calibrated = (*base.globals, *extra)
         fitted = refit(
             data, model, (*base.free, *mine), base, max_nfev=max_nfev, calibrated=calibrated
@@ -273,7 +282,7 @@ def try_candidate(
     before = spec_values(data, name) if name in CALIBRATIONS else {}
     return Candidate(
         name, fitted, lr, p, effect, peak, base_means - means, own_peak_n=own,
-        spec_values=before,
+        spec_values=before, implausible_on=seen_implausible(data, fitted, name),
     )  # fmt: skip
 
 
@@ -331,6 +340,16 @@ def refined(
     if lr_bootstrap(lr, jac[:, null], jac, noise) >= REFINE_ALPHA:
         return fitted, mine
     return more, (*mine, *keys)
+
+
+def seen_implausible(data: Data, fitted: Fitted, name: str) -> str:
+    """Why the force term `name` makes as `fitted` on `data` is not physics
+    (Term.implausible_on; "" when it is, or the term is not in)."""
+    term = fitted.model.term(name)
+    ev = evaluate(data, fitted) if term is not None else None
+    if term is None or ev is None:
+        return ""
+    return term.implausible_on(fitted.model.local_values(term), fitted.model.spec, ev)
 
 
 def _unseen(data: Data, fitted: Fitted, name: str) -> dict[str, float]:

@@ -143,6 +143,7 @@ def why_not(
     term = c.fitted.model.term(c.name)
     if term is not None:
         odd = term.implausible(c.fitted.model.local_values(term), c.fitted.model.spec)
+        odd = odd or c.implausible_on
         if odd:
             return f"not physical: {odd}"
         if x is not None:

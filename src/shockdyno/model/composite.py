@@ -326,6 +326,12 @@ class Term:
         data only with impossible values stands in for something else."""
         return ""
 
+    def implausible_on(self, p: Mapping[str, float], spec: DamperSpec, ev: Evaluation) -> str:
+        """Why the force these values make on a recording (`ev`, the fitted model there)
+        is not physics ("" when it is): where a parameter is a level the motion never
+        lets the term reach, the rule is on what it reaches."""
+        return ""
+
     def unseen(self, p: Mapping[str, float], x: FloatArray) -> dict[str, float]:
         """Parameters no sample at the positions `x` depends on, with the off values a
         fit reports for them (a force past an onset the stroke never reaches is not

@@ -303,11 +303,10 @@ def refined(
     The refinements' starts are tried beside the term as fitted and beside each of its own
     starts (`start_grid`, placed on `base`, the model without it): a refinement can be
     most of what the term does where it acts, so the term fitted without it may sit where
-    it does nothing. A held-out plant's released gas moved the force 8.7 N RMS and its
-    floor 2 N; beside a position force, the floor alone explained nothing, was fitted
-    below every pressure the data reach, and the gas tried from there could not act (a
-    boiling sweep's cavitation was dropped so). Refitted only from a start with less
-    squared error than the fit itself (on a sweep where it would not act, none has)."""
+    it does nothing (released gas can move the force more than the floor does; beside
+    another term the floor alone can be fitted below every pressure the data reach, where
+    gas tried from there cannot act). Refitted only from a start with less squared error
+    than the fit itself (on a sweep where it would not act, none has)."""
     term = fitted.model.term(name)
     extra = term.refinements() if term is not None else {}
     if term is None or not extra:

@@ -340,7 +340,7 @@ class Search:
         Aerated oil beside an elastic lip (held-out plant): the seal, claimed beside the
         air, then a contact whose hysteresis patched the reversal at the stroke's end;
         beside both the seal was dropped, then the contact beside the air alone, and the
-        air was left alone, with 2.6x the error of the model with the seal."""
+        air was left alone, with a larger error than the model with the seal."""
         s, tests = self.s, self.tests
         means, binned = binned_means(tests, self.base.residual)
         c = try_candidate(

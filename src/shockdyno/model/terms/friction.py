@@ -107,9 +107,9 @@ class Friction(Term):
         times the sliding friction above it."""
         # The seal deflects over δ g(v)/F_c toward its level g(v), and g falls off by the
         # Stribeck speed: after a reversal the rod is past v_s before the seal is deflected,
-        # so F_c + F_b is a level it approaches but does not reach (an elastic lip beside
-        # aerated oil fitted F_b = 270 N, 7.7x its Coulomb level). What a dyno sees, and what
-        # a seal's breakaway is, is the force it reaches.
+        # so F_c + F_b is a level it approaches but does not reach, and a fit can put it at
+        # many times the Coulomb level. What a dyno sees, and what a seal's breakaway is, is
+        # the force it reaches.
         seal = ev.outputs.get(f"{self.name}.seal_n")
         if seal is None or seal.size == 0 or p["breakaway_n"] <= 0:
             return ""

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import stats as sps
 
+from shockdyno.diagnose.candidates import step_p
 from shockdyno.diagnose.cycles import N_BINS, bin_residual, cycle_starts, phase_of
 from shockdyno.diagnose.stats import lr_bootstrap, mismatch_test, noise_draws
 
@@ -84,6 +85,41 @@ def test_the_likelihood_ratio_bootstrap_keeps_its_level_on_noise() -> None:
     rss0 = np.sum((y - base_cols @ np.linalg.lstsq(base_cols, y, rcond=None)[0]) ** 2)
     rss1 = np.sum((y - j_alt @ np.linalg.lstsq(j_alt, y, rcond=None)[0]) ** 2)
     assert lr_bootstrap(float(rss0 - rss1), base_cols, j_alt, noise_draws([b], rng, 199)) < 0.01
+
+
+def test_a_refinements_step_is_judged_by_the_refit_it_points_to_not_by_its_own_error() -> None:
+    """`step_p` (is a refinement's start worth a refit?): for a linear model its statistic
+    is the linear refit's drop in Σ mean² exactly, whatever the step's length (a start that
+    overshoots, with more squared error than the fit, still points at the effect), and a
+    step the fit's own columns already span is worth nothing."""
+    rng = np.random.default_rng(11)
+    t, x = _cycles(5)
+    ph = phase_of(t, x)
+    grid = np.linspace(0, 2 * np.pi, N_BINS)
+    base_cols = np.column_stack([np.ones(N_BINS), np.sin(grid)])
+    extra = np.cos(2 * grid)
+    j_alt = np.column_stack([base_cols, extra])
+    b = bin_residual(_smooth_noise(rng, t.size) + 3.0 * np.cos(4 * np.pi * t), ph)
+    fit = base_cols @ np.linalg.lstsq(base_cols, b.mean, rcond=None)[0]
+    resid = fit - b.mean  # the fit's residual means (model less data), as candidates' are
+    rss1 = np.sum((b.mean - j_alt @ np.linalg.lstsq(j_alt, b.mean, rcond=None)[0]) ** 2)
+    drop = float(np.sum(resid**2) - rss1)
+    noise = noise_draws([b], np.random.default_rng(1), 199)
+    expected = lr_bootstrap(drop, base_cols, j_alt, noise)
+    assert expected < 0.01
+    for length in (0.1, 100.0):  # short, and far past the effect (more error than the fit)
+        step = length * extra + 5.0 * base_cols[:, 1]  # with a part the fit spans already
+        assert step_p(resid, step, base_cols, noise) == expected
+    overshoot = resid + 100.0 * extra
+    assert np.sum(overshoot**2) > np.sum(resid**2)
+    assert step_p(resid, 2.0 * base_cols[:, 0] - base_cols[:, 1], base_cols, noise) == 1.0
+    # On noise alone a step is not called worth a refit more often than the level says.
+    ps = []
+    for _ in range(30):
+        b = bin_residual(_smooth_noise(rng, t.size), ph)
+        fit = base_cols @ np.linalg.lstsq(base_cols, b.mean, rcond=None)[0]
+        ps.append(step_p(fit - b.mean, extra, base_cols, noise_draws([b], rng, 199)))
+    assert np.mean(np.array(ps) < 0.05) <= 0.2
 
 
 def _bottom_to_bottom(n_cycles: int = 3, per: int = 1000) -> tuple[np.ndarray, np.ndarray]:

@@ -21,7 +21,7 @@ from shockdyno.diagnose.fitting import (
     predict,
     refit,
 )
-from shockdyno.diagnose.stats import lr_bootstrap
+from shockdyno.diagnose.stats import basis, lr_bootstrap
 from shockdyno.diagnose.workers import SERIAL, Workers
 from shockdyno.fit.parameters import global_parameters, spec_global
 from shockdyno.fit.prepare import PreparedTest
@@ -234,6 +234,7 @@ def try_candidate(
     noise: FloatArray,
     max_nfev: int,
 ) -> Candidate:
+    jac_here: FloatArray | None = None  # the Jacobian at `fitted`, where worked out already
     if name in CALIBRATIONS:
         calibrated = with_calibration(base, name)
         fitted = refit(
@@ -264,7 +265,9 @@ def try_candidate(
             mine = tuple(k for k in mine if k not in off)
             model = fitted.model.with_values(off)
             fitted = refit(data, model, (*base.free, *mine), fitted, max_nfev, calibrated)
-        fitted, mine = refined(data, base, fitted, name, mine, noise, max_nfev, calibrated)
+        fitted, mine, jac_here = _refined(
+            data, base, fitted, name, mine, noise, max_nfev, calibrated
+        )
         ahead = len(fitted.globals) + len(fitted.free)  # the Jacobian's globals, then terms
         new_cols = list(range(ahead - len(mine), ahead))
         new_cols += [i for i, k in enumerate(fitted.globals) if k in extra]
@@ -272,7 +275,7 @@ def try_candidate(
     lr = float(np.sum(base_means**2) - np.sum(means**2))
     p = 1.0  # a refit that explains no more than the baseline: no Jacobian needed
     if lr > 0:
-        jac, _ = binned_jacobian(data, fitted)
+        jac = jac_here if jac_here is not None else binned_jacobian(data, fitted)[0]
         null = np.array([i for i in range(jac.shape[1]) if i not in set(new_cols)], dtype=int)
         p = lr_bootstrap(lr, jac[:, null], jac, noise)
     effect = float(np.sqrt(np.mean((fitted.force - base.force) ** 2)))
@@ -305,12 +308,29 @@ def refined(
     most of what the term does where it acts, so the term fitted without it may sit where
     it does nothing (released gas can move the force more than the floor does; beside
     another term the floor alone can be fitted below every pressure the data reach, where
-    gas tried from there cannot act). Refitted only from a start with less squared error
-    than the fit itself (on a sweep where it would not act, none has)."""
+    gas tried from there cannot act). Refitted only from the start with the least squared
+    error, where it has less than the fit itself and its step could explain significantly
+    more (`_step_p`): on a sweep where the refinement would not act, no refit is paid for."""
+    more, kept, _ = _refined(data, base, fitted, name, mine, noise, max_nfev, calibrated)
+    return more, kept
+
+
+def _refined(
+    data: Data,
+    base: Fitted,
+    fitted: Fitted,
+    name: str,
+    mine: tuple[str, ...],
+    noise: FloatArray,
+    max_nfev: int,
+    calibrated: tuple[str, ...],
+) -> tuple[Fitted, tuple[str, ...], FloatArray | None]:
+    """`refined`, with the binned Jacobian at the fit it returns where it worked one out
+    (None where not), so the candidate's own test need not work it out again."""
     term = fitted.model.term(name)
     extra = term.refinements() if term is not None else {}
     if term is None or not extra:
-        return fitted, mine
+        return fitted, mine, None
     keys = tuple(term.qualified(k) for k in extra)
     held = tuple(fitted.model.value(k) for k in keys)
     tries = [
@@ -324,21 +344,55 @@ def refined(
     starts = [fitted.model] + [fitted.model.with_values({**o, **t}) for o in own for t in tries]
     start = least_error(data, fitted, fitted.model, starts)
     if start is fitted.model:
-        return fitted, mine
+        return fitted, mine, None
     means, _ = binned_means(data, fitted.residual)
+    jac, _ = binned_jacobian(data, fitted)
+    if _step_p(data, fitted, start, means, jac, noise) >= REFINE_ALPHA:
+        return fitted, mine, jac
     free = (*fitted.free, *keys)
     more = refit(data, start, free, fitted, max_nfev=max_nfev, calibrated=calibrated)
     after, _ = binned_means(data, more.residual)
     lr = float(np.sum(means**2) - np.sum(after**2))
     if lr <= 0:
-        return fitted, mine
-    jac, _ = binned_jacobian(data, more)
+        return fitted, mine, jac
+    jac_more, _ = binned_jacobian(data, more)
     ahead = len(more.globals) + len(more.free)
     new = set(range(ahead - len(keys), ahead))
-    null = np.array([i for i in range(jac.shape[1]) if i not in new], dtype=int)
-    if lr_bootstrap(lr, jac[:, null], jac, noise) >= REFINE_ALPHA:
-        return fitted, mine
-    return more, (*mine, *keys)
+    null = np.array([i for i in range(jac_more.shape[1]) if i not in new], dtype=int)
+    if lr_bootstrap(lr, jac_more[:, null], jac_more, noise) >= REFINE_ALPHA:
+        return fitted, mine, jac
+    return more, (*mine, *keys), jac_more
+
+
+def _step_p(
+    data: Data,
+    fitted: Fitted,
+    start: DamperModel,
+    means: FloatArray,
+    jac: FloatArray,
+    noise: FloatArray,
+) -> float:
+    """`step_p` of the step from `fitted` to `start` (areas held) in the phase means."""
+    bc, bt = fitted.area_vectors(data)
+    prob = data.prob.for_model(start)
+    moved, _ = binned_means(data, prob.force(start, bc, bt) - prob.f)
+    return step_p(means, moved - means, jac, noise)
+
+
+def step_p(means: FloatArray, step: FloatArray, jac: FloatArray, noise: FloatArray) -> float:
+    """p-value of what a refit along `step` (a change of the phase means) could explain of
+    the residual means `means`, beyond what the fit's own columns `jac` can: the residual
+    projected on the step less its part in their span (to first order, the refit's first
+    step), against the same projection of each noise draw. A step that points at noise,
+    or at what the fit's parameters already span, is not worth a refit; one that
+    overshoots (more squared error than the fit) can still point the right way."""
+    q = basis(jac)
+    off = step - q @ (q.T @ step)
+    size = float(np.linalg.norm(off))
+    if size <= 1e-12 * (float(np.linalg.norm(step)) + 1e-300):
+        return 1.0
+    along = float(means @ off) / size
+    return lr_bootstrap(along**2, jac, np.column_stack([jac, off]), noise)
 
 
 def seen_implausible(data: Data, fitted: Fitted, name: str) -> str:

@@ -111,7 +111,7 @@ def effective_values(binned: Sequence[BinnedTest]) -> float:
     return total
 
 
-def _basis(j: FloatArray) -> FloatArray:
+def basis(j: FloatArray) -> FloatArray:
     """Orthonormal basis of the column space (rank-revealing, scale-free)."""
     norms = np.linalg.norm(j, axis=0)
     cols = j[:, norms > 0] / norms[norms > 0]
@@ -129,6 +129,6 @@ def lr_bootstrap(
     noise: FloatArray,
 ) -> float:
     """p-value of an observed drop in Σ mean² against linearised refits of noise draws."""
-    q0, q1 = _basis(jac_null), _basis(jac_alt)
+    q0, q1 = basis(jac_null), basis(jac_alt)
     lr = np.sum((q1.T @ noise) ** 2, axis=0) - np.sum((q0.T @ noise) ** 2, axis=0)
     return float((1 + int(np.sum(lr >= lr_obs))) / (noise.shape[1] + 1))

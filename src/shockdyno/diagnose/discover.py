@@ -372,10 +372,17 @@ def discover(
     plot: dict[str, list[float]] = {}
     if plot_feature is not None:
         k = table.index(plot_feature.key)
+        removed: FloatArray | list[float] = []
+        if term is not None and term.coefficients:
+            # the force the term removes: it is fitted beside the model's own parameters,
+            # which take what they can of it (a constant the gas charge, a step the Coulomb
+            # friction), so the figure's red points lie on the residual where it explains it
+            q = _basis(rows.jac)
+            removed = term.binned - q @ (q.T @ term.binned)
         plot = {
             "x": _round(rows.phi[:, k]),
             "residual": _round(rows.r),
-            "term": _round(term.binned) if term is not None and term.coefficients else [],
+            "term": _round(np.asarray(removed)) if len(removed) else [],
         }
     return Described(
         tuple(left.regions),

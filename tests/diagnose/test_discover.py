@@ -115,3 +115,15 @@ def test_one_setting_is_held_out_by_its_halves() -> None:
     assert left.term is not None
     assert "half predicted" in left.term.heldout_detail, left.term.heldout_detail
     assert "Still unexplained" in to_json(d)["verdict"]["text"]
+
+
+def test_the_figure_s_term_lies_on_the_residual_it_removes(side_load: Diagnosis) -> None:
+    # The term is fitted beside the model's own parameters (the gas charge takes a constant,
+    # the Coulomb friction a step): the figure draws the force it removes with them, so the
+    # red points lie on the grey where the term explains them, as its share says.
+    (left,) = side_load.described
+    assert left.term is not None and left.term.claimed
+    residual = np.asarray(left.plot["residual"])
+    term = np.asarray(left.plot["term"])
+    removed = 1.0 - float(np.sum((residual - term) ** 2)) / float(np.sum(residual**2))
+    assert removed == pytest.approx(left.term.in_sample_share, abs=0.05)

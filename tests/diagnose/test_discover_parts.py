@@ -13,9 +13,10 @@ from shockdyno.diagnose.discover import (
     greedy,
     nested_gain,
     phase_words,
+    plot_signal,
     predicted_structure,
 )
-from shockdyno.diagnose.features import play, travel_since_reversal
+from shockdyno.diagnose.features import FeatureTable, _time_features, play, travel_since_reversal
 
 
 def test_the_play_operator_stands_still_until_the_input_has_moved_its_width() -> None:
@@ -80,3 +81,16 @@ def test_the_phase_window_holds_half_the_energy_and_is_worded_by_the_reversal_it
     assert 80.0 <= lo <= 90.0 and hi <= 110.0
     assert "full compression" in phase_words((lo, hi))
     assert "all round" in phase_words(_phase_window(np.ones(40), 0.9))
+
+
+def test_a_drift_is_drawn_against_the_elapsed_time_not_its_settling_fraction() -> None:
+    # 1 − e^(−t/3 min) runs 0…0.7 over a 4 min session with no unit: an axis labelled
+    # "the elapsed time, settling over 3 min" must read minutes, as t does.
+    t = np.linspace(0.0, 240.0, 50)
+    cols = _time_features(t, None)
+    table = FeatureTable(tuple(f for f, _ in cols), np.column_stack([c for _, c in cols]))
+    drift = table.features[table.index("drift_180s")]
+    shown = plot_signal(drift, table)
+    assert (shown.key, shown.unit) == ("t", "s")
+    other = FeatureTable(table.features[1:], table.values[:, 1:])  # no t in the library
+    assert plot_signal(drift, other) is drift

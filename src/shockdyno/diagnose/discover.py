@@ -371,11 +371,19 @@ def discover(
             ).feature
     plot: dict[str, list[float]] = {}
     if plot_feature is not None:
+        plot_feature = plot_signal(plot_feature, table)
         k = table.index(plot_feature.key)
+        removed: FloatArray | list[float] = []
+        if term is not None and term.coefficients:
+            # the force the term removes: it is fitted beside the model's own parameters,
+            # which take what they can of it (a constant the gas charge, a step the Coulomb
+            # friction), so the figure's red points lie on the residual where it explains it
+            q = _basis(rows.jac)
+            removed = term.binned - q @ (q.T @ term.binned)
         plot = {
             "x": _round(rows.phi[:, k]),
             "residual": _round(rows.r),
-            "term": _round(term.binned) if term is not None and term.coefficients else [],
+            "term": _round(np.asarray(removed)) if len(removed) else [],
         }
     return Described(
         tuple(left.regions),
@@ -387,6 +395,14 @@ def discover(
         plot_feature,
         plot,
     )
+
+
+def plot_signal(feature: Feature, table: FeatureTable) -> Feature:
+    """The signal the figure's axis shows for `feature`: a drift's settling 1 − e^(−t/τ)
+    runs 0…1 with no unit, so a residual of time is drawn against the elapsed time."""
+    if feature.family == "time" and any(f.key == "t" for f in table.features):
+        return table.features[table.index("t")]
+    return feature
 
 
 def _round(values: FloatArray) -> list[float]:

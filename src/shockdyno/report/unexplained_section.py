@@ -37,7 +37,8 @@ def _axis(unit: str, units: Units) -> tuple[float, str]:
 
 
 def figure_png(plot: ResidualPlot, units: Units = SI) -> bytes:
-    """The residual's phase means against the signal, with the discovered term's force."""
+    """The residual's phase means against the signal, with the force the discovered term
+    removes (beside the model's own parameters: DIAG.json's `plot.term`)."""
     scale, label = _axis(plot.unit, units)
     x = np.asarray(plot.x) * scale
     fn = units.force_per_n
@@ -45,7 +46,8 @@ def figure_png(plot: ResidualPlot, units: Units = SI) -> bytes:
     ax = fig.subplots()
     ax.plot(x, np.asarray(plot.residual) * fn, ".", ms=3, color="0.45", label="residual")
     if plot.term and len(plot.term) == len(plot.x):
-        ax.plot(x, np.asarray(plot.term) * fn, ".", ms=3, color="#d62728", label="discovered term")
+        term = np.asarray(plot.term) * fn
+        ax.plot(x, term, ".", ms=3, color="#d62728", label="removed by the discovered term")
     ax.axhline(0.0, color="0.6", lw=0.8)
     name = plot.label_imperial if units.imperial and plot.label_imperial else plot.label
     ax.set_xlabel(name + (f" ({label})" if label else ""))
@@ -121,8 +123,8 @@ def render_unexplained(page: Page, items: tuple[Unexplained, ...], units: Units 
             if units.imperial and item.plot.label_imperial:
                 shown = item.plot.label_imperial
             caption = (
-                f"The residual left (grey) against {shown}, and the discovered "
-                "term's force (red): one point per test and phase bin."
+                f"The residual left (grey) against {shown}, and the force the discovered "
+                "term removes (red): one point per test and phase bin."
             )
             page.raw(
                 f'<figure><img src="data:image/png;base64,{data}" '

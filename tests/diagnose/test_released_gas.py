@@ -82,7 +82,7 @@ def test_the_released_gas_is_found_where_the_floor_alone_does_nothing(recording:
     assert own_peak(data, fitted, "cavitation") < 1e-6  # the floor alone does nothing
     _, binned = binned_means(data, base.residual)
     noise = noise_draws(binned, np.random.default_rng(0), 199)
-    more, mine = refined(
+    more, mine, _ = refined(
         data, base, fitted, "cavitation", (FLOOR,), noise, s.max_nfev, base.globals
     )
     assert mine == (FLOOR, GAS)

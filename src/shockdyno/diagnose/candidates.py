@@ -265,7 +265,7 @@ def try_candidate(
             mine = tuple(k for k in mine if k not in off)
             model = fitted.model.with_values(off)
             fitted = refit(data, model, (*base.free, *mine), fitted, max_nfev, calibrated)
-        fitted, mine, jac_here = _refined(
+        fitted, mine, jac_here = refined(
             data, base, fitted, name, mine, noise, max_nfev, calibrated
         )
         ahead = len(fitted.globals) + len(fitted.free)  # the Jacobian's globals, then terms
@@ -298,10 +298,12 @@ def refined(
     noise: FloatArray,
     max_nfev: int,
     calibrated: tuple[str, ...],
-) -> tuple[Fitted, tuple[str, ...]]:
+) -> tuple[Fitted, tuple[str, ...], FloatArray | None]:
     """The term's fit with its `Term.refinements` freed too, where that explains
     significantly more than the fit without them (a bootstrap of its drop in Σ mean²,
-    p < REFINE_ALPHA); else the fit as it was. (`mine` grows by what is kept.)
+    p < REFINE_ALPHA); else the fit as it was. (`mine` grows by what is kept.) Also the
+    binned Jacobian at the fit returned where one was worked out (None where not), so the
+    candidate's own test need not work it out again.
 
     The refinements' starts are tried beside the term as fitted and beside each of its own
     starts (`start_grid`, placed on `base`, the model without it): a refinement can be
@@ -311,22 +313,6 @@ def refined(
     gas tried from there cannot act). Refitted only from the start with the least squared
     error, where it has less than the fit itself and its step could explain significantly
     more (`_step_p`): on a sweep where the refinement would not act, no refit is paid for."""
-    more, kept, _ = _refined(data, base, fitted, name, mine, noise, max_nfev, calibrated)
-    return more, kept
-
-
-def _refined(
-    data: Data,
-    base: Fitted,
-    fitted: Fitted,
-    name: str,
-    mine: tuple[str, ...],
-    noise: FloatArray,
-    max_nfev: int,
-    calibrated: tuple[str, ...],
-) -> tuple[Fitted, tuple[str, ...], FloatArray | None]:
-    """`refined`, with the binned Jacobian at the fit it returns where it worked one out
-    (None where not), so the candidate's own test need not work it out again."""
     term = fitted.model.term(name)
     extra = term.refinements() if term is not None else {}
     if term is None or not extra:

@@ -19,10 +19,10 @@ REPO = Path(__file__).resolve().parents[1]
 SIM_RIG = REPO / "rigs" / "sim.toml"
 
 # A test run keeps the bytecode it compiles, for itself, its workers and every process it
-# starts: with PYTHONDONTWRITEBYTECODE set (this machine sets it), each pytest worker
-# rewrote every test module again at collection (8.3 s of CPU against 4.2 s with the
-# cache) and each `shockdyno` a test starts compiled the project's sources again (the
-# editable install leaves src/ uncompiled). The caches go into __pycache__ folders, which
+# starts: with PYTHONDONTWRITEBYTECODE set (as on some machines), each pytest worker
+# rewrote every test module again at collection and each `shockdyno` a test starts
+# compiled the project's sources again (the editable install leaves src/ uncompiled;
+# benchmarks/results/suite9-2026-11-29.txt). The caches go into __pycache__ folders, which
 # git ignores and where numba already keeps its kernels.
 os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
 sys.dont_write_bytecode = False

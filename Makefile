@@ -51,8 +51,9 @@ browser:
 test: $(VENV)/.installed
 	$(BIN)/ruff check src tests benchmarks
 	$(BIN)/ruff format --check src tests benchmarks
-	@echo "$(BIN)/mypy src (beside the tests; its result after them)"
+	@echo "$(BIN)/mypy src (beside the tests; its result after them), $(BIN)/python tests/warm_kernels.py (numba kernels compiled once, before the test workers start)"
 	@$(BIN)/mypy src > $(VENV)/mypy.out 2>&1 & mypy=$$!; \
+	$(BIN)/python tests/warm_kernels.py || echo "(kernel warm-up failed: each test worker compiles them)"; \
 	$(BIN)/pytest -q -n 3 --dist loadscope --no-loadscope-reorder; tests=$$?; \
 	wait $$mypy; types=$$?; echo "$(BIN)/mypy src"; cat $(VENV)/mypy.out; \
 	test $$tests -eq 0 && test $$types -eq 0

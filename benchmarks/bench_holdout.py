@@ -323,9 +323,12 @@ def key_values(truth: dict[str, Any]) -> str:
             f" (written {v['gas_charge_written_pa'] / 1e6:.3f})"
         )
     if "breakaway_n" in v:
+        # What the lip reaches at a reversal on the sweep (a finding's breakaway_reached_n
+        # reads the same), beside its static level F_s, which a reversing rod does not reach.
+        lip = max((t.get("max_lip_n", math.nan) for t in truth["tests"]), default=math.nan)
         parts.append(
-            f"breakaway {v['breakaway_n']:.0f} N (Coulomb {v['coulomb_n']:.0f}, "
-            f"c_v {v['seal_viscous_n_s_m']:.0f} N·s/m)"
+            f"breakaway reached {lip:.0f} N (static {v['breakaway_n']:.0f}, Coulomb "
+            f"{v['coulomb_n']:.0f}, c_v {v['seal_viscous_n_s_m']:.0f} N·s/m)"
         )
     if "force_delay_s" in v:
         parts.append(

@@ -559,13 +559,23 @@ class Plant:
         t_oil = np.empty(n)
         void = np.empty(n)
         p_r = np.empty(n)
+        lip = np.empty(n)  # the lip's elastic force (its viscous drag apart)
         force[0] = self.force_at_rest()
         t_body[0], t_oil[0], void[0], p_r[0] = self.T_body, self.T_oil, self.void, self.p_r
+        lip[0] = self.k_lip * self.z
         step = self.step
         for i in range(1, n):
             force[i] = step(float(x[i]), h, float(xd[i]), float(xdd[i]))
             t_body[i], t_oil[i], void[i], p_r[i] = self.T_body, self.T_oil, self.void, self.p_r
-        return {"force": force, "t_body": t_body, "t_oil": t_oil, "void": void, "p_r": p_r}
+            lip[i] = self.k_lip * self.z
+        return {
+            "force": force,
+            "t_body": t_body,
+            "t_oil": t_oil,
+            "void": void,
+            "p_r": p_r,
+            "lip": lip,
+        }
 
     def rest(self, seconds: float) -> None:
         """Hold the rod for `seconds`: pressures settle, gas redissolves, heat flows."""

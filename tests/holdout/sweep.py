@@ -48,6 +48,10 @@ class TestTruth:
     body_c: tuple[float, float]
     max_bump_depth_m: float
     max_topout_depth_m: float
+    # The largest elastic lip force over the measured cycles: the breakaway the lip reaches
+    # at a reversal on this test (F_s is its limit at rest; a reversing rod is past v_s
+    # before the lip has reloaded).
+    max_lip_n: float = 0.0
 
 
 @dataclass
@@ -160,6 +164,7 @@ def run_sweep(
                     body_c=(float(sim["t_body"].min()), float(sim["t_body"].max())),
                     max_bump_depth_m=max(0.0, float(x_fine.max()) - effects.bump_onset_m),
                     max_topout_depth_m=max(0.0, -float(x_fine.min()) - effects.topout_onset_m),
+                    max_lip_n=float(np.max(np.abs(sim["lip"][t_fine >= t0 + WARMUP_CYCLES / f]))),
                 )
             )
             name = f"c{c:02d}-f{f:g}.csv"

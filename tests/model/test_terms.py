@@ -12,6 +12,7 @@ import pytest
 from shockdyno.errors import ConfigError
 from shockdyno.model import DamperModel, ModelInputs, damper_force, evaluate, load_spec
 from shockdyno.model.composite import ATMOSPHERE_PA
+from shockdyno.model.spec import DamperSpec
 from shockdyno.model.terms import LIBRARY, Compressibility, SensorLag, Thermal, make_term
 from shockdyno.simrig.scenario import load_scenario
 
@@ -675,6 +676,25 @@ def test_a_seal_on_its_travel_is_judged_on_the_breakaway_it_reaches() -> None:
     slow = {**big, "stribeck_velocity_m_s": 0.05}
     odd, reached = judged(slow)
     assert "over 5x" in odd and reached > 6 * spec.friction_n, reached
+
+
+def test_the_breakaway_a_seal_reaches_is_its_static_level_only_on_the_smoothed_sign() -> None:
+    """On the paper's smoothed sign a seal whose breakaway outlasts the sign's turn (v_s 20x
+    v_ε) reaches F_c + F_b; on a presliding travel it turns over the travel, by when the rod
+    is past v_s, and the breakaway it reaches (the readout) is well below the level."""
+    term = make_term("friction")
+    bc, bt = (float(a) for a in SPEC.bleed_areas(2, 0))
+
+    def reached(spec: DamperSpec, v_s: float) -> float:
+        p = {"breakaway_n": 60.0, "stribeck_velocity_m_s": v_s, "viscous_n_s_m": 40.0}
+        model = DamperModel(spec, (term,), {f"friction.{k}": v for k, v in p.items()})
+        ev = model.evaluate(_sine_at(1000.0, 0.5), bc, bt)
+        return term.reached(p, spec, ev)["breakaway_reached_n"][0]
+
+    level = SPEC.friction_n + 60.0
+    assert reached(SPEC, 0.02) == pytest.approx(level, rel=0.03)
+    on_travel = reached(SPEC.with_values({"friction_presliding_m": 1e-4}), 0.005)
+    assert SPEC.friction_n < on_travel < 0.8 * level, on_travel
 
 
 def test_thermal_says_a_damping_that_rises_as_the_oil_warms_is_not_physics() -> None:

@@ -33,12 +33,12 @@ from shockdyno.diagnose.claims import (
 from shockdyno.diagnose.consistency import alike, checked, delay_spread, inconsistent
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.diagnosis import Trial
-from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted, refit
+from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted, evaluate, refit
 from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.stats import MismatchStat, mismatch_test, noise_draws
 from shockdyno.diagnose.tolerance import Asked, hold, unhold
 from shockdyno.diagnose.workers import SERIAL, Workers
-from shockdyno.model.composite import FORCE, PRESSURE, DamperModel
+from shockdyno.model.composite import FORCE, PRESSURE, DamperModel, Term
 from shockdyno.model.params import Estimate
 from shockdyno.model.spec import DamperSpec
 from shockdyno.model.terms import LIBRARY
@@ -242,7 +242,7 @@ class Search:
                     heldout_detail=detail,
                     effect_rms_n=c.effect_rms_n,
                     effect_peak_n=c.effect_peak_n,
-                    parameters=term_estimates(c.fitted, c.name),
+                    parameters=term_estimates(c.fitted, c.name, self.tests),
                     ambiguous_with=alike_with.get(c.name, []),
                     why_not="" if c is best else (reasons[c.name] or "another term explained more"),
                 )
@@ -407,7 +407,7 @@ class Search:
             base = refit(data, kept, free, base, max_nfev=nfev, calibrated=calibrated)
         for f in self.trials:
             if f.claimed:
-                f.parameters = term_estimates(base, f.physics)
+                f.parameters = term_estimates(base, f.physics, data)
         self.base = base
         return base
 
@@ -445,8 +445,10 @@ def idle_reasons(
     return why
 
 
-def term_estimates(fitted: Fitted, name: str) -> dict[str, Estimate]:
-    """The parameters of term `name` as `fitted`, with their σ ({} when it is not in)."""
+def term_estimates(fitted: Fitted, name: str, data: Data | None = None) -> dict[str, Estimate]:
+    """The parameters of term `name` as `fitted`, with their σ ({} when it is not in), and
+    with `data` what the term reaches on them (Term.reached; no σ, fixed: a readout of the
+    fit, not a parameter of it)."""
     term = fitted.model.term(name)
     if term is None:
         return {}
@@ -455,6 +457,12 @@ def term_estimates(fitted: Fitted, name: str) -> dict[str, Estimate]:
         q = term.qualified(p.name)
         sd = fitted.term_sd.get(q, math.nan)
         out[p.name] = Estimate(fitted.model.value(q), sd, p.unit, fixed=q not in fitted.free)
+    if data is not None and type(term).reached is not Term.reached:
+        ev = evaluate(data, fitted)
+        if ev is not None:
+            values = fitted.model.local_values(term)
+            for key, (value, unit) in term.reached(values, fitted.model.spec, ev).items():
+                out[key] = Estimate(value, math.nan, unit, fixed=True)
     return out
 
 

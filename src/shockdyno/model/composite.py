@@ -332,6 +332,14 @@ class Term:
         lets the term reach, the rule is on what it reaches."""
         return ""
 
+    def reached(
+        self, p: Mapping[str, float], spec: DamperSpec, ev: Evaluation
+    ) -> dict[str, tuple[float, str]]:
+        """What the term reaches on a recording (`ev`, the fitted model there), by name:
+        (value in SI, unit). Where a parameter is a level the motion need not let the term
+        reach, this is what a reader compares with a measurement (none by default)."""
+        return {}
+
     def unseen(self, p: Mapping[str, float], x: FloatArray) -> dict[str, float]:
         """Parameters no sample at the positions `x` depends on, with the off values a
         fit reports for them (a force past an onset the stroke never reaches is not

@@ -439,8 +439,8 @@ class ReferencePlant:
     ) -> tuple[FloatArray, PlantState]:
         """The kernel's rows for these samples (reference_kernel.advance: true force,
         sensed force, sensed position, body and oil temperature, rebound pressure, cavity
-        volume, released air) and the new state. The motion between samples is the cubic
-        through each pair of samples' positions and speeds."""
+        volume, released air, the seal's elastic force) and the new state. The motion
+        between samples is the cubic through each pair of samples' positions and speeds."""
         n = t.size
         m = self.m
         x0 = np.concatenate([[state.x_m], x[:-1]])
@@ -465,7 +465,7 @@ class ReferencePlant:
         acc = a0[:, None] + frac * (a - a0)[:, None]
         s = state.s.copy()
         ring = state.ring.copy()
-        out = np.empty((8, n))
+        out = np.empty((9, n))
         kern.advance(
             s,
             self.k,
@@ -521,6 +521,10 @@ class PlantTruth:
     max_vapour_m3: float
     oil_temperature_c: tuple[float, float]  # at the first and the last measured sample
     lowest_rebound_pa: float
+    # The largest elastic seal force on a measured sample: the breakaway the seal reaches at
+    # a reversal on this sweep (F_c + F_b is its level at rest, which a reversing rod,
+    # past v_s before the seal has turned, does not reach).
+    seal_peak_n: float = math.nan
 
 
 class _Carried:
@@ -534,6 +538,7 @@ class _Carried:
         self.dt = 1.0 / plant.fs
         self.clock = 0.0
         self.vapour, self.lowest = 0.0, math.inf
+        self.seal = np.zeros(0)  # the last move's elastic seal force
 
     def advance(
         self, x: FloatArray, v: FloatArray, a: FloatArray, c: int
@@ -543,6 +548,7 @@ class _Carried:
         out, self.state = self.plant.run_detail(t, x, v, a, (c, 0), self.state, self.ambient_c)
         self.vapour = max(self.vapour, float(np.max(out[6])))
         self.lowest = min(self.lowest, float(np.min(out[5])))
+        self.seal = out[8]
         self.clock = float(t[-1])
         return out[1], out[2], out[3]
 
@@ -603,6 +609,7 @@ def reference_sweep(
     tests: list[TestData] = []
     temps: list[float] = []
     last_x = 0.0  # the rod is moved, never set: a jump would move no oil
+    seal_peak = 0.0
     for c in clicks:
         for f in frequencies_hz:
             if last_x != 0.0:  # back to mid-stroke (the last test ended at the bottom)
@@ -620,6 +627,7 @@ def reference_sweep(
             # exactly on a cycle's own up-crossing.
             first = n_warm
             keep = slice(first, first + n + 1)
+            seal_peak = max(seal_peak, float(np.max(np.abs(run.seal[keep]))))
             temps.append(float(run.state.s[kern.TO]))
             meta = TestMeta(
                 index=len(tests),
@@ -639,5 +647,5 @@ def reference_sweep(
                     temperature=temp[keep] + rng.normal(0, temperature_noise_c, n + 1),
                 )
             )
-    truth = PlantTruth(run.vapour, (temps[0], temps[-1]), run.lowest)
+    truth = PlantTruth(run.vapour, (temps[0], temps[-1]), run.lowest, seal_peak)
     return tests, truth

@@ -529,7 +529,7 @@ def advance(
 ) -> None:
     """Run len(xs) sub-steps (m a sample); out[:, i] for sample i: true force, sensed
     force, sensed position, body temperature, oil temperature, rebound pressure, cavity
-    volume, released gas (m³ at 1 atm)."""
+    volume, released gas (m³ at 1 atm), the seal's elastic force (its lip drag apart)."""
     n = xs.size // m
     nr = ring.size
     for i in range(n):
@@ -562,3 +562,4 @@ def advance(
         out[5, i] = s[PR]
         out[6, i] = s[VC]
         out[7, i] = s[NG]
+        out[8, i] = k[SIG0] * s[Z]

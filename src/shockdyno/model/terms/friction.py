@@ -9,11 +9,14 @@ c_v = 0. The Coulomb level stays the fitted global `friction_n`. Where the spec'
 has a presliding distance (`friction_presliding_m`, calibrated by the diagnosis:
 model/seal.py), the breakaway rides on the same deflection state: the whole seal is the
 LuGre form with g(v) = F_c + F_b exp(-(v/v_s)²), and this term's component is that less
-the Coulomb seal alone.
+the Coulomb seal alone. There F_c + F_b is a level the seal approaches after a reversal but,
+the rod past v_s before it has turned, does not reach: the breakaway a dyno shows is the
+seal's largest force on the recording (`Friction.reached`), which the diagnosis reports.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
 import numpy as np
@@ -69,11 +72,24 @@ class Friction(Term):
     )
 
     def describe(self, r: Reading) -> str:
-        """The breakaway above Coulomb and its Stribeck velocity, and the viscous drag, each when
-        the data moved it, in the reader's units."""
+        """The breakaway the seal reaches on the recording where the diagnosis read it, the
+        Stribeck level above Coulomb and its velocity, and the viscous drag, each when the
+        data moved it, in the reader's units."""
         (fn, fl), (vn, vl), (cn, cl) = r.force, r.speed, r.damping
         parts = []
-        if r.moved("breakaway_n"):
+        reached = r.v(REACHED)
+        if r.moved("breakaway_n") and math.isfinite(reached):
+            # What a dyno engineer calls the breakaway: the force the seal holds at reversal
+            # before it slides, sliding friction included. The Stribeck level is a parameter
+            # of the law, approached but not reached where the seal turns over a travel.
+            parts.append(
+                f"breakaway {fn * reached:.3g} {fl} at reversal on these tests (the peak "
+                f"seal force, Coulomb included), on a Stribeck level "
+                f"{fn * r.v('breakaway_n'):.3g}{r.sd('breakaway_n', fn)} {fl} above Coulomb "
+                f"falling over {vn * r.v('stribeck_velocity_m_s'):.2g}"
+                f"{r.sd('stribeck_velocity_m_s', vn)} {vl}"
+            )
+        elif r.moved("breakaway_n"):
             parts.append(
                 f"breakaway {fn * r.v('breakaway_n'):.3g}{r.sd('breakaway_n', fn)} {fl} "
                 f"above Coulomb, falling over {vn * r.v('stribeck_velocity_m_s'):.2g}"
@@ -110,16 +126,28 @@ class Friction(Term):
         # so F_c + F_b is a level it approaches but does not reach, and a fit can put it at
         # many times the Coulomb level. What a dyno sees, and what a seal's breakaway is, is
         # the force it reaches.
-        seal = ev.outputs.get(f"{self.name}.seal_n")
-        if seal is None or seal.size == 0 or p["breakaway_n"] <= 0:
+        if spec.friction_presliding_m <= 0.0 or p["breakaway_n"] <= 0:
+            return ""  # on the smoothed sign the level is reached: `implausible` reads it
+        seal = self.reached(p, spec, ev).get(REACHED)
+        if seal is None:
             return ""
-        reached = float(np.max(np.abs(seal))) - spec.friction_n
+        reached = seal[0] - spec.friction_n
         if reached > _over(spec):
             return (
                 f"the seal reaches {reached:.3g} N above its Coulomb level after reversal, over "
                 "5x the sliding friction"
             )
         return ""
+
+    def reached(
+        self, p: Mapping[str, float], spec: DamperSpec, ev: Evaluation
+    ) -> dict[str, tuple[float, str]]:
+        """The breakaway on the recording: the largest seal force (Coulomb included, the
+        viscous drag not), which the seal reaches at a reversal before it slides."""
+        seal = ev.outputs.get(f"{self.name}.seal_n")
+        if seal is None or seal.size == 0:
+            return {}
+        return {REACHED: (float(np.max(np.abs(seal))), "N")}
 
     def start_grid(self, seen: Evaluation | None = None) -> list[dict[str, float]]:
         """Stribeck velocities of 2, 5, 15 and 40 mm/s."""
@@ -152,8 +180,14 @@ class Friction(Term):
             w.outputs[f"{self.name}.seal_n"] = seal
             return state
         sign = np.tanh(v / spec.friction_velocity_m_s)
-        w.add_part(self.name, p["breakaway_n"] * np.exp(-((v / vs) ** 2)) * sign + viscous)
+        breakaway = p["breakaway_n"] * np.exp(-((v / vs) ** 2)) * sign
+        w.add_part(self.name, breakaway + viscous)
+        w.outputs[f"{self.name}.seal_n"] = w.parts["coulomb"] + breakaway
         return None
+
+
+# The finding's readout of the breakaway the seal reaches (Term.reached).
+REACHED = "breakaway_reached_n"
 
 
 def _over(spec: DamperSpec) -> float:

@@ -160,6 +160,12 @@ def why_not(
         pinned = at_range_end(c.fitted, term)
         if pinned:
             return f"not an estimate: {pinned}"
+        if c.in_place < s.min_in_place:  # in_place.py
+            return (
+                f"not its physics: it removes {100 * max(c.in_place, 0.0):.0f} % of the "
+                "structure where its own force acts (a term that is the physics left out "
+                f"takes {100 * s.min_in_place:.0f} % or more there)"
+            )
     if c.p_value >= s.alpha:
         return f"p = {c.p_value:.3g} ≥ {s.alpha:g}"
     if scored is None:

@@ -5,8 +5,9 @@ physics: the recorded position stands still after each reversal while the ram ta
 the lash. A sensor lag fits part of it (p < alpha, a large own force), but acts on both
 sides of every reversal where the play acts after it only, and leaves most of the
 structure where it acts: it is not claimable. A real channel delay is: it takes all of it.
-The sweeps are the library's own synthetic ones; the play is applied to the recorded
-position, as the linkage applies it (the damper itself moves without play).
+The sweeps are the library's own synthetic ones; the play (features.play, the backlash
+operator) is applied to the recorded position, as the linkage applies it (the damper
+itself moves without play).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from shockdyno.diagnose.candidates import Candidate, binned_means, try_candidate
 from shockdyno.diagnose.claims import why_not
 from shockdyno.diagnose.cycles import BinnedTest
 from shockdyno.diagnose.data import Data
+from shockdyno.diagnose.features import play
 from shockdyno.diagnose.fitting import refit
 from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.stats import noise_draws
@@ -27,20 +29,6 @@ from shockdyno.fit.synthetic import synthetic_sweep
 from shockdyno.model.composite import DamperModel
 from shockdyno.model.spec import load_spec
 from shockdyno.record.types import TestData
-
-
-def _through_play(x: np.ndarray, half_width_m: float) -> np.ndarray:
-    """A position read through a play of ±half_width_m (the core stands still while the
-    ram takes up the lash)."""
-    out = np.empty_like(x)
-    core = float(x[0])
-    for i, xi in enumerate(x):
-        if xi - core > half_width_m:
-            core = xi - half_width_m
-        elif core - xi > half_width_m:
-            core = xi + half_width_m
-        out[i] = core
-    return out
 
 
 def _sensor_candidate(tests: list[TestData]) -> tuple[Candidate, Data]:
@@ -56,7 +44,7 @@ def _sensor_candidate(tests: list[TestData]) -> tuple[Candidate, Data]:
 def test_a_sensor_lag_is_not_claimed_for_play_in_the_lvdt_linkage() -> None:
     spec = load_spec(None)
     tests = synthetic_sweep(spec, [2, 10, 20], cycles=3, seed=3)
-    played = [dataclasses.replace(t, x=_through_play(t.x, 3e-4)) for t in tests]
+    played = [dataclasses.replace(t, x=play(t.x, 3e-4, [0])) for t in tests]
     c, data = _sensor_candidate(played)
     s = Settings()
     # It fits something, significantly and with a force of its own ...

@@ -67,9 +67,10 @@ class Settings:
     sensor_delay_min_gain: float = 0.3
     sensor_delay_min_shift_s: float = 5e-4  # a sensor shifting less has no time to compare
     # A term must take this share of the structure where its own force acts
-    # (diagnose/in_place.py): a lag, a bump stop and a delay took 98-100 % of it on the
-    # held-out and reference plants; a lag standing in for an LVDT's play 22 %, a bump
-    # stop standing in for a valve's hysteresis 18 %.
+    # (diagnose/in_place.py): real lags, stops, air and vapour took 92-100 % of it on the
+    # held-out and reference plants, the reference plant's heat and seal friction 62 % and
+    # 61 %; a lag standing in for an LVDT's play 22 %, a bump stop standing in for a
+    # valve's hysteresis 18 %.
     min_in_place: float = 0.5
     # Shapes: a later candidate whose explained structure has a cosine above same_shape
     # with a claimed one's refines that physics (not a second one). Two candidates of one

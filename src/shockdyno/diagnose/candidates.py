@@ -21,7 +21,7 @@ from shockdyno.diagnose.fitting import (
     predict,
     refit,
 )
-from shockdyno.diagnose.in_place import in_place_share
+from shockdyno.diagnose.in_place import share_where_it_acts
 from shockdyno.diagnose.stats import lr_bootstrap
 from shockdyno.diagnose.workers import SERIAL, Workers
 from shockdyno.fit.parameters import global_parameters, spec_global
@@ -292,7 +292,9 @@ def try_candidate(
     before = spec_values(data, name) if name in CALIBRATIONS else {}
     in_place = 1.0
     if own is not None and name not in CALIBRATIONS:
-        in_place = in_place_share(own, binned_means(data, base.residual)[1], means)
+        term = fitted.model.term(name)
+        place = "cycle" if term is None else term.place
+        in_place = share_where_it_acts(place, own, binned_means(data, base.residual)[1], means)
     return Candidate(
         name, fitted, lr, p, effect, peak, base_means - means, own_peak_n=own_peak_n,
         spec_values=before, implausible_on=seen_implausible(data, fitted, name),

@@ -25,6 +25,17 @@ Seen on the held-out plant's effects that no term has (benchmarks/unnamed, dev s
 where the term's own force (candidates.own_force) reaches ACTS_SHARE of its largest
 phase mean, the share its refit removes. 0 where those bins hold no structure: the
 term's gain then comes from elsewhere.
+
+Heat has no place in the cycle (`Term.place` "session"). Within one test its own force is
+the damper's force scaled by the oil's viscosity at that moment: a shape the valves and
+areas refitted beside it can take as well, spread over every bin where the damper pushes,
+so those bins hold all the structure of the valves' misfit too, which heat cannot take.
+What only heat explains is how that scale moves from test to test as the oil warms:
+`session_share`, of the structure along its own force test by test (each test's residual
+projected on the term's force there, less the projection's noise), the share its refit
+removes. Heat fitted to structure that does not follow the warm-up takes little of it
+(0.02-0.05 beside LVDT play, held-out plant, dev seed 950), as a lag or a stop fitted to
+another shape takes little of its place in the cycle.
 """
 
 from __future__ import annotations
@@ -58,3 +69,34 @@ def in_place_share(own: FloatArray, before: Sequence[BinnedTest], after: FloatAr
     if there <= 0:
         return 0.0
     return 1.0 - float(np.sum(r1 * r1 - var)) / there
+
+
+def session_share(own: FloatArray, before: Sequence[BinnedTest], after: FloatArray) -> float:
+    """The share of the structure along `own` test by test that the refit removes (a
+    term whose place is the session: heat); arguments as `in_place_share`."""
+    r0_all = np.concatenate([b.mean for b in before])
+    var_all = np.concatenate([b.mean_var for b in before])
+    there = left = 0.0
+    start = 0
+    for b in before:
+        sl = slice(start, start + b.mean.size)
+        start = sl.stop
+        g = own[sl]
+        norm2 = float(g @ g)
+        if norm2 <= 0:
+            continue
+        noise = float(var_all[sl] @ (g * g)) / norm2
+        there += float(r0_all[sl] @ g) ** 2 / norm2 - noise
+        left += float(after[sl] @ g) ** 2 / norm2 - noise
+    if there <= 0:
+        return 0.0 if np.any(own) else 1.0
+    return 1.0 - left / there
+
+
+def share_where_it_acts(
+    place: str, own: FloatArray, before: Sequence[BinnedTest], after: FloatArray
+) -> float:
+    """Rule 8's share for a term whose `place` (`Term.place`) is "cycle" or "session"."""
+    if place == "session":
+        return session_share(own, before, after)
+    return in_place_share(own, before, after)

@@ -21,7 +21,7 @@ from shockdyno.diagnose.fitting import (
     predict,
     refit,
 )
-from shockdyno.diagnose.in_place import share_where_it_acts
+from shockdyno.diagnose.in_place import acts_share, share_where_it_acts
 from shockdyno.diagnose.stats import lr_bootstrap
 from shockdyno.diagnose.workers import SERIAL, Workers
 from shockdyno.fit.parameters import global_parameters, spec_global
@@ -233,6 +233,10 @@ class Candidate:
     # Of the structure where the term's own force acts, the share its refit removes
     # (in_place.py; 1: not judged, as for a calibration).
     in_place: float = 1.0
+    # The share of the (test, phase bin) cells where a term of the cycle's own force acts
+    # (in_place.acts_share; 0 for heat and calibrations): spread over most of them, the
+    # term has no place apart from the valves' (claims.why_not judges it held out too).
+    spread: float = 0.0
 
 
 def try_candidate(
@@ -290,15 +294,16 @@ def try_candidate(
     own = own_binned(data, fitted, name)
     own_peak_n = math.inf if own is None else float(np.max(np.abs(own), initial=0.0))
     before = spec_values(data, name) if name in CALIBRATIONS else {}
-    in_place = 1.0
+    in_place, spread = 1.0, 0.0
     if own is not None and name not in CALIBRATIONS:
         term = fitted.model.term(name)
         place = "cycle" if term is None else term.place
         in_place = share_where_it_acts(place, own, binned_means(data, base.residual)[1], means)
+        spread = acts_share(own) if place == "cycle" else 0.0
     return Candidate(
         name, fitted, lr, p, effect, peak, base_means - means, own_peak_n=own_peak_n,
         spec_values=before, implausible_on=seen_implausible(data, fitted, name),
-        in_place=in_place,
+        in_place=in_place, spread=spread,
     )  # fmt: skip
 
 

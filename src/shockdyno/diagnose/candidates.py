@@ -21,6 +21,7 @@ from shockdyno.diagnose.fitting import (
     predict,
     refit,
 )
+from shockdyno.diagnose.in_place import acts_share, share_where_it_acts
 from shockdyno.diagnose.stats import basis, lr_bootstrap
 from shockdyno.diagnose.workers import SERIAL, Workers
 from shockdyno.fit.parameters import global_parameters, spec_global
@@ -191,13 +192,18 @@ def own_force(data: Data, fitted: Fitted, name: str) -> FloatArray | None:
     return on_force - off_force
 
 
+def own_binned(data: Data, fitted: Fitted, name: str) -> FloatArray | None:
+    """The term's own force (`own_force`) per (test, phase bin); None as own_force."""
+    own = own_force(data, fitted, name)
+    return None if own is None else data.bin_matrix(own[:, None])[:, 0]
+
+
 def own_peak(data: Data, fitted: Fitted, name: str) -> float:
     """The largest phase mean of the term's own force (`own_force`); ∞ when that cannot
     be worked out, so no "too small" refusal rests on it."""
-    own = own_force(data, fitted, name)
-    if own is None:
+    binned = own_binned(data, fitted, name)
+    if binned is None:
         return math.inf
-    binned = data.bin_matrix(own[:, None])[:, 0]
     return float(np.max(np.abs(binned))) if binned.size else 0.0
 
 
@@ -224,6 +230,13 @@ class Candidate:
     spec_values: dict[str, float] = field(default_factory=dict)
     # Why the force the term makes on these tests is not physics (Term.implausible_on).
     implausible_on: str = ""
+    # Of the structure where the term's own force acts, the share its refit removes
+    # (in_place.py; 1: not judged, as for a calibration).
+    in_place: float = 1.0
+    # The share of the (test, phase bin) cells where a term of the cycle's own force acts
+    # (in_place.acts_share; 0 for heat and calibrations): spread over most of them, the
+    # term has no place apart from the valves' (claims.why_not judges it held out too).
+    spread: float = 0.0
 
 
 def try_candidate(
@@ -281,11 +294,19 @@ def try_candidate(
     effect = float(np.sqrt(np.mean((fitted.force - base.force) ** 2)))
     change = data.bin_matrix((fitted.force - base.force)[:, None])[:, 0]
     peak = float(np.max(np.abs(change))) if change.size else 0.0
-    own = own_peak(data, fitted, name)
+    own = own_binned(data, fitted, name)
+    own_peak_n = math.inf if own is None else float(np.max(np.abs(own), initial=0.0))
     before = spec_values(data, name) if name in CALIBRATIONS else {}
+    in_place, spread = 1.0, 0.0
+    if own is not None and name not in CALIBRATIONS:
+        term = fitted.model.term(name)
+        place = "cycle" if term is None else term.place
+        in_place = share_where_it_acts(place, own, binned_means(data, base.residual)[1], means)
+        spread = acts_share(own) if place == "cycle" else 0.0
     return Candidate(
-        name, fitted, lr, p, effect, peak, base_means - means, own_peak_n=own,
+        name, fitted, lr, p, effect, peak, base_means - means, own_peak_n=own_peak_n,
         spec_values=before, implausible_on=seen_implausible(data, fitted, name),
+        in_place=in_place, spread=spread,
     )  # fmt: skip
 
 

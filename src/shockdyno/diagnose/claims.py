@@ -160,6 +160,12 @@ def why_not(
         pinned = at_range_end(c.fitted, term)
         if pinned:
             return f"not an estimate: {pinned}"
+        if c.in_place < s.min_in_place and c.spread < s.placeless_share:  # in_place.py
+            return (
+                f"not its physics: it removes {100 * max(c.in_place, 0.0):.0f} % of the "
+                "structure where its own force acts (a term that is the physics left out "
+                f"takes {100 * s.min_in_place:.0f} % or more there)"
+            )
     if c.p_value >= s.alpha:
         return f"p = {c.p_value:.3g} ≥ {s.alpha:g}"
     if scored is None:
@@ -173,6 +179,13 @@ def why_not(
     if not gain >= need:
         joining = " (to join a claimed term)" if shapes else ""
         return f"held-out gain {gain:.2g} < {need:g}{joining}"
+    if c.in_place < s.min_in_place and not gain >= s.unnamed_min_gain:  # spread: in_place.py
+        return (
+            f"not its physics: its own force acts in {100 * c.spread:.0f} % of the cycle, "
+            f"where it removes {100 * max(c.in_place, 0.0):.0f} % of the structure, and held "
+            f"out it removes {100 * max(gain, 0.0):.0f} % (a discovered term is claimed at "
+            f"{100 * s.unnamed_min_gain:.0f} %)"
+        )
     return _too_small(c, min_effect_n)
 
 

@@ -66,6 +66,18 @@ class Settings:
     sensor_delay_spread_share: float = 0.25
     sensor_delay_min_gain: float = 0.3
     sensor_delay_min_shift_s: float = 5e-4  # a sensor shifting less has no time to compare
+    # A term must take this share of the structure where its own force acts
+    # (diagnose/in_place.py): real lags, stops, air and vapour took 92-100 % of it on the
+    # held-out and reference plants, the reference plant's heat and seal friction 62 % and
+    # 61 %; a lag standing in for an LVDT's play 22 %, a bump stop standing in for a
+    # valve's hysteresis 18 %.
+    min_in_place: float = 0.5
+    # A term of the cycle whose own force acts in at least placeless_share of the (test,
+    # phase bin) cells (seal drag, a fixture's mass, a position force) has no place apart
+    # from the valves': the cells where it acts hold their misfit too, which it cannot
+    # take. It is judged held out instead, by the bar a discovered term is claimed at
+    # (unnamed_min_gain): a named claim needs no less evidence than an unnamed one.
+    placeless_share: float = 0.5
     # Shapes: a later candidate whose explained structure has a cosine above same_shape
     # with a claimed one's refines that physics (not a second one). Two candidates of one
     # round are alike (the verdict cannot tell them apart) above alike_cosine when held

@@ -268,6 +268,11 @@ class Term:
     # each with its sign: their signed sum is the term's net shift. A sensor's is one
     # time for the whole sweep, which the diagnosis checks (diagnose/consistency.py).
     time_shift: ClassVar[dict[str, float]] = {}
+    # Where the term's own force is told apart from what the areas and valves refitted
+    # beside it can do: "cycle", a place in each cycle (a stop past its onset, a lag at
+    # each reversal), or "session", a scale of the damper's own force that changes from
+    # test to test (heat). The diagnosis judges a claim where it is (diagnose/in_place.py).
+    place: ClassVar[str] = "cycle"
 
     def describe(self, r: Reading) -> str:
         """The fitted physics in words, naming only the parameters the data moved (with

@@ -45,6 +45,7 @@ class Thermal(Term):
     stateful = True
     summary = "temperature: viscosity falls, gas pressure rises with the oil's temperature"
     follows = ("temperature",)
+    place = "session"  # within a test it scales the damper's force; between tests it moves
     separated_by: ClassVar[dict[str, str]] = {
         "position_force": "a test held at constant temperature"
     }

@@ -55,6 +55,7 @@ from shockdyno.diagnose.features import Feature, FeatureTable, Stroke, feature_t
 from shockdyno.diagnose.fitting import Fitted, predict
 from shockdyno.diagnose.locate import Location, Region
 from shockdyno.diagnose.settings import Settings
+from shockdyno.diagnose.stats import basis
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -108,20 +109,10 @@ def _unit_columns(a: FloatArray) -> tuple[FloatArray, FloatArray]:
     return a / safe, norm
 
 
-def _basis(jac: FloatArray) -> FloatArray:
-    """An orthonormal basis of what the model's own parameters can take on these rows."""
-    a, norm = _unit_columns(jac)
-    a = a[:, norm > 0]
-    if a.shape[1] == 0:
-        return np.zeros((jac.shape[0], 0))
-    u, sv, _ = np.linalg.svd(a, full_matrices=False)
-    return np.asarray(u[:, sv > 1e-8 * sv[0]])
-
-
 def _off_model(rows: Rows) -> tuple[FloatArray, FloatArray]:
     """The residual and the features less what the model's parameters can take (the
     joint refit, linearised)."""
-    q = _basis(rows.jac)
+    q = basis(rows.jac, 1e-8)
     r = rows.r - q @ (q.T @ rows.r)
     phi = rows.phi - q @ (q.T @ rows.phi)
     return r, phi
@@ -378,7 +369,7 @@ def discover(
             # the force the term removes: it is fitted beside the model's own parameters,
             # which take what they can of it (a constant the gas charge, a step the Coulomb
             # friction), so the figure's red points lie on the residual where it explains it
-            q = _basis(rows.jac)
+            q = basis(rows.jac, 1e-8)
             removed = term.binned - q @ (q.T @ term.binned)
         plot = {
             "x": _round(rows.phi[:, k]),

@@ -111,14 +111,15 @@ def effective_values(binned: Sequence[BinnedTest]) -> float:
     return total
 
 
-def basis(j: FloatArray) -> FloatArray:
-    """Orthonormal basis of the column space (rank-revealing, scale-free)."""
+def basis(j: FloatArray, rtol: float = 1e-9) -> FloatArray:
+    """Orthonormal basis of the column space (rank-revealing, scale-free): directions whose
+    singular value of the unit-scaled columns exceeds `rtol` of the largest."""
     norms = np.linalg.norm(j, axis=0)
     cols = j[:, norms > 0] / norms[norms > 0]
     if cols.shape[1] == 0:
         return np.zeros((j.shape[0], 0))
     u, s, _ = np.linalg.svd(cols, full_matrices=False)
-    keep = s > 1e-9 * s[0]
+    keep = s > rtol * s[0]
     return np.asarray(u[:, keep], dtype=float)
 
 

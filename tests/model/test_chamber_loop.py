@@ -222,6 +222,13 @@ CASES: dict[str, tuple[Any, tuple[float, ...], float, bool, dict[str, Any]]] = {
         True,
         {"dp_scale": 0.9, "bleed_laminar": 2e-8, "gas_volume": 5.8e-5, "gas_index": 1.3},
     ),
+    "aerated, stacks with a seat land": (
+        chamber(air=0.005),
+        (1.5,),
+        1e-3,
+        True,
+        {"valve_laminar": 1.1e-4},
+    ),
 }
 
 

@@ -105,3 +105,51 @@ def test_both_directions_in_one_pass_are_each_direction_apart(land: float) -> No
     )
     assert np.all(got[q == 0.0] == 0.0)
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=0.0)
+
+
+def test_a_seat_land_is_a_plane_poiseuille_flow_in_series_with_the_opening():
+    """A stack with a seat land λ_v = 12 μ L: at full lift y, Δp = (q/(c P y))² + λ_v q/(P y³)
+    (written out here, with no bleed or leak), and below the crack nothing changes; the
+    solve passes what `passed_flow` says it does, on both directions in one pass."""
+    land = SPEC.with_values({"valve_land_m": 1.0e-3})
+    lam_v = land.valve_laminar_pa_s
+    assert lam_v == pytest.approx(12 * SPEC.viscosity_pa_s * 1.0e-3)
+    c = CD * np.sqrt(2 / RHO)
+    for valve in (SPEC.compression_valve, SPEC.rebound_valve):
+        y, perim = valve.max_lift_m, valve.perimeter_m
+        full = (valve.stiffness_n_per_m * y + valve.preload_n) / valve.face_area_m2
+        q = np.array([3e-3, 5e-3, 8e-3])
+        want = (q / (c * perim * y)) ** 2 + lam_v * q / (perim * y**3)
+        assert np.all(want > full)  # at full lift
+        got = solve_pressure_drop(q, 0.0, valve, CD, RHO, 0.0, 0.0, lam_v)
+        np.testing.assert_allclose(got, want, rtol=1e-9)
+        # with a bleed and the leak, wherever the stack is: the flow asked for
+        q = np.linspace(1e-6, 6e-4, 200)
+        k_leak = SPEC.leak_conductance_m3_s_pa
+        dp = solve_pressure_drop(q, 3e-6, valve, CD, RHO, k_leak, 0.0, lam_v)
+        np.testing.assert_allclose(
+            passed_flow(dp, 3e-6, valve, CD, RHO, k_leak, 0.0, lam_v), q, rtol=1e-8
+        )
+        shut = dp < valve.preload_n / valve.face_area_m2
+        assert 0 < np.count_nonzero(shut) < q.size
+        np.testing.assert_allclose(
+            dp[shut], solve_pressure_drop(q[shut], 3e-6, valve, CD, RHO, k_leak), rtol=1e-9
+        )
+        assert np.all(dp[~shut] > solve_pressure_drop(q[~shut], 3e-6, valve, CD, RHO, k_leak))
+    n = 400
+    qs = np.linspace(-6e-4, 6e-4, n)
+    both = solve_signed_drop(
+        qs, np.full(n, 3e-6), np.full(n, 2e-6), SPEC.compression_valve, SPEC.rebound_valve,
+        CD, RHO, np.zeros(n), np.zeros(n), None, np.full(n, lam_v),
+    )  # fmt: skip
+    comp, reb = qs > 0, qs < 0
+    np.testing.assert_allclose(
+        both[comp],
+        solve_pressure_drop(qs[comp], 3e-6, SPEC.compression_valve, CD, RHO, 0.0, 0.0, lam_v),
+        rtol=1e-9,
+    )
+    np.testing.assert_allclose(
+        -both[reb],
+        solve_pressure_drop(qs[reb], 2e-6, SPEC.rebound_valve, CD, RHO, 0.0, 0.0, lam_v),
+        rtol=1e-9,
+    )

@@ -443,6 +443,40 @@ def test_thermal_uses_the_measured_temperature_and_else_an_energy_balance() -> N
     np.testing.assert_allclose(ev2.outputs["thermal.temperature_c"], 70.0)
 
 
+def test_the_oils_temperature_acts_on_the_stacks_seat_land_through_a_chamber_too() -> None:
+    """A stack's seat land (spec `valve_land_m`) is laminar, so it thins as the oil warms:
+    cold oil stiffens the force where the stacks open (no bleed land, so nothing else the
+    viscosity reaches but the leak), and a near-rigid chamber gives the algebraic force."""
+    land = SPEC.with_values({"valve_land_m": 1.0e-3})
+    n = 3000
+    t = np.arange(n) / FS
+    w = 2 * np.pi * 1.5
+    x, v, a = 0.03 * np.sin(w * t), 0.03 * w * np.cos(w * t), -0.03 * w * w * np.sin(w * t)
+    hold = {"thermal.gas_coupling": 0.0}
+    stiff = {
+        "compressibility.air_fraction": 0.0,
+        "compressibility.oil_compressibility_per_gpa": 0.01,
+    }
+
+    def force(spec: DamperSpec, terms: tuple[str, ...], temp: float) -> np.ndarray:
+        inputs = ModelInputs.single(x, v, a, 1 / FS, temperature_c=np.full(n, temp))
+        values = hold | (stiff if "compressibility" in terms else {})
+        model = DamperModel(spec, tuple(make_term(t) for t in terms), values)
+        return model.force(inputs, A_BC, A_BT)
+
+    sharp = force(SPEC, ("thermal",), 20.0) - force(SPEC, ("thermal",), 40.0)
+    cold = force(land, ("thermal",), 20.0) - force(land, ("thermal",), 40.0)
+    rms = lambda f: float(np.sqrt(np.mean(f**2)))  # noqa: E731
+    assert rms(sharp) < 5.0  # the leak alone: a few N
+    assert rms(cold) > 20.0  # the seat land at 1.6x the viscosity
+    np.testing.assert_allclose(
+        force(land, ("thermal",), 40.0), DamperModel(land).force(sine(), A_BC, A_BT), atol=1e-6
+    )
+    both = ("thermal", "compressibility")
+    chamber = force(land, both, 20.0) - force(land, both, 40.0)
+    np.testing.assert_allclose(chamber, cold, atol=0.02 * float(np.max(np.abs(cold))))
+
+
 def test_thermal_damping_acts_through_a_chamber_as_through_the_algebraic_solve() -> None:
     # A chamber term integrates the flow law itself; the oil's thinning of Δp must reach
     # it. Before, with compressibility in the model, thermal's damping coefficient changed

@@ -16,6 +16,7 @@ from shockdyno.diagnose.data import Data, time_halves
 from shockdyno.diagnose.fitting import (
     CALIBRATIONS,
     COMPANIONS,
+    RESTARTS,
     Fitted,
     evaluate,
     predict,
@@ -102,6 +103,28 @@ def calibration_start(data: Data, base: Fitted, name: str) -> DamperModel:
     rest held."""
     keys = [k for k in CALIBRATIONS[name] if k not in base.globals]
     return spec_start(data, base, base.model, keys)
+
+
+def restarts(data: Data, base: Fitted, name: str) -> list[DamperModel]:
+    """Calibration `name`'s second starts (fitting.RESTARTS): the values it trades with at
+    the drawing's (within any range `base` holds them to), its own at each of its
+    `SpecGlobal.starts`. None for a calibration that trades with nothing."""
+    traded = RESTARTS.get(name, ())
+    if not traded:
+        return []
+    drawing = data.prob.base
+    back = {}
+    for k in traded:
+        lo, hi = base.limits.get(k, (-math.inf, math.inf))
+        back[k] = min(max(drawing.value(k), lo), hi)
+    out = []
+    for k in CALIBRATIONS[name]:
+        g = spec_global(k)
+        lo, hi = g.bounds(drawing.value(k))
+        for v in g.starts:
+            spec = base.model.spec.with_values({**back, k: min(max(v, lo), hi)})
+            out.append(base.model.with_spec(spec))
+    return out
 
 
 def spec_start(data: Data, base: Fitted, model: DamperModel, keys: Sequence[str]) -> DamperModel:
@@ -259,6 +282,18 @@ def try_candidate(
             calibrated=calibrated,
             bounds_from=base.model.spec,
         )
+        for start in restarts(data, base, name):
+            other = refit(
+                data,
+                start,
+                base.free,
+                base,
+                max_nfev=max_nfev,
+                calibrated=calibrated,
+                bounds_from=base.model.spec,
+            )
+            if float(other.residual @ other.residual) < float(fitted.residual @ fitted.residual):
+                fitted = other
         new_cols = [i for i, k in enumerate(calibrated) if k not in base.globals]
     else:
         model = best_start(data, with_term(base.model, name, data), name, base)

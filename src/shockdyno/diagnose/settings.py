@@ -51,7 +51,7 @@ class Settings:
     # Spec values the search may calibrate beside the physics (diagnose/fitting.CALIBRATIONS:
     # a bleed's laminar land, a seal's turn), claimed by the same rules, reported as
     # calibration. Not limited by `--terms`.
-    calibrations: tuple[str, ...] = ("bleed_land", "seal_turn")
+    calibrations: tuple[str, ...] = ("bleed_land", "valve_land", "seal_turn")
 
     @property
     def max_rounds(self) -> int:

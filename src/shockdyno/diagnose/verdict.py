@@ -78,6 +78,7 @@ _CALIBRATION_WORDS = {
     "rebound_valve.preload_m": "rebound valve preload",
     "rebound_valve.face_area_m2": "rebound valve face area",
     "bleed_land_m": "bleed's laminar land",
+    "valve_land_m": "shim stacks' seat land",
     "friction_presliding_m": "seal's presliding",
     "friction_velocity_m_s": "friction's smoothing speed at reversal",
 }
@@ -96,6 +97,11 @@ def describe_calibration(r: CalibrationRow) -> str:
             return (
                 f"the bleed is not a sharp orifice: it flows as one with a laminar land of "
                 f"{1e3 * r.fitted:.2g} mm, its force more linear at low speed"
+            )
+        if r.parameter == "valve_land_m":
+            return (
+                f"the shim stacks do not open as sharp edges: their oil crosses a seat land "
+                f"of {1e3 * r.fitted:.2g} mm, laminar where they crack open"
             )
         return f"the spec's {what} is 0, the recording's {r.fitted:.3g} {r.unit}"
     ratio = r.fitted / r.spec_value

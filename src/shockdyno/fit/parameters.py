@@ -90,6 +90,9 @@ SPEC_GLOBALS: dict[str, SpecGlobal] = {
         SpecGlobal("rebound_valve.face_area_m2", "m²", 0.2, 5.0, 1.0e-4, tolerance=(0.5, 2.0)),
         # A sharp orifice (0) up to a 0.2 m laminar passage: a needle's land is mm to cm.
         SpecGlobal("bleed_land_m", "m", 0.0, 40.0, 5.0e-3),
+        # A sharp-edged opening (0) up to a 5 mm seat land under the stacks: a piston's
+        # seat lands are tenths of a mm to a few mm wide.
+        SpecGlobal("valve_land_m", "m", 0.0, 5.0, 1.0e-3, (1.0e-3,)),
         # A rod seal deflects µm (a hard band) to a few tenths of a mm (a soft lip). Its
         # turn and an oil's compliance both soften the force after reversal: from the
         # spec's 0 beside a claimed compressibility, one fit took the turn as a 0.13x
@@ -104,7 +107,7 @@ SPEC_GLOBALS: dict[str, SpecGlobal] = {
 # What `fit` calibrates; `diagnose` also calibrates the bleed's laminar land and the seal's
 # presliding (diagnose/fitting.GLOBALS), which only the low-speed shape, the temperature
 # and the turn of the friction at reversal show.
-DIAGNOSE_ONLY = ("bleed_land_m", "friction_presliding_m", "friction_velocity_m_s")
+DIAGNOSE_ONLY = ("bleed_land_m", "valve_land_m", "friction_presliding_m", "friction_velocity_m_s")
 DEFAULT_GLOBALS = tuple(k for k in SPEC_GLOBALS if k not in DIAGNOSE_ONLY)
 
 

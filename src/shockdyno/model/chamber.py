@@ -65,6 +65,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from shockdyno.model.composite import ATMOSPHERE_PA  # released gas: its volume at 1 atm
+from shockdyno.model.flow import valve_land_flow
 from shockdyno.model.recent import Recent
 from shockdyno.model.shims import ShimStack
 from shockdyno.model.spec import DamperSpec
@@ -149,6 +150,7 @@ def integrate(
     gas_volume: FloatArray | None = None,
     gas_index: float = 1.0,
     dp_scale: FloatArray | None = None,
+    valve_laminar: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """(Δp, vapour volume m³, compression-chamber pressure, final state, released gas m³ at
     the chamber's pressure) for every sample, segment by segment.
@@ -162,7 +164,8 @@ def integrate(
     side, and p_c rises by the gas law, (V/(V - ΔV))^n (a cavitating chamber's saturated
     force is p_c A_piston, so this is its level). None: p_c as given. `dp_scale`: per
     sample, the factor a term applied to the algebraic solve's Δp (the flow law is taken
-    at Δp / scale, so a rigid chamber gives the same Δp); None: 1.
+    at Δp / scale, so a rigid chamber gives the same Δp); None: 1. `valve_laminar`: the
+    stacks' seat land λ_v per sample (model/flow.py); None: sharp-edged openings.
     """
     use_carry = carry is not None and starts.size == 1
     # (p, vapour, Δp, the step before's p and vapour, the released gas now and before)
@@ -174,6 +177,7 @@ def integrate(
     lam = np.zeros(x.size) if bleed_laminar is None else bleed_laminar
     gas = np.zeros(x.size) if gas_volume is None else gas_volume
     sc = np.ones(x.size) if dp_scale is None else dp_scale
+    vlam = np.zeros(x.size) if valve_laminar is None else valve_laminar
     guides = _GUIDES.get()
     layout: Layout = (
         x.size,
@@ -184,7 +188,8 @@ def integrate(
     guide = guides.get(layout) if guides is not None and not use_carry else None
     g_pre, g_fin, g_used = guide if guide is not None else (_NONE, _NONE, _NO_PASSES)
     k = _constants_of(spec, chamber, gas_index)
-    arrays = (x, v, p_c, dp_static, bleed_compression_m2, bleed_rebound_m2, k_leak, lam, sc, gas)
+    bleeds = (bleed_compression_m2, bleed_rebound_m2)
+    arrays = (x, v, p_c, dp_static, *bleeds, k_leak, lam, sc, gas, vlam)
     smp = Samples(*(_per_sample(a, x.size) for a in arrays))
     dp, vap, pce, state, p_pre, p_fin, used, gas_out = _recent_run(
         smp,
@@ -336,16 +341,19 @@ class Step(NamedTuple):
     sc: float  # the Δp scale of a term (1: none)
     gas_volume: float  # the gas column's volume (0: p_c as given)
     gas: float = 0.0  # released gas at the step's end, m³ at one atmosphere
+    vlam: float = 0.0  # the stacks' seat land (0: sharp-edged openings)
 
 
 @njit(cache=True)
 def _flow(
-    d: float, a_b: float, valve: FloatArray, c: float, k_leak: float, lam: float
+    d: float, a_b: float, valve: FloatArray, c: float, k_leak: float, lam: float, vlam: float
 ) -> tuple[float, float]:
     """q(d) and dq/dd for d >= 0 through one direction's bleed (with its laminar land λ,
-    model/flow.py), shim stack and leak."""
+    model/flow.py), shim stack (with its seat land λ_v) and leak."""
     perim, face, preload, stiff, lift_max = valve[0], valve[1], valve[2], valve[3], valve[4]
     lift = (d * face - preload) / stiff
+    if vlam > 0.0:
+        lift = 0.0  # the stack through its seat land is added apart below
     bleed = 0.0 if lam > 0.0 else a_b  # a laminar bleed is added apart below
     if lift <= 0.0:
         area, darea = bleed, 0.0
@@ -368,6 +376,10 @@ def _flow(
         slope += (2.0 * a2 * (lam + dd) - 2.0 * a2 * d * (2.0 * a2 / (c * c * dd))) / (
             (lam + dd) ** 2
         )
+    if vlam > 0.0:
+        qv, dqv = valve_land_flow(d, perim, face, preload, stiff, lift_max, c, vlam)
+        q += qv
+        slope += dqv
     return q, slope
 
 
@@ -379,14 +391,14 @@ def _signed_flow(d: float, s: Step, k: Constants) -> tuple[float, float]:
     sc = s.sc
     if sc == 1.0:  # as a rule: no term scaled the solve
         if d >= 0.0:
-            return _flow(d, s.a_bc, k.valves[0], k.c, s.k_leak, s.lam)
-        q, slope = _flow(-d, s.a_bt, k.valves[1], k.c, s.k_leak, s.lam)
+            return _flow(d, s.a_bc, k.valves[0], k.c, s.k_leak, s.lam, s.vlam)
+        q, slope = _flow(-d, s.a_bt, k.valves[1], k.c, s.k_leak, s.lam, s.vlam)
         return -q, slope
     e = d / sc
     if e >= 0.0:
-        q, slope = _flow(e, s.a_bc, k.valves[0], k.c, s.k_leak, s.lam)
+        q, slope = _flow(e, s.a_bc, k.valves[0], k.c, s.k_leak, s.lam, s.vlam)
         return q, slope / sc
-    q, slope = _flow(-e, s.a_bt, k.valves[1], k.c, s.k_leak, s.lam)
+    q, slope = _flow(-e, s.a_bt, k.valves[1], k.c, s.k_leak, s.lam, s.vlam)
     return -q, slope / sc
 
 
@@ -751,6 +763,7 @@ class Samples(NamedTuple):
     lam: FloatArray
     sc: FloatArray
     gas_volume: FloatArray
+    vlam: FloatArray
 
 
 class Guide(NamedTuple):
@@ -869,7 +882,7 @@ def _substep(
         guess = 2.0 * p - st.p_prev
     s = Step(
         occ_old, vv, base, k.a_q * vi, h, vol, smp.a_bc[i], smp.a_bt[i], smp.k_leak[i],
-        smp.lam[i], smp.sc[i], gv, gas,
+        smp.lam[i], smp.sc[i], gv, gas, smp.vlam[i],
     )  # fmt: skip
     solve = True
     p_new, vv_new, pci = math.nan, math.nan, math.nan

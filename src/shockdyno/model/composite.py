@@ -195,6 +195,9 @@ class Work:
     # λ = 8π μ L of the bleed's laminar land per sample (spec.bleed_land_m; 0: a sharp
     # orifice); a term that changes the viscosity scales it as it scales k_leak's inverse.
     bleed_laminar: FloatArray = field(default_factory=lambda: np.zeros(0))
+    # λ_v = 12 μ L of the shim stacks' seat land per sample (spec.valve_land_m; 0: a
+    # sharp-edged opening); scaled with the viscosity as bleed_laminar is.
+    valve_laminar: FloatArray = field(default_factory=lambda: np.zeros(0))
     # The gas column per sample (m³) and its polytropic index: a chamber term that takes
     # volume from the oil side (air expanding, vapour) compresses it further.
     gas_volume: FloatArray = field(default_factory=lambda: np.zeros(0))
@@ -420,6 +423,7 @@ def solve_flow(w: Work) -> FloatArray:
     spec = w.spec
     q = w.q_demand
     lam = w.bleed_laminar if w.bleed_laminar.size == q.size else np.zeros_like(q)
+    vlam = w.valve_laminar if w.valve_laminar.size == q.size else None
     return solve_signed_drop(
         q,
         w.bleed_compression_m2,
@@ -431,6 +435,7 @@ def solve_flow(w: Work) -> FloatArray:
         w.k_leak,
         lam,
         w.starts,
+        vlam,
     )
 
 
@@ -627,6 +632,9 @@ class DamperModel:
             q_demand=np.zeros(n),
             p_c=np.zeros(n),
             bleed_laminar=np.full(n, spec.bleed_laminar_pa_s_m),
+            valve_laminar=(
+                np.full(n, spec.valve_laminar_pa_s) if spec.valve_land_m > 0 else np.zeros(0)
+            ),
             gas_volume=gas_volume(spec, inputs.x),
         )
         carry_out: dict[str, FloatArray] = {}

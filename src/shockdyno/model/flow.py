@@ -64,10 +64,26 @@ def passed_flow(
     rho: float,
     k_leak: ArrayLike,
     laminar: ArrayLike = 0.0,
+    valve_laminar: float = 0.0,
 ) -> FloatArray:
-    """g(Δp) for Δp >= 0 in one direction: the flow the pressure drop drives, m³/s."""
+    """g(Δp) for Δp >= 0 in one direction: the flow the pressure drop drives, m³/s;
+    `valve_laminar` the stack's seat land λ_v = 12 μ L (0: a sharp-edged opening)."""
     dp = np.asarray(dp_pa, dtype=float)
     c = cd * math.sqrt(2 / rho)
+    if valve_laminar > 0:
+        v = valve
+        flat = np.ravel(dp)
+        qv = np.array(
+            [
+                valve_land_flow(
+                    float(d), v.perimeter_m, v.face_area_m2, v.preload_n,
+                    v.stiffness_n_per_m, v.max_lift_m, c, valve_laminar,
+                )[0]
+                for d in flat
+            ]
+        ).reshape(dp.shape)  # fmt: skip
+        q = bleed_flow(dp, bleed_area_m2, c, laminar) + qv
+        return np.asarray(q + np.asarray(k_leak) * dp, dtype=float)
     if not np.any(np.asarray(laminar) > 0):
         orifice = cd * (np.asarray(bleed_area_m2) + valve_area(dp, valve)) * np.sqrt(2 * dp / rho)
         return np.asarray(orifice + np.asarray(k_leak) * dp, dtype=float)
@@ -83,9 +99,11 @@ def solve_pressure_drop(
     rho: float,
     k_leak: ArrayLike,
     laminar: ArrayLike = 0.0,
+    valve_laminar: float = 0.0,
 ) -> FloatArray:
     """Δp >= 0 that passes flow |q| in one direction (all arguments broadcast); `laminar`
-    the bleed's λ = 8π μ L (0: a sharp orifice)."""
+    the bleed's λ = 8π μ L (0: a sharp orifice), `valve_laminar` the stack's seat land's
+    λ_v = 12 μ L (0: a sharp-edged opening)."""
     q = np.abs(np.asarray(q_m3_s, dtype=float))
     a_b = np.broadcast_to(np.asarray(bleed_area_m2, dtype=float), q.shape)
     kl = np.broadcast_to(np.asarray(k_leak, dtype=float), q.shape)
@@ -101,8 +119,43 @@ def solve_pressure_drop(
         valve.preload_n,
         valve.stiffness_n_per_m,
         valve.max_lift_m,
+        float(valve_laminar),
     )
     return np.asarray((s * s).reshape(q.shape), dtype=float)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def valve_land_flow(
+    d: float,
+    perim: float,
+    face: float,
+    preload: float,
+    k: float,
+    max_lift: float,
+    c: float,
+    vl: float,
+) -> tuple[float, float]:
+    """q and dq/dd through a shim stack whose opening (perimeter P, lift y) has a seat land
+    λ_v = 12 μ L in series: Δp = (q / (c P y))² + λ_v q / (P y³), so
+    q = 2A²d / (Λ + √(Λ² + 4A²d/c²)) with A = P y, Λ = λ_v P / y (the bleed's form at the
+    opening's area); 0 while the stack is shut."""
+    raw = (d * face - preload) / k
+    if raw <= 0.0 or d <= 0.0:
+        return 0.0, 0.0
+    if raw >= max_lift:
+        y, dy = max_lift, 0.0
+    else:
+        y, dy = raw, face / k
+    a = perim * y
+    a2 = a * a
+    lam = vl * perim / y
+    dd = math.sqrt(lam * lam + 4.0 * a2 * d / (c * c))
+    den = lam + dd
+    q = 2.0 * a2 * d / den
+    dq_dd = (2.0 * a2 * den - 2.0 * a2 * d * (2.0 * a2 / (c * c * dd))) / (den * den)
+    dq_da = (4.0 * a * d * den - 2.0 * a2 * d * (4.0 * a * d / (c * c * dd))) / (den * den)
+    dq_dlam = -2.0 * a2 * d / (dd * den)
+    return q, dq_dd + (dq_da * perim - dq_dlam * vl * perim / (y * y)) * dy
 
 
 # error_model="numpy": a zero slope gives an infinite step (then bisected), not an exception.
@@ -119,6 +172,7 @@ def _solve_one(
     k: float,
     max_lift: float,
     guess: float,
+    vl: float = 0.0,
 ) -> float:
     """s = √Δp that passes flow qi >= 0: Newton inside a bracket each step keeps (module
     docstring), from `guess` where it lies inside the first bracket (a neighbouring
@@ -130,16 +184,26 @@ def _solve_one(
     p_full = (k * max_lift + preload) / face
     slope_open = perim * face / k
     # Test the divisor itself: c·A_b can underflow to 0 for a subnormal area.
-    if li > 0:
+    if li > 0 or vl > 0:
         # A laminar land: the bleed alone passes q at λq/A² + (q/(cA))², and the
-        # stack alone (the bleed's share unknown) at full lift.
-        s_bleed = math.sqrt(li * qi / (ab * ab) + (qi / (c * ab)) ** 2) if ab > 0 else math.inf
+        # stack alone (the bleed's share unknown) at full lift, through its seat land's
+        # λ_v q/(P y³) as well.
+        if li > 0:
+            s_bleed = math.sqrt(li * qi / (ab * ab) + (qi / (c * ab)) ** 2) if ab > 0 else math.inf
+        else:
+            s_bleed = qi / (c * ab) if c * ab > 0 else math.inf
         a_full = perim * max_lift
+        lam_full = vl / (perim * max_lift**3) if a_full > 0 else 0.0
+        s_valve = (
+            max(math.sqrt((qi / (c * a_full)) ** 2 + lam_full * qi), math.sqrt(p_full))
+            if c * a_full > 0
+            else math.inf
+        )
     else:
         s_bleed = qi / (c * ab) if c * ab > 0 else math.inf
         a_full = ab + perim * max_lift
+        s_valve = max(qi / (c * a_full), math.sqrt(p_full)) if c * a_full > 0 else math.inf
     s_leak = math.sqrt(qi / kli) if kli > 0 else math.inf
-    s_valve = max(qi / (c * a_full), math.sqrt(p_full)) if c * a_full > 0 else math.inf
     hi = min(min(s_bleed, s_leak), min(s_valve, S_MAX))
     lo = 0.0
     s = guess if 0.0 < guess < hi else 0.5 * hi
@@ -149,7 +213,23 @@ def _solve_one(
         raw = (s2 * face - preload) / k
         area = perim * min(max(raw, 0.0), max_lift)
         da = slope_open if 0 < raw < max_lift else 0.0
-        if li > 0:
+        if vl > 0:
+            # The stack through its seat land (`valve_land_flow`), the bleed beside it.
+            if li > 0 and ab > 0:
+                a2 = ab * ab
+                dd = math.sqrt(li * li + 4 * a2 * s2 / (c * c))
+                qb = 2 * a2 * s2 / (li + dd)
+                dqb = (4 * a2 * s * (li + dd) - 2 * a2 * s2 * (4 * a2 * s / (c * c * dd))) / (
+                    (li + dd) ** 2
+                )
+            else:
+                qb, dqb = c * ab * s, c * ab
+            qv, dqv = valve_land_flow(s2, perim, face, preload, k, max_lift, c, vl)
+            h = qb + qv + kli * s2 - qi
+            if abs(h) <= tol:
+                break
+            dh = dqb + dqv * 2 * s + 2 * kli * s
+        elif li > 0:
             # q_b = 2A²s²/(λ + D), D = √(λ² + 4A²s²/c²); dq_b/ds by the quotient rule.
             a2 = ab * ab
             dd = math.sqrt(li * li + 4 * a2 * s2 / (c * c))
@@ -188,12 +268,13 @@ def _solve_s(
     preload: float,
     k: float,
     max_lift: float,
+    vl: float,
 ) -> FloatArray:
-    """s = √Δp per sample, one direction's valve."""
+    """s = √Δp per sample, one direction's valve (seat land λ_v = vl)."""
     out = np.empty(q.size)
     s = 0.0
     for i in range(q.size):
-        s = _solve_one(q[i], a_b[i], kl[i], lam[i], c, perim, face, preload, k, max_lift, s)
+        s = _solve_one(q[i], a_b[i], kl[i], lam[i], c, perim, face, preload, k, max_lift, s, vl)
         out[i] = s
     return out
 
@@ -208,6 +289,7 @@ def _solve_signed(
     c: float,
     valves: FloatArray,
     first: NDArray[np.bool_],
+    vlam: FloatArray,
 ) -> FloatArray:
     """Δp per sample through the valve of its flow's direction (rows of `valves`:
     perimeter, face area, preload, stiffness, lift; compression's then rebound's); 0
@@ -223,12 +305,16 @@ def _solve_signed(
         if qi > 0:
             vc = valves[0]
             guess = s if i > 0 and q[i - 1] > 0 else 0.0
-            s = _solve_one(qi, a_bc[i], kl[i], lam[i], c, vc[0], vc[1], vc[2], vc[3], vc[4], guess)
+            s = _solve_one(
+                qi, a_bc[i], kl[i], lam[i], c, vc[0], vc[1], vc[2], vc[3], vc[4], guess, vlam[i]
+            )
             out[i] = s * s
         elif qi < 0:
             vr = valves[1]
             guess = s if i > 0 and q[i - 1] < 0 else 0.0
-            s = _solve_one(-qi, a_bt[i], kl[i], lam[i], c, vr[0], vr[1], vr[2], vr[3], vr[4], guess)
+            s = _solve_one(
+                -qi, a_bt[i], kl[i], lam[i], c, vr[0], vr[1], vr[2], vr[3], vr[4], guess, vlam[i]
+            )
             out[i] = -(s * s)
         else:
             s = 0.0
@@ -246,10 +332,12 @@ def solve_signed_drop(
     k_leak: FloatArray,
     laminar: FloatArray,
     starts: NDArray[np.intp] | None = None,
+    valve_laminar: FloatArray | None = None,
 ) -> FloatArray:
     """Δp per sample (signed as q: compression positive) for flows of either sign, each
     through its own direction's bleed and valve; per-sample arrays of q's size, in
-    segments from `starts` (default one). The same as `solve_pressure_drop` on each
+    segments from `starts` (default one); `valve_laminar` the stacks' seat land λ_v per
+    sample (None: sharp-edged openings). The same as `solve_pressure_drop` on each
     direction's samples apart, in one pass (no masks)."""
     first = np.zeros(np.shape(q_m3_s), dtype=bool)
     first[np.asarray(starts if starts is not None else [0], dtype=np.intp)] = True
@@ -269,6 +357,9 @@ def solve_signed_drop(
             cd * math.sqrt(2 / rho),
             valves,
             first,
+            np.zeros(np.shape(q_m3_s))
+            if valve_laminar is None
+            else np.ascontiguousarray(valve_laminar, dtype=float),
         ),
         dtype=float,
     )

@@ -53,6 +53,11 @@ class DamperSpec:
     # in series with the sharp orifice, so viscosity (and the oil's temperature) acts on the
     # bleed's low-speed force. 0: the paper's sharp orifice, exactly. Calibrated by diagnose.
     bleed_land_m: NonNegative = 0.0
+    # Radial width of the seat land the shim stacks lift off (both valves): the oil crosses
+    # it as a plane Poiseuille flow in the gap the lift opens, in series with the opening's
+    # orifice, so viscosity (and the oil's temperature) acts on the valve's force where it
+    # opens. 0: the paper's sharp-edged opening, exactly. Calibrated by diagnose.
+    valve_land_m: NonNegative = 0.0
     # How far the rod seal deflects at the Coulomb force before it slides (model/seal.py):
     # the friction turns over the travel since reversal. 0: the paper's smoothed sign
     # (friction_velocity_m_s), exactly. Calibrated by diagnose.
@@ -104,6 +109,12 @@ class DamperSpec:
         area A (Hagen-Poiseuille for a round passage of that area), so the laminar share
         of a bleed's drop at a given flow is the same at every click."""
         return 8 * math.pi * self.viscosity_pa_s * self.bleed_land_m
+
+    @property
+    def valve_laminar_pa_s(self) -> float:
+        """λ_v = 12 μ L of the valves' seat land: the laminar resistance of an opening of
+        perimeter P lifted y is λ_v / (P y³) (plane Poiseuille across the land)."""
+        return 12 * self.viscosity_pa_s * self.valve_land_m
 
     @property
     def leak_conductance_m3_s_pa(self) -> float:

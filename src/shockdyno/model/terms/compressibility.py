@@ -66,6 +66,7 @@ def run_chamber(
         w.gas_volume if w.gas_volume.size == w.x.size else None,
         w.gas_index,
         w.dp_scale if w.dp_scale.size == w.x.size else None,
+        w.valve_laminar if w.valve_laminar.size == w.x.size else None,
     )
     return dp, vapour, state, p_c, gas
 

@@ -1,6 +1,7 @@
 """Temperature: the oil's viscosity falls and the gas spring stiffens as the damper warms.
 
-    ν(T) = ν_ref exp(-b (T - T_ref))  →  leak conductance × exp(b (T - T_ref))
+    ν(T) = ν_ref exp(-b (T - T_ref))  →  leak conductance × exp(b (T - T_ref)),
+                                          the bleed's and the stacks' lands ÷ exp(b (T - T_ref))
     p_c × (1 + g ((T + 273.15)/(T_ref + 273.15) - 1))     (gas at the oil's temperature)
     Δp × exp(-d (T - T_ref))                               (damping fades as the oil thins)
 
@@ -192,9 +193,10 @@ class Thermal(Term):
     def apply(
         self, w: Work, p: Mapping[str, float], carry: FloatArray | None, stage: int
     ) -> FloatArray | None:
-        """At CHAMBER + 5, thin the leak and the bleed's land by the viscosity's fall, scale the
-        gas pressure to the oil's temperature and report it (`thermal.temperature_c`), returning
-        the heating state; at PRESSURE - 5, scale Δp by exp(-d ΔT)."""
+        """At CHAMBER + 5, thin the leak, the bleed's land and the stacks' seat land by the
+        viscosity's fall, scale the gas pressure to the oil's temperature and report it
+        (`thermal.temperature_c`), returning the heating state; at PRESSURE - 5, scale Δp by
+        exp(-d ΔT)."""
         if stage != self.stage:
             d = p["damping_coeff_per_k"]
             if d:
@@ -211,6 +213,8 @@ class Thermal(Term):
         w.k_leak = w.k_leak * thinning
         if w.bleed_laminar.size:
             w.bleed_laminar = w.bleed_laminar / thinning  # the land's resistance ∝ ν
+        if w.valve_laminar.size:
+            w.valve_laminar = w.valve_laminar / thinning  # so is the stacks' seat land's
         ratio = 1.0 + p["gas_coupling"] * ((temp + KELVIN) / (ref + KELVIN) - 1.0)
         w.set_p_c(self.name, w.p_c * ratio)
         w.outputs[f"{self.name}.temperature_c"] = temp

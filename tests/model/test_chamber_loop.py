@@ -99,7 +99,7 @@ def reference_run(
                     s = C.Step(
                         occ_old, vv, at(smp.p_c), k.a_q * at(smp.v), h, vol, smp.a_bc[i],
                         smp.a_bt[i], smp.k_leak[i], smp.lam[i], smp.sc[i], at(smp.gas_volume),
-                        gas,
+                        gas, smp.vlam[i],
                     )  # fmt: skip
                     solve = True
                     g = along[i] + off if guided else math.nan

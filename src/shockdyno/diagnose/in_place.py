@@ -10,7 +10,8 @@ wrong physics can still lower the squared error a little, as a lever for the are
 globals refitted beside it, or by matching one part of a shape it does not have: it then
 leaves most of the structure where it acts, or adds structure where there was none.
 
-Seen on the held-out plant's effects that no term has (benchmarks/unnamed, dev seed 950):
+Seen on the held-out plant's effects that no term has (benchmarks/unnamed, its runs in
+benchmarks/results):
 - play in the LVDT's linkage: the measured motion stands still for a moment after each
   reversal. A sensor lag took it as 2.2 ms of delay and 3.4 ms of LVDT lag (p = 0.001),
   acting on both sides of every reversal: it took 22 % of the structure where its force
@@ -34,14 +35,14 @@ What only heat explains is how that scale moves from test to test as the oil war
 `session_share`, of the structure along its own force test by test (each test's residual
 projected on the term's force there, less the projection's noise), the share its refit
 removes. Heat fitted to structure that does not follow the warm-up takes little of it
-(0.02-0.05 beside LVDT play, held-out plant, dev seed 950), as a lag or a stop fitted to
+(0.02-0.05 beside LVDT play on the held-out plant), as a lag or a stop fitted to
 another shape takes little of its place in the cycle.
 
 A term of the cycle whose own force acts in most of its cells (`acts_share` at least
 Settings.placeless_share) has no place apart from the valves': a seal's viscous drag acts
 wherever the ram moves, a moving mass wherever it accelerates, and those cells hold the
 valves' and areas' misfit too, which it cannot take. On the held-out plant's seal friction
-(dev seeds 1609/1610, round 2, after the seal's turn and Coulomb level were calibrated:
+(round 2, after the seal's turn and Coulomb level were calibrated:
 an 83 N·s/m drag and a 56 N breakaway against the plant's 106 and 75) the friction acted in
 95 % of the cells and took 42-45 % of the structure there, held out 0.55-0.60. Such a
 term is judged held out as well (claims.why_not): it is claimable at the held-out gain a
@@ -66,14 +67,19 @@ FloatArray = NDArray[np.float64]
 ACTS_SHARE = 0.1
 
 
+def _where_acts(own: FloatArray) -> NDArray[np.bool_] | None:
+    """The cells where `own` reaches ACTS_SHARE of its largest (None: it has no force)."""
+    peak = float(np.max(np.abs(own), initial=0.0))
+    return None if peak <= 0 else np.abs(own) >= ACTS_SHARE * peak
+
+
 def in_place_share(own: FloatArray, before: Sequence[BinnedTest], after: FloatArray) -> float:
     """The share of the structure where `own` (the term's own force per phase bin) acts
     that the refit removes: `before` the phase means (and their noise variance) without
     the term, `after` the phase means with it (the same bins)."""
-    peak = float(np.max(np.abs(own), initial=0.0))
-    if peak <= 0:
+    acts = _where_acts(own)
+    if acts is None:
         return 1.0  # a term with no force of its own is judged by the own-force rule
-    acts = np.abs(own) >= ACTS_SHARE * peak
     r0 = np.concatenate([b.mean for b in before])[acts]
     var = np.concatenate([b.mean_var for b in before])[acts]
     r1 = after[acts]
@@ -86,10 +92,8 @@ def in_place_share(own: FloatArray, before: Sequence[BinnedTest], after: FloatAr
 def acts_share(own: FloatArray) -> float:
     """The share of the (test, phase bin) cells where `own` (the term's own force per
     cell) reaches ACTS_SHARE of its largest: where its force acts."""
-    peak = float(np.max(np.abs(own), initial=0.0))
-    if peak <= 0:
-        return 0.0
-    return float(np.mean(np.abs(own) >= ACTS_SHARE * peak))
+    acts = _where_acts(own)
+    return 0.0 if acts is None else float(np.mean(acts))
 
 
 def session_share(own: FloatArray, before: Sequence[BinnedTest], after: FloatArray) -> float:

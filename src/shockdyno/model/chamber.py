@@ -65,7 +65,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from shockdyno.model.composite import ATMOSPHERE_PA  # released gas: its volume at 1 atm
-from shockdyno.model.flow import valve_land_flow
+from shockdyno.model.flow import laminar_orifice, valve_land_flow
 from shockdyno.model.recent import Recent
 from shockdyno.model.shims import ShimStack
 from shockdyno.model.spec import DamperSpec
@@ -369,13 +369,9 @@ def _flow(
     elif area > 0.0:
         slope = 1.0e300  # √d: infinitely steep at zero
     if lam > 0.0 and a_b > 0.0:
-        # q_b = 2A²d/(λ + D), D = √(λ² + 4A²d/c²): linear (A²/λ) at zero, orifice-like fast.
-        a2 = a_b * a_b
-        dd = math.sqrt(lam * lam + 4.0 * a2 * d / (c * c))
-        q += 2.0 * a2 * d / (lam + dd)
-        slope += (2.0 * a2 * (lam + dd) - 2.0 * a2 * d * (2.0 * a2 / (c * c * dd))) / (
-            (lam + dd) ** 2
-        )
+        qb, dqb, _ = laminar_orifice(d, a_b * a_b, lam, c)
+        q += qb
+        slope += dqb
     if vlam > 0.0:
         qv, dqv = valve_land_flow(d, perim, face, preload, stiff, lift_max, c, vlam)
         q += qv

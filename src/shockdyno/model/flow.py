@@ -125,6 +125,27 @@ def solve_pressure_drop(
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def laminar_orifice(d: float, a2: float, lam: float, c: float) -> tuple[float, float, float]:
+    """q and dq/dd at a drop d >= 0 through an opening of area A (a2 = A²) with a laminar
+    passage λ in series (the module docstring's q_b), and D = √(λ² + 4A²d/c²), which a
+    caller's other derivatives need: linear (A²d/λ) at zero, orifice-like (c A √d) fast."""
+    dd = math.sqrt(lam * lam + 4.0 * a2 * d / (c * c))
+    den = lam + dd
+    q = 2.0 * a2 * d / den
+    return q, (2.0 * a2 * den - 2.0 * a2 * d * (2.0 * a2 / (c * c * dd))) / (den * den), dd
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _laminar_orifice_s(s: float, a2: float, lam: float, c: float) -> tuple[float, float]:
+    """`laminar_orifice` in s = √d, as the solve iterates: q and dq/ds."""
+    s2 = s * s
+    dd = math.sqrt(lam * lam + 4.0 * a2 * s2 / (c * c))
+    den = lam + dd
+    q = 2.0 * a2 * s2 / den
+    return q, (4.0 * a2 * s * den - 2.0 * a2 * s2 * (4.0 * a2 * s / (c * c * dd))) / (den * den)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def valve_land_flow(
     d: float,
     perim: float,
@@ -149,10 +170,8 @@ def valve_land_flow(
     a = perim * y
     a2 = a * a
     lam = vl * perim / y
-    dd = math.sqrt(lam * lam + 4.0 * a2 * d / (c * c))
+    q, dq_dd, dd = laminar_orifice(d, a2, lam, c)
     den = lam + dd
-    q = 2.0 * a2 * d / den
-    dq_dd = (2.0 * a2 * den - 2.0 * a2 * d * (2.0 * a2 / (c * c * dd))) / (den * den)
     dq_da = (4.0 * a * d * den - 2.0 * a2 * d * (4.0 * a * d / (c * c * dd))) / (den * den)
     dq_dlam = -2.0 * a2 * d / (dd * den)
     return q, dq_dd + (dq_da * perim - dq_dlam * vl * perim / (y * y)) * dy
@@ -216,12 +235,7 @@ def _solve_one(
         if vl > 0:
             # The stack through its seat land (`valve_land_flow`), the bleed beside it.
             if li > 0 and ab > 0:
-                a2 = ab * ab
-                dd = math.sqrt(li * li + 4 * a2 * s2 / (c * c))
-                qb = 2 * a2 * s2 / (li + dd)
-                dqb = (4 * a2 * s * (li + dd) - 2 * a2 * s2 * (4 * a2 * s / (c * c * dd))) / (
-                    (li + dd) ** 2
-                )
+                qb, dqb = _laminar_orifice_s(s, ab * ab, li, c)
             else:
                 qb, dqb = c * ab * s, c * ab
             qv, dqv = valve_land_flow(s2, perim, face, preload, k, max_lift, c, vl)
@@ -230,13 +244,7 @@ def _solve_one(
                 break
             dh = dqb + dqv * 2 * s + 2 * kli * s
         elif li > 0:
-            # q_b = 2A²s²/(λ + D), D = √(λ² + 4A²s²/c²); dq_b/ds by the quotient rule.
-            a2 = ab * ab
-            dd = math.sqrt(li * li + 4 * a2 * s2 / (c * c))
-            qb = 2 * a2 * s2 / (li + dd)
-            dqb = (4 * a2 * s * (li + dd) - 2 * a2 * s2 * (4 * a2 * s / (c * c * dd))) / (
-                (li + dd) ** 2
-            )
+            qb, dqb = _laminar_orifice_s(s, ab * ab, li, c)
             h = qb + c * area * s + kli * s2 - qi
             if abs(h) <= tol:
                 break

@@ -18,6 +18,7 @@ from pathlib import Path
 import psutil
 import pytest
 
+from inprocess import cli
 from shockdyno.batch.table import read_table
 from shockdyno.cli import main
 
@@ -126,7 +127,8 @@ def test_a_damaged_results_table_is_refused_before_any_work(
     out = tmp_path / "results"
     out.mkdir()
     (out / "results.parquet").write_bytes(b"PAR1 torn")
-    done = _cli("batch", "fit", str(recordings / "r0.mcap"), "--out", str(out))
+    # In this process: refused before any worker starts (what it says and leaves).
+    done = cli("batch", "fit", str(recordings / "r0.mcap"), "--out", str(out))
     assert done.returncode == 2
     assert done.stderr.count("\n") == 1 and "results.parquet cannot be read" in done.stderr
     assert (out / "results.parquet").read_bytes() == b"PAR1 torn"

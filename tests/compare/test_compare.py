@@ -6,12 +6,15 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import pytest
 
+from inprocess import cli
 from shockdyno.cli import main
 from shockdyno.compare.table import DIFFERENCE, WITHIN, Row, differences
 from shockdyno.fit.result import FitResult
@@ -70,10 +73,39 @@ def _compare(tmp_path: Path, *args: str) -> dict[str, Any]:
     return dict(json.loads(js.read_text()))
 
 
+class Compared(NamedTuple):
+    doc: dict[str, Any]  # the --json file, read for this test alone
+    err: str  # what the command said on standard error
+    page: Path  # its -o folder: read it, or copy it to change it
+
+
+@pytest.fixture(scope="module")
+def compared(
+    sims: dict[str, Path], tmp_path_factory: pytest.TempPathFactory
+) -> Callable[[str, str], Compared]:
+    """`compare FIRST SECOND -o PAGE --json FILE` of two of the sweeps, with no other
+    option: made once, when a test first asks for it, and read by every test that checks
+    that comparison (its rows, its terminal lines, its page); each made its own before."""
+    made: dict[tuple[str, str], tuple[Path, str]] = {}
+
+    def get(first: str, second: str) -> Compared:
+        if (first, second) not in made:
+            d = tmp_path_factory.mktemp(f"compare-{first}-{second}")
+            done = cli("compare", str(sims[first]), str(sims[second]), "-o", str(d / "page"),
+                       "--json", str(d / "cmp.json"))  # fmt: skip
+            assert done.returncode == 0, done.stderr
+            assert (d / "page" / "index.html").is_file()
+            made[first, second] = d, done.stderr
+        d, err = made[first, second]
+        return Compared(dict(json.loads((d / "cmp.json").read_text())), err, d / "page")
+
+    return get
+
+
 def test_a_bigger_bleed_at_one_click_is_found_there_softer_and_nothing_else(
-    sims: dict[str, Path], tmp_path: Path
+    sims: dict[str, Path], compared: Callable[[str, str], Compared]
 ) -> None:
-    doc = _compare(tmp_path, str(sims["a"]), str(sims["b"]))
+    doc = compared("a", "b").doc
     rows = doc["rows"]
     assert len(rows) == 2 * 12  # both clicks, six speeds each way
     found = {(r["clicks"], r["direction"], r["velocity_m_s"]) for r in rows
@@ -102,10 +134,9 @@ def test_a_bigger_bleed_at_one_click_is_found_there_softer_and_nothing_else(
 
 
 def test_the_terminal_names_every_difference_largest_first(
-    sims: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    compared: Callable[[str, str], Compared],
 ) -> None:
-    doc = _compare(tmp_path, str(sims["a"]), str(sims["b"]))
-    err = capsys.readouterr().err
+    doc, err, _ = compared("a", "b")
     found = [r for r in doc["rows"] if r["verdict"] == "difference"]
     assert f"compare: {len(found)} of {len(doc['rows'])} values differ" in err
     lines = [line.strip() for line in err.splitlines() if line.startswith("  after vs before")]
@@ -168,7 +199,10 @@ def test_json_and_page_contents(sims: dict[str, Path], tmp_path: Path) -> None:
 
 
 def test_a_cut_off_recording_is_said_on_the_terminal_and_the_page(
-    sims: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    sims: dict[str, Path],
+    compared: Callable[[str, str], Compared],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     """A recording cut off in its second test (a crash mid-write: the file ends there, no
     footer, the second test's chunk lost) compares on the test it holds, and says so, as
@@ -190,9 +224,7 @@ def test_a_cut_off_recording_is_said_on_the_terminal_and_the_page(
     html = (tmp_path / "page" / "index.html").read_text(encoding="utf-8")
     assert "cut: the recording is cut off" in html and "compared on what was read" in html
     # a whole recording: nothing said
-    (tmp_path / "whole").mkdir()
-    _compare(tmp_path / "whole", str(sims["a"]), str(sims["a2"]))
-    assert "warning" not in capsys.readouterr().err
+    assert "warning" not in compared("a", "a2").err
 
 
 def test_a_recording_against_a_fit(sims: dict[str, Path], tmp_path: Path) -> None:
@@ -210,9 +242,12 @@ def test_a_recording_against_a_fit(sims: dict[str, Path], tmp_path: Path) -> Non
 
 
 def test_refuses_to_overwrite_without_force(
-    sims: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    sims: dict[str, Path],
+    compared: Callable[[str, str], Compared],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
-    _compare(tmp_path, str(sims["a"]), str(sims["a2"]))
+    shutil.copytree(compared("a", "a2").page, tmp_path / "page")  # a page compare wrote
     before = (tmp_path / "page" / "index.html").stat().st_mtime_ns
     capsys.readouterr()
     args = ["compare", str(sims["a"]), str(sims["a2"]), "-o", str(tmp_path / "page")]
@@ -273,14 +308,12 @@ def test_two_fits_compare_their_bleed_areas(sims: dict[str, Path], tmp_path: Pat
 
 
 def test_damping_force_by_default_and_raw_force_on_request(
-    sims: dict[str, Path], tmp_path: Path
+    sims: dict[str, Path], compared: Callable[[str, str], Compared], tmp_path: Path
 ) -> None:
     """The table compares damping force (the sweep's measured gas force removed) and says
     so; --raw-force compares the force as measured: every value higher by that gas force."""
-    (tmp_path / "d").mkdir()
-    (tmp_path / "r").mkdir()
-    damping = _compare(tmp_path / "d", str(sims["a"]), str(sims["a2"]))
-    raw = _compare(tmp_path / "r", str(sims["a"]), str(sims["a2"]), "--raw-force")
+    damping, _, page = compared("a", "a2")
+    raw = _compare(tmp_path, str(sims["a"]), str(sims["a2"]), "--raw-force")
     assert (damping["force"], raw["force"]) == ("damping", "raw")
     from shockdyno.record import open_recording
 
@@ -291,7 +324,7 @@ def test_damping_force_by_default_and_raw_force_on_request(
              if r["force_a_n"] is not None and d["force_a_n"] is not None]  # fmt: skip
     assert len(shift) >= 20
     assert np.allclose(shift, np.median(sorted(g for g in gas if g is not None)), atol=0.5)
-    html = (tmp_path / "d" / "page" / "index.html").read_text(encoding="utf-8")
+    html = (page / "index.html").read_text(encoding="utf-8")
     assert "gas force removed" in html and "measured at mid-stroke" in html
 
 
@@ -326,11 +359,12 @@ def test_the_same_recording_twice_is_refused_and_two_fits_are_not_called_alike(
     assert "no difference beyond the scatter; 24 of 24 values not judged" in err
 
 
-def test_the_loops_that_differ_are_the_ones_opened(sims: dict[str, Path], tmp_path: Path) -> None:
+def test_the_loops_that_differ_are_the_ones_opened(
+    compared: Callable[[str, str], Compared],
+) -> None:
     """Before/after with the change at 8 clicks: the page opens the 8-click loops, not the
     unchanged 0-click ones a reader would otherwise meet first."""
-    _compare(tmp_path, str(sims["a"]), str(sims["b"]))
-    html = (tmp_path / "page" / "index.html").read_text(encoding="utf-8")
+    html = (compared("a", "b").page / "index.html").read_text(encoding="utf-8")
     opened = re.findall(r"<details open><summary>(clicks \d+), gas", html)
     assert opened == ["clicks 8"], opened
     assert "<details><summary>clicks 0, gas 0, 2 Hz" in html

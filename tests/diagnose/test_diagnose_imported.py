@@ -7,17 +7,15 @@ The diagnosis must run on it and say what one frequency can and cannot separate.
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from inprocess import cli
 from shockdyno.model import DamperModel, ModelInputs, differentiate, load_spec
 from shockdyno.model.terms import make_term
 
-CLI = [sys.executable, "-m", "shockdyno.cli"]
 FS = 300.0
 
 
@@ -51,9 +49,7 @@ def imported(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, float, flo
         "file,clicks,frequency_hz,amplitude_m,motion\nrun1.csv,21,1.0,0.016,imported\n"
     )
     rec = root / "run1.mcap"
-    done = subprocess.run(
-        [*CLI, "import", str(root / "manifest.csv"), "-o", str(rec)], capture_output=True, text=True
-    )
+    done = cli("import", str(root / "manifest.csv"), "-o", str(rec))  # in this process
     assert done.returncode == 0, done.stderr
     # How far the loop opens at zero velocity: force at the top reversals less the bottom's.
     turn = np.flatnonzero(np.diff(np.sign(v)) != 0)
@@ -74,12 +70,8 @@ def test_a_single_imported_test_is_diagnosed_with_what_one_frequency_cannot_sepa
 ) -> None:
     rec, _, _ = imported
     report = tmp_path / "diag"
-    done = subprocess.run(
-        [*CLI, "diagnose", str(rec), "--json", "-", "--report", str(report)],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    # In this process: what it writes (a `shockdyno` process costs a second to start).
+    done = cli("diagnose", str(rec), "--json", "-", "--report", str(report))
     assert done.returncode == 0, done.stderr
     doc = json.loads(done.stdout)
     assert doc["info"]["single_frequency"] is True

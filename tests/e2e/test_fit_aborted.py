@@ -3,19 +3,15 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 
+from inprocess import cli
 from shockdyno.fit.synthetic import synthetic_sweep
 from shockdyno.model import load_spec
 from shockdyno.record import RecordingWriter
 from shockdyno.samples import SampleBlock
-
-REPO = Path(__file__).resolve().parents[2]
 
 
 def _block(t, x, f, start: int) -> SampleBlock:  # type: ignore[no-untyped-def]
@@ -43,10 +39,7 @@ def test_fit_leaves_out_an_empty_aborted_test(tmp_path):
         w.begin_test(aborted)  # refused at once: no samples at all
         w.end_test(aborted)
     out = tmp_path / "fit.json"
-    res = subprocess.run(
-        [sys.executable, "-m", "shockdyno.cli", "fit", str(path), "--json", str(out)],
-        cwd=REPO, capture_output=True, text=True, timeout=120,
-    )  # fmt: skip
+    res = cli("fit", str(path), "--json", str(out))  # in this process: what it writes
     assert res.returncode == 0, res.stderr
     doc = json.loads(out.read_text())
     assert sorted(c["clicks"] for c in doc["clicks"]) == [5, 15]

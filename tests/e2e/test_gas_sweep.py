@@ -35,20 +35,27 @@ def planned(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return rec
 
 
-def test_every_planned_velocity_is_measured_not_extrapolated(planned: Path, tmp_path: Path) -> None:
-    out = tmp_path / "report"
+@pytest.fixture(scope="module")
+def report(planned: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """`report PLANNED -o DIR`, no other option: made once, read by the two tests that check
+    that page (each made its own)."""
+    out = tmp_path_factory.mktemp("gas-report") / "report"
     assert main(["report", str(planned), "-o", str(out)]) == 0
-    rows = [r for r in chart_rows(out) if r["source"] == "measured"]
+    return out
+
+
+def test_every_planned_velocity_is_measured_not_extrapolated(report: Path) -> None:
+    rows = [r for r in chart_rows(report) if r["source"] == "measured"]
     assert len(rows) == 2 * 12
     for r in rows:  # 300 mm/s is planned; every standard velocity lies under it
         assert r["extrapolated"] == "0", r
         assert r["gas_removed"] == "1"
-    page = (out / "index.html").read_text(encoding="utf-8")
+    page = (report / "index.html").read_text(encoding="utf-8")
     assert "gas force removed: 231 N measured at mid-stroke at rest" in page
 
 
 def test_damping_force_is_the_models_and_raw_differs_by_the_measured_gas(
-    planned: Path, tmp_path: Path
+    planned: Path, report: Path, tmp_path: Path
 ) -> None:
     tests = open_recording(planned).load_all()
     truth = spec_static_force_n(load_spec())
@@ -72,9 +79,7 @@ def test_damping_force_is_the_models_and_raw_differs_by_the_measured_gas(
     raw_dir = tmp_path / "raw"
     assert main(["report", str(planned), "-o", str(raw_dir), "--raw-force"]) == 0
     raw = {(r["clicks"], r["velocity_m_s"], r["source"]): r for r in chart_rows(raw_dir)}
-    report_dir = tmp_path / "damping"
-    assert main(["report", str(planned), "-o", str(report_dir)]) == 0
-    for r in chart_rows(report_dir):
+    for r in chart_rows(report):
         if not r["force_n"]:
             continue
         other = raw[(r["clicks"], r["velocity_m_s"], r["source"])]

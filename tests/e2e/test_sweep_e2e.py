@@ -276,10 +276,8 @@ def test_existing_recording_is_not_overwritten(tmp_path):
 
 @pytest.mark.skipif(os.environ.get("SHOCKDYNO_SKIP_DEMO") == "1", reason="demo disabled")
 def test_demo_writes_recording_fit_and_report(tmp_path):
-    res = subprocess.run(
-        [*CLI, "demo", "--out-dir", str(tmp_path), "--clicks", "3,15", "--cycles", "2"],
-        cwd=REPO, capture_output=True, text=True, timeout=110,
-    )  # fmt: skip
+    # In this process: what it writes and says (a `shockdyno` process costs a second to start).
+    res = cli("demo", "--out-dir", str(tmp_path), "--clicks", "3,15", "--cycles", "2")
     assert res.returncode == 0, res.stderr
     assert (tmp_path / "demo.mcap").exists() and (tmp_path / "demo-fit.json").exists()
     index = tmp_path / "demo-report" / "index.html"

@@ -1,9 +1,18 @@
 """A recording written with the project's writer, and the page `shockdyno report` makes of it
-with a fit, a diagnosis and a ride study: shared by the CLI and browser tests."""
+with a fit, a diagnosis and a ride study: shared by the CLI and browser tests.
+
+Each is made once per test run, not once per test process: under pytest-xdist the modules
+that read them run on different workers, and each worker made its own (the full page, about
+5 s of CPU, two or three times a run). The first worker to ask makes it in the run's common
+temporary folder while the others wait, then read it; no test writes into them."""
 
 from __future__ import annotations
 
+import fcntl
 import json
+import os
+import shutil
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -36,49 +45,86 @@ RIDE_SAMPLE = {
 }  # fmt: skip
 
 
-@pytest.fixture(scope="session")
-def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("rec") / "sweep.mcap"
-    return write_recording(path, sweep_tests(CLICKS), {"damper_id": "S46 <#7>"})
+Made = Callable[[str, Callable[[Path], None]], Path]
 
 
 @pytest.fixture(scope="session")
-def small_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def made_once(tmp_path_factory: pytest.TempPathFactory) -> Made:
+    """made_once(NAME, make): the folder NAME, filled by make(folder) once per test run."""
+    if not os.environ.get("PYTEST_XDIST_WORKER"):  # one process: its own folders
+
+        def here(name: str, make: Callable[[Path], None]) -> Path:
+            folder = tmp_path_factory.mktemp(name)
+            make(folder)
+            return folder
+
+        return here
+    shared = tmp_path_factory.getbasetemp().parent / "report-fixtures"  # this run's workers'
+    shared.mkdir(exist_ok=True)
+
+    def once(name: str, make: Callable[[Path], None]) -> Path:
+        folder = shared / name
+        with (shared / f"{name}.lock").open("w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file is closed
+            if not (shared / f"{name}.done").exists():
+                shutil.rmtree(folder, ignore_errors=True)  # what a failed make left
+                folder.mkdir()
+                make(folder)
+                (shared / f"{name}.done").touch()
+        return folder
+
+    return once
+
+
+@pytest.fixture(scope="session")
+def recording(made_once: Made) -> Path:
+    def make(d: Path) -> None:
+        write_recording(d / "sweep.mcap", sweep_tests(CLICKS), {"damper_id": "S46 <#7>"})
+
+    return made_once("rec", make) / "sweep.mcap"
+
+
+@pytest.fixture(scope="session")
+def small_recording(made_once: Made) -> Path:
     """One test: for checks of the command's behaviour, not of the figures."""
-    path = tmp_path_factory.mktemp("rec") / "one.mcap"
-    return write_recording(path, sweep_tests((7,), (1.5,)), {"damper_id": "one"})
+
+    def make(d: Path) -> None:
+        write_recording(d / "one.mcap", sweep_tests((7,), (1.5,)), {"damper_id": "one"})
+
+    return made_once("rec-one", make) / "one.mcap"
 
 
 @pytest.fixture(scope="session")
-def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    d = tmp_path_factory.mktemp("inputs")
-    fit = d / "fit.json"
-    FitResult.from_spec(default_spec_path(), CLICKS).save(fit)
-    (d / "diag.json").write_text(json.dumps(DIAGNOSE_SAMPLE))
-    (d / "ride.json").write_text(json.dumps(RIDE_SAMPLE))
-    return {"fit": fit, "diagnose": d / "diag.json", "ride": d / "ride.json"}
+def inputs(made_once: Made) -> dict[str, Path]:
+    def make(d: Path) -> None:
+        FitResult.from_spec(default_spec_path(), CLICKS).save(d / "fit.json")
+        (d / "diag.json").write_text(json.dumps(DIAGNOSE_SAMPLE))
+        (d / "ride.json").write_text(json.dumps(RIDE_SAMPLE))
+
+    d = made_once("inputs", make)
+    return {"fit": d / "fit.json", "diagnose": d / "diag.json", "ride": d / "ride.json"}
 
 
 @pytest.fixture(scope="session")
-def full_report(
-    recording: Path, inputs: dict[str, Path], tmp_path_factory: pytest.TempPathFactory
-) -> Path:
-    out = tmp_path_factory.mktemp("full") / "report"
-    # The results are written by hand, not made from this recording: said, and allowed.
-    args = ["report", str(recording), "-o", str(out), "--allow-other-recording"]
-    for flag, path in inputs.items():
-        args += [f"--{flag}", str(path)]
-    assert main(args) == 0
-    return out / "index.html"
+def full_report(recording: Path, inputs: dict[str, Path], made_once: Made) -> Path:
+    def make(d: Path) -> None:
+        # The results are written by hand, not made from this recording: said, and allowed.
+        args = ["report", str(recording), "-o", str(d / "report"), "--allow-other-recording"]
+        for flag, path in inputs.items():
+            args += [f"--{flag}", str(path)]
+        assert main(args) == 0
+
+    return made_once("full", make) / "report" / "index.html"
 
 
 @pytest.fixture(scope="session")
-def imperial_report(
-    recording: Path, inputs: dict[str, Path], tmp_path_factory: pytest.TempPathFactory
-) -> Path:
+def imperial_report(recording: Path, inputs: dict[str, Path], made_once: Made) -> Path:
     """The page of `recording` with the fit and the ride study in in/s, lbf, in, °F."""
-    out = tmp_path_factory.mktemp("imperial") / "report"
-    args = ["report", str(recording), "-o", str(out), "--units", "imperial"]
-    args += ["--allow-other-recording", "--fit", str(inputs["fit"]), "--ride", str(inputs["ride"])]
-    assert main(args) == 0
-    return out / "index.html"
+
+    def make(d: Path) -> None:
+        args = ["report", str(recording), "-o", str(d / "report"), "--units", "imperial"]
+        args += ["--allow-other-recording", "--fit", str(inputs["fit"]),
+                 "--ride", str(inputs["ride"])]  # fmt: skip
+        assert main(args) == 0
+
+    return made_once("imperial", make) / "report" / "index.html"

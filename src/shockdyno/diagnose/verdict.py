@@ -15,6 +15,7 @@ from shockdyno.diagnose.diagnosis import CalibrationRow, Diagnosis, Trial
 from shockdyno.diagnose.locate import Location
 from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.unexplained import described_doc, described_text
+from shockdyno.fit.parameters import SPEC_GLOBALS
 from shockdyno.fit.result_doc import EstimateDoc
 from shockdyno.model.reading import Reading
 from shockdyno.model.terms import LIBRARY
@@ -129,11 +130,19 @@ def calibration_text(d: Diagnosis) -> str:
     )
     for r in taken:
         now = f"{r.fitted / r.spec_value:.2g}× the spec's" if r.spec_value else f"{r.fitted:.3g}"
+        # A term's factor on a spec value (the gas volume) is held whenever any fit of the
+        # search asks beyond, a candidate's included: no claim need have taken its place.
+        came = (
+            "freed for the final refit, it came back within"
+            if r.parameter not in SPEC_GLOBALS
+            else f"the claimed {claims} took its place"
+            if claims
+            else "it came back"
+        )
         text.append(
             f"Held within its tolerance while the search ran: a fit found {_asked(r)}, "
             f"beyond the {_tolerance(r)} a damper departs from its drawing by; "
-            + (f"the claimed {claims} took its place" if claims else "it came back")
-            + f" (now {now})."
+            f"{came} (now {now})."
         )
     for r in beyond:
         # A claim beside a value that still ends beyond took part of its place, not all.

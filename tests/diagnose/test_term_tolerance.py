@@ -115,8 +115,11 @@ def test_a_candidate_that_walks_the_gas_volume_is_tried_again_held(
     search.drawing = spec
     fake = Candidate("position_force", far, 1.0, 0.001, 1.0, 1.0, np.zeros(0))
     noise = noise_draws(search.binned, np.random.default_rng(1), s.n_boot)
-    (got,) = search._held_tried(1, ["position_force"], noise, [fake])
+    other = Candidate("thermal", base, 1.0, 0.001, 1.0, 1.0, np.zeros(0))
+    got, kept = search._held_tried(1, ["position_force", "thermal"], noise, [fake, other])
     assert got is not fake and got.name == "position_force"
+    # One that stayed within is not refitted, and carries the hold on (it may be claimed).
+    assert kept.fitted.model is base.model and kept.fitted.limits[FACTOR] == (0.5, 2.0)
     assert got.fitted.model.value(FACTOR) <= 2.0 + 1e-9
     assert search.base.limits[FACTOR] == (0.5, 2.0)
     assert search.asked[FACTOR].value == pytest.approx(4.0, rel=0.1)

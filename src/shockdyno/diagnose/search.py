@@ -296,7 +296,13 @@ class Search:
         self.base = replace(self.base, limits={**self.base.limits, **limits_of(walked)})
         again = [c.name for c in cands if set(beyond(self.tests, self.drawing, c.fitted, walked))]
         tried = dict(zip(again, self._tried(rnd, again, noise), strict=True))
-        return [tried.get(c.name, c) for c in cands]
+        # The others were fitted before the hold: theirs from now on, as the base's (the
+        # one claimed is the next round's base).
+        out = []
+        for c in cands:
+            limits = {**self.base.limits, **c.fitted.limits}
+            out.append(tried.get(c.name) or replace(c, fitted=replace(c.fitted, limits=limits)))
+        return out
 
     def _refused(self, top: Sequence[Candidate]) -> dict[str, str]:
         """What the sensor's consistency checks (consistency.py) find against it."""

@@ -118,7 +118,14 @@ def calibration_text(d: Diagnosis) -> str:
     beyond = [r for r in d.calibration if r.beyond]
     # Asked beyond its tolerance, held within it while the search ran, and a claimed
     # term took its place (the final refit, which frees it, left it within).
-    taken = [r for r in d.calibration if math.isfinite(r.asked) and not r.beyond]
+    # A term's factor on a spec value (the gas volume) is held whenever any fit of the
+    # search asks beyond, a candidate's included (a position force's, traded with the gas
+    # spring): back within, it is the spec's error as any other (DIAG.json keeps the ask).
+    taken = [
+        r
+        for r in d.calibration
+        if math.isfinite(r.asked) and not r.beyond and r.parameter in SPEC_GLOBALS
+    ]
     text = []
     if moved:
         text.append(
@@ -130,19 +137,11 @@ def calibration_text(d: Diagnosis) -> str:
     )
     for r in taken:
         now = f"{r.fitted / r.spec_value:.2g}× the spec's" if r.spec_value else f"{r.fitted:.3g}"
-        # A term's factor on a spec value (the gas volume) is held whenever any fit of the
-        # search asks beyond, a candidate's included: no claim need have taken its place.
-        came = (
-            "freed for the final refit, it came back within"
-            if r.parameter not in SPEC_GLOBALS
-            else f"the claimed {claims} took its place"
-            if claims
-            else "it came back"
-        )
         text.append(
             f"Held within its tolerance while the search ran: a fit found {_asked(r)}, "
             f"beyond the {_tolerance(r)} a damper departs from its drawing by; "
-            f"{came} (now {now})."
+            + (f"the claimed {claims} took its place" if claims else "it came back")
+            + f" (now {now})."
         )
     for r in beyond:
         # A claim beside a value that still ends beyond took part of its place, not all.

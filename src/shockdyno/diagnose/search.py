@@ -281,20 +281,30 @@ class Search:
         position over a ±30 mm stroke: beside aerated oil on the held-out plant a position
         force's refit walked it to the end of its range (5x, the gas spring softened
         fivefold) and gave the spring back as a nearly linear force, claimed as physics."""
-        if self.drawing is None:
-            return cands
         factors = calibrating(self.start)
+        if self.drawing is None or not factors:
+            return cands
+        drawing = self.drawing
+        # Only the term factors: a global a candidate moves is judged once it is claimed
+        # (Search.held), as before.
+        asks = {
+            c.name: {
+                k: a
+                for k, a in beyond(self.tests, drawing, c.fitted, factors).items()
+                if k in factors and k not in self.base.limits
+            }
+            for c in cands
+        }
         walked: dict[str, Asked] = {}
-        for c in cands:
-            for k, a in beyond(self.tests, self.drawing, c.fitted, factors).items():
-                if k not in self.base.limits:
-                    walked.setdefault(k, a)
+        for ask in asks.values():
+            for k, a in ask.items():
+                walked.setdefault(k, a)
         if not walked:
             return cands
         for k, a in walked.items():
             self.asked.setdefault(k, a)
         self.base = replace(self.base, limits={**self.base.limits, **limits_of(walked)})
-        again = [c.name for c in cands if set(beyond(self.tests, self.drawing, c.fitted, walked))]
+        again = [name for name, ask in asks.items() if ask]
         tried = dict(zip(again, self._tried(rnd, again, noise), strict=True))
         # The others were fitted before the hold: theirs from now on, as the base's (the
         # one claimed is the next round's base).

@@ -14,7 +14,7 @@ from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.diagnosis import CalibrationRow, Trial
 from shockdyno.diagnose.fitting import Fitted, refit
 from shockdyno.diagnose.settings import Settings
-from shockdyno.diagnose.tolerance import Asked, reference
+from shockdyno.diagnose.tolerance import Asked, pinned, reference
 from shockdyno.fit.parameters import spec_global
 from shockdyno.fit.result import FitResult
 from shockdyno.model.composite import DamperModel, Term
@@ -128,9 +128,11 @@ def calibration_rows(
 ) -> list[CalibrationRow]:
     """The spec's values against what the recording calibrated them to; each spec value
     a term's factor calibrated (`terms`, spec_calibrated: not when a claimed term's
-    physics moved it). `asked`: the values a fit of the search asked beyond their
-    tolerance (tolerance.py); `data`: the recording, whose written gas charge the
-    charge's tolerance is about."""
+    physics moved it), with a spec's error (SpecCalibration.within) as its tolerance:
+    a factor the search's refits walked beyond it is a finding, not a calibration.
+    `asked`: the values a fit of the search asked beyond their tolerance (tolerance.py;
+    a term's factor by its qualified name); `data`: the recording, whose written gas
+    charge the charge's tolerance is about."""
     got = fitted.model.spec
     asked = asked or {}
     rows = [
@@ -151,10 +153,17 @@ def calibration_rows(
     for term in terms:
         cal = term.calibrates
         assert cal is not None
+        q = term.qualified(cal.param)
         v0 = spec.value(cal.spec_key)
-        sd = fitted.term_sd.get(term.qualified(cal.param), math.nan)
+        # At an end of its range the factor is no estimate and a bound's σ no error bar:
+        # the row is then judged by its value alone (beyond a spec's error: a finding).
+        sd = math.nan if pinned(fitted, term) else fitted.term_sd.get(q, math.nan)
         got_v = v0 * _factor(fitted, term)
-        rows.append(CalibrationRow(cal.spec_key, v0, got_v, v0 * sd, cal.unit, share))
+        was = v0 * asked[q].value if q in asked else math.nan
+        row = CalibrationRow(
+            cal.spec_key, v0, got_v, v0 * sd, cal.unit, share, tolerance=cal.within, asked=was
+        )
+        rows.append(row)
     return rows
 
 

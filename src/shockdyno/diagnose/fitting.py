@@ -102,7 +102,8 @@ class Fitted:
     # Spec values held within a range (SI, by name) narrower than their declared one, in
     # this fit and in every refit started from it: a calibration that moved beyond a
     # damper's tolerance (diagnose/tolerance.py) cannot take that move up again while the
-    # candidates are scored.
+    # candidates are scored. A term's factor on a spec value (Term.calibrates: the gas
+    # volume) is held by its qualified name, as a factor.
     limits: Mapping[str, tuple[float, float]] = field(default_factory=dict)
 
     def area_vectors(self, data: Data) -> tuple[FloatArray, FloatArray]:
@@ -225,7 +226,9 @@ def refit(
     there and updates it (calibrate's jac0) rather than differencing the model at every
     step (where the start has no rows for these tests, as on a test's halves, it
     differences as usual). `limits`: ranges (SI)
-    some spec values are held within (Fitted.limits; by default the start's).
+    some spec values are held within (Fitted.limits; by default the start's), by a
+    spec value's name or, for a term's factor on a spec value (Term.calibrates), by the
+    factor's qualified name, in the factor's own unit.
     """
     names = tuple(calibrated) if calibrated is not None else (start.globals if start else GLOBALS)
     prob = data.prob.with_base(model.spec).for_model(model, free)
@@ -247,8 +250,19 @@ def refit(
     jac0 = None
     if warm and start is not None and tuple(free) == start.free and names == start.globals:
         jac0 = _warm_jacobian(data, start)
+    terms_held = {q: held[q] for q in free if q in held}
     cal = calibrate(
-        prob, model, params, free, bc0, bt0, a_max, max_nfev=max_nfev, robust=False, jac0=jac0
+        prob,
+        model,
+        params,
+        free,
+        bc0,
+        bt0,
+        a_max,
+        max_nfev=max_nfev,
+        robust=False,
+        jac0=jac0,
+        term_limits=terms_held,
     )
     fitted_model = cal.model(prob, model)
     prob = prob.for_model(fitted_model)

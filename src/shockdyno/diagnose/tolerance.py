@@ -18,12 +18,22 @@ model keeps the value the recording asks, reported as a finding, not a calibrati
 value within its tolerance is not bounded at all: trf scales its steps by the distance to
 the bounds, and a bound that never binds still changes a short refit's path, and with it
 the claims' held-out gains.
+
+A term's factor on a spec value that the baseline calibrated (Term.calibrates: the gas
+spring's volume, within a spec's error of 0.5-2x) is such a value too, held by its
+qualified name as a factor within `within`: once the baseline has calibrated it, the
+search's refits were free to walk it to the end of its range (aerated oil on the held-out
+plant: a position force's refit took the gas volume to 5x, the gas spring softened
+fivefold, and the position force gave the spring back and was claimed), and the verdict
+called it calibrated. A candidate's fit that asks for it beyond is tried again held
+(Search._held_tried). A factor at an end of its declared range is asked too, whatever its
+σ: a bound's σ is no error bar.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,6 +41,7 @@ import numpy as np
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.fitting import Fitted, refit
 from shockdyno.fit.parameters import spec_global
+from shockdyno.model.composite import Term
 from shockdyno.model.spec import DamperSpec
 
 GAS_CHARGE = "gas_pressure_pa"
@@ -63,10 +74,49 @@ def limits_of(asked: Mapping[str, Asked]) -> dict[str, tuple[float, float]]:
     return {k: a.limit for k, a in asked.items()}
 
 
-def beyond(data: Data, spec: DamperSpec, fitted: Fitted) -> dict[str, Asked]:
+def calibrating(fitted: Fitted) -> tuple[str, ...]:
+    """The qualified factors (Term.calibrates) `fitted` calibrates: free in it, each the
+    spec's error on a spec value while it stays within a spec's error."""
+    return tuple(
+        q
+        for t in fitted.model.terms
+        if t.calibrates is not None
+        for q in (t.qualified(t.calibrates.param),)
+        if q in fitted.free
+    )
+
+
+def pinned(fitted: Fitted, term: Term) -> bool:
+    """Whether `term`'s calibrated factor sits at an end of its declared range (within a
+    thousandth of its scale, as claims.at_range_end): not an estimate."""
+    assert term.calibrates is not None
+    p = next(p for p in term.params() if p.name == term.calibrates.param)
+    value = fitted.model.value(term.qualified(p.name))
+    return min(abs(value - p.lo), abs(value - p.hi)) <= 1e-3 * p.scale
+
+
+def beyond(
+    data: Data, spec: DamperSpec, fitted: Fitted, factors: Collection[str] = ()
+) -> dict[str, Asked]:
     """The calibrated spec values `fitted` moved beyond their tolerance by more than 3σ
-    (a value already held is not asked again)."""
+    (a value already held is not asked again); and the calibrated term factors among
+    `factors` (qualified names, Term.calibrates) it moved beyond a spec's error by more
+    than 3σ or left at an end of their range (reference 1: a factor on the spec's)."""
     out: dict[str, Asked] = {}
+    for term in fitted.model.terms:
+        cal = term.calibrates
+        if cal is None:
+            continue
+        q = term.qualified(cal.param)
+        if q not in factors or q not in fitted.free or q in fitted.limits:
+            continue
+        lo, hi = cal.within
+        value = fitted.model.value(q)
+        sd = fitted.term_sd.get(q, math.nan)
+        edge = lo if value < lo else hi if value > hi else value
+        off = abs(value - edge)
+        if off > 0 and (off > 3 * (sd if math.isfinite(sd) else 0.0) or pinned(fitted, term)):
+            out[q] = Asked(value, sd, 1.0, (lo, hi))
     for key in fitted.globals:
         tol = spec_global(key).tolerance
         ref = reference(data, spec, key)
@@ -88,11 +138,13 @@ def hold(
     fitted: Fitted,
     asked: dict[str, Asked],
     max_nfev: int,
+    factors: Collection[str] = (),
 ) -> Fitted:
-    """`fitted`, or, where it moved a spec value beyond its tolerance, refitted with that
-    value held within it (and with every value held before). Adds what was asked to
-    `asked` (the first ask of each value is kept: the one the verdict reports)."""
-    new = beyond(data, spec, fitted)
+    """`fitted`, or, where it moved a spec value (or one of the calibrated term `factors`,
+    `beyond`) beyond its tolerance, refitted with that value held within it (and with
+    every value held before). Adds what was asked to `asked` (the first ask of each value
+    is kept: the one the verdict reports)."""
+    new = beyond(data, spec, fitted, factors)
     if not new:
         return fitted
     for k, a in new.items():
@@ -116,9 +168,13 @@ def unhold(
     beside a Coulomb friction held at its edge), trf from the held end can stop short of
     the value the recording asks. Neither other start is always the better one
     (benchmarks/results/calib-freed-2026-11-29.txt)."""
-    back = {k: a.value for k, a in asked.items()}
-    starts = [fitted.model, fitted.model.with_spec(fitted.model.spec.with_values(back))]
+    # A term's factor is put back among the term's values, a spec value in the spec.
+    factor = {k: a.value for k, a in asked.items() if k in fitted.free}
+    back = {k: a.value for k, a in asked.items() if k not in fitted.free}
+    model = fitted.model
+    starts = [model, model.with_spec(model.spec.with_values(back)).with_values(factor)]
     if taken:
-        starts.append(fitted.model.with_spec(fitted.model.spec.with_values({**back, **taken})))
+        both = model.spec.with_values({**back, **taken})
+        starts.append(model.with_spec(both).with_values(factor))
     fits = [refit(data, m, fitted.free, fitted, max_nfev=max_nfev) for m in starts]
     return min(fits, key=lambda f: float(np.sum(f.residual**2)))

@@ -15,6 +15,7 @@ from shockdyno.diagnose.diagnosis import CalibrationRow, Diagnosis, Trial
 from shockdyno.diagnose.locate import Location
 from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.unexplained import described_doc, described_text
+from shockdyno.fit.parameters import SPEC_GLOBALS
 from shockdyno.fit.result_doc import EstimateDoc
 from shockdyno.model.reading import Reading
 from shockdyno.model.terms import LIBRARY
@@ -117,7 +118,14 @@ def calibration_text(d: Diagnosis) -> str:
     beyond = [r for r in d.calibration if r.beyond]
     # Asked beyond its tolerance, held within it while the search ran, and a claimed
     # term took its place (the final refit, which frees it, left it within).
-    taken = [r for r in d.calibration if math.isfinite(r.asked) and not r.beyond]
+    # A term's factor on a spec value (the gas volume) is held whenever any fit of the
+    # search asks beyond, a candidate's included (a position force's, traded with the gas
+    # spring): back within, it is the spec's error as any other (DIAG.json keeps the ask).
+    taken = [
+        r
+        for r in d.calibration
+        if math.isfinite(r.asked) and not r.beyond and r.parameter in SPEC_GLOBALS
+    ]
     text = []
     if moved:
         text.append(

@@ -11,7 +11,7 @@ samples. Its covariance, inflated for correlated residuals, gives each uncertain
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -93,9 +93,14 @@ def calibrate(
     max_nfev: int = 60,
     robust: bool = True,
     jac0: FloatArray | None = None,
+    term_limits: Mapping[str, tuple[float, float]] | None = None,
 ) -> Calibration:
     """Least squares (then soft-L1) over globals, free term parameters and all areas.
 
+    `term_limits`: ranges (in each parameter's own unit) some free term parameters are
+    held within, narrower than their declared ones (the two intersected; the limit alone
+    where they do not meet): a term's factor on a spec value moved beyond a spec's error
+    (diagnose/tolerance.py).
     `jac0`: the Jacobian at the start, known already (a refit on part of the tests from a
     fit on all of them has its rows), per unit of each parameter (not of its scale): the
     solve starts with it and updates it by Broyden's rank-one rule at each point it
@@ -103,11 +108,12 @@ def calibrate(
     its final σ are the updated Jacobian's). Without the robust loss only."""
     assert jac0 is None or not robust
     declared: dict[str, Param] = dict(base.param_list())
+    held = term_limits or {}
     ps = calibration_set(
         [replace(g, value=prob.base.value(g.name)) for g in params],  # from the problem's spec
         {
-            q: (base.value(q), declared[q].scale, declared[q].lo / declared[q].scale,
-                declared[q].hi / declared[q].scale)
+            q: (base.value(q), declared[q].scale,
+                *_range(declared[q], held.get(q)))
             for q in free
         },
         a_bc0,
@@ -122,6 +128,17 @@ def calibrate(
     jac = res.jacobian if jac0 is None else _Broyden(res.residual, jac0 * scales).jacobian
     p, r_all, jac_end, nfev = _solve(res, jac, p0, (lb, ub), max_nfev, robust, jac0 is None)
     return _calibration(prob, ps, p, r_all, jac_end, nfev, scales)
+
+
+def _range(p: Param, limit: tuple[float, float] | None) -> tuple[float, float]:
+    """A term parameter's range in units of its scale: the declared one, narrowed to
+    `limit` (its own unit); the limit alone where the two do not meet."""
+    lo, hi = p.lo, p.hi
+    if limit is not None:
+        lo, hi = max(lo, limit[0]), min(hi, limit[1])
+        if lo >= hi:
+            lo, hi = limit
+    return lo / p.scale, hi / p.scale
 
 
 class _Residuals:

@@ -290,8 +290,8 @@ class Search:
         asks = {
             c.name: {
                 k: a
-                for k, a in beyond(self.tests, drawing, c.fitted, factors).items()
-                if k in factors and k not in self.base.limits
+                for k, a in beyond(self.tests, drawing, c.fitted, factors, False).items()
+                if k not in self.base.limits
             }
             for c in cands
         }

@@ -95,13 +95,26 @@ def pinned(fitted: Fitted, term: Term) -> bool:
     return min(abs(value - p.lo), abs(value - p.hi)) <= 1e-3 * p.scale
 
 
+def _outside(value: float, lo: float, hi: float, sd: float, pinned: bool = False) -> bool:
+    """Whether `value` lies outside [lo, hi] by more than 3σ (any amount when `pinned`:
+    a bound's σ is no error bar)."""
+    edge = lo if value < lo else hi if value > hi else value
+    off = abs(value - edge)
+    return off > 0 and (off > 3 * (sd if math.isfinite(sd) else 0.0) or pinned)
+
+
 def beyond(
-    data: Data, spec: DamperSpec, fitted: Fitted, factors: Collection[str] = ()
+    data: Data,
+    spec: DamperSpec,
+    fitted: Fitted,
+    factors: Collection[str] = (),
+    spec_values: bool = True,
 ) -> dict[str, Asked]:
     """The calibrated spec values `fitted` moved beyond their tolerance by more than 3σ
-    (a value already held is not asked again); and the calibrated term factors among
-    `factors` (qualified names, Term.calibrates) it moved beyond a spec's error by more
-    than 3σ or left at an end of their range (reference 1: a factor on the spec's)."""
+    (a value already held is not asked again; none when not `spec_values`); and the
+    calibrated term factors among `factors` (qualified names, Term.calibrates) it moved
+    beyond a spec's error by more than 3σ or left at an end of their range (reference 1:
+    a factor on the spec's)."""
     out: dict[str, Asked] = {}
     for term in fitted.model.terms:
         cal = term.calibrates
@@ -110,24 +123,17 @@ def beyond(
         q = term.qualified(cal.param)
         if q not in factors or q not in fitted.free or q in fitted.limits:
             continue
-        lo, hi = cal.within
-        value = fitted.model.value(q)
-        sd = fitted.term_sd.get(q, math.nan)
-        edge = lo if value < lo else hi if value > hi else value
-        off = abs(value - edge)
-        if off > 0 and (off > 3 * (sd if math.isfinite(sd) else 0.0) or pinned(fitted, term)):
-            out[q] = Asked(value, sd, 1.0, (lo, hi))
-    for key in fitted.globals:
+        value, sd = fitted.model.value(q), fitted.term_sd.get(q, math.nan)
+        if _outside(value, *cal.within, sd, pinned(fitted, term)):
+            out[q] = Asked(value, sd, 1.0, cal.within)
+    for key in fitted.globals if spec_values else ():
         tol = spec_global(key).tolerance
         ref = reference(data, spec, key)
         if tol is None or ref <= 0 or key in fitted.limits:
             continue
         lo, hi = tol[0] * ref, tol[1] * ref
-        value = fitted.model.spec.value(key)
-        sd = fitted.globals_sd.get(key, math.nan)
-        edge = lo if value < lo else hi if value > hi else value
-        off = abs(value - edge)
-        if off > 0 and off > 3 * (sd if math.isfinite(sd) else 0.0):
+        value, sd = fitted.model.spec.value(key), fitted.globals_sd.get(key, math.nan)
+        if _outside(value, lo, hi, sd):
             out[key] = Asked(value, sd, ref, (lo, hi))
     return out
 

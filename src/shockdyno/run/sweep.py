@@ -224,8 +224,7 @@ def _run_test(
     """One test recorded from its start to its end: the metadata it ends with, and how
     the session ran it. Ctrl-C or a fault mid-test: the test recorded as aborted, and the
     exception goes on."""
-    writer.begin_test(meta)
-    view.start_test(meta)
+    begun = False
 
     def on_block(block: SampleBlock) -> None:
         writer.write_samples(block)
@@ -237,6 +236,13 @@ def _run_test(
     # A sine is asked for as it always was (a Session without waveforms runs it).
     shape = {} if stroke is None else {"waveform": stroke}
     try:
+        # A signal that lands while the test is being opened (the writer holds it until its
+        # record is whole, then raises) is raised here, inside the try, once the test is begun:
+        # otherwise the test would be left for the writer's close to mark without the reason.
+        with signals.hold():
+            writer.begin_test(meta)
+            view.start_test(meta)
+            begun = True
         outcome = session.run_sine(
             plan.amplitude_m,
             meta.frequency_hz,
@@ -247,6 +253,8 @@ def _run_test(
             **shape,
         )
     except BaseException as exc:  # Ctrl-C or a rig fault mid-test: keep what was recorded
+        if not begun:  # the writer or the view refused the test: nothing of it to end
+            raise
         final = replace(meta, status="aborted", abort_reason=_why(exc))
         writer.write_event(last_t[0], "abort", f"test {meta.index} stopped: {_why(exc)}")
         writer.end_test(final)

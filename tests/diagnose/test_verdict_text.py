@@ -248,3 +248,37 @@ def test_a_calibration_beyond_the_spec_s_tolerance_is_a_finding() -> None:
     assert "Coulomb friction is 2.7× too small" in finding and "0.5-2×" in finding
     text = calibration_text(SimpleNamespace(calibration=[gone]))  # type: ignore[arg-type]
     assert "shows none of the spec's 35 N of Coulomb friction" in text and "e+" not in text
+
+
+def test_a_calibration_at_the_end_of_its_range_is_a_finding() -> None:
+    """Issue 44.3: a value the fit left at an end of the range the calibration may move it in
+    (the seal's smoothing speed at 0.01x the spec's, a held-out pair's) is no estimate: the
+    recording asked for more. Not "calibrated", whether or not it has a tolerance; a value
+    fitted at a physical 0 (a sharp orifice) and one within its range stay calibrations."""
+    from types import SimpleNamespace
+
+    from shockdyno.diagnose.verdict import calibration_text
+    from shockdyno.fit.parameters import spec_global
+
+    def row(key: str, spec: float, fitted: float) -> CalibrationRow:
+        g = spec_global(key)
+        return CalibrationRow(
+            key, spec, fitted, 1e-3 * (spec or g.fallback), g.unit, 0.1, g.fallback,
+            g.tolerance, bounds=g.bounds(spec),
+        )  # fmt: skip
+
+    end = row("friction_velocity_m_s", 1e-3, 1.01e-5)  # 0.0101x: within 1e-3 of the scale
+    inside = row("friction_velocity_m_s", 1e-3, 1.0e-4)  # 0.1x
+    land = row("bleed_land_m", 0.0, 0.2)  # 40x the 5 mm fallback: the top of its range
+    sharp = row("bleed_land_m", 0.01, 0.0)  # at 0: a sharp orifice, a physical end
+    assert end.at_range_end and end.finding and not end.beyond
+    assert land.at_range_end and not inside.at_range_end and not sharp.at_range_end
+    text = calibration_text(SimpleNamespace(calibration=[inside, end]))  # type: ignore[arg-type]
+    calibrated, finding = text.split("A finding, not a calibration:")
+    assert "10× too large" in calibrated  # inside its range: the spec's error
+    assert "99× too large" in finding and "(0.01-5× the spec's)" in finding
+    assert "±" not in finding  # a bound's σ is no error bar
+    text = calibration_text(SimpleNamespace(calibration=[land, sharp]))  # type: ignore[arg-type]
+    calibrated, finding = text.split("A finding, not a calibration:")
+    assert "200 mm" in finding and "(0-0.2 m)" in finding
+    assert "sharp" in calibrated or "none" in calibrated or "0" in calibrated

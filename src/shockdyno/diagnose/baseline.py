@@ -147,6 +147,7 @@ def calibration_rows(
             spec_global(key).tolerance,
             asked[key].value if key in asked else math.nan,
             reference(data, spec, key) if data is not None else math.nan,
+            spec_global(key).bounds(spec.value(key)),
         )
         for key in fitted.globals
     ]

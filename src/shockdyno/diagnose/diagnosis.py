@@ -60,6 +60,23 @@ class CalibrationRow:
     # held within it while the search ran (tolerance.py; NaN: none did).
     asked: float = math.nan
     reference: float = math.nan  # what the tolerance is about, if not the spec's value
+    bounds: tuple[float, float] | None = None  # the range the calibration may move it in
+
+    @property
+    def at_range_end(self) -> bool:
+        """Moved to an end of the range the calibration may move it in (within a thousandth of
+        its scale, as tolerance.pinned), other than a physical 0 (a sharp orifice, no drag):
+        the recording asks for more than a spec's value may give, so the value is no
+        estimate, and its σ (a bound's) no error bar: a finding, not a calibration."""
+        if self.bounds is None or not self.moved:
+            return False
+        size = abs(self.spec_value) or self.scale
+        return any(end != 0 and abs(self.fitted - end) <= 1e-3 * size for end in self.bounds)
+
+    @property
+    def finding(self) -> bool:
+        """Not a spec's error: beyond its tolerance, or at an end of its range."""
+        return self.beyond or self.at_range_end
 
     @property
     def beyond(self) -> bool:

@@ -85,24 +85,30 @@ _CALIBRATION_WORDS = {
 }
 
 
+def _two(x: float) -> str:
+    """Two significant digits, without an exponent where a length needs none (200, not
+    2e+02)."""
+    return f"{float(f'{x:.2g}'):g}"
+
+
 def describe_calibration(r: CalibrationRow) -> str:
     """ "the spec's gas volume is 1.4× too small": the spec against the recording."""
     what = _CALIBRATION_WORDS.get(r.parameter, r.parameter)
     if r.spec_value == 0:
         if r.parameter == "friction_presliding_m":
             return (
-                f"the seal deflects {1e6 * r.fitted:.2g} µm before it slides: its friction "
+                f"the seal deflects {_two(1e6 * r.fitted)} µm before it slides: its friction "
                 "turns over the travel after each reversal"
             )
         if r.parameter == "bleed_land_m":
             return (
                 f"the bleed is not a sharp orifice: it flows as one with a laminar land of "
-                f"{1e3 * r.fitted:.2g} mm, its force more linear at low speed"
+                f"{_two(1e3 * r.fitted)} mm, its force more linear at low speed"
             )
         if r.parameter == "valve_land_m":
             return (
                 f"the shim stacks do not open as sharp edges: their oil crosses a seat land "
-                f"of {1e3 * r.fitted:.2g} mm, laminar where they crack open"
+                f"of {_two(1e3 * r.fitted)} mm, laminar where they crack open"
             )
         return f"the spec's {what} is 0, the recording's {r.fitted:.3g} {r.unit}"
     ratio = r.fitted / r.spec_value
@@ -114,8 +120,9 @@ def describe_calibration(r: CalibrationRow) -> str:
 
 
 def calibration_text(d: Diagnosis) -> str:
-    moved = [r for r in d.calibration if r.moved and not r.beyond]
+    moved = [r for r in d.calibration if r.moved and not r.finding]
     beyond = [r for r in d.calibration if r.beyond]
+    ends = [r for r in d.calibration if r.at_range_end and not r.beyond]
     # Asked beyond its tolerance, held within it while the search ran, and a claimed
     # term took its place (the final refit, which frees it, left it within).
     # A term's factor on a spec value (the gas volume) is held whenever any fit of the
@@ -124,7 +131,7 @@ def calibration_text(d: Diagnosis) -> str:
     taken = [
         r
         for r in d.calibration
-        if math.isfinite(r.asked) and not r.beyond and r.parameter in SPEC_GLOBALS
+        if math.isfinite(r.asked) and not r.finding and r.parameter in SPEC_GLOBALS
     ]
     text = []
     if moved:
@@ -156,7 +163,23 @@ def calibration_text(d: Diagnosis) -> str:
             f"{_tolerance(r)} a damper departs from its drawing by{held}; physics the library "
             "did not name takes that place, or the spec is not this damper's."
         )
+    for r in ends:
+        text.append(
+            # a bound's σ is no error bar: the value alone
+            f"A finding, not a calibration: {describe_calibration(replace(r, sd=math.nan))}, "
+            f"at an end of the range the calibration may move it in ({_range(r)}); the "
+            "recording asks for more, so it is no estimate: physics the library did not name "
+            "takes that place, or the spec is not this damper's."
+        )
     return " ".join(text)
+
+
+def _range(r: CalibrationRow) -> str:
+    assert r.bounds is not None
+    lo, hi = r.bounds
+    if r.spec_value > 0:
+        return f"{lo / r.spec_value:.2g}-{hi / r.spec_value:.2g}× the spec's"
+    return f"{lo:.3g}-{hi:.3g} {r.unit}"
 
 
 def _tolerance(r: CalibrationRow) -> str:
@@ -318,6 +341,8 @@ def _verdict(d: Diagnosis) -> docs.Verdict:
                 moved=r.moved,
                 # beyond the spec's tolerance: a finding, not a calibration
                 beyond_tolerance=r.beyond,
+                # fitted at an end of the calibration's range: no estimate, a finding
+                at_range_end=r.at_range_end,
                 asked=r.asked if math.isfinite(r.asked) else None,
             )
             for r in d.calibration

@@ -183,6 +183,7 @@ class Calibration:
     unit: str
     moved: bool
     beyond_tolerance: bool = False  # further than a damper departs from its drawing
+    at_range_end: bool = False  # at an end of the range the calibration may move it in
     # what a fit of the search asked for beyond that, before the value was held within it
     # (diagnose/tolerance.py); with `fitted` inside its range, a claimed term took the rest
     asked: float | None = field(default=None, metadata=_OMIT)

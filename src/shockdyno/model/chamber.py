@@ -344,7 +344,12 @@ class Step(NamedTuple):
     vlam: float = 0.0  # the stacks' seat land (0: sharp-edged openings)
 
 
-@njit(cache=True)
+# error_model="numpy" on every kernel of the loop (as in flow.py): numba's default tests each
+# division's divisor to raise ZeroDivisionError, and those tests took about 30 % of the
+# loop's time (benchmarks/bench_chamber.py: 0.70x, every output bit for bit the same). A
+# zero divisor now gives inf or NaN, as in NumPy, which the iterations' finiteness tests
+# and bisections already handle.
+@njit(cache=True, error_model="numpy")
 def _flow(
     d: float, a_b: float, valve: FloatArray, c: float, k_leak: float, lam: float, vlam: float
 ) -> tuple[float, float]:
@@ -379,7 +384,7 @@ def _flow(
     return q, slope
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _signed_flow(d: float, s: Step, k: Constants) -> tuple[float, float]:
     """q and dq/dd through the piston at drop d, the flow law taken at d / sc: a term
     that scales the algebraic solve's Δp by sc (the oil's temperature) scales the drop
@@ -398,7 +403,7 @@ def _signed_flow(d: float, s: Step, k: Constants) -> tuple[float, float]:
     return -q, slope / sc
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _occupied(p: float, vol: float, gas: float, k: Constants) -> tuple[float, float]:
     """Volume the chamber's oil, air and released gas take up at pressure p (up to a
     constant), and its derivative (negative: compliance). The air is a fixed amount, air0
@@ -415,7 +420,7 @@ def _occupied(p: float, vol: float, gas: float, k: Constants) -> tuple[float, fl
     return occ, docc
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _gas(
     occ_now: float, docc: float, vapour: float, s: Step, k: Constants
 ) -> tuple[float, float, float]:
@@ -437,7 +442,7 @@ def _gas(
     return pc, per_volume * docc, per_volume
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _vapour_at(p: float, vap_old: float, dt: float, k: Constants) -> tuple[float, float]:
     """(vapour at the step's end, its derivative in p) when the chamber ends the step at
     p, off its floor. Below it vapour forms at (p_v - p)/R_e (R_e > 0 there: with none the
@@ -454,7 +459,7 @@ def _vapour_at(p: float, vap_old: float, dt: float, k: Constants) -> tuple[float
     return g, -dt / r_cond
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _balance(p: float, s: Step, k: Constants) -> tuple[float, float, float, float, float]:
     """(F, dF/dp, p_c, vapour, dp_c/dp) of a step ending at chamber pressure p (off the floor):
     F = V_vap,old + dt (Q - q(p_c - p)) - occ(p) + occ(p_old) - V_vap(p), the volume the
@@ -484,7 +489,7 @@ class Reach(NamedTuple):
     width: float
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _bound(start: float, direction: float, width: float, s: Step, k: Constants) -> float:
     """From `start` in `direction` (+1 up, -1 down) by doubling steps until the balance
     has that sign: an upper bound (F > 0) or a lower one (F < 0)."""
@@ -498,7 +503,7 @@ def _bound(start: float, direction: float, width: float, s: Step, k: Constants) 
     return at
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _pinned(
     lo: float, lo_open: bool, hi: float, hi_open: bool, r: Reach, s: Step, k: Constants
 ) -> tuple[float, float]:
@@ -510,7 +515,7 @@ def _pinned(
     return lo, hi
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _floor_balance(vv: float, rest: float, s: Step, k: Constants) -> tuple[float, float, float]:
     """(G, dG/dV, p_c) of a step ending at the floor with vapour V:
     G(V) = V - rest - dt (Q - q(p_c(floor, V) - floor)), the volume left unaccounted for.
@@ -522,7 +527,7 @@ def _floor_balance(vv: float, rest: float, s: Step, k: Constants) -> tuple[float
     return vv - rest - s.dt * (s.q_demand - q), 1.0 + s.dt * dq * dpc_dv, pc
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _tolerance(s: Step) -> float:
     """Settled within 1e-12 of the step's flow, or within what the arithmetic resolves: the
     balance subtracts the chamber's contents (occ, of the order of the air's volume),
@@ -533,7 +538,7 @@ def _tolerance(s: Step) -> float:
     return tol
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _step(p_guess: float, s: Step, k: Constants) -> tuple[float, float, float]:
     """One implicit step: (chamber pressure p, vapour volume, p_c) at its end.
 
@@ -569,7 +574,7 @@ def _step(p_guess: float, s: Step, k: Constants) -> tuple[float, float, float]:
 OFF_FLOOR, AT_FLOOR_AS_BEFORE, AT_FLOOR = 0, 1, 2  # where a step ends (`_at_floor`)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _at_floor(s: Step, k: Constants) -> tuple[int, float, float, float, float]:
     """(where the step ends, the bracket on p off the floor, `rest` of `_floor_balance`,
     p_c). The vapour at the floor is any amount with instant rates (R_e = R_c = 0, a hard
@@ -598,7 +603,7 @@ def _at_floor(s: Step, k: Constants) -> tuple[int, float, float, float, float]:
     return OFF_FLOOR, lo, hi, rest, pc
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _floor_vapour(rest: float, tol: float, s: Step, k: Constants) -> tuple[float, float]:
     """(vapour, p_c) at the floor with no upper limit on the vapour: G's root above v_min
     (`_at_floor`'s) by a safeguarded Newton iteration, from an upper bound found by
@@ -633,7 +638,7 @@ def _floor_vapour(rest: float, tol: float, s: Step, k: Constants) -> tuple[float
     return vv, pc
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _bracket(
     p_guess: float, lo: float, hi: float, s: Step, k: Constants
 ) -> tuple[float, float, bool, float, bool, Reach]:
@@ -666,7 +671,7 @@ def _bracket(
     return p, lo, lo_open, hi, hi_open, r
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _iterate(
     p: float,
     lo: float,
@@ -811,7 +816,7 @@ class State(NamedTuple):
     gas_prev: float  # the step before's (BDF2: its contents)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _smooth_around(d: float, reach: float, sc: float, valves: FloatArray) -> bool:
     """Whether the flow law is smooth within `reach` of the drop d: no change of
     direction, no valve cracking or reaching its full lift in between."""
@@ -825,7 +830,7 @@ def _smooth_around(d: float, reach: float, sc: float, valves: FloatArray) -> boo
     return bool(abs(e - crack) > r and abs(e - full) > r)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _guided(g: float, s: Step, k: Constants) -> tuple[bool, float, float, float]:
     """One Newton step from the guide's pressure g: (whether it stands, p, vapour, p_c).
     It stands where it is small and the balance smooth about it (no kink within
@@ -843,7 +848,7 @@ def _guided(g: float, s: Step, k: Constants) -> tuple[bool, float, float, float]
     return False, math.nan, math.nan, math.nan
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _substep(
     smp: Samples,
     i: int,
@@ -898,7 +903,7 @@ def _substep(
     return State(p_new, vv_new, pci - p_new, p, vv, off, gas, st.gas), pci
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _released(gas: float, p: float, vv: float, h: float, k: Constants) -> float:
     """The released gas (m³ at one atmosphere) after a step of length h from pressure p
     and vapour vv: while the chamber holds vapour, gas comes out into it at a fixed rate;
@@ -914,7 +919,7 @@ def _released(gas: float, p: float, vv: float, h: float, k: Constants) -> float:
     return gas
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _pass(
     smp: Samples,
     out: Out,
@@ -959,7 +964,7 @@ def _pass(
     return st
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _layout(
     lo: int, hi: int, dt: float, periodic: bool, use_carry: bool, guide_passes: int
 ) -> tuple[Segment, int]:
@@ -980,7 +985,7 @@ def _layout(
     return Segment(lo, hi, i0, m, dt, preroll, guided), passes
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _start(smp: Samples, i0: int, carry: FloatArray, use_carry: bool, k: Constants) -> State:
     """A segment's first state: the carried one, or sample i0's static state (no vapour)."""
     if use_carry:
@@ -991,7 +996,7 @@ def _start(smp: Samples, i0: int, carry: FloatArray, use_carry: bool, k: Constan
     return State(p, 0.0, smp.p_c[i0] - p, math.nan, math.nan, 0.0, 0.0, 0.0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _done(seg: Segment, it: int, passes: int, start: State, st: State) -> bool:
     """Whether a segment's pass `it` (from `start` to `st`) is its last: a periodic pass
     that ends where it began (not the preroll's part pass, nor a guided segment's)."""
@@ -1002,7 +1007,7 @@ def _done(seg: Segment, it: int, passes: int, start: State, st: State) -> bool:
     return close and abs(st.vv - start.vv) <= 1.0e-12 and gas
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _gas_ahead(before: float, start: State, st: State) -> State:
     """`st` with its released gas moved to the fixed point of the cycle map the last two
     passes show (Aitken's Δ²: `before`, `start`.gas and `st`.gas each a pass apart). The
@@ -1021,7 +1026,7 @@ def _gas_ahead(before: float, start: State, st: State) -> State:
     )  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _run(
     smp: Samples,
     starts: NDArray[np.int64],

@@ -26,7 +26,7 @@ def segment_bounds(starts: IntArray, n: int) -> list[tuple[int, int]]:
     return [(int(s), e) for s, e in zip(starts, ends, strict=True)]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def lag_coefficients(tau_s: float, dt_s: float) -> tuple[float, float, float]:
     """(b0, b1, e) of a first-order lag τ dy/dt = u - y, exact for u linear between samples.
 
@@ -83,7 +83,7 @@ def first_order_lag(
 STEADY, PERIODIC, FROM_REST, CARRY = 0, 1, 2, 3  # how a segment of `first_order_lag` starts
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _lag_segments(
     u: FloatArray,
     taus: FloatArray,
@@ -128,7 +128,7 @@ def _lag_segments(
     return seen
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _lag_run(
     b0: float, b1: float, e: float, u: FloatArray, lo: int, hi: int, z: float, y: FloatArray
 ) -> float:
@@ -154,7 +154,7 @@ def biquad(
     return y, zf
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _biquad(
     b0: float,
     b1: float,
@@ -210,7 +210,7 @@ def delayed(
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _delay(
     values: FloatArray,
     slope: FloatArray,

@@ -63,13 +63,13 @@ def seal_force(
     return coulomb_n / presliding_m * z, state
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _load(z: float, target: float, path: float, width: float) -> float:
     """The deflection after `path` of travel toward `target`, the steady width held."""
     return target + (z - target) * math.exp(-path / width)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _deflection(
     v: FloatArray,
     starts: NDArray[np.int64],

@@ -15,6 +15,7 @@ from shockdyno.diagnose.candidates import Candidate, Fold, HeldOut
 from shockdyno.diagnose.cycles import BinnedTest
 from shockdyno.diagnose.fitting import CALIBRATIONS, Fitted
 from shockdyno.diagnose.settings import Settings
+from shockdyno.diagnose.stats import AT_BOUND, at_bound
 from shockdyno.diagnose.workers import Workers
 from shockdyno.fit.parameters import spec_global
 from shockdyno.model.composite import Term
@@ -79,8 +80,7 @@ def at_range_end(fitted: Fitted, term: Term) -> str:
             continue
         value = fitted.model.value(key)
         for end, bound in (("lower", p.lo), ("upper", p.hi)):
-            # No error bar is known here: within a thousandth of its scale of the bound.
-            if bound != p.off and not _beyond_noise(value, bound, math.nan, p.scale):
+            if bound != p.off and at_bound(value, bound, p.scale):
                 return f"its {p.name} sits at the {end} end of its range ({bound:.4g} {p.unit})"
     return ""
 
@@ -89,7 +89,7 @@ def _beyond_noise(value: float, ref: float, sd: float, scale: float) -> bool:
     """Whether a fitted value sits off `ref` by more than 3σ and a thousandth of its scale
     (a value that is not finite has moved)."""
     noise = 3 * sd if math.isfinite(sd) else 0.0
-    return not math.isfinite(value) or abs(value - ref) > max(noise, 1e-3 * scale)
+    return not math.isfinite(value) or abs(value - ref) > max(noise, AT_BOUND * scale)
 
 
 def _calibration_idle(c: Candidate, min_effect_n: float) -> str:

@@ -15,7 +15,7 @@ from shockdyno.diagnose.discover import Described
 from shockdyno.diagnose.fitting import Fitted
 from shockdyno.diagnose.locate import Location
 from shockdyno.diagnose.settings import Settings
-from shockdyno.diagnose.stats import MismatchStat
+from shockdyno.diagnose.stats import MismatchStat, at_bound
 from shockdyno.model.params import Estimate
 from shockdyno.report.documents import Indistinguishable
 
@@ -71,7 +71,7 @@ class CalibrationRow:
         if self.bounds is None or not self.moved:
             return False
         size = abs(self.spec_value) or self.scale
-        return any(end != 0 and abs(self.fitted - end) <= 1e-3 * size for end in self.bounds)
+        return any(end != 0 and at_bound(self.fitted, end, size) for end in self.bounds)
 
     @property
     def finding(self) -> bool:

@@ -30,6 +30,15 @@ from numpy.typing import NDArray
 
 from shockdyno.diagnose.cycles import BinnedTest
 
+AT_BOUND = 1e-3  # of a parameter's scale: a fitted value this near a range's end sits at it
+
+
+def at_bound(value: float, bound: float, scale: float) -> bool:
+    """Whether a fitted value sits at `bound`: within a thousandth of its `scale`. A bound's
+    σ is no error bar, so none enters; a value that is not finite sits at no bound."""
+    return abs(value - bound) <= AT_BOUND * scale
+
+
 FloatArray = NDArray[np.float64]
 N_BOOT = 999
 

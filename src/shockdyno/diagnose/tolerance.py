@@ -40,6 +40,7 @@ import numpy as np
 
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.fitting import Fitted, refit
+from shockdyno.diagnose.stats import at_bound
 from shockdyno.fit.parameters import spec_global
 from shockdyno.model.composite import Term
 from shockdyno.model.spec import DamperSpec
@@ -88,11 +89,11 @@ def calibrating(fitted: Fitted) -> tuple[str, ...]:
 
 def pinned(fitted: Fitted, term: Term) -> bool:
     """Whether `term`'s calibrated factor sits at an end of its declared range (within a
-    thousandth of its scale, as claims.at_range_end): not an estimate."""
+    thousandth of its scale, stats.at_bound, as claims.at_range_end): not an estimate."""
     assert term.calibrates is not None
     p = next(p for p in term.params() if p.name == term.calibrates.param)
     value = fitted.model.value(term.qualified(p.name))
-    return min(abs(value - p.lo), abs(value - p.hi)) <= 1e-3 * p.scale
+    return at_bound(value, p.lo, p.scale) or at_bound(value, p.hi, p.scale)
 
 
 def _outside(value: float, lo: float, hi: float, sd: float, pinned: bool = False) -> bool:

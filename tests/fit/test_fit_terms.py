@@ -191,11 +191,11 @@ def test_a_term_fitted_to_a_clean_recording_stays_off(
     for local, value in off.items():
         got, sd = _est(fit, f"{name}.{local}")
         _note(f"clean + {terms}: {local} = {got:.4g} ± {sd:.3g} (off {value:g})")
-        k = UNDERSTATED.get(f"{name}.{local}", 1.0)
         if math.isnan(sd):  # the plain fit kept: the term exactly at off, no σ
             assert got == value, (local, got, sd)
             continue
-        assert abs(got - value) <= 3 * k * sd + 1e-9 * max(abs(value), 1.0), (local, got, sd)
+        scatter = _scatter(f"{name}.{local}", sd)
+        assert abs(got - value) <= 3 * scatter + 1e-9 * max(abs(value), 1.0), (local, got, sd)
     _note(f"clean + {terms}: E_t {_e_t(fit):.4f} (clean {_e_t(clean_fit):.4f})")
     assert _e_t(fit) <= _clean_level(clean_fit)
     _no_worse(fit, plain_fit)
@@ -253,8 +253,10 @@ def test_compressibility_with_the_oil_modulus_held_is_no_worse_than_plain(
     assert _cal(fit).start.startswith("plain fit")
     assert c_oil.fixed and c_oil.value == 0.0
     # Freed from the plain fit (σ estimated), or the plain fit itself (at off, no σ).
-    # (3σ of the measured scatter: the reported σ understates it, see UNDERSTATED.)
-    scatter = UNDERSTATED["compressibility.air_fraction"] * sd
+    # 3x the measured scatter: the reported σ understates it (UNDERSTATED), and can be
+    # small at random (MEASURED_SPREAD). A CI run fitted 1.57e-05 ± 3.68e-06 here: 3.2x its
+    # own σ·1.35, 1.5x the spread measured over fresh recordings.
+    scatter = _scatter("compressibility.air_fraction", sd)
     assert alpha == 0.0 if math.isnan(sd) else alpha <= 3 * scatter + 1e-9
     assert _e_t(fit) <= 1.02 * _e_t(plain_fit)
     _no_worse(fit, plain_fit)

@@ -67,6 +67,25 @@ def moved_off(fitted: Fitted, term: Term) -> bool:
     )
 
 
+def left_off(fitted: Fitted, names: Sequence[str]) -> tuple[str, ...]:
+    """The free parameters (qualified) of the terms `names` that `fitted` left at their off
+    values (within a thousandth of their scale): what a claim was made without, and the
+    form the final refit judges it in again when, refitted with them free, it would leave
+    the verdict (Search.as_claimed)."""
+    out: list[str] = []
+    for n in names:
+        term = fitted.model.term(n)
+        if term is None:
+            continue
+        for p in term.params():
+            key = term.qualified(p.name)
+            if key in fitted.free and not _beyond_noise(
+                fitted.model.value(key), p.off, math.nan, p.scale
+            ):
+                out.append(key)
+    return tuple(out)
+
+
 def at_range_end(fitted: Fitted, term: Term) -> str:
     """Why `term` as fitted is not an estimate ("" when it is): a free parameter pinned
     at an end of its range that is not its off value. The data ask for more than the

@@ -26,6 +26,7 @@ from shockdyno.diagnose.claims import (
     at_range_end,
     decide,
     effect_limit,
+    left_off,
     moved_off,
     separate_by,
     why_not,
@@ -85,6 +86,8 @@ class Search:
         self.shapes: list[tuple[str, FloatArray]] = []  # what each claimed term explained
         self.groups: list[Indistinguishable] = []
         self.came_with: dict[str, tuple[str, ...]] = {}  # claimed term -> spec values freed
+        # claimed term -> its parameters the claim left at off (claims.left_off)
+        self.claimed_without: dict[str, tuple[str, ...]] = {}
         # What the spec values' tolerances are about (None: no limits), and the values a
         # fit asked beyond them, held from then on (tolerance.py)
         self.drawing: DamperSpec | None = None
@@ -194,6 +197,7 @@ class Search:
                 Indistinguishable(group=tuple(group), separate_by="; ".join(dict.fromkeys(pairs)))
             )
         self.claimed.append(best.name)
+        self.claimed_without[best.name] = left_off(best.fitted, [best.name])
         self.came_with[best.name] = tuple(
             k for k in best.fitted.globals if k not in self.base.globals
         )
@@ -413,6 +417,7 @@ class Search:
         f.claimed = True
         f.why_not = ""
         self.claimed.append(name)
+        self.claimed_without[name] = left_off(c.fitted, [name])
         self.came_with[name] = tuple(k for k in c.fitted.globals if k not in self.base.globals)
         self.base = c.fitted
 
@@ -437,6 +442,8 @@ class Search:
         else:
             base = refit(data, base.model, base.free, base, max_nfev=nfev)
         why = idle_reasons(self.claimed, data, base, self.force_peak, s)
+        if why:
+            base, why = self.as_claimed(data, base, why, nfev)
         idle = list(why)
         if idle:
             for f in self.trials:
@@ -455,6 +462,33 @@ class Search:
                 f.parameters = term_estimates(base, f.physics, data)
         self.base = base
         return base
+
+    def as_claimed(
+        self, data: Data, base: Fitted, why: dict[str, str], nfev: int
+    ) -> tuple[Fitted, dict[str, str]]:
+        """`base` refitted with the claims `why` would drop in the form each was claimed in:
+        the parameters its claim left at off (claims.left_off) back there and held. Kept
+        (with its reasons) when it drops fewer claims; else `base` and `why` as they were.
+        The later rounds' refits may move what a claim did not use: on a reference-plant
+        heat claimed with the viscosity's coefficient at 0 (damping falling 0.17 %/K), they
+        walked it to 0.1 1/K, its range's end, and the claim, with strong held-out
+        evidence, was then dropped as no estimate."""
+        held = tuple(q for n in why for q in self.claimed_without.get(n, ()))
+        if not held:
+            return base, why
+        model = base.model
+        offs = {}
+        for q in held:
+            name, _, local = q.partition(".")
+            term = model.term(name)
+            if term is not None:
+                offs[q] = next(p.off for p in term.params() if p.name == local)
+        free = tuple(q for q in base.free if q not in held)
+        again = refit(data, model.with_values(offs), free, base, max_nfev=nfev)
+        why_again = idle_reasons(self.claimed, data, again, self.force_peak, self.s)
+        if set(why_again) < set(why):
+            return again, why_again
+        return base, why
 
 
 def idle_reasons(

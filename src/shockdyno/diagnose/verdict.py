@@ -288,18 +288,29 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
 def fit_terms(claimed: list[Trial]) -> str:
     """`fit --terms` for the claimed terms, with each parameter the fit holds unless named
     (Param.free False) that the diagnosis moved: `--terms sensor_lag` alone would fit a
-    load cell's lag as a delay."""
+    load cell's lag as a delay. A term the diagnosis fitted with one of its usual
+    parameters held (Search.as_claimed: kept in the form it was claimed in) is named by
+    the parameters it fitted, so the fit holds that one too."""
     names: list[str] = []
     for t in claimed:
-        names.append(t.physics)
         cls = LIBRARY.get(t.physics)
         if cls is None:
+            names.append(t.physics)
             continue
         reading = Reading(cls.PARAMS, t.parameters)
-        names += [
-            f"{t.physics}.{p.name}" for p in cls.PARAMS if not p.free and reading.moved(p.name)
-        ]
+        extra = [p.name for p in cls.PARAMS if not p.free and reading.moved(p.name)]
+        held = [p for p in cls.PARAMS if p.free and _held(t, p.name)]
+        if held:
+            own = [p.name for p in cls.PARAMS if p.free and not _held(t, p.name)]
+            names += [f"{t.physics}.{k}" for k in own + extra]
+        else:
+            names += [t.physics, *(f"{t.physics}.{k}" for k in extra)]
     return ",".join(names)
+
+
+def _held(t: Trial, name: str) -> bool:
+    e = t.parameters.get(name)
+    return e is not None and e.fixed
 
 
 def finding(t: Trial) -> docs.Finding:

@@ -79,9 +79,7 @@ def left_off(fitted: Fitted, names: Sequence[str]) -> tuple[str, ...]:
             continue
         for p in term.params():
             key = term.qualified(p.name)
-            if key in fitted.free and not _beyond_noise(
-                fitted.model.value(key), p.off, math.nan, p.scale
-            ):
+            if key in fitted.free and at_bound(fitted.model.value(key), p.off, p.scale):
                 out.append(key)
     return tuple(out)
 

@@ -476,15 +476,9 @@ class Search:
         held = tuple(q for n in why for q in self.claimed_without.get(n, ()))
         if not held:
             return base, why
-        model = base.model
-        offs = {}
-        for q in held:
-            name, _, local = q.partition(".")
-            term = model.term(name)
-            if term is not None:
-                offs[q] = next(p.off for p in term.params() if p.name == local)
+        offs = {q: p.off for q, p in base.model.param_list() if q in held}
         free = tuple(q for q in base.free if q not in held)
-        again = refit(data, model.with_values(offs), free, base, max_nfev=nfev)
+        again = refit(data, base.model.with_values(offs), free, base, max_nfev=nfev)
         why_again = idle_reasons(self.claimed, data, again, self.force_peak, self.s)
         if set(why_again) < set(why):
             return again, why_again

@@ -299,18 +299,14 @@ def fit_terms(claimed: list[Trial]) -> str:
             continue
         reading = Reading(cls.PARAMS, t.parameters)
         extra = [p.name for p in cls.PARAMS if not p.free and reading.moved(p.name)]
-        held = [p for p in cls.PARAMS if p.free and _held(t, p.name)]
+        usual = [p.name for p in cls.PARAMS if p.free]
+        held = {k for k in usual if k in t.parameters and t.parameters[k].fixed}
         if held:
-            own = [p.name for p in cls.PARAMS if p.free and not _held(t, p.name)]
+            own = [k for k in usual if k not in held]
             names += [f"{t.physics}.{k}" for k in own + extra]
         else:
             names += [t.physics, *(f"{t.physics}.{k}" for k in extra)]
     return ",".join(names)
-
-
-def _held(t: Trial, name: str) -> bool:
-    e = t.parameters.get(name)
-    return e is not None and e.fixed
 
 
 def finding(t: Trial) -> docs.Finding:

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
 from inprocess import cli
-from shockdyno.diagnose.candidates import folds
+from shockdyno.diagnose import search as search_module
+from shockdyno.diagnose.candidates import Candidate, folds
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.diagnosis import Trial
 from shockdyno.diagnose.fitting import refit
@@ -32,10 +35,30 @@ def _finding(name: str) -> Trial:
     return Trial(name, 1, True, 0.001, 1.0, 0.9, "", 10.0, 50.0, {})
 
 
-def test_a_gas_spring_claimed_before_the_bump_stop_is_dropped(tmp_path: Path) -> None:
+def test_a_gas_spring_claimed_before_the_bump_stop_is_dropped(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     # A bump stop read first as a stiffer gas spring (as forward selection sometimes
     # does on this recording), then as contact: with contact in the model the gas
-    # spring explains nothing held out, and goes.
+    # spring's own force is nothing, and it goes whatever its p and held-out gain. Those
+    # are the refit's and a coin: a held-out gain of -0.27 to 0.099 on six recordings of
+    # this case, 0.55 with p = 0.001 on a seventh, which kept it
+    # (benchmarks/results/seal-calibration-flake-2026-11-30.txt). So it is given those
+    # here, and the check is the rule's, not the recording's.
+    real_try, real_gains = search_module.try_candidate, search_module.heldout_gains
+
+    def tried(*args: Any, **kwargs: Any) -> Candidate:
+        c = real_try(*args, **kwargs)
+        return replace(c, p_value=min(c.p_value, 0.001)) if c.name == "gas_spring" else c
+
+    def gains(*args: Any, **kwargs: Any) -> list[tuple[float, str]]:
+        out = real_gains(*args, **kwargs)
+        names = [c.name for c in args[2]]
+        pairs = zip(names, out, strict=True)
+        return [(max(g, 0.55), d) if n == "gas_spring" else (g, d) for n, (g, d) in pairs]
+
+    monkeypatch.setattr(search_module, "try_candidate", tried)
+    monkeypatch.setattr(search_module, "heldout_gains", gains)
     scenario = tmp_path / "s.toml"
     scenario.write_text(f"[scenario]\nname = 's'\ndescription = 'x'\n{BUMP}")
     rec = tmp_path / "r.mcap"
@@ -66,6 +89,7 @@ def test_a_gas_spring_claimed_before_the_bump_stop_is_dropped(tmp_path: Path) ->
     assert claimed == ["contact"]
     assert kept.model.term("gas_spring") is None and kept.model.term("contact") is not None
     assert not findings[0].claimed and findings[0].why_not.startswith("dropped in the backward")
+    assert "too small to matter" in findings[0].why_not
     assert findings[1].claimed
     assert groups == []
     # What is left is the bump stop's model: the onset where the rig put it.

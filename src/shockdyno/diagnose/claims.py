@@ -133,6 +133,18 @@ def _calibration_idle(c: Candidate, min_effect_n: float) -> str:
     return ""
 
 
+def own_force_small(c: Candidate, min_effect_n: float) -> str:
+    """Why candidate `c`'s own force (the model less the same with the term at its off
+    values) is too small to matter ("" when it is not): its gain, then, is the refit's of
+    everything beside it."""
+    if c.own_peak_n < min_effect_n:
+        return (
+            f"its own force peaks at {c.own_peak_n:.2g} N, too small to matter: the gain "
+            "is the refit's"
+        )
+    return ""
+
+
 def why_not(
     c: Candidate,
     scored: dict[str, tuple[float, str]] | None,
@@ -169,11 +181,9 @@ def why_not(
                 return f"not placed: {unplaced}"
         if not moved_off(c.fitted, term):
             return "its parameters stay at their off values: the gain is the refit's"
-        if c.own_peak_n < min_effect_n:
-            return (
-                f"its own force peaks at {c.own_peak_n:.2g} N, too small to matter: the gain "
-                "is the refit's"
-            )
+        small = own_force_small(c, min_effect_n)
+        if small:
+            return small
         pinned = at_range_end(c.fitted, term)
         if pinned:
             return f"not an estimate: {pinned}"

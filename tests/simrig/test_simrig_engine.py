@@ -118,6 +118,19 @@ def test_actuator_fault_makes_a_controlled_stop_not_a_step() -> None:
     assert np.max(np.abs(v)) < 2 * np.pi * 1.5 * 0.03 * 1.1  # never faster than the sine
 
 
+def test_a_stop_in_the_same_instant_as_the_start_stops_the_sine() -> None:
+    # A Ctrl-C right after the start: the stop reached the drive before its clock moved,
+    # where the sine's envelope is still 0, and the stop was ignored: the sine ran on, the
+    # host's controlled stop timed out, and the ram was disabled off centre
+    # (benchmarks/results/stop-after-second-ctrl-c-2026-11-30.txt).
+    e = sine_engine()
+    d = e.drive
+    d.stop(e.now_s)
+    assert not d.running(e.now_s)
+    b = decode(e.advance(2000))
+    assert np.all(np.abs(b.displacement_m) < 0.001)  # held at the centre it started from
+
+
 def test_start_refused_off_centre() -> None:
     e = SimEngine(RIG, SPEC)
     d = e.drive

@@ -190,6 +190,11 @@ class SimDrive:
         if t < self.sine_end and e > 0:
             self.env = Knots([t, t + ramp_s], [e, 0.0])
             self.sine_end = t + ramp_s
+        elif t < self.sine_end:
+            # Stopped before its envelope rose (a stop in the start's own instant, as a
+            # Ctrl-C right after it): nothing to ramp out, and the sine must not run on.
+            self.env = Knots.const(t, 0.0)
+            self.sine_end = t
         self.base = Knots.const(t, self.base.value(t))
         self.target_m = self.base.value(t)
 

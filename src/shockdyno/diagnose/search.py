@@ -344,16 +344,16 @@ class Search:
         misfit (a bump stop first pulls the gas spring off the spec's, then a contact term
         explains it all). So each claimed term is tested again as the last to join the
         others: it stays only if it still passes (p < alpha, held-out gain ≥
-        min_gain_joining) and its own force still matters (claims.own_force_small: a gas
-        spring refitted at 1.008 ± 0.006 x the spec's beside a bump stop, 0.17 N of its
-        own, once passed on a held-out gain of 0.55, the refit's, which six other
-        recordings of the same case put at -0.27 to 0.099). Not its parameters' 3σ each:
-        a term's parameters trade with one another, and a heat claim beside a seal (p =
-        0.001, held-out gain 0.8) had each within 3σ of off;
-        else it is dropped from the model (`base`) with the spec
-        values freed with it, and its trial says why. A term dropped beside a claim the
-        check then drops too was never judged beside what stays: it is tried again there
-        (`restore`)."""
+        min_gain_joining) and its own force still matters (claims.own_force_small); else
+        it is dropped from the model (`base`) with the spec values freed with it, and its
+        trial says why. A term dropped beside a claim the check then drops too was never
+        judged beside what stays: it is tried again there (`restore`).
+
+        The own force, because a gain can be the refit's of everything beside the term (a
+        gas spring 0.17 N of its own beside a bump stop once passed on a gain of 0.55);
+        not each parameter's 3σ, because a term's parameters trade with one another (a
+        heat claim with a held-out gain of 0.8 had each within 3σ of off).
+        benchmarks/results/backward-own-force-2026-11-30.txt has the runs."""
         s, tests = self.s, self.tests
         dropped: list[tuple[str, list[str]]] = []  # a dropped term, and the others beside it
         for name in list(self.claimed):

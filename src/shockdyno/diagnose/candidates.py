@@ -20,6 +20,7 @@ from shockdyno.diagnose.fitting import (
     Fitted,
     evaluate,
     predict,
+    prepared_key,
     refit,
 )
 from shockdyno.diagnose.in_place import acts_share, share_where_it_acts
@@ -145,6 +146,36 @@ def spec_start(data: Data, base: Fitted, model: DamperModel, keys: Sequence[str]
         for values in itertools.product(*choices)
     )
     return least_error(data, base, model, starts)
+
+
+def fit_binned_jacobian(data: Data, fitted: Fitted) -> FloatArray:
+    """`binned_jacobian`'s matrix taken from the calibration's own Jacobian at the fit
+    (Fitted.jac), when the fit was made on exactly `data`'s tests and clicks: the same
+    derivatives at the same point, differenced there already, where working them out
+    again cost as many model evaluations (a chamber integration each, where one runs).
+    Otherwise `binned_jacobian`'s."""
+    prob = data.prob
+    rows = [fitted.jac_rows.get(prepared_key(p)) for p in data.prepared]
+    bounds = np.cumsum([0, *(p.obj.size for p in data.prepared)])
+    whole = all(
+        r is not None and r == (int(a), int(b))
+        for r, a, b in zip(rows, bounds[:-1], bounds[1:], strict=True)
+    )
+    n = prob.n_groups
+    ahead = len(fitted.globals) + len(fitted.free)
+    if (
+        fitted.jac is None
+        or not whole
+        or fitted.jac_keys != tuple(prob.keys)
+        or fitted.jac.shape[1] != ahead + 2 * n
+        or fitted.jac.shape[0] < prob.size
+    ):
+        return binned_jacobian(data, fitted)[0]
+    declared = dict(fitted.model.param_list())
+    scales = [g.scale for g in global_parameters(fitted.model.spec, fitted.globals)]
+    scales += [declared[q].scale for q in fitted.free]
+    scales += [AREA_SCALE] * (2 * n)
+    return data.bin_matrix(fitted.jac[: prob.size] * np.asarray(scales, dtype=float))
 
 
 def binned_jacobian(data: Data, fitted: Fitted) -> tuple[FloatArray, int]:
@@ -323,7 +354,7 @@ def try_candidate(
     lr = float(np.sum(base_means**2) - np.sum(means**2))
     p = 1.0  # a refit that explains no more than the baseline: no Jacobian needed
     if lr > 0:
-        jac = jac_here if jac_here is not None else binned_jacobian(data, fitted)[0]
+        jac = jac_here if jac_here is not None else fit_binned_jacobian(data, fitted)
         null = np.array([i for i in range(jac.shape[1]) if i not in set(new_cols)], dtype=int)
         p = lr_bootstrap(lr, jac[:, null], jac, noise)
     effect = float(np.sqrt(np.mean((fitted.force - base.force) ** 2)))
@@ -388,7 +419,7 @@ def refined(
     if start is fitted.model:
         return fitted, mine, None
     means, _ = binned_means(data, fitted.residual)
-    jac, _ = binned_jacobian(data, fitted)
+    jac = fit_binned_jacobian(data, fitted)
     if _step_p(data, fitted, start, means, jac, noise) >= REFINE_ALPHA:
         return fitted, mine, jac
     free = (*fitted.free, *keys)
@@ -397,7 +428,7 @@ def refined(
     lr = float(np.sum(means**2) - np.sum(after**2))
     if lr <= 0:
         return fitted, mine, jac
-    jac_more, _ = binned_jacobian(data, more)
+    jac_more = fit_binned_jacobian(data, more)
     ahead = len(more.globals) + len(more.free)
     new = set(range(ahead - len(keys), ahead))
     null = np.array([i for i in range(jac_more.shape[1]) if i not in new], dtype=int)

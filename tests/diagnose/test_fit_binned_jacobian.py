@@ -35,8 +35,11 @@ def test_the_fits_own_jacobian_is_the_differenced_one(term: str, free: tuple[str
         {free[0]: 0.01 if term != "friction" else 10.0}
     )
     fitted = refit(data, model, free, None, max_nfev=10)
+    before = data.prob.evaluations
     own = fit_binned_jacobian(data, fitted)
+    assert data.prob.evaluations == before  # read from the fit: no model evaluated
     again, ahead = binned_jacobian(data, fitted)
+    assert data.prob.evaluations > before
     assert own.shape == again.shape and ahead == len(fitted.globals) + len(free)
     norms = np.linalg.norm(again, axis=0)
     used = norms > 1e-9 * norms.max()

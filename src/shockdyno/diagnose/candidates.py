@@ -19,8 +19,8 @@ from shockdyno.diagnose.fitting import (
     RESTARTS,
     Fitted,
     evaluate,
+    jacobian_on,
     predict,
-    prepared_key,
     refit,
 )
 from shockdyno.diagnose.in_place import acts_share, share_where_it_acts
@@ -150,32 +150,18 @@ def spec_start(data: Data, base: Fitted, model: DamperModel, keys: Sequence[str]
 
 def fit_binned_jacobian(data: Data, fitted: Fitted) -> FloatArray:
     """`binned_jacobian`'s matrix taken from the calibration's own Jacobian at the fit
-    (Fitted.jac), when the fit was made on exactly `data`'s tests and clicks: the same
-    derivatives at the same point, differenced there already, where working them out
-    again cost as many model evaluations (a chamber integration each, where one runs).
-    Otherwise `binned_jacobian`'s."""
-    prob = data.prob
-    rows = [fitted.jac_rows.get(prepared_key(p)) for p in data.prepared]
-    bounds = np.cumsum([0, *(p.obj.size for p in data.prepared)])
-    whole = all(
-        r is not None and r == (int(a), int(b))
-        for r, a, b in zip(rows, bounds[:-1], bounds[1:], strict=True)
-    )
-    n = prob.n_groups
-    ahead = len(fitted.globals) + len(fitted.free)
-    if (
-        fitted.jac is None
-        or not whole
-        or fitted.jac_keys != tuple(prob.keys)
-        or fitted.jac.shape[1] != ahead + 2 * n
-        or fitted.jac.shape[0] < prob.size
-    ):
+    (`jacobian_on`), which has `data`'s tests and clicks: the same derivatives at the same
+    point, differenced there already, where working them out again cost as many model
+    evaluations (a chamber integration each, where one runs). Otherwise
+    `binned_jacobian`'s."""
+    jac = jacobian_on(data, fitted)
+    if jac is None:
         return binned_jacobian(data, fitted)[0]
     declared = dict(fitted.model.param_list())
     scales = [g.scale for g in global_parameters(fitted.model.spec, fitted.globals)]
     scales += [declared[q].scale for q in fitted.free]
-    scales += [AREA_SCALE] * (2 * n)
-    return data.bin_matrix(fitted.jac[: prob.size] * np.asarray(scales, dtype=float))
+    scales += [AREA_SCALE] * (2 * data.prob.n_groups)
+    return data.bin_matrix(jac[: data.prob.size] * np.asarray(scales, dtype=float))
 
 
 def binned_jacobian(data: Data, fitted: Fitted) -> tuple[FloatArray, int]:

@@ -125,14 +125,23 @@ def prepared_key(p: PreparedTest) -> tuple[int, int, float]:
 
 
 def _warm_jacobian(data: Data, start: Fitted) -> FloatArray | None:
-    """The start's Jacobian restricted to `data`'s tests and clicks (None when it lacks
-    one of them, or when the tests' measured gas charges differ: the model scales the gas
-    force by each test's charge over their mean, which a subset changes)."""
+    """The start's Jacobian restricted to `data`'s tests and clicks (`jacobian_on`), None
+    also when the tests' measured gas charges differ: the model scales the gas force by
+    each test's charge over their mean, which a subset changes."""
     if start.jac is None:
         return None
     gas = data.prob.inputs.gas_pressure_pa
     charges = gas[np.isfinite(gas)] if gas is not None else np.zeros(0)
     if charges.size and float(np.max(charges) - np.min(charges)) > 0:
+        return None
+    return jacobian_on(data, start)
+
+
+def jacobian_on(data: Data, start: Fitted) -> FloatArray | None:
+    """The fit's Jacobian (Fitted.jac: per unit of each parameter) on `data`'s tests and
+    clicks: their rows, then the penalty's; the globals' and terms' columns, then the
+    areas of `data`'s clicks (None when the fit lacks one of them)."""
+    if start.jac is None:
         return None
     rows = [start.jac_rows.get(prepared_key(p)) for p in data.prepared]
     col = {k: i for i, k in enumerate(start.jac_keys)}

@@ -36,8 +36,7 @@ class Data:
         for p in prepared:
             n = p.obj.size
             slices.append(slice(lo, lo + n))
-            ph = phase_of(p.data.t[p.obj], p.data.x[p.obj], whole_cells=True)
-            phases.append(leave_out(ph, at_reversal(p.v, p.obj)))
+            phases.append(phase_of(p.data.t[p.obj], p.data.x[p.obj], whole_cells=True))
             lo += n
         return Data(list(prepared), prob, slices, phases, full_rate_hz)
 
@@ -67,26 +66,6 @@ class Data:
 
     def subset(self, keep: Sequence[int]) -> Data:
         return Data.build(self.prob.base, [self.prepared[i] for i in keep], self.full_rate_hz)
-
-
-def at_reversal(v: FloatArray, idx: IntArray) -> NDArray[np.bool_]:
-    """Which samples `idx` lie within one sample interval of a reversal: the velocity
-    changes sign between the samples either side, so the sample's interval may hold the
-    reversal. A force that steps there (a closed bleed's valve preloads, a seal's Coulomb
-    level) reads whatever share of each side the sensor's averaging took, set by where the
-    reversal fell within the interval: no model evaluated at the sample's instant says that
-    value, and in the phase grid it is a cell far from every other cycle's."""
-    n = v.size
-    before = v[np.clip(idx - 1, 0, n - 1)]
-    after = v[np.clip(idx + 1, 0, n - 1)]
-    return np.asarray((before * after <= 0) | (v[idx] == 0), dtype=bool)
-
-
-def leave_out(ph: Phase, out: NDArray[np.bool_]) -> Phase:
-    """The phase with the samples `out` in no cycle: no cell, mean or scatter holds them."""
-    if not np.any(out):
-        return ph
-    return replace(ph, cycle=np.where(out, -1, ph.cycle).astype(np.intp))
 
 
 def time_halves(p: PreparedTest) -> tuple[PreparedTest, PreparedTest] | None:

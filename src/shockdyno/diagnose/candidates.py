@@ -23,7 +23,7 @@ from shockdyno.diagnose.fitting import (
     predict,
     refit,
 )
-from shockdyno.diagnose.in_place import acts_share, share_where_it_acts
+from shockdyno.diagnose.in_place import acts_share, share_noise_sd, share_where_it_acts
 from shockdyno.diagnose.stats import basis, lr_bootstrap
 from shockdyno.diagnose.workers import SERIAL, Workers
 from shockdyno.fit.parameters import global_parameters, spec_global
@@ -273,6 +273,8 @@ class Candidate:
     # Of the structure where the term's own force acts, the share its refit removes
     # (in_place.py; 1: not judged, as for a calibration).
     in_place: float = 1.0
+    # How far the recording's noise moves `in_place` (in_place.share_noise_sd; 0: not read).
+    in_place_sd: float = 0.0
     # The share of the (test, phase bin) cells where a term of the cycle's own force acts
     # (in_place.acts_share; 0 for heat and calibrations): spread over most of them, the
     # term has no place apart from the valves' (claims.why_not judges it held out too).
@@ -349,16 +351,19 @@ def try_candidate(
     own = own_binned(data, fitted, name)
     own_peak_n = math.inf if own is None else float(np.max(np.abs(own), initial=0.0))
     before = spec_values(data, name) if name in CALIBRATIONS else {}
-    in_place, spread = 1.0, 0.0
+    in_place, in_place_sd, spread = 1.0, 0.0, 0.0
     if own is not None and name not in CALIBRATIONS:
         term = fitted.model.term(name)
         place = "cycle" if term is None else term.place
-        in_place = share_where_it_acts(place, own, binned_means(data, base.residual)[1], means)
-        spread = acts_share(own) if place == "cycle" else 0.0
+        before_binned = binned_means(data, base.residual)[1]
+        in_place = share_where_it_acts(place, own, before_binned, means)
+        if place == "cycle":
+            spread = acts_share(own)
+            in_place_sd = share_noise_sd(own, before_binned, means, noise)
     return Candidate(
         name, fitted, lr, p, effect, peak, base_means - means, own_peak_n=own_peak_n,
         spec_values=before, implausible_on=seen_implausible(data, fitted, name),
-        in_place=in_place, spread=spread,
+        in_place=in_place, in_place_sd=in_place_sd, spread=spread,
     )  # fmt: skip
 
 

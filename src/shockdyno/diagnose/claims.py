@@ -191,7 +191,7 @@ def why_not(
             return (
                 f"not its physics: it removes {100 * max(c.in_place, 0.0):.0f} % of the "
                 "structure where its own force acts (a term that is the physics left out "
-                f"takes {100 * s.min_in_place:.0f} % or more there)"
+                f"takes {100 * s.min_in_place:.0f} % or more there)" + _within_noise(c, s)
             )
     if c.p_value >= s.alpha:
         return f"p = {c.p_value:.3g} ≥ {s.alpha:g}"
@@ -214,6 +214,36 @@ def why_not(
             f"{100 * s.unnamed_min_gain:.0f} %)"
         )
     return _too_small(c, min_effect_n)
+
+
+# A share this many of its noise's standard deviations from the threshold is one the
+# recording decides; nearer, noise alone could put it on the other side.
+IN_PLACE_SDS = 2.0
+
+
+def _within_noise(c: Candidate, s: Settings) -> str:
+    """Said of a share refused under the threshold that its noise could have put over it."""
+    if c.in_place_sd <= 0 or c.in_place + IN_PLACE_SDS * c.in_place_sd < s.min_in_place:
+        return ""
+    return (
+        f"; its noise moves that by ±{100 * c.in_place_sd:.0f} %, so this recording cannot "
+        "tell whether it is the physics left out"
+    )
+
+
+def borderline(c: Candidate, s: Settings) -> str:
+    """Said of a claimed term whose share where its own force acts (in_place.py) is over
+    the threshold by less than its noise could move it ("" otherwise)."""
+    if c.spread >= s.placeless_share or c.in_place_sd <= 0:
+        return ""
+    if c.in_place - IN_PLACE_SDS * c.in_place_sd >= s.min_in_place:
+        return ""
+    return (
+        f"borderline: where its own force acts it removes {100 * c.in_place:.0f} ± "
+        f"{100 * c.in_place_sd:.0f} % of the structure, and a term that is the physics left "
+        f"out takes {100 * s.min_in_place:.0f} % or more there; another recording of the "
+        "same damper could go either way"
+    )
 
 
 def _too_small(c: Candidate, min_effect_n: float) -> str:

@@ -42,6 +42,7 @@ class Trial:
     parameters: dict[str, Estimate]  # the term's, at the fit that was scored
     ambiguous_with: list[str] = field(default_factory=list)
     why_not: str = ""
+    note: str = ""  # said of a claimed term beside its claim (claims.borderline)
 
 
 @dataclass(frozen=True)

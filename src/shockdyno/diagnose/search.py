@@ -24,6 +24,7 @@ from shockdyno.diagnose.candidates import (
 from shockdyno.diagnose.claims import (
     Judge,
     at_range_end,
+    borderline,
     decide,
     effect_limit,
     left_off,
@@ -253,6 +254,7 @@ class Search:
                     parameters=term_estimates(c.fitted, c.name, self.tests),
                     ambiguous_with=alike_with.get(c.name, []),
                     why_not="" if c is best else (reasons[c.name] or "another term explained more"),
+                    note=borderline(c, s) if c is best else "",
                 )
             )
         return found, best, [c.name for c in pool]

@@ -256,9 +256,11 @@ def _physics_text(d: Diagnosis, u: Units = SI) -> str:
             if f.ambiguous_with
             else ""
         )
+        note = f"; {f.note}" if f.note else ""
         lines.append(
             f"Claimed {describe(f, spec_gas, u, _reach(d))}{alike}: p = {f.p_value:.2g}, it "
-            f"removes {100 * f.heldout_gain:.0f} % of the held-out structure (median fold)."
+            f"removes {100 * f.heldout_gain:.0f} % of the held-out structure (median fold)"
+            f"{note}."
         )
     if claimed:
         lines.append(f"To carry {'it' if len(claimed) == 1 else 'them'} into a fit: "

@@ -73,16 +73,27 @@ def _where_acts(own: FloatArray) -> NDArray[np.bool_] | None:
     return None if peak <= 0 else np.abs(own) >= ACTS_SHARE * peak
 
 
+def _acting(
+    own: FloatArray, before: Sequence[BinnedTest], after: FloatArray
+) -> tuple[NDArray[np.bool_], FloatArray, FloatArray, FloatArray] | None:
+    """Where `own` acts, and there the phase means before and after the refit and the
+    noise variance of a mean before it (None: the term has no force of its own)."""
+    acts = _where_acts(own)
+    if acts is None:
+        return None
+    r0 = np.concatenate([b.mean for b in before])[acts]
+    var = np.concatenate([b.mean_var for b in before])[acts]
+    return acts, r0, var, after[acts]
+
+
 def in_place_share(own: FloatArray, before: Sequence[BinnedTest], after: FloatArray) -> float:
     """The share of the structure where `own` (the term's own force per phase bin) acts
     that the refit removes: `before` the phase means (and their noise variance) without
     the term, `after` the phase means with it (the same bins)."""
-    acts = _where_acts(own)
-    if acts is None:
+    got = _acting(own, before, after)
+    if got is None:
         return 1.0  # a term with no force of its own is judged by the own-force rule
-    r0 = np.concatenate([b.mean for b in before])[acts]
-    var = np.concatenate([b.mean_var for b in before])[acts]
-    r1 = after[acts]
+    _, r0, var, r1 = got
     there = float(np.sum(r0 * r0 - var))
     if there <= 0:
         return 0.0
@@ -98,13 +109,12 @@ def share_noise_sd(
     data is in both. Where the term acts in a few bins that hold little structure, noise
     alone moves the share by tens of per cent, and the claim's half is then no verdict the
     recording gives."""
-    acts = _where_acts(own)
-    if acts is None or draws.size == 0:
+    got = _acting(own, before, after)
+    if got is None or draws.size == 0:
         return 0.0
+    acts, r0, var, r1 = got
     e = draws[acts]
-    r0 = np.concatenate([b.mean for b in before])[acts][:, None] + e
-    var = np.concatenate([b.mean_var for b in before])[acts][:, None]
-    r1 = after[acts][:, None] + e
+    r0, var, r1 = r0[:, None] + e, var[:, None], r1[:, None] + e
     there = np.sum(r0 * r0 - var, axis=0)
     ok = there > 0
     if np.count_nonzero(ok) < 2:

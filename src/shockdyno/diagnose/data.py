@@ -36,7 +36,8 @@ class Data:
         for p in prepared:
             n = p.obj.size
             slices.append(slice(lo, lo + n))
-            phases.append(phase_of(p.data.t[p.obj], p.data.x[p.obj], whole_cells=True))
+            ph = phase_of(p.data.t[p.obj], p.data.x[p.obj], whole_cells=True)
+            phases.append(leave_out(ph, step_at_turn(p.v, p.data.force, p.obj)))
             lo += n
         return Data(list(prepared), prob, slices, phases, full_rate_hz)
 
@@ -66,6 +67,40 @@ class Data:
 
     def subset(self, keep: Sequence[int]) -> Data:
         return Data.build(self.prob.base, [self.prepared[i] for i in keep], self.full_rate_hz)
+
+
+def step_at_turn(v: FloatArray, f: FloatArray, idx: IntArray) -> NDArray[np.bool_]:
+    """Which samples `idx` sit on a force step the converter did not resolve at a turn.
+
+    The turn lies within a sample interval of the sample (the velocity's sign differs
+    between its two neighbours), and the force changed more across those two intervals
+    than across the two beside them on either side: the step (a closed bleed's valve
+    preloads, over a kN) happened within the sample's own interval. Such a sample reads
+    whatever share of each side the converter averaged, set by where the turn fell in the
+    interval; no model evaluated at the sample's instant says that value. Where the load
+    cell resolves the turn over several samples (an anti-alias filter before it, a seal
+    that turns over its presliding travel), the force changes as much beside the sample,
+    and the sample is evidence of how it turns: it stays."""
+    n = v.size
+    if n < 7:
+        return np.zeros(idx.size, dtype=bool)
+
+    def at(k: IntArray) -> FloatArray:
+        return np.asarray(np.clip(k, 0, n - 1), dtype=np.intp)
+
+    turn = (v[at(idx - 1)] * v[at(idx + 1)] <= 0) | (v[idx] == 0)
+    across = np.abs(f[at(idx + 1)] - f[at(idx - 1)])
+    before = np.abs(f[at(idx - 1)] - f[at(idx - 3)])
+    after = np.abs(f[at(idx + 3)] - f[at(idx + 1)])
+    inside = (idx >= 3) & (idx <= n - 4)
+    return np.asarray(turn & inside & (across > np.maximum(before, after)), dtype=bool)
+
+
+def leave_out(ph: Phase, out: NDArray[np.bool_]) -> Phase:
+    """The phase with the samples `out` in no cycle: no cell, mean or scatter holds them."""
+    if not np.any(out):
+        return ph
+    return replace(ph, cycle=np.where(out, -1, ph.cycle).astype(np.intp))
 
 
 def time_halves(p: PreparedTest) -> tuple[PreparedTest, PreparedTest] | None:

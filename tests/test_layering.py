@@ -23,6 +23,7 @@ UTILITY = {
     "schema",
     "priority",
     "samples",
+    "figures",
 }
 # Package -> the project packages it may import (utilities aside). `commands` is the
 # command-line glue (each subcommand's arguments, progress and files) and may use any;

@@ -10,6 +10,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from shockdyno.compare.inputs import Input
+from shockdyno.figures import save_png
 from shockdyno.report import clickchart, plots
 from shockdyno.report.summary import TestSummary
 from shockdyno.units import Units
@@ -93,7 +94,7 @@ def peak_overlay(inputs: Sequence[Input], path: Path, units: Units) -> Path:
         for s in settings
     ]
     fig.legend(handles=handles, loc="outside right center", fontsize=9, frameon=False)
-    fig.savefig(path, dpi=plots.DPI, format="png")
+    save_png(fig, path, plots.DPI)
     return path
 
 
@@ -119,5 +120,5 @@ def loops_overlay(
         ax.axvline(0.0, color="0.6", lw=0.6)
     fig.suptitle(title, fontsize=11)
     fig.legend(loc="outside lower center", ncol=min(len(matched), 4), fontsize=9, frameon=False)
-    fig.savefig(path, dpi=plots.DPI, format="png")
+    save_png(fig, path, plots.DPI)
     return path

@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.diagnosis import Diagnosis
 from shockdyno.diagnose.fitting import Fitted, full_rate_force
+from shockdyno.figures import save_png
 from shockdyno.units import SI, Units
 
 FloatArray = NDArray[np.float64]
@@ -64,7 +65,7 @@ def residual_maps(d: Diagnosis, path: Path, u: Units = SI) -> Path:
     axes[1, 1].set_xlabel(f"velocity ({_velocity_label(u)}, + compression)")
     axes[0, 1].legend(loc="best", fontsize=8)
     fig.suptitle("Phase-locked residual (measured − model) per test, before and after")
-    fig.savefig(path, dpi=DPI, format="png")
+    save_png(fig, path, DPI)
     return path
 
 
@@ -105,5 +106,5 @@ def loops(d: Diagnosis, path: Path, u: Units = SI, n_tests: int = 3) -> Path:
             ax.set_ylabel(f"force ({u.force_label})")
             ax.grid(alpha=0.3)
     axes[0, 0].legend(loc="best", fontsize=8, markerscale=4)
-    fig.savefig(path, dpi=DPI, format="png")
+    save_png(fig, path, DPI)
     return path

@@ -14,6 +14,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from shockdyno.figures import save_png
 from shockdyno.fit.forces import representative
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.result import FitResult
@@ -77,7 +78,7 @@ def _areas_figure(result: FitResult, path: Path) -> None:
         ax.legend(fontsize=8)
     fig.suptitle("Fitted bleed areas against clicks (paper's Fig. 12)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_png(fig, path, 110)
 
 
 def _overlay_figure(mf: ModelForces, path: Path, units: Units = SI) -> str:
@@ -110,7 +111,7 @@ def _overlay_figure(mf: ModelForces, path: Path, units: Units = SI) -> str:
         ax.legend(fontsize=8)
     fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_png(fig, path, 110)
     return title
 
 

@@ -16,6 +16,7 @@ from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
 from matplotlib.typing import ColorType
 
+from shockdyno.figures import save_png
 from shockdyno.report.clickchart import ClickChart, Setting
 from shockdyno.report.plots import DPI, readable_colours
 from shockdyno.units import SI, Units
@@ -60,7 +61,7 @@ def force_vs_clicks(
     _legend(fig, speeds, colours, chart, band, units)
     if len(gas_values) > 1:
         fig.suptitle(f"gas clicks {gas} (the table lists every gas setting)", fontsize=10)
-    fig.savefig(path, dpi=DPI, format="png")
+    save_png(fig, path, DPI)
     return path
 
 

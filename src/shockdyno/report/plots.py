@@ -20,6 +20,7 @@ from matplotlib.ticker import MaxNLocator
 from matplotlib.typing import ColorType
 from numpy.typing import NDArray
 
+from shockdyno.figures import save_png
 from shockdyno.model.kinematics import velocity
 from shockdyno.record.types import TestData
 from shockdyno.report.summary import TestSummary
@@ -87,7 +88,7 @@ def prepare(test: TestData, summary: TestSummary) -> Curves:
 
 
 def _save(fig: Figure, path: Path) -> Path:
-    fig.savefig(path, dpi=DPI, format="png")
+    save_png(fig, path, DPI)
     return path
 
 

@@ -16,6 +16,7 @@ from html import escape
 import numpy as np
 from matplotlib.figure import Figure
 
+from shockdyno.figures import save_png
 from shockdyno.report.documents import ResidualPlot, Unexplained, UnnamedTerm
 from shockdyno.report.html import Page
 from shockdyno.units import SI, Units
@@ -56,7 +57,7 @@ def figure_png(plot: ResidualPlot, units: Units = SI) -> bytes:
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=8, markerscale=3)
     buf = io.BytesIO()
-    fig.savefig(buf, dpi=DPI, format="png")
+    save_png(fig, buf, DPI)
     return buf.getvalue()
 
 

@@ -22,4 +22,18 @@ def save_png(fig: Figure, target: Path | BinaryIO, dpi: float) -> None:
     # savefig sets the dpi only for its own draws; left set here, the figure is not drawn
     # again, so nothing sees the difference.
     fig.set_dpi(dpi)
-    FigureCanvasAgg(fig).print_png(target)  # type: ignore[no-untyped-call]
+    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+    canvas.print_png(target)  # type: ignore[no-untyped-call]
+
+
+def agg_figure(figsize: tuple[float, float], dpi: float) -> Figure:
+    """A figure on the Agg canvas that ``save_png`` draws it on, at the dpi it is saved at.
+
+    ``tight_layout()`` on a bare Figure measures its texts with a renderer of its own at
+    the figure's dpi; the draw then measures them again with another. Laid out on this
+    canvas, the draw reuses the layout's renderer and its cache of text extents (and of
+    parsed formulas, which are cached per dpi).
+    """
+    fig = Figure(figsize=figsize, dpi=dpi)
+    FigureCanvasAgg(fig)  # sets fig.canvas
+    return fig

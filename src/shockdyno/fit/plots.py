@@ -11,10 +11,9 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
-from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
-from shockdyno.figures import save_png
+from shockdyno.figures import agg_figure, save_png
 from shockdyno.fit.forces import representative
 from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.result import FitResult
@@ -22,9 +21,13 @@ from shockdyno.fit.validate import ModelForces, model_forces
 from shockdyno.record.types import TestData
 from shockdyno.units import SI, Units
 
+# The dpi the figures are saved at, and laid out at (tight_layout) on the canvas they are
+# drawn on: the layout and the draw then measure each text and formula once, not twice.
+DPI = 110
+
 
 def _areas_figure(result: FitResult, path: Path) -> None:
-    fig = Figure(figsize=(11, 4.2))
+    fig = agg_figure(figsize=(11, 4.2), dpi=DPI)
     axes = fig.subplots(1, 2)
     # One adjuster's line of a damper with several (FitResult.for_adjuster): its clicks
     by = next((t.adjuster for t in result.trend.values() if t.adjuster), "rod")
@@ -78,13 +81,13 @@ def _areas_figure(result: FitResult, path: Path) -> None:
         ax.legend(fontsize=8)
     fig.suptitle("Fitted bleed areas against clicks (paper's Fig. 12)")
     fig.tight_layout()
-    save_png(fig, path, 110)
+    save_png(fig, path, DPI)
 
 
 def _overlay_figure(mf: ModelForces, path: Path, units: Units = SI) -> str:
     m = mf.test.meta
     title = f"{m.clicks} clicks, {m.frequency_hz:g} Hz: measured vs proposed vs Talbott"
-    fig = Figure(figsize=(11, 4.2))
+    fig = agg_figure(figsize=(11, 4.2), dpi=DPI)
     ax1, ax2 = fig.subplots(1, 2)
     # SI keeps its m/s velocity axis; imperial reads in, in/s and lbf like the report.
     v_scale, v_label = (
@@ -111,7 +114,7 @@ def _overlay_figure(mf: ModelForces, path: Path, units: Units = SI) -> str:
         ax.legend(fontsize=8)
     fig.suptitle(title)
     fig.tight_layout()
-    save_png(fig, path, 110)
+    save_png(fig, path, DPI)
     return title
 
 

@@ -87,25 +87,31 @@ def _measured_line(
         color=colour,
         lw=1.4,
     )
-    for c, r in pts:
-        ax.plot(
-            c,
-            units.force(r.force_n),
-            "o",
-            ms=5,
-            color=colour,
-            mfc="white" if r.extrapolated else colour,
-        )
-        half = (band or {}).get((c, gas), {}).get(target, math.nan)
-        if math.isfinite(half) and not r.extrapolated:
-            ax.errorbar(
-                c,
-                units.force(r.force_n),
-                yerr=units.force(half),
+    # One artist per kind of mark, not one per click: a long sweep has hundreds of
+    # points, and each artist costs its own layout and draw.
+    for hollow in (False, True):
+        marked = [(c, r) for c, r in pts if r.extrapolated == hollow]
+        if marked:
+            ax.plot(
+                [c for c, _ in marked],
+                [units.force(r.force_n) for _, r in marked],
+                "o",
+                ms=5,
                 color=colour,
-                capsize=3,
-                lw=1.0,
+                mfc="white" if hollow else colour,
             )
+    halves = [(c, r, (band or {}).get((c, gas), {}).get(target, math.nan)) for c, r in pts]
+    barred = [(c, r, h) for c, r, h in halves if math.isfinite(h) and not r.extrapolated]
+    if barred:
+        ax.errorbar(
+            [c for c, _, _ in barred],
+            [units.force(r.force_n) for _, r, _ in barred],
+            yerr=[units.force(h) for _, _, h in barred],
+            fmt="none",  # the bars alone, no line joining the points that have them
+            color=colour,
+            capsize=3,
+            lw=1.0,
+        )
 
 
 def _label_side(

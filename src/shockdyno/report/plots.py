@@ -346,16 +346,10 @@ def _peak_error_bars(
     units: Units,
 ) -> None:
     """A constant-velocity test's mean ± sd, and a sine's cycle-to-cycle band if given."""
+    # (velocity, force, half-width) of every bar: drawn as one artist, not one per test.
+    bars: list[tuple[float, float, float]] = []
     for s in group:
-        for p in s.cv or ():
-            ax.errorbar(
-                units.velocity(p.velocity_m_s),
-                units.force(p.force_n),
-                yerr=units.force(p.force_sd_n),
-                color=colour,
-                capsize=3,
-                lw=1.0,
-            )
+        bars += [(p.velocity_m_s, p.force_n, p.force_sd_n) for p in s.cv or ()]
     for s in group if band else ():
         half = band.get(s.meta.index) if band and s.cv is None else None
         if half is None:
@@ -365,14 +359,17 @@ def _peak_error_bars(
             (s.peak_rebound_velocity_m_s, s.peak_rebound_force_n, half[1]),
         ):
             if math.isfinite(h):
-                ax.errorbar(
-                    units.velocity(vel1),
-                    units.force(f1),
-                    yerr=units.force(h),
-                    color=colour,
-                    capsize=3,
-                    lw=1.0,
-                )
+                bars.append((vel1, f1, h))
+    if bars:
+        ax.errorbar(
+            [units.velocity(v) for v, _, _ in bars],
+            [units.force(f) for _, f, _ in bars],
+            yerr=[units.force(h) for _, _, h in bars],
+            fmt="none",  # the bars alone, no line joining the points that have them
+            color=colour,
+            capsize=3,
+            lw=1.0,
+        )
 
 
 def _label_peak_axes(

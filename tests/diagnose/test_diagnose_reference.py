@@ -4,8 +4,8 @@ Tait oil carrying 1 % free air through the piston, and an elasto-plastic rod sea
 Hess-Soom breakaway. The diagnosis sees only the tests; it must name the air, model each
 effect to near the clean sweep's own error with the plant's own numbers, claim nothing
 on a clean sweep, and nothing but friction on the seal's (this plant's seal is named on a
-few seeds only: benchmarks/results/turn-steps-2026-11-30.txt). The sweeps are offline (reference_sweep: no sockets); each is made and
-diagnosed when a test first asks for it."""
+few seeds only: benchmarks/results/turn-steps-2026-11-30.txt). The sweeps are offline
+(reference_sweep: no sockets); each is made and diagnosed when a test first asks for it."""
 
 from __future__ import annotations
 

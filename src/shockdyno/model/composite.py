@@ -482,9 +482,19 @@ class DamperModel:
         return tuple((t, stage) for t in self.terms for stage in t.run_stages())
 
     @cached_property
-    def _locals(self) -> dict[int, dict[str, float]]:
-        """Each of the model's terms' values by local name, by the term's id."""
-        return {id(t): self._local_values(t) for t in self.terms}
+    def _locals(self) -> dict[int, tuple[Term, dict[str, float]]]:
+        """Each of the model's terms' values by local name, by the term's id (with the term,
+        so that an id another object has taken since is not read as that term's)."""
+        return {id(t): (t, self._local_values(t)) for t in self.terms}
+
+    def __getstate__(self) -> dict[str, object]:
+        # A model sent to a diagnosis worker and back would carry `_locals` keyed by the ids
+        # its terms had in the other process; a forked worker's heap is laid out as its
+        # parent's, so such an id can be the id of another of the model's terms here: a
+        # sensor lag evaluated once with the friction's values (KeyError 'lvdt_lag_s').
+        state = dict(self.__dict__)
+        state.pop("_locals", None)
+        return state
 
     def param_list(self) -> list[tuple[str, Param]]:
         """Every term's parameters as (qualified name, Param), in the model's term order."""
@@ -500,8 +510,10 @@ class DamperModel:
 
     def local_values(self, term: Term) -> dict[str, float]:
         """`term`'s parameter values by local name (a copy), nominals where not set."""
-        got = self._locals.get(id(term))  # a term not of this model is not live under its id
-        return dict(got) if got is not None else self._local_values(term)  # a copy: theirs
+        got = self._locals.get(id(term))
+        if got is not None and got[0] is term:
+            return dict(got[1])  # a copy: theirs
+        return self._local_values(term)
 
     def _local_values(self, term: Term) -> dict[str, float]:
         return {

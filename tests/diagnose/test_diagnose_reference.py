@@ -113,9 +113,9 @@ def test_an_elasto_plastic_seal_is_named_friction_or_left_unnamed(diagnosed: Mad
 
 @pytest.mark.xfail(
     strict=True,
-    reason="a finding: the Stribeck term reads 69.8 N of breakaway where the plant's "
-    "Hess-Soom level has 40 N (+75 %; seed 755; on six tests of the same seed the seal was "
-    "not named at all: a sensor lag with a -1.28 ms delay was claimed)",
+    reason="a finding: on this seed the seal is not named (the test above); where it was, "
+    "the Stribeck term read 69.8 N of breakaway for the plant's Hess-Soom level of 40 N "
+    "(+75 %)",
 )
 def test_an_elasto_plastic_seal_is_read_at_its_breakaway(diagnosed: Made) -> None:
     v = claimed_values(diagnosed["r-seal"], "friction")

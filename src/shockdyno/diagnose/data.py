@@ -85,7 +85,7 @@ def step_at_turn(v: FloatArray, f: FloatArray, idx: IntArray) -> NDArray[np.bool
     if n < 7:
         return np.zeros(idx.size, dtype=bool)
 
-    def at(k: IntArray) -> FloatArray:
+    def at(k: IntArray) -> IntArray:
         return np.asarray(np.clip(k, 0, n - 1), dtype=np.intp)
 
     turn = (v[at(idx - 1)] * v[at(idx + 1)] <= 0) | (v[idx] == 0)

@@ -10,16 +10,17 @@ import csv
 from pathlib import Path
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from shockdyno.atomic import write_text_atomic
 from shockdyno.errors import ConfigError
+from shockdyno.figures import agg_figure, save_png
 from shockdyno.report.build import build_report
 from shockdyno.report.ride_section import FLAG_LEGEND, PAPER_EXPLANATION, paper_ratios
 from shockdyno.ride.study import RideResult, Run, paper_rms
 
 TRACE_WINDOW_S = 10.0
+DPI = 110  # saved at, and laid out at (figures.agg_figure): each text measured once
 
 
 def _label(clicks: int | None) -> str:
@@ -27,8 +28,7 @@ def _label(clicks: int | None) -> str:
 
 
 def _save(fig: Figure, path: Path) -> None:
-    FigureCanvasAgg(fig)
-    fig.savefig(path, dpi=110)
+    save_png(fig, path, DPI)
 
 
 def _pick_road(result: RideResult) -> str:
@@ -52,7 +52,7 @@ def plot_traces(result: RideResult, speed_kmh: float, path: Path) -> None:
     road = _pick_road(result)
     t = result.trajectory.time_s
     keep = t <= TRACE_WINDOW_S
-    fig = Figure(figsize=(8, 4))
+    fig = agg_figure(figsize=(8, 4), dpi=DPI)
     ax = fig.add_subplot()
     for c in _clicks(result):
         i = result.runs.index(Run(c, road, speed_kmh))
@@ -71,7 +71,7 @@ def plot_psd(result: RideResult, path: Path) -> None:
     road = _pick_road(result)
     speeds = list(result.config.speeds_kmh)
     rows, cols = _grid(len(speeds))
-    fig = Figure(figsize=(5 * cols, 3.6 * rows))
+    fig = agg_figure(figsize=(5 * cols, 3.6 * rows), dpi=DPI)
     for k, v in enumerate(speeds):
         ax = fig.add_subplot(rows, cols, k + 1)
         for c in _clicks(result):
@@ -94,7 +94,7 @@ def plot_rms_vs_speed(result: RideResult, path: Path) -> None:
     speeds = np.array(result.config.speeds_kmh)
     order = np.argsort(speeds)
     rows, cols = _grid(len(roads))
-    fig = Figure(figsize=(5 * cols, 3.6 * rows))
+    fig = agg_figure(figsize=(5 * cols, 3.6 * rows), dpi=DPI)
     for k, road in enumerate(roads):
         ax = fig.add_subplot(rows, cols, k + 1)
         for c in _clicks(result):

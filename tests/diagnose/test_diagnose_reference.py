@@ -102,9 +102,9 @@ def test_air_carried_in_tait_oil_is_modelled(diagnosed: Made) -> None:
 def test_an_elasto_plastic_seal_is_named_friction_or_left_unnamed(diagnosed: Made) -> None:
     """Not a claim of anything else (on six tests of this seed a negative delay was once
     claimed). Naming it is not asserted: at 40 N the library's Stribeck seal, trained on one
-    frequency, predicts the other worse than without it on most seeds (held-out gain
-    -0.17 to -0.21 on four fresh ones), and where it was named here its share in place
-    stood within its noise of the half a claim needs (51 ± 13 %)."""
+    frequency, predicts the other worse than without it on most seeds, and where it was
+    named here its share in place stood within its noise of the half a claim needs (the
+    figures are in the record the module's docstring names)."""
     d = diagnosed["r-seal"]
     assert d["verdict"]["physics"] in ([], ["friction"]), d["verdict"]["text"]
     tried = [f for f in d["findings"] if f["physics"] == "friction"]

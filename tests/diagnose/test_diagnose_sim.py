@@ -1,7 +1,7 @@
 """Concealed effects, first part: air, cavitation and heat, a faint effect and a clean
 recording (the cases and checks are in concealed.py; the others are in
-test_diagnose_sim_pairs.py and test_diagnose_sim_two.py, modules of 2-3 min each so that
-`--dist loadscope` can share them between the two test workers)."""
+test_diagnose_sim_pairs.py, a module of its own so that `--dist loadscope` can share them
+between the test workers; two effects at once are bench_diagnose.py's pairs)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Concealed effects, second part: seal friction, sensor lag and a bump stop (the cases and
-checks are in concealed.py; the first part is in test_diagnose_sim.py, two effects at once
-in test_diagnose_sim_two.py)."""
+checks are in concealed.py; the first part is in test_diagnose_sim.py; two effects at once
+are bench_diagnose.py's pairs)."""
 
 from __future__ import annotations
 

@@ -69,11 +69,5 @@ def test_a_held_out_bump_rubber_is_named_at_its_onset(diagnosed: Made) -> None:
     assert onset == pytest.approx(0.024, abs=0.002)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="a finding: the library's power-law bump leaves the rubber's densification "
-    "(seed 3: E_t 0.1191 -> 0.0061 against the clean 0.0040, 1.54x; 2.8 N left in "
-    "compression at 16-29 mm; before the contact term had a loss, 0.0116, 2.9x)",
-)
 def test_a_held_out_bump_rubber_is_modelled_to_the_clean_level(diagnosed: Made) -> None:
     assert_modelled(diagnosed["h-bump"]["doc"], diagnosed["clean"]["doc"])

@@ -45,6 +45,9 @@ def test_the_recovered_parameters_are_the_simulated_ones(diagnoses: Diagnoses) -
     bump = claimed(diagnoses, "s-bump", "contact")
     assert bump["bump_onset_m"]["value"] == pytest.approx(0.021, abs=0.001)
     assert bump["bump_force_n"]["value"] == pytest.approx(200.0, rel=0.1)
+    # The sim-rig's stop is the library's square: freed, the exponent finds it.
+    n = bump["exponent"]
+    assert n["value"] == pytest.approx(2.0, abs=max(0.1, 3 * (n["sd"] or 0.0))), n
 
 
 @LAG_SPREAD

@@ -332,6 +332,11 @@ def try_candidate(
             mine = tuple(k for k in mine if k not in off)
             model = fitted.model.with_values(off)
             fitted = refit(data, model, (*base.free, *mine), fitted, max_nfev, calibrated)
+        held = _undetermined(fitted, name)
+        if held:
+            mine = tuple(k for k in mine if k not in held)
+            model = fitted.model.with_values(held)
+            fitted = refit(data, model, (*base.free, *mine), fitted, max_nfev, calibrated)
         fitted, mine, jac_here = refined(
             data, base, fitted, name, mine, noise, max_nfev, calibrated
         )
@@ -482,6 +487,22 @@ def _unseen(data: Data, fitted: Fitted, name: str) -> dict[str, float]:
         return {}
     found = term.unseen(local, x)
     return {term.qualified(k): v for k, v in found.items() if local[k] != v}
+
+
+def _undetermined(fitted: Fitted, name: str) -> dict[str, float]:
+    """The term's free shape parameters (`Param.held_above_sd`) the fit left with a σ above
+    their bound, at their nominal values: the term is fitted again without them."""
+    term = fitted.model.term(name)
+    if term is None:
+        return {}
+    out: dict[str, float] = {}
+    for p in term.params():
+        key = term.qualified(p.name)
+        if key in fitted.free and math.isfinite(p.held_above_sd):
+            sd = fitted.term_sd.get(key, math.inf)
+            if not sd <= p.held_above_sd:  # NaN, an infinite σ: not determined either
+                out[key] = p.nominal
+    return out
 
 
 def _structure(data: Data, residual: FloatArray) -> FloatArray:

@@ -46,6 +46,10 @@ class Param:
     off: float
     free: bool = True
     doc: str = ""
+    # A shape parameter that `diagnose` holds at its nominal where the term's fit leaves
+    # its σ above this (the data reach too little of the shape to tell it): freed beside
+    # the term's level, an undetermined shape trades with it and costs the term its claim.
+    held_above_sd: float = math.inf
 
     def __post_init__(self) -> None:
         if not self.lo <= self.nominal <= self.hi:

@@ -4,7 +4,11 @@ F = F_b·(max(0, x − x_b)/δ)^n − F_t·(max(0, x_t − x)/δ)^n, δ = 10 mm:
 (compression side, onset x_b) pushes the rod out, the top-out spring (rebound side,
 onset x_t < 0) pulls it in. Each side is stated by its force 10 mm past its onset, which
 an engineer reads off a bump-stop curve, rather than by a stiffness whose unit changes
-with n. n is 2 (a progressive elastomer) unless named (`contact.exponent`).
+with n, fitted from 2 (a progressive elastomer): a solid rubber's first millimetres are
+nearly linear, a microcellular bumper densifies and stiffens faster. Held at 2, a
+densifying bump rubber was read with an early onset and a top-out it did not have.
+Where the stroke reaches too little of the curve to tell n (σ above 0.25), `diagnose`
+holds it at 2.
 
 A rubber stop pushes harder going in than coming out. Each side's force is multiplied by
 max(0, 1 + η·tanh(v_in/v_h) + α·v_in), v_in the speed into the stop (+ẋ at the bump, −ẋ
@@ -97,7 +101,10 @@ class Contact(Term):
             hi=4.0,
             scale=0.5,
             off=2.0,
-            free=False,
+            # A stop met only a few mm deep shows too little of its curve to tell a
+            # square from 1.5 or 2.5; one met 6 mm deep or more tells n to hundredths
+            # (benchmarks/results/contact-exponent-2026-11-30.txt).
+            held_above_sd=0.25,
             doc="1 linear, 2 progressive",
         ),
         Param(
@@ -147,6 +154,8 @@ class Contact(Term):
                     f"{r.sd(f'{key}_force_n', fn)} {fl} {ln * 0.01:.2g} {ll} past it)"
                 )
         text = "contact: " + (" and ".join(sides) or "at the end of travel")
+        if sides and r.moved("exponent"):
+            text += f", its force as depth^{r.v('exponent'):.2g}{r.sd('exponent')}"
         losses = []
         if sides and r.moved("hysteresis"):
             losses.append(
@@ -200,7 +209,7 @@ class Contact(Term):
         # parameters move nothing.
         losses: tuple[str, ...] = ()
         if len(out) == 4:
-            losses = ("hysteresis", "viscous_s_m", "hysteresis_velocity_m_s")
+            losses = ("hysteresis", "viscous_s_m", "hysteresis_velocity_m_s", "exponent")
         elif p["hysteresis"] == 0.0:
             losses = ("hysteresis_velocity_m_s",)
         for name in losses:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import cast
 
@@ -323,20 +323,21 @@ def try_candidate(
         fitted = refit(
             data, model, (*base.free, *mine), base, max_nfev=max_nfev, calibrated=calibrated
         )
-        off = _unseen(data, fitted, name)
-        if off:
-            # A side the data cannot place (a top-out met only in the stroke's last 10 %)
-            # goes off and the term is fitted again without it: refusing the whole term
-            # for it lost a bump stop placed to 0.02 mm (199 N for 200, held-out gain
-            # 1.00), and the search took a gas spring and a position force instead.
-            mine = tuple(k for k in mine if k not in off)
-            model = fitted.model.with_values(off)
-            fitted = refit(data, model, (*base.free, *mine), fitted, max_nfev, calibrated)
-        held = _undetermined(fitted, name)
-        if held:
-            mine = tuple(k for k in mine if k not in held)
-            model = fitted.model.with_values(held)
-            fitted = refit(data, model, (*base.free, *mine), fitted, max_nfev, calibrated)
+        # A side the data cannot place (a top-out met only in the stroke's last 10 %)
+        # goes off, then a shape the fit leaves undetermined is held, and each time the
+        # term is fitted again without it: refusing the whole term for such a side lost a
+        # bump stop placed to 0.02 mm (199 N for 200, held-out gain 1.00), and the search
+        # took a gas spring and a position force instead.
+        rules: tuple[Callable[[Fitted], dict[str, float]], ...] = (
+            lambda f: _unseen(data, f, name),
+            lambda f: _undetermined(f, name),
+        )
+        for held_by in rules:
+            held = held_by(fitted)
+            if held:
+                mine = tuple(k for k in mine if k not in held)
+                model = fitted.model.with_values(held)
+                fitted = refit(data, model, (*base.free, *mine), fitted, max_nfev, calibrated)
         fitted, mine, jac_here = refined(
             data, base, fitted, name, mine, noise, max_nfev, calibrated
         )

@@ -288,7 +288,11 @@ def try_candidate(
     name: str,
     noise: FloatArray,
     max_nfev: int,
+    min_effect_n: float = 0.0,
 ) -> Candidate:
+    """Candidate `name` refitted beside `base` and tested against it. `min_effect_n`: the
+    least force that matters (claims.effect_limit); a part of the term whose own force
+    stays below it is held off (`Term.faint`)."""
     jac_here: FloatArray | None = None  # the Jacobian at `fitted`, where worked out already
     if name in CALIBRATIONS:
         calibrated = with_calibration(base, name)
@@ -331,6 +335,7 @@ def try_candidate(
         rules: tuple[Callable[[Fitted], dict[str, float]], ...] = (
             lambda f: _unseen(data, f, name),
             lambda f: _undetermined(f, name),
+            lambda f: _faint(data, f, name, min_effect_n),
         )
         for held_by in rules:
             held = held_by(fitted)
@@ -487,6 +492,18 @@ def _unseen(data: Data, fitted: Fitted, name: str) -> dict[str, float]:
     if not term.unplaced(local, x):
         return {}
     found = term.unseen(local, x)
+    return {term.qualified(k): v for k, v in found.items() if local[k] != v}
+
+
+def _faint(data: Data, fitted: Fitted, name: str, limit_n: float) -> dict[str, float]:
+    """The term's parts whose own force stays below `limit_n` on `data` (`Term.faint`),
+    with their off values, where they are not off already."""
+    term = fitted.model.term(name)
+    if term is None or limit_n <= 0:
+        return {}
+    local = fitted.model.local_values(term)
+    _, v, _ = fitted.model.motion(data.prob.inputs)
+    found = term.faint(local, data.prob.inputs.x, v, limit_n)
     return {term.qualified(k): v for k, v in found.items() if local[k] != v}
 
 

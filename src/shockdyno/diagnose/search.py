@@ -275,7 +275,8 @@ class Search:
             self.report(f"round {rnd}: {name} tried", 0.1 + 0.8 * (rnd - 1 + share) / rounds)
 
         self.report(f"round {rnd}: {len(remaining)} candidates", 0.1 + 0.8 * (rnd - 1) / rounds)
-        shared = (self.tests, self.base, self.means, noise, self.s.max_nfev)
+        limit = effect_limit(self.binned, self.force_peak, self.s)
+        shared = (self.tests, self.base, self.means, noise, self.s.max_nfev, limit)
         got = self.workers.map(_try, shared, [remaining[i] for i in order], tried)
         return [got[order.index(i)] for i in range(len(remaining))]
 
@@ -369,11 +370,12 @@ class Search:
             )
             means, binned = binned_means(tests, reduced.residual)
             noise = noise_draws(binned, self.rng, s.n_boot)
-            c = try_candidate(tests, reduced, means, name, noise, s.max_nfev)
+            limit = effect_limit(binned, self.force_peak, s)
+            c = try_candidate(tests, reduced, means, name, noise, s.max_nfev, limit)
             gain = 0.0
             if self.folds:
                 gain = heldout_gains(self.folds, reduced, [c], s.fold_nfev, self.workers)[0][0]
-            idle = own_force_small(c, effect_limit(binned, self.force_peak, s))
+            idle = own_force_small(c, limit)
             if c.p_value < s.alpha and gain >= s.min_gain_joining and not idle:
                 continue
             others = [n for n in self.claimed if n != name]
@@ -403,14 +405,13 @@ class Search:
         air was left alone, with a larger error than the model with the seal."""
         s, tests = self.s, self.tests
         means, binned = binned_means(tests, self.base.residual)
-        c = try_candidate(
-            tests, self.base, means, name, noise_draws(binned, self.rng, s.n_boot), s.max_nfev
-        )
+        limit = effect_limit(binned, self.force_peak, s)
+        noise = noise_draws(binned, self.rng, s.n_boot)
+        c = try_candidate(tests, self.base, means, name, noise, s.max_nfev, limit)
         gain = 0.0
         if self.folds:
             gain = heldout_gains(self.folds, self.base, [c], s.fold_nfev, self.workers)[0][0]
         shapes = [(n, sh) for n, sh in self.shapes if n in self.claimed]
-        limit = effect_limit(binned, self.force_peak, s)
         x = tests.prob.inputs.x
         if (
             c.p_value >= s.alpha
@@ -587,9 +588,9 @@ def chamber_term(name: str) -> bool:
     return term is not None and term.stateful and PRESSURE <= term.stage < FORCE
 
 
-def _try(shared: tuple[Data, Fitted, FloatArray, FloatArray, int], name: str) -> Candidate:
-    search, base, base_means, noise, max_nfev = shared
-    return try_candidate(search, base, base_means, name, noise, max_nfev)
+def _try(shared: tuple[Data, Fitted, FloatArray, FloatArray, int, float], name: str) -> Candidate:
+    search, base, base_means, noise, max_nfev, limit = shared
+    return try_candidate(search, base, base_means, name, noise, max_nfev, limit)
 
 
 def gated(

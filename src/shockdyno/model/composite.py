@@ -354,6 +354,14 @@ class Term:
         measured, and must not ride along to a car that travels further)."""
         return {}
 
+    def faint(
+        self, p: Mapping[str, float], x: FloatArray, v: FloatArray, limit_n: float
+    ) -> dict[str, float]:
+        """Off values for a part of the term whose own force stays below `limit_n` (N) at
+        every sample (positions `x`, velocities `v`), and for what then moves nothing: a
+        part too weak to matter is not measured either (none by default)."""
+        return {}
+
     def unplaced(self, p: Mapping[str, float], x: FloatArray) -> str:
         """Why these fitted values cannot be told apart from other physics on data that
         cover the positions `x` ("" when they can): a term acting only where another

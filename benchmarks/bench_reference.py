@@ -202,6 +202,8 @@ def _holdout_values(truth: Any) -> dict[str, float]:
         out["delay_ms"] = 1e3 * v["force_delay_s"]
     if "bump_onset_m" in v:
         out["bump_onset_mm"] = 1e3 * v["bump_onset_m"]
+    if v.get("topout_onset_m") is not None:  # below mid-stroke, whichever sign it is kept in
+        out["topout_onset_mm"] = -1e3 * abs(v["topout_onset_m"])
     return out
 
 
@@ -224,6 +226,8 @@ def _reported(d: dict[str, Any], charge_pa: float) -> dict[str, float]:
             out["delay_ms"] = 1e3 * (v.get("delay_s", 0.0) + v.get("load_cell_lag_s", 0.0))
         elif phys == "contact":
             out["bump_onset_mm"] = 1e3 * v.get("bump_onset_m", math.nan)
+            if v.get("topout_force_n", 0.0) > 0:
+                out["topout_onset_mm"] = 1e3 * v.get("topout_onset_m", math.nan)
     return out
 
 
@@ -401,7 +405,8 @@ def summary(rows: list[Row]) -> None:
         f"({fmt(within / len(ratios) if ratios else math.nan)}); min F1 {fmt(min(f1s))}"
     )
     print("\nparameter recovery (claimed terms against the plant's numbers):")
-    for key in ("beta_eff_mpa", "release_kpa", "breakaway_n", "delay_ms", "bump_onset_mm"):
+    keys = ("beta_eff_mpa", "release_kpa", "breakaway_n", "delay_ms", "bump_onset_mm")
+    for key in (*keys, "topout_onset_mm"):
         pairs = [(r, *r.recovered[key]) for r in ok if key in r.recovered]
         for r, want, got in pairs:
             rel = (got - want) / want if want and math.isfinite(want) else math.nan

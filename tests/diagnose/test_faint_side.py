@@ -5,20 +5,12 @@ onset at the range's end, and the stop was dropped with it as no estimate."""
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
+from bumped import bumped
 
 from shockdyno.diagnose import candidates
-from shockdyno.diagnose.candidates import binned_means, try_candidate
-from shockdyno.diagnose.data import Data
-from shockdyno.diagnose.fitting import refit
-from shockdyno.diagnose.stats import noise_draws
-from shockdyno.fit.prepare import prepare_tests
-from shockdyno.fit.synthetic import synthetic_sweep
-from shockdyno.model.composite import DamperModel
-from shockdyno.model.spec import load_spec
+from shockdyno.diagnose.candidates import try_candidate
 from shockdyno.model.terms.contact import Contact
 
 STROKE = 0.03
@@ -60,17 +52,9 @@ def test_a_loss_counts_toward_a_sides_force() -> None:
 
 
 def test_the_candidate_is_judged_without_a_faint_top_out(monkeypatch: pytest.MonkeyPatch) -> None:
-    spec = load_spec(None)
     onset, force = 0.026, 400.0  # a 4 mm deep bump stop, 400 N 10 mm past its onset
-    tests = []
-    for t in synthetic_sweep(spec, [5, 15], cycles=3, seed=8):
-        bump = force * (np.maximum(t.x - onset, 0.0) / 0.01) ** 2
-        tests.append(replace(t, force=t.force + bump))
-    prepared, _ = prepare_tests(tests)
-    data = Data.build(spec, prepared)
-    base = refit(data, DamperModel(spec), (), None, max_nfev=30)
-    means, binned = binned_means(data, base.residual)
-    noise = noise_draws(binned, np.random.default_rng(0), 99)
+    b = bumped(onset, force)
+    data, base, means, noise = b.data, b.base, b.means, b.noise
     start = {
         "contact.bump_onset_m": 0.025,
         "contact.bump_force_n": 300.0,

@@ -9,16 +9,10 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from bumped import bumped
 
 from shockdyno.diagnose import candidates
-from shockdyno.diagnose.candidates import binned_means, try_candidate
-from shockdyno.diagnose.data import Data
-from shockdyno.diagnose.fitting import refit
-from shockdyno.diagnose.stats import noise_draws
-from shockdyno.fit.prepare import prepare_tests
-from shockdyno.fit.synthetic import synthetic_sweep
-from shockdyno.model.composite import DamperModel
-from shockdyno.model.spec import load_spec
+from shockdyno.diagnose.candidates import try_candidate
 from shockdyno.model.terms.contact import Contact
 
 ONSET, FORCE = 0.021, 200.0  # the damper's bump stop: 200 N 10 mm past 21 mm
@@ -27,16 +21,8 @@ ONSET, FORCE = 0.021, 200.0  # the damper's bump stop: 200 N 10 mm past 21 mm
 def test_a_side_the_data_cannot_place_goes_off_and_the_other_is_judged(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    spec = load_spec(None)
-    tests = []
-    for t in synthetic_sweep(spec, [5, 15], cycles=3, seed=8):
-        bump = FORCE * (np.maximum(t.x - ONSET, 0.0) / 0.01) ** 2
-        tests.append(replace(t, force=t.force + bump))
-    prepared, _ = prepare_tests(tests)
-    data = Data.build(spec, prepared)
-    base = refit(data, DamperModel(spec), (), None, max_nfev=30)
-    means, binned = binned_means(data, base.residual)
-    noise = noise_draws(binned, np.random.default_rng(0), 99)
+    b = bumped(ONSET, FORCE)
+    data, base, means, noise = b.data, b.base, b.means, b.noise
     # The search's start: the bump near its place and a top-out 2 mm from the bottom of
     # the stroke. Left on, the fit takes that side to 0.33 mm deep at 320 N (where it
     # acts at reversal only): the whole term would be refused as not placed.

@@ -538,11 +538,17 @@ def test_contact_is_a_hinge_with_a_power_law_past_each_onset() -> None:
     linear = model.with_values({"contact.exponent": 1.0})
     ev = linear.evaluate(ModelInputs.single(x, z, z), A_BC, A_BT)
     assert ev.components["contact"][6] == pytest.approx(150.0)
+    assert ev.components["contact"][1] == pytest.approx(-20.0)  # the top-out's own n
+    top_linear = model.with_values({"contact.topout_exponent": 1.0})
+    ev = top_linear.evaluate(ModelInputs.single(x, z, z), A_BC, A_BT)
+    assert ev.components["contact"][1] == pytest.approx(-40.0)
+    assert ev.components["contact"][6] == pytest.approx(75.0)
     # An onset in the last 10 % of the stroke acts at reversal only: not placed.
     term = make_term("contact")
     stroke = 0.03 * np.sin(np.linspace(0, 2 * np.pi, 400))
     local = {k.partition(".")[2]: v for k, v in values.items()} | {
         "exponent": 2.0,
+        "topout_exponent": 2.0,
         "hysteresis": 0.0,
         "hysteresis_velocity_m_s": 0.01,
         "viscous_s_m": 0.0,

@@ -16,6 +16,7 @@ from shockdyno.diagnose.candidates import (
     Fold,
     binned_means,
     folds,
+    freed_shapes,
     heldout_gains,
     own_peak,
     seen_implausible,
@@ -469,6 +470,11 @@ class Search:
                 self.came_with.pop(n, None)
             nfev = s.final_nfev if self.claimed or freed else s.max_nfev
             base = refit(data, kept, free, base, max_nfev=nfev, calibrated=calibrated)
+        # Kept only if every claim still passes as it did: freed, a shape may let a term
+        # stand in for another (a top-out from mid-stroke as a linear spring).
+        shaped = freed_shapes(data, base, self.claimed, nfev)
+        if shaped is not base and not idle_reasons(self.claimed, data, shaped, self.force_peak, s):
+            base = shaped
         for f in self.trials:
             if f.claimed:
                 f.parameters = term_estimates(base, f.physics, data)

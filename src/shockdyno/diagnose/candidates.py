@@ -516,14 +516,14 @@ def freed_shapes(data: Data, fitted: Fitted, names: Sequence[str], max_nfev: int
     (an off side's n, the loss's speed with no loss) is not tried: with no column of its
     own the solver walks it anywhere. `fitted` itself where none is told."""
     held = [k for k in _held_shapes(fitted, names) if _moves(data, fitted, k)]
-    worse = float(fitted.residual @ fitted.residual)
+    before = float(fitted.residual @ fitted.residual)
     for _ in range(len(held)):  # each pass lets one more go at least
         if not held:
             break
         freed = refit(data, fitted.model, (*fitted.free, *held), fitted, max_nfev)
         told = [k for k in held if freed.term_sd.get(k, math.inf) <= _bound(freed, k)]
         if told == held:
-            return fitted if float(freed.residual @ freed.residual) > worse else freed
+            return fitted if float(freed.residual @ freed.residual) > before else freed
         held = told
     return fitted
 

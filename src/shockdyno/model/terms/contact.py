@@ -180,10 +180,15 @@ class Contact(Term):
         text = "contact: " + (" and ".join(sides) or "at the end of travel")
         losses = []
         if sides and r.moved("hysteresis"):
-            losses.append(
+            loop = (
                 f"{100 * r.v('hysteresis'):.2g}{r.sd('hysteresis', 100)} % harder going in "
-                "than coming out (the rubber's hysteresis)"
+                "than coming out (the rubber's hysteresis"
             )
+            if r.moved("hysteresis_velocity_m_s"):
+                sn, sl = r.speed
+                vh = "hysteresis_velocity_m_s"
+                loop += f", taken up by {sn * r.v(vh):.2g}{r.sd(vh, sn)} {sl} into the stop"
+            losses.append(loop + ")")
         if sides and r.moved("viscous_s_m"):
             # As a share per 0.1 m/s into the stop, which reads better than s/m.
             (sn, sl), alpha = r.speed, r.v("viscous_s_m")

@@ -1,21 +1,23 @@
 """Contact at the ends of travel: a bump stop and a top-out spring, each with a free onset.
 
-F = F_b·(max(0, x − x_b)/δ)^n − F_t·(max(0, x_t − x)/δ)^n, δ = 10 mm: the bump stop
+F = F_b·(max(0, x − x_b)/δ)^n_b − F_t·(max(0, x_t − x)/δ)^n_t, δ = 10 mm: the bump stop
 (compression side, onset x_b) pushes the rod out, the top-out spring (rebound side,
 onset x_t < 0) pulls it in. Each side is stated by its force 10 mm past its onset, which
 an engineer reads off a bump-stop curve, rather than by a stiffness whose unit changes
-with n, fitted from 2 (a progressive elastomer): a solid rubber's first millimetres are
-nearly linear, a microcellular bumper densifies and stiffens faster. Held at 2, a
-densifying bump rubber was read with an early onset and a top-out it did not have.
-Where the stroke reaches too little of the curve to tell n (σ above 0.25), `diagnose`
-holds it at 2.
+with n. Each side has its own n, from 2 (a progressive elastomer): a solid rubber's first
+millimetres are nearly linear, a microcellular bumper densifies and stiffens faster, a
+top-out is often a linear coil. Held at 2, a densifying bump rubber was read with an
+early onset and a top-out it did not have. n_b is fitted with the stop; where the stroke
+reaches too little of the curve to tell it (σ above 0.25), `diagnose` holds it at 2.
+n_t is held at 2 unless named; `diagnose` frees it in its final refit, as it frees the
+loss's v_h, where the data tell it.
 
 A rubber stop pushes harder going in than coming out. Each side's force is multiplied by
 max(0, 1 + η·tanh(v_in/v_h) + α·v_in), v_in the speed into the stop (+ẋ at the bump, −ẋ
 at the top-out): η a loss that does not depend on speed past v_h (an elastomer's
-hysteresis loop; v_h = 10 mm/s unless named), α one proportional to speed (Hunt and
-Crossley's viscous stop, F ∝ δⁿ(1 + α δ̇)). Never below 0: coming out faster than the
-rubber recovers, it leaves the rod. η = α = 0: an elastic stop.
+hysteresis loop; v_h = 10 mm/s unless named or freed as above), α one proportional to
+speed (Hunt and Crossley's viscous stop, F ∝ δⁿ(1 + α δ̇)). Never below 0: coming out
+faster than the rubber recovers, it leaves the rod. η = α = 0: an elastic stop.
 
 Beside `position_force`, which bends a smooth curve through the whole stroke, this is a
 hinge: nothing before the onset, then a power law. Off: both forces 0 (the onsets then
@@ -241,7 +243,6 @@ class Contact(Term):
         # its onset pinned at the range's end, dropped the stop with it.
         if not x.size:
             return {}
-        eta, alpha = p["hysteresis"], p["viscous_s_m"]
         gone = []
         for side in _sides(p, x):
             _, force, onset, n, _ = side
@@ -249,8 +250,7 @@ class Contact(Term):
                 continue
             sign = 1.0 if force == "bump_force_n" else -1.0
             depth = np.maximum(sign * (x - p[onset]), 0.0) / REFERENCE_DEPTH_M
-            loss = eta * np.tanh(sign * v / p["hysteresis_velocity_m_s"]) + alpha * sign * v
-            own = p[force] * depth ** p[n] * np.maximum(1.0 + loss, 0.0)
+            own = p[force] * depth ** p[n] * _loss_factor(p, sign * v)
             if float(np.max(own)) < limit_n:
                 gone.append(side)
         return self._off(p, gone)
@@ -306,11 +306,17 @@ class Contact(Term):
             # Going into either stop it pushes harder than coming out. The speed into the
             # stop is +v at the bump and -v at the top-out, i.e. v·sgn(force). Coming out
             # fast, a viscous loss would have the stop pull; a rubber leaves the rod then.
-            v_in = w.v * np.sign(force)
-            loss = eta * np.tanh(v_in / p["hysteresis_velocity_m_s"]) + alpha * v_in
-            force = force * np.maximum(1.0 + loss, 0.0)
+            force = force * _loss_factor(p, w.v * np.sign(force))
         w.add_part(self.name, force)
         return None
+
+
+def _loss_factor(p: Mapping[str, float], v_in: FloatArray) -> FloatArray:
+    """A side's force multiplier at speed `v_in` into the stop: max(0, 1 + η tanh(v_in/v_h)
+    + α v_in)."""
+    eta, alpha = p["hysteresis"], p["viscous_s_m"]
+    loss = eta * np.tanh(v_in / p["hysteresis_velocity_m_s"]) + alpha * v_in
+    return np.maximum(1.0 + loss, 0.0)
 
 
 def _half_stroke(x: FloatArray) -> float:

@@ -28,7 +28,8 @@ from shockdyno.diagnose.stats import basis, lr_bootstrap
 from shockdyno.diagnose.workers import SERIAL, Workers
 from shockdyno.fit.parameters import global_parameters, spec_global
 from shockdyno.fit.prepare import PreparedTest
-from shockdyno.model.composite import DamperModel
+from shockdyno.model.composite import DamperModel, Evaluation
+from shockdyno.model.params import Param
 from shockdyno.model.terms import make_term
 
 FloatArray = NDArray[np.float64]
@@ -515,61 +516,50 @@ def freed_shapes(data: Data, fitted: Fitted, names: Sequence[str], max_nfev: int
     onset ± 4 mm and n ± 0.99 there, ± 0.02 mm at the end). A shape that moves no sample
     (an off side's n, the loss's speed with no loss) is not tried: with no column of its
     own the solver walks it anywhere. `fitted` itself where none is told."""
-    held = [k for k in _held_shapes(fitted, names) if _moves(data, fitted, k)]
+    shapes = [(q, p) for q, p in _shapes(fitted, names) if q not in fitted.free]
+    if not shapes:
+        return fitted
+    here = evaluate(data, fitted)
+    bounds = {q: p.held_above_sd for q, p in shapes if _moves(data, fitted, q, here)}
+    held = list(bounds)
     before = float(fitted.residual @ fitted.residual)
-    for _ in range(len(held)):  # each pass lets one more go at least
-        if not held:
-            break
+    while held:  # a pass that does not keep all it freed tries fewer
         freed = refit(data, fitted.model, (*fitted.free, *held), fitted, max_nfev)
-        told = [k for k in held if freed.term_sd.get(k, math.inf) <= _bound(freed, k)]
+        told = [k for k in held if freed.term_sd.get(k, math.inf) <= bounds[k]]
         if told == held:
             return fitted if float(freed.residual @ freed.residual) > before else freed
         held = told
     return fitted
 
 
-def _held_shapes(fitted: Fitted, names: Sequence[str]) -> list[str]:
-    """The shape parameters of terms `names` that `fitted` holds."""
+def _shapes(fitted: Fitted, names: Sequence[str]) -> list[tuple[str, Param]]:
+    """The shape parameters (`Param.held_above_sd`) of terms `names` in `fitted`'s model."""
     return [
-        q
+        (q, p)
         for q, p in fitted.model.param_list()
-        if q.partition(".")[0] in names and math.isfinite(p.held_above_sd) and q not in fitted.free
+        if q.partition(".")[0] in names and math.isfinite(p.held_above_sd)
     ]
 
 
-def _moves(data: Data, fitted: Fitted, key: str) -> bool:
+def _moves(data: Data, fitted: Fitted, key: str, here: Evaluation | None) -> bool:
     """Whether parameter `key` 10 % off its value moves some sample of `fitted`'s force on
-    `data` by a hundredth of a newton."""
+    `data` (`here`) by a hundredth of a newton."""
     value = fitted.model.value(key)
-    moved = replace(fitted, model=fitted.model.with_values({key: 1.1 * value}))
-    here, there = evaluate(data, fitted), evaluate(data, moved)
+    there = evaluate(data, replace(fitted, model=fitted.model.with_values({key: 1.1 * value})))
     if here is None or there is None:
         return False
     return bool(np.max(np.abs(there.force - here.force), initial=0.0) > 0.01)
 
 
-def _bound(fitted: Fitted, key: str) -> float:
-    """Parameter `key`'s `held_above_sd` (a qualified name of a term in `fitted`)."""
-    name, _, local = key.partition(".")
-    term = fitted.model.term(name)
-    assert term is not None
-    return next(p.held_above_sd for p in term.params() if p.name == local)
-
-
 def _undetermined(fitted: Fitted, name: str) -> dict[str, float]:
     """The term's free shape parameters (`Param.held_above_sd`) the fit left with a σ above
     their bound, at their nominal values: the term is fitted again without them."""
-    term = fitted.model.term(name)
-    if term is None:
-        return {}
-    out: dict[str, float] = {}
-    for p in term.params():
-        key = term.qualified(p.name)
-        if key in fitted.free and math.isfinite(p.held_above_sd):
-            sd = fitted.term_sd.get(key, math.inf)
-            if not sd <= p.held_above_sd:  # NaN, an infinite σ: not determined either
-                out[key] = p.nominal
-    return out
+    # NaN or an infinite σ: not determined either
+    return {
+        q: p.nominal
+        for q, p in _shapes(fitted, [name])
+        if q in fitted.free and not fitted.term_sd.get(q, math.inf) <= p.held_above_sd
+    }
 
 
 def _structure(data: Data, residual: FloatArray) -> FloatArray:

@@ -43,6 +43,27 @@ def test_the_same_inputs_are_computed_once_and_any_change_again() -> None:
     assert kernel.calls == 5
 
 
+def test_a_record_keys_by_its_bits_and_an_unhashable_input_is_computed_each_time() -> None:
+    """The chamber's constants are a NumPy record (unhashable as it is)."""
+    calls: list[float] = []
+
+    def kernel(a: np.ndarray, rec: object) -> np.ndarray:
+        calls.append(float(rec["k"]))  # type: ignore[index]
+        return a * rec["k"]  # type: ignore[index]
+
+    cached = Recent(kernel)
+    kind = np.dtype([("k", "f8"), ("n", "i8")])
+    a = np.arange(5.0)
+    cached(a, np.array((2.0, 1), dtype=kind)[()])
+    again = cached(a, np.array((2.0, 1), dtype=kind)[()])
+    assert calls == [2.0] and np.array_equal(again, a * 2.0)
+    cached(a, np.array((np.nextafter(2.0, 3.0), 1), dtype=kind)[()])
+    cached(a, np.array((2.0, 2), dtype=kind)[()])
+    assert len(calls) == 3
+    listed = Recent(lambda a, ks: a * ks[0])
+    assert np.array_equal(listed(a, [3.0]), a * 3.0) and listed.calls == 0
+
+
 def test_results_and_inputs_are_copies() -> None:
     kernel = Counting()
     cached = Recent(kernel)

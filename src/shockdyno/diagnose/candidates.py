@@ -655,7 +655,7 @@ class FoldBaseline:
 
 def _baseline_structure(fold: Fold, base: Fitted, max_nfev: int) -> FloatArray:
     b_train = refit(fold.train, base.model, base.free, base, max_nfev, warm=WARM_FOLDS)
-    return _structure(fold.test, predict(fold.test, b_train).residual)
+    return _structure(fold.test, predict(fold.test, b_train, base).residual)
 
 
 def _fold_structure(shared: tuple[Fitted, int], fold: Fold) -> FloatArray:
@@ -733,7 +733,7 @@ def fold_outcome(fold: Fold, cand: Candidate, max_nfev: int) -> FoldOutcome:
     c_train = refit(
         fold.train, cand.fitted.model, cand.fitted.free, cand.fitted, max_nfev, warm=WARM_FOLDS
     )
-    predicted = predict(fold.test, c_train)
+    predicted = predict(fold.test, c_train, cand.fitted)
     acts = _acting_tests(fold.test, predicted, cand)
     reaches = bool(np.any(acts))
     if not reaches:

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from shockdyno.diagnose.data import Data
-from shockdyno.fit.areas import start_areas
+from shockdyno.fit.areas import held_out_areas, start_areas
 from shockdyno.fit.calibrate import calibrate
 from shockdyno.fit.parameters import (
     DEFAULT_GLOBALS,
@@ -175,14 +175,18 @@ def full_rate_force(fitted: Fitted, p: PreparedTest) -> FloatArray:
     return fitted.model.force(prepared_inputs([p], full_rate=True), a_bc, a_bt)
 
 
-def predict(data: Data, fitted: Fitted) -> Fitted:
+def predict(data: Data, fitted: Fitted, hint: Fitted | None = None) -> Fitted:
     """The fitted model on other tests: their clicks' areas from the fit where it has
-    them, else fitted on these tests with the globals and terms held."""
+    them, else fitted on these tests with the globals and terms held (fit/areas.py's
+    held_out_areas, starting also from `hint`'s areas for them: the fit on every test
+    that `fitted` was refitted from on some)."""
     bc, bt = fitted.area_vectors(data)
     missing = ~np.isfinite(bc) | ~np.isfinite(bt)
     prob = data.prob.for_model(fitted.model)
     if np.any(missing):
-        sbc, sbt = start_areas(prob, fitted.model, fitted.model.spec.bleed_bore_area_m2)
+        a_max = fitted.model.spec.bleed_bore_area_m2
+        near = None if hint is None else hint.area_vectors(data)
+        sbc, sbt = held_out_areas(prob, fitted.model, a_max, near)
         bc = np.where(missing, sbc, bc)
         bt = np.where(missing, sbt, bt)
     force = prob.force(fitted.model, bc, bt)

@@ -13,13 +13,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from shockdyno.diagnose.candidates import folds
+from shockdyno.diagnose.data import Data
 from shockdyno.diagnose.diagnosis import Diagnosis
+from shockdyno.diagnose.discover import build_rows, fold_rows
 from shockdyno.diagnose.engine import diagnose
+from shockdyno.diagnose.features import Stroke
+from shockdyno.diagnose.fitting import refit
 from shockdyno.diagnose.report import write_report
 from shockdyno.diagnose.settings import Settings
 from shockdyno.diagnose.verdict import document, to_json
+from shockdyno.fit.prepare import prepare_tests
 from shockdyno.fit.synthetic import synthetic_sweep
 from shockdyno.model import load_spec
+from shockdyno.model.composite import DamperModel
 from shockdyno.model.kinematics import differentiate
 from shockdyno.record.types import TestData
 from shockdyno.report.build import build_report
@@ -127,3 +134,36 @@ def test_the_figure_s_term_lies_on_the_residual_it_removes(side_load: Diagnosis)
     term = np.asarray(left.plot["term"])
     removed = 1.0 - float(np.sum((residual - term) ** 2)) / float(np.sum(residual**2))
     assert removed == pytest.approx(left.term.in_sample_share, abs=0.05)
+
+
+def test_a_half_s_features_sit_in_the_whole_recording_s_columns() -> None:
+    # One setting whose oil warms in its second half only: the first half has no
+    # temperature features (T, T*F_d), the whole recording and the second half do. The
+    # halves' rows must still put each feature in the whole's column, or a form chosen on
+    # the whole is read off the wrong features (a recording cut short raised IndexError).
+    spec = load_spec()
+    (t,) = synthetic_sweep(spec, [16], (1.0,), cycles=8, seed=12)
+    mid = 0.5 * (t.t[0] + t.t[-1])
+    temp = 40.0 + np.clip(t.t - mid, 0.0, None) * 0.5
+    prepared, _ = prepare_tests([replace(t, temperature=temp)])
+    data = Data.build(spec, prepared)
+    fitted = refit(data, DamperModel(spec), (), None, max_nfev=10)
+    stroke = Stroke.of(data)
+    rows, table = build_rows(data, fitted, stroke)
+    keys = [f.key for f in table.features]
+    assert "T" in keys
+    halves = fold_rows(data, rows, fitted, stroke, keys)
+    assert {f.label for f in halves} == {"second half predicted", "first half predicted"}
+    own = {f.label: build_rows(f.train, fitted, stroke) for f in folds(data)}
+    without_t = 0
+    for f in halves:
+        assert f.train.phi.shape[1] == f.test.phi.shape[1] == len(keys)
+        own_rows, own_table = own[f.label]
+        own_keys = [ft.key for ft in own_table.features]
+        for key in ("x", "v"):  # after the temperature's columns in the table
+            mine = f.train.phi[:, keys.index(key)]
+            assert np.array_equal(mine, own_rows.phi[:, own_keys.index(key)])
+        if "T" not in own_keys:
+            without_t += 1
+            assert not np.any(f.train.phi[:, keys.index("T")])
+    assert without_t == 1  # the case this test is about: one half has no temperature

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -174,9 +174,12 @@ class FoldRows:
     test: Rows
 
 
-def fold_rows(data: Data, rows: Rows, fitted: Fitted, stroke: Stroke) -> list[FoldRows]:
+def fold_rows(
+    data: Data, rows: Rows, fitted: Fitted, stroke: Stroke, keys: Sequence[str]
+) -> list[FoldRows]:
     """The diagnosis's folds in the binned space: a fold that leaves tests out takes their
-    rows; one that splits tests in time (a single setting) bins its halves anew."""
+    rows; one that splits tests in time (a single setting) bins its halves anew, their
+    features in the columns of the whole recording's (`keys`)."""
     out = []
     index = {id(p): i for i, p in enumerate(data.prepared)}
     for fold in folds(data):
@@ -186,14 +189,28 @@ def fold_rows(data: Data, rows: Rows, fitted: Fitted, stroke: Stroke) -> list[Fo
             train = [index[id(p)] for p in fold.train.prepared]
             out.append(FoldRows(fold.label, rows.take(train), rows.take(test)))
         else:
-            out.append(_halves(fold, fitted, stroke))
+            out.append(_halves(fold, fitted, stroke, keys))
     return out
 
 
-def _halves(fold: Fold, fitted: Fitted, stroke: Stroke) -> FoldRows:
-    train, _ = build_rows(fold.train, fitted, stroke)
-    test, _ = build_rows(fold.test, fitted, stroke)
+def _halves(fold: Fold, fitted: Fitted, stroke: Stroke, keys: Sequence[str]) -> FoldRows:
+    train = _in_columns(*build_rows(fold.train, fitted, stroke), keys)
+    test = _in_columns(*build_rows(fold.test, fitted, stroke), keys)
     return FoldRows(fold.label, train, test)
+
+
+def _in_columns(rows: Rows, table: FeatureTable, keys: Sequence[str]) -> Rows:
+    """`rows` with their features in the columns `keys` name (zero where these tests have
+    no such feature). A half's table can differ from the whole recording's (a feature
+    some tests give only over the whole session): on a recording cut short the halves
+    had 176 and 178 features against the whole's, and the columns chosen on the whole
+    were read off the wrong features, or past the last."""
+    at = {f.key: i for i, f in enumerate(table.features)}
+    phi = np.zeros((rows.phi.shape[0], len(keys)))
+    for j, k in enumerate(keys):
+        if k in at:
+            phi[:, j] = rows.phi[:, at[k]]
+    return replace(rows, phi=phi)
 
 
 def nested_gain(
@@ -352,7 +369,7 @@ def discover(
     named = [i for i, f in enumerate(table.features) if not f.unnamed]
     term = None
     plot_feature = follows[0].feature if follows else None
-    fold_list = fold_rows(data, rows, final, stroke)
+    fold_list = fold_rows(data, rows, final, stroke, [f.key for f in table.features])
     if fold_list and unnamed:
         term = _discovered(rows, r, phi, table, fold_list, unnamed, named, s, effect_limit_n)
         if term.coefficients:

@@ -201,10 +201,9 @@ def _halves(fold: Fold, fitted: Fitted, stroke: Stroke, keys: Sequence[str]) -> 
 
 def _in_columns(rows: Rows, table: FeatureTable, keys: Sequence[str]) -> Rows:
     """`rows` with their features in the columns `keys` name (zero where these tests have
-    no such feature). A half's table can differ from the whole recording's (a feature
-    some tests give only over the whole session): on a recording cut short the halves
-    had 176 and 178 features against the whole's, and the columns chosen on the whole
-    were read off the wrong features, or past the last."""
+    no such feature). A half's table can differ from the whole recording's (the
+    temperature's features, where the oil warmed in one half only), and the columns
+    chosen on the whole were then read off the wrong features, or past the last."""
     at = {f.key: i for i, f in enumerate(table.features)}
     phi = np.zeros((rows.phi.shape[0], len(keys)))
     for j, k in enumerate(keys):

@@ -56,14 +56,13 @@ def held_out_areas(
 
     `start_areas` treats a click's compression and rebound samples as two problems, each
     seeing its own area; a chamber term couples them (vapour formed in rebound collapses
-    in compression), and the error over a click's areas is then a valley under a cliff
-    (a stiff click under strong vapour: 0.47e6 N² at 2.5 % below the full fit's A_bc, 5e6
-    at it, 1e7 at 3 % above, where the vapour's collapse crosses the samples). A
-    descent from either start stopped on whichever side it began, and a held-out score
-    read 84 or 131 N on the last bits of its inputs. So each click keeps the better of
-    that start and `hint` (the full fit's areas, per click; NaN where it has none), then
-    each direction in turn is scanned over ±22 % and narrowed (about 80 model calls, for
-    every click at once: the clicks' samples are disjoint)."""
+    in compression), and under strong vapour the error over a stiff click's A_bc is a
+    narrow valley beside a cliff (where the vapour's collapse crosses the samples): a
+    descent stops on whichever side it began, so a held-out score turned on the last bits
+    of its inputs (benchmarks/results/held-out-areas-2026-12-01.txt). So each click keeps
+    the better of that start and `hint` (the full fit's areas, per click; NaN where it has
+    none), then each direction in turn is scanned over ±22 % and narrowed (about 80 model
+    calls, for every click at once: the clicks' samples are disjoint)."""
 
     def sse(bc: FloatArray, bt: FloatArray) -> FloatArray:
         r = prob.force(model, bc, bt) - prob.f

@@ -282,3 +282,35 @@ def test_a_calibration_at_the_end_of_its_range_is_a_finding() -> None:
     calibrated, finding = text.split("A finding, not a calibration:")
     assert "200 mm" in finding and "(0-0.2 m)" in finding
     assert "sharp" in calibrated or "none" in calibrated or "0" in calibrated
+
+
+def test_a_written_gas_charge_is_what_its_calibration_is_about() -> None:
+    """A sweep charged to 406 kPa on purpose (the spec's 1.6 MPa) and fitted at 556 kPa:
+    the text names the recording's charge, not "the spec's gas charge is 2.9x too large";
+    fitted at the written charge, no sentence at all; three times the written charge is
+    a finding against it (0.5-2x), not against the drawing (1.1x of it)."""
+    from types import SimpleNamespace
+
+    from shockdyno.diagnose.verdict import calibration_text
+    from shockdyno.fit.parameters import spec_global
+
+    g = spec_global("gas_pressure_pa")
+
+    def row(fitted: float, written: float = 406e3) -> CalibrationRow:
+        return CalibrationRow(
+            "gas_pressure_pa", 1.6e6, fitted, 5e3, g.unit, 0.1, g.fallback, g.tolerance,
+            reference=written,
+        )  # fmt: skip
+
+    high, same, far = row(556e3), row(410e3), row(1.8e6)
+    assert high.moved and not high.beyond and not same.moved and far.beyond
+    text = describe_calibration(high)
+    assert "gives (406 kPa) is 1.4× too small" in text and "spec's 1.6 MPa" in text
+    assert "2.9" not in text
+    assert calibration_text(SimpleNamespace(calibration=[same])) == ""  # type: ignore[arg-type]
+    text = calibration_text(SimpleNamespace(calibration=[far]))  # type: ignore[arg-type]
+    assert text.startswith("A finding, not a calibration:") and "4.4× too small" in text
+    assert "value written for it" in text and "spec is not" not in text
+    # Where the recording's charge is the spec's, the text is the spec's as before.
+    plain = row(1.0e6, written=1.6e6)
+    assert plain.moved and describe_calibration(plain).startswith("the spec's gas charge is 1.6×")

@@ -304,7 +304,8 @@ def _from_diag(row: Row, doc: DiagnosisDoc) -> None:
     # A finding (beyond a damper's tolerance, or at an end of the calibration's range) is
     # not a spec's error, and the table says which is which, as the verdict does.
     row.calibration = ";".join(
-        f"{r.parameter}={r.fitted / r.spec_value:.3g}x"
+        f"{r.parameter}={r.fitted / (r.written or r.spec_value):.3g}x"
+        + (" the recording's" if r.written else "")
         + (" (finding)" if r.beyond_tolerance or r.at_range_end else "")
         for r in doc.verdict.calibration
         if r.moved and r.spec_value

@@ -85,18 +85,32 @@ class CalibrationRow:
         drawing (SpecGlobal.tolerance): a finding, not a calibration."""
         if self.tolerance is None or self.spec_value <= 0 or not self.moved:
             return False
-        ref = self.reference if math.isfinite(self.reference) else self.spec_value
-        ratio = self.fitted / ref
+        ratio = self.fitted / self.about
         return not self.tolerance[0] <= ratio <= self.tolerance[1]
 
     @property
+    def written(self) -> bool:
+        """The recording gives the value itself (a gas charge the operator wrote down),
+        other than the spec's: the calibration is then about the recording's value."""
+        ref = self.reference
+        return math.isfinite(ref) and ref > 0 and ref != self.spec_value
+
+    @property
+    def about(self) -> float:
+        """What the calibration moved the value from: the recording's where it gives one
+        (`written`), else the spec's."""
+        return self.reference if self.written else self.spec_value
+
+    @property
     def moved(self) -> bool:
-        """Worth a sentence: off the spec's value by more than `share` of it (of `scale`
-        where the spec gives 0: a bleed land of 0.1 mm is a sharp orifice still) and by
-        more than three of its σ."""
-        off = abs(self.fitted - self.spec_value)
+        """Worth a sentence: off the value it is about (`about`: the spec's, or the
+        recording's own) by more than `share` of it (of `scale` where the spec gives 0: a
+        bleed land of 0.1 mm is a sharp orifice still) and by more than three of its σ. A
+        charge fitted at the one the recording was charged to is no calibration, however
+        far the drawing's is."""
+        off = abs(self.fitted - self.about)
         sd = self.sd if math.isfinite(self.sd) else 0.0
-        size = abs(self.spec_value) or self.scale
+        size = abs(self.about) or self.scale
         return off > self.share * size and off > 3 * sd
 
 

@@ -111,12 +111,25 @@ def describe_calibration(r: CalibrationRow) -> str:
                 f"of {_two(1e3 * r.fitted)} mm, laminar where they crack open"
             )
         return f"the spec's {what} is 0, the recording's {r.fitted:.3g} {r.unit}"
-    ratio = r.fitted / r.spec_value
+    ratio = r.fitted / r.about
     if ratio < 1e-3:  # fitted at (or next to) nothing: a ratio of 1e20 says nothing more
         return f"the recording shows none of the spec's {r.spec_value:.3g} {r.unit} of {what}"
-    sd = f" ± {r.sd / abs(r.spec_value):.2g}" if math.isfinite(r.sd) else ""
+    sd = f" ± {r.sd / abs(r.about):.2g}" if math.isfinite(r.sd) else ""
     word, times = ("small", ratio) if ratio > 1 else ("large", 1 / ratio)
+    if r.written:
+        # The operator's own reading, not the drawing's: the spec's is beside the point
+        # (a sweep charged low on purpose read "the spec's gas charge is 2.9x too large").
+        return (
+            f"the {what} the recording gives ({_value(r.about, r.unit)}) is {times:.2g}× too "
+            f"{word} (fitted {ratio:.3g}{sd} × it; the spec's {_value(r.spec_value, r.unit)})"
+        )
     return f"the spec's {what} is {times:.2g}× too {word} (fitted {ratio:.3g}{sd} × the spec's)"
+
+
+def _value(v: float, unit: str) -> str:
+    if unit != "Pa":
+        return f"{v:.3g} {unit}"
+    return f"{v / 1e6:.3g} MPa" if v >= 1e6 else f"{v / 1e3:.3g} kPa"
 
 
 def calibration_text(d: Diagnosis) -> str:
@@ -143,10 +156,11 @@ def calibration_text(d: Diagnosis) -> str:
         " and ".join(t.physics.replace("_", " ") for t in d.trials if t.claimed) if held_any else ""
     )
     for r in taken:
-        now = f"{r.fitted / r.spec_value:.2g}× the spec's" if r.spec_value else f"{r.fitted:.3g}"
+        whose = "the recording's" if r.written else "the spec's"
+        now = f"{r.fitted / r.about:.2g}× {whose}" if r.about else f"{r.fitted:.3g}"
         text.append(
             f"Held within its tolerance while the search ran: a fit found {_asked(r)}, "
-            f"beyond the {_tolerance(r)} a damper departs from its drawing by; "
+            f"beyond the {_tolerance(r)} {_departs(r)}; "
             + (f"the claimed {claims} took its place" if claims else "it came back")
             + f" (now {now})."
         )
@@ -160,8 +174,13 @@ def calibration_text(d: Diagnosis) -> str:
         held = f"; held within it while the search ran, {took}" if math.isfinite(r.asked) else ""
         text.append(
             f"A finding, not a calibration: {describe_calibration(r)}, beyond the "
-            f"{_tolerance(r)} a damper departs from its drawing by{held}; physics the library "
-            "did not name takes that place, or the spec is not this damper's."
+            f"{_tolerance(r)} {_departs(r)}{held}; physics the library did not name takes "
+            "that place, or the "
+            + (
+                "recording's value is not this damper's."
+                if r.written
+                else "spec is not this damper's."
+            )
         )
     for r in ends:
         text.append(
@@ -180,6 +199,12 @@ def _range(r: CalibrationRow) -> str:
     if r.spec_value > 0:
         return f"{lo / r.spec_value:.2g}-{hi / r.spec_value:.2g}× the spec's"
     return f"{lo:.3g}-{hi:.3g} {r.unit}"
+
+
+def _departs(r: CalibrationRow) -> str:
+    if r.written:
+        return "a damper departs from the value written for it by"
+    return "a damper departs from its drawing by"
 
 
 def _tolerance(r: CalibrationRow) -> str:
@@ -353,6 +378,7 @@ def _verdict(d: Diagnosis) -> docs.Verdict:
                 # fitted at an end of the calibration's range: no estimate, a finding
                 at_range_end=r.at_range_end,
                 asked=r.asked if math.isfinite(r.asked) else None,
+                written=r.about if r.written else None,
             )
             for r in d.calibration
         ),

@@ -187,6 +187,9 @@ class Calibration:
     # what a fit of the search asked for beyond that, before the value was held within it
     # (diagnose/tolerance.py); with `fitted` inside its range, a claimed term took the rest
     asked: float | None = field(default=None, metadata=_OMIT)
+    # the value the recording gives for it (a gas charge written down), which `moved`,
+    # `beyond_tolerance` and the text are about instead of `spec_value`
+    written: float | None = field(default=None, metadata=_OMIT)
 
 
 @dataclass(frozen=True, kw_only=True)

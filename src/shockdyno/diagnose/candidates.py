@@ -22,6 +22,7 @@ from shockdyno.diagnose.fitting import (
     jacobian_on,
     predict,
     refit,
+    train_fold,
 )
 from shockdyno.diagnose.in_place import acts_share, share_noise_sd, share_where_it_acts
 from shockdyno.diagnose.stats import basis, lr_bootstrap
@@ -654,7 +655,7 @@ class FoldBaseline:
 
 
 def _baseline_structure(fold: Fold, base: Fitted, max_nfev: int) -> FloatArray:
-    b_train = refit(fold.train, base.model, base.free, base, max_nfev, warm=WARM_FOLDS)
+    b_train = train_fold(fold.train, base, max_nfev, warm=WARM_FOLDS)
     return _structure(fold.test, predict(fold.test, b_train, base).residual)
 
 
@@ -730,9 +731,7 @@ def fold_outcome(fold: Fold, cand: Candidate, max_nfev: int) -> FoldOutcome:
             none = np.zeros(0, dtype=bool)
             return FoldOutcome(label, True, False, none, False, np.zeros(0))
         fold, halves = fold.halves, True
-    c_train = refit(
-        fold.train, cand.fitted.model, cand.fitted.free, cand.fitted, max_nfev, warm=WARM_FOLDS
-    )
+    c_train = train_fold(fold.train, cand.fitted, max_nfev, warm=WARM_FOLDS)
     predicted = predict(fold.test, c_train, cand.fitted)
     acts = _acting_tests(fold.test, predicted, cand)
     reaches = bool(np.any(acts))

@@ -168,9 +168,9 @@ def unseen_globals(train: Data, fitted: Fitted) -> tuple[str, ...]:
     beside them, more than UNSEEN_SD_RATIO times their σ from every test's. A fold that
     leaves out the fastest frequency leaves a compression stack that opens only there:
     refitted on the slower tests, its preload and face area walk along a direction those
-    tests cannot see (traded with a seal's viscous drag, 0.21 -> 0.56 mm and 3.2 -> 0.65
-    cm²), and the left-out tests are predicted hundreds of N off. Where the walk went
-    turned on the last bits of the arithmetic (another machine, another claim). A fold is
+    tests cannot see (traded with a seal's viscous drag), and the left-out tests are
+    predicted hundreds of N off. Where the walk went turned on the last bits of the
+    arithmetic (another machine, another claim). A fold is
     there to test what the term predicts, not what its training cannot see: such values
     stay where the fit on every test put them, for the baseline and a candidate alike."""
     part = jacobian_on(train, fitted)
